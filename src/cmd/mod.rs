@@ -1,0 +1,1 @@
+//! One module per subcommand: flag definitions and printing only.

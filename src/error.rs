@@ -1,0 +1,61 @@
+//! The one error type of the library.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in mapgauge.
+///
+/// Messages are one line and name the file (and line or field) they are about,
+/// so the CLI can print `error: {err}` and the user knows where to look.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The operating system refused a read or write.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// File being read or written.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// A file's contents do not follow its format.
+    #[error("{}: {msg}", path.display())]
+    Format {
+        /// File being parsed.
+        path: PathBuf,
+        /// What is wrong, and where in the file (line, field, byte offset).
+        msg: String,
+    },
+    /// A text table (survey, estimates) has a bad row or column.
+    #[error("{}:{line}: {msg}", path.display())]
+    Table {
+        /// File being parsed.
+        path: PathBuf,
+        /// 1-based line number, 0 when the problem is not tied to a line.
+        line: u64,
+        /// What is wrong.
+        msg: String,
+    },
+    /// The input is well formed but cannot produce a result (too few targets, ...).
+    #[error("{0}")]
+    Input(String),
+    /// A parameter or configuration value is out of range.
+    #[error("invalid parameter: {0}")]
+    Param(String),
+}
+
+impl Error {
+    /// Wraps an I/O error with the path it concerns.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io { path: path.into(), source }
+    }
+    /// A format error in `path`.
+    pub fn format(path: impl Into<PathBuf>, msg: impl Into<String>) -> Self {
+        Error::Format { path: path.into(), msg: msg.into() }
+    }
+    /// A table error in `path` at 1-based `line`.
+    pub fn table(path: impl Into<PathBuf>, line: u64, msg: impl Into<String>) -> Self {
+        Error::Table { path: path.into(), line, msg: msg.into() }
+    }
+}
+
+/// `Result` with [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;
