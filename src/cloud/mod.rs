@@ -7,7 +7,15 @@
 //! bounded whatever the map's size. Non-finite points are skipped and counted.
 
 use crate::{Error, Point, Result};
+use std::io::Read;
 use std::path::Path;
+
+mod e57;
+mod las;
+mod pcd;
+mod ply;
+mod write;
+mod xyz;
 
 /// A map file format mapgauge can read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -62,8 +70,74 @@ pub trait PointReader: Send {
 
 /// Opens a map of any supported format, recognised from its content.
 pub fn open(path: &Path) -> Result<Box<dyn PointReader>> {
-    let _ = path;
-    Err(Error::Input("cloud::open: not yet implemented".into()))
+    match detect(path)? {
+        Format::Pcd => pcd::open(path),
+        Format::Ply => ply::open(path),
+        Format::Las | Format::Laz => las::open(path),
+        Format::E57 => e57::open(path),
+        Format::Xyz => xyz::open(path),
+    }
+}
+
+/// Recognises a cloud's format from its first bytes; the extension only breaks
+/// ties (LAS vs LAZ share a signature).
+pub fn detect(path: &Path) -> Result<Format> {
+    let mut head = [0u8; 512];
+    let n = {
+        let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let mut n = 0;
+        loop {
+            match f.read(&mut head[n..]) {
+                Ok(0) => break,
+                Ok(k) => {
+                    n += k;
+                    if n == head.len() {
+                        break;
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(Error::io(path, e)),
+            }
+        }
+        n
+    };
+    let head = &head[..n];
+    if n == 0 {
+        return Err(Error::format(path, "empty file"));
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
+    if head.starts_with(b"LASF") {
+        // Point data format id at byte 104; LAZ sets bit 7 (and 6).
+        let compressed = head.get(104).is_some_and(|b| b & 0x80 != 0);
+        return Ok(if compressed || ext == "laz" { Format::Laz } else { Format::Las });
+    }
+    if head.starts_with(b"ASTM-E57") {
+        return Ok(Format::E57);
+    }
+    if head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n") {
+        return Ok(Format::Ply);
+    }
+    // PCD: comment lines, then VERSION / FIELDS keywords.
+    for line in head.split(|&b| b == b'\n') {
+        let line = line.trim_ascii_start();
+        if line.is_empty() || line.starts_with(b"#") {
+            continue;
+        }
+        if line.starts_with(b"VERSION") || line.starts_with(b"FIELDS") {
+            return Ok(Format::Pcd);
+        }
+        break;
+    }
+    match ext.as_str() {
+        "pcd" => Ok(Format::Pcd),
+        "ply" => Ok(Format::Ply),
+        "e57" => Ok(Format::E57),
+        _ => Ok(Format::Xyz),
+    }
 }
 
 /// Reads a whole (small) cloud into memory, e.g. a tight crop.
@@ -105,23 +179,32 @@ impl OutFormat {
 /// only then (written to a temporary sibling and renamed), so a crash never leaves
 /// a half-written file.
 pub struct CloudWriter {
-    _private: (),
+    sink: Box<dyn Sink>,
+}
+
+/// One output format's encoder (implemented in `write.rs` and `las.rs`).
+trait Sink: Send {
+    fn write(&mut self, points: &[Point]) -> Result<()>;
+    fn finish(self: Box<Self>) -> Result<u64>;
 }
 
 impl CloudWriter {
     /// Starts writing `path` in `format`.
     pub fn create(path: &Path, format: OutFormat) -> Result<Self> {
-        let _ = (path, format);
-        Err(Error::Input("CloudWriter: not yet implemented".into()))
+        let sink: Box<dyn Sink> = match format {
+            OutFormat::Ply => write::ply_sink(path)?,
+            OutFormat::Pcd => write::pcd_sink(path)?,
+            OutFormat::Las => las::las_sink(path)?,
+        };
+        Ok(CloudWriter { sink })
     }
     /// Appends points.
     pub fn write(&mut self, points: &[Point]) -> Result<()> {
-        let _ = points;
-        Ok(())
+        self.sink.write(points)
     }
     /// Completes the header and moves the file into place. Returns the point count.
     pub fn finish(self) -> Result<u64> {
-        Ok(0)
+        self.sink.finish()
     }
 }
 
