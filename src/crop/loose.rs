@@ -1,0 +1,376 @@
+//! Loose crop: one pass over the map for all targets.
+//!
+//! A dense grid over the targets' bounding box (cell = crop radius) maps each
+//! cell to the targets whose crop region touches it, so a point costs one
+//! bounding-box test and a handful of distance tests whatever the number of
+//! targets. Blocks from the reader are split across threads and the per-target
+//! hits are appended in block order, so the output is identical for any thread
+//! count.
+
+use crate::cloud::PointReader;
+use crate::{Error, Point, Result};
+use rayon::prelude::*;
+
+/// The region kept around each expected target position.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Shape {
+    /// Vertical cylinder: horizontal distance < radius, any height (the reference code).
+    #[default]
+    Cylinder,
+    /// Sphere: 3D distance < radius (the paper's text).
+    Sphere,
+}
+
+/// Loose-crop parameters.
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LooseParams {
+    /// Crop radius in metres (5 m in the paper).
+    pub radius: f64,
+    /// Crop shape.
+    pub shape: Shape,
+}
+
+impl Default for LooseParams {
+    fn default() -> Self {
+        LooseParams {
+            radius: 5.0,
+            shape: Shape::Cylinder,
+        }
+    }
+}
+
+/// The points of a map near each target, in the order the map stores them.
+#[derive(Debug, Clone, Default)]
+pub struct LooseCrop {
+    /// One point list per requested centre, in the same order.
+    pub points: Vec<Vec<Point>>,
+    /// Points read from the map (finite ones).
+    pub map_points: u64,
+    /// Points the reader skipped as NaN/infinite.
+    pub skipped_nonfinite: u64,
+}
+
+/// Upper bound on grid cells; the cell size grows when targets span a huge area.
+const MAX_CELLS: usize = 1 << 22;
+/// Points per parallel work item.
+const PAR_BLOCK: usize = 1 << 16;
+
+struct Grid {
+    min: [f64; 2],
+    cell: f64,
+    nx: usize,
+    ny: usize,
+    /// CSR: cell → range in `ids`.
+    starts: Vec<u32>,
+    ids: Vec<u32>,
+}
+
+impl Grid {
+    fn new(centers: &[Point], radius: f64) -> Grid {
+        let mut min = [f64::INFINITY; 2];
+        let mut max = [f64::NEG_INFINITY; 2];
+        for c in centers {
+            for k in 0..2 {
+                min[k] = min[k].min(c[k] - radius);
+                max[k] = max[k].max(c[k] + radius);
+            }
+        }
+        let mut cell = radius.max(1e-3);
+        let (mut nx, mut ny);
+        loop {
+            nx = (((max[0] - min[0]) / cell).ceil() as usize).max(1);
+            ny = (((max[1] - min[1]) / cell).ceil() as usize).max(1);
+            if nx.saturating_mul(ny) <= MAX_CELLS {
+                break;
+            }
+            cell *= 2.0;
+        }
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); nx * ny];
+        for (i, c) in centers.iter().enumerate() {
+            let x0 = (((c.x - radius - min[0]) / cell).floor().max(0.0) as usize).min(nx - 1);
+            let x1 = (((c.x + radius - min[0]) / cell).floor().max(0.0) as usize).min(nx - 1);
+            let y0 = (((c.y - radius - min[1]) / cell).floor().max(0.0) as usize).min(ny - 1);
+            let y1 = (((c.y + radius - min[1]) / cell).floor().max(0.0) as usize).min(ny - 1);
+            for iy in y0..=y1 {
+                for ix in x0..=x1 {
+                    lists[iy * nx + ix].push(i as u32);
+                }
+            }
+        }
+        let mut starts = Vec::with_capacity(nx * ny + 1);
+        let mut ids = Vec::new();
+        starts.push(0);
+        for l in &lists {
+            ids.extend_from_slice(l);
+            starts.push(ids.len() as u32);
+        }
+        Grid {
+            min,
+            cell,
+            nx,
+            ny,
+            starts,
+            ids,
+        }
+    }
+
+    #[inline]
+    fn candidates(&self, p: &Point) -> &[u32] {
+        let fx = (p.x - self.min[0]) / self.cell;
+        let fy = (p.y - self.min[1]) / self.cell;
+        if !(fx >= 0.0 && fy >= 0.0) {
+            return &[];
+        }
+        let (ix, iy) = (fx as usize, fy as usize);
+        if ix >= self.nx || iy >= self.ny {
+            return &[];
+        }
+        let c = iy * self.nx + ix;
+        &self.ids[self.starts[c] as usize..self.starts[c + 1] as usize]
+    }
+}
+
+/// Streams `reader` once and returns, for every centre (map frame), the points
+/// inside its crop region. `progress` is called with the bytes consumed so far.
+pub fn loose_crop(
+    reader: &mut dyn PointReader,
+    centers: &[Point],
+    params: &LooseParams,
+    mut progress: impl FnMut(u64),
+) -> Result<LooseCrop> {
+    if !(params.radius.is_finite() && params.radius > 0.0) {
+        return Err(Error::Param(format!(
+            "crop radius must be positive, got {}",
+            params.radius
+        )));
+    }
+    let mut out = LooseCrop {
+        points: vec![Vec::new(); centers.len()],
+        ..Default::default()
+    };
+    if centers.is_empty() {
+        return Ok(out);
+    }
+    let grid = Grid::new(centers, params.radius);
+    let r2 = params.radius * params.radius;
+    let sphere = params.shape == Shape::Sphere;
+    let inside = |p: &Point, c: &Point| {
+        let dx = p.x - c.x;
+        let dy = p.y - c.y;
+        let mut d2 = dx * dx + dy * dy;
+        if sphere {
+            let dz = p.z - c.z;
+            d2 += dz * dz;
+        }
+        d2 < r2
+    };
+    let mut buf = Vec::new();
+    while reader.next_chunk(&mut buf)? {
+        out.map_points += buf.len() as u64;
+        let hits: Vec<Vec<(u32, Point)>> = buf
+            .par_chunks(PAR_BLOCK)
+            .map(|block| {
+                let mut h = Vec::new();
+                for p in block {
+                    for &i in grid.candidates(p) {
+                        if inside(p, &centers[i as usize]) {
+                            h.push((i, *p));
+                        }
+                    }
+                }
+                h
+            })
+            .collect();
+        for h in hits {
+            for (i, p) in h {
+                out.points[i as usize].push(p);
+            }
+        }
+        progress(reader.bytes_read());
+    }
+    out.skipped_nonfinite = reader.stats().skipped_nonfinite;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloud::{CloudInfo, Format, ReadStats};
+    use rand::{Rng, SeedableRng};
+
+    /// An in-memory reader handing out fixed-size blocks.
+    pub(crate) struct VecReader {
+        pts: Vec<Point>,
+        pos: usize,
+        block: usize,
+        info: CloudInfo,
+    }
+
+    impl VecReader {
+        pub(crate) fn new(pts: Vec<Point>, block: usize) -> Self {
+            let info = CloudInfo {
+                format: Format::Xyz,
+                declared_points: Some(pts.len() as u64),
+                file_bytes: 0,
+            };
+            VecReader {
+                pts,
+                pos: 0,
+                block,
+                info,
+            }
+        }
+    }
+
+    impl PointReader for VecReader {
+        fn info(&self) -> &CloudInfo {
+            &self.info
+        }
+        fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+            buf.clear();
+            if self.pos >= self.pts.len() {
+                return Ok(false);
+            }
+            let end = (self.pos + self.block).min(self.pts.len());
+            buf.extend_from_slice(&self.pts[self.pos..end]);
+            self.pos = end;
+            Ok(true)
+        }
+        fn stats(&self) -> ReadStats {
+            ReadStats {
+                points: self.pos as u64,
+                skipped_nonfinite: 0,
+            }
+        }
+        fn bytes_read(&self) -> u64 {
+            self.pos as u64 * 24
+        }
+    }
+
+    fn scene(origin: [f64; 3], seed: u64) -> (Vec<Point>, Vec<Point>) {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let pts: Vec<Point> = (0..200_000)
+            .map(|_| {
+                Point::new(
+                    origin[0] + rng.random_range(-100.0..100.0),
+                    origin[1] + rng.random_range(-100.0..100.0),
+                    origin[2] + rng.random_range(-5.0..5.0),
+                )
+            })
+            .collect();
+        let centers: Vec<Point> = (0..25)
+            .map(|i| {
+                let a = i as f64 * 0.7;
+                Point::new(
+                    origin[0] + 60.0 * a.cos(),
+                    origin[1] + 60.0 * a.sin(),
+                    origin[2],
+                )
+            })
+            .chain([
+                Point::new(origin[0] + 1.0, origin[1] + 2.0, origin[2]),
+                Point::new(origin[0] + 3.0, origin[1] + 2.0, origin[2]),
+            ])
+            .collect();
+        (pts, centers)
+    }
+
+    fn brute(pts: &[Point], centers: &[Point], p: &LooseParams) -> Vec<usize> {
+        centers
+            .iter()
+            .map(|c| {
+                pts.iter()
+                    .filter(|q| {
+                        let h = (q.x - c.x).powi(2) + (q.y - c.y).powi(2);
+                        let d = if p.shape == Shape::Sphere {
+                            h + (q.z - c.z).powi(2)
+                        } else {
+                            h
+                        };
+                        d < p.radius * p.radius
+                    })
+                    .count()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn counts_equal_brute_force_for_both_shapes() {
+        let (pts, centers) = scene([0.0; 3], 1);
+        for shape in [Shape::Cylinder, Shape::Sphere] {
+            let params = LooseParams { radius: 5.0, shape };
+            let mut r = VecReader::new(pts.clone(), 70_001);
+            let crop = loose_crop(&mut r, &centers, &params, |_| {}).unwrap();
+            let got: Vec<usize> = crop.points.iter().map(Vec::len).collect();
+            assert_eq!(got, brute(&pts, &centers, &params));
+            assert_eq!(crop.map_points, pts.len() as u64);
+            assert!(got.iter().all(|&n| n > 0));
+        }
+    }
+
+    #[test]
+    fn utm_sized_coordinates_give_the_same_crops_as_the_origin() {
+        let offset = [350_000.0, 4_150_000.0, 50.0];
+        let (pts0, c0) = scene([0.0; 3], 7);
+        let shift = |v: &[Point]| {
+            v.iter()
+                .map(|p| Point::new(p.x + offset[0], p.y + offset[1], p.z + offset[2]))
+                .collect::<Vec<_>>()
+        };
+        let (pts1, c1) = (shift(&pts0), shift(&c0));
+        let params = LooseParams::default();
+        let a = loose_crop(&mut VecReader::new(pts0, 50_000), &c0, &params, |_| {}).unwrap();
+        let b = loose_crop(&mut VecReader::new(pts1, 50_000), &c1, &params, |_| {}).unwrap();
+        for (pa, pb) in a.points.iter().zip(&b.points) {
+            assert_eq!(pa.len(), pb.len());
+            for (p, q) in pa.iter().zip(pb) {
+                assert!(
+                    (q.x - offset[0] - p.x).abs() < 1e-9 && (q.y - offset[1] - p.y).abs() < 1e-9
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn order_is_independent_of_block_size() {
+        let (pts, centers) = scene([0.0; 3], 3);
+        let p = LooseParams::default();
+        let a = loose_crop(
+            &mut VecReader::new(pts.clone(), 1_000),
+            &centers,
+            &p,
+            |_| {},
+        )
+        .unwrap();
+        let b = loose_crop(&mut VecReader::new(pts, 1 << 20), &centers, &p, |_| {}).unwrap();
+        assert_eq!(a.points, b.points);
+    }
+
+    #[test]
+    fn bad_radius_is_an_error() {
+        let p = LooseParams {
+            radius: -1.0,
+            shape: Shape::Cylinder,
+        };
+        let e = loose_crop(
+            &mut VecReader::new(vec![], 10),
+            &[Point::origin()],
+            &p,
+            |_| {},
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("radius"));
+    }
+}
