@@ -1,4 +1,7 @@
 //! The `mapgauge` command line: parses flags, calls the library, prints.
+//!
+//! Exit codes: 0 success; 1 the run could not produce a result (the reason is
+//! one line on stderr, `error: ...`); 2 bad command-line usage (from clap).
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -14,11 +17,34 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// The whole pipeline: map + survey → accuracy tables and result files.
+    Eval(Box<cmd::eval::Args>),
+    /// Loose crops around every surveyed target, for inspection or hand editing.
+    Crop(cmd::crop::Args),
+    /// Locate targets in tight crops (the paper's k-means → RANSAC → SVD algorithm).
+    Locate(cmd::locate::Args),
+    /// Align estimated positions to the survey and report the errors.
+    Errors(cmd::errors::Args),
+    /// Paper-style tables (Table I relative, Table II absolute) across result files.
+    Table(cmd::table::Args),
+    /// Generate a synthetic LiDAR map with surveyed targets and known truth.
+    Synth(cmd::synth::Args),
+    /// Synthesise a scene, evaluate it, and print the tables.
+    Demo(cmd::demo::Args),
+}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: mapgauge::Result<()> = match cli.command {};
+    let result = match cli.command {
+        Command::Eval(a) => cmd::eval::run(*a),
+        Command::Crop(a) => cmd::crop::run(a),
+        Command::Locate(a) => cmd::locate::run(a),
+        Command::Errors(a) => cmd::errors::run(a),
+        Command::Table(a) => cmd::table::run(a),
+        Command::Synth(a) => cmd::synth::run(a),
+        Command::Demo(a) => cmd::demo::run(a),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -1,0 +1,90 @@
+//! `mapgauge crop`: loose crops around every surveyed target, for hand editing.
+
+use super::{file_stem_for, parse_triple, progress_bar, refuse_overwrite};
+use mapgauge::cloud::{self, OutFormat};
+use mapgauge::crop::{LooseParams, Shape, loose_crop};
+use mapgauge::survey::{Geodetic, SurveyOptions, read_survey};
+use mapgauge::{Point, Result};
+use std::path::PathBuf;
+
+/// Cut the map around every surveyed target (one pass over the map).
+#[derive(clap::Args)]
+pub struct Args {
+    /// Map file (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    #[arg(long)]
+    map: PathBuf,
+    /// Survey CSV (id,x,y[,z] or id,lat,lon[,alt]).
+    #[arg(long)]
+    survey: PathBuf,
+    /// Output directory; one file per target id.
+    #[arg(long)]
+    out: PathBuf,
+    /// Crop radius in metres.
+    #[arg(long, default_value_t = 5.0)]
+    radius: f64,
+    /// Crop shape: vertical cylinder (horizontal distance) or sphere.
+    #[arg(long, value_enum, default_value_t = Shape::Cylinder)]
+    shape: Shape,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutFormat::Ply)]
+    format: OutFormat,
+    /// ENU origin `lat,lon,alt` for WGS84 surveys [default: the first target].
+    #[arg(long)]
+    origin: Option<String>,
+    /// Approximate map → survey transform `x,y,yaw_deg` when the map is not in the survey frame.
+    #[arg(long)]
+    init: Option<String>,
+}
+
+/// Runs `crop`.
+pub fn run(a: Args) -> Result<()> {
+    let origin = a.origin.as_deref().map(|s| parse_triple(s, "--origin")).transpose()?;
+    let survey = read_survey(&a.survey, &SurveyOptions { origin: origin.map(|o| Geodetic { lat: o[0], lon: o[1], alt: o[2] }) })?;
+    let init = a.init.as_deref().map(|s| parse_triple(s, "--init")).transpose()?.unwrap_or([0.0; 3]);
+    let (s, c) = init[2].to_radians().sin_cos();
+    let centres: Vec<Point> = survey
+        .targets
+        .iter()
+        .map(|t| {
+            let p = t.reference();
+            let (dx, dy) = (p.x - init[0], p.y - init[1]);
+            Point::new(c * dx + s * dy, -s * dx + c * dy, p.z)
+        })
+        .collect();
+    let mut shape = a.shape;
+    if shape == Shape::Sphere && !survey.has_z() {
+        eprintln!("warning: the survey has no heights; cropping with a vertical cylinder");
+        shape = Shape::Cylinder;
+    }
+    let mut reader = cloud::open(&a.map)?;
+    let pb = progress_bar(reader.info().file_bytes, "reading map");
+    let crop = loose_crop(reader.as_mut(), &centres, &LooseParams { radius: a.radius, shape }, |b| {
+        if let Some(pb) = &pb {
+            pb.set_position(b)
+        }
+    })?;
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
+    println!("{:<12} {:>10}  file", "id", "points");
+    let mut empty = 0;
+    for (t, pts) in survey.targets.iter().zip(&crop.points) {
+        let path = a.out.join(format!("{}.{}", file_stem_for(&t.id), a.format.extension()));
+        refuse_overwrite(&path, &[&a.map, &a.survey])?;
+        cloud::write(&path, a.format, pts)?;
+        println!("{:<12} {:>10}  {}", t.id, pts.len(), path.display());
+        if pts.is_empty() {
+            empty += 1;
+            eprintln!("warning: target {} has no map points within {} m (outside the map, or wrong frame?)", t.id, a.radius);
+        }
+    }
+    eprintln!(
+        "{} points read{}; {} of {} targets have points",
+        crop.map_points,
+        if crop.skipped_nonfinite > 0 { format!(", {} non-finite skipped", crop.skipped_nonfinite) } else { String::new() },
+        survey.targets.len() - empty,
+        survey.targets.len()
+    );
+    Ok(())
+}

@@ -1,0 +1,170 @@
+//! `mapgauge eval`: the whole pipeline, map to accuracy.
+
+use super::{file_stem_for, parse_triple, progress_bar, refuse_overwrite};
+use mapgauge::align::AlignMethod;
+use mapgauge::cloud::{self, OutFormat};
+use mapgauge::crop::Shape;
+use mapgauge::eval::{EvalConfig, EvalInputs, EvalRun, evaluate_map};
+use mapgauge::metrics::Dim;
+use mapgauge::result::{self, TableFormat};
+use mapgauge::survey::{Geodetic, SurveyOptions, read_survey};
+use mapgauge::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// Measure a map's accuracy: crop, locate every target, align, report.
+#[derive(clap::Args, Clone)]
+pub struct Args {
+    /// Map file (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    #[arg(long, required_unless_present = "print_config")]
+    pub map: Option<PathBuf>,
+    /// Survey CSV (id,x,y[,z][,antenna_height][,role] or id,lat,lon[,alt]...).
+    #[arg(long, required_unless_present = "print_config")]
+    pub survey: Option<PathBuf>,
+    /// Directory for result.json, targets.csv, pairs.csv (and crops with --save-crops).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// TOML file with any parameter (see --print-config); flags override it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Print the full configuration (defaults merged with --config and flags) and exit.
+    #[arg(long)]
+    pub print_config: bool,
+    /// Use hand-made tight crops DIR/<id>.ply|pcd|... instead of the automatic crop.
+    #[arg(long)]
+    pub crops: Option<PathBuf>,
+    /// Also write the loose and tight crops (PLY) under OUT/crops/.
+    #[arg(long, requires = "out")]
+    pub save_crops: bool,
+    /// Alignment map → survey: none, rigid2d, rigid2d+z, rigid3d, similarity2d, similarity3d, robust2d [default: rigid2d].
+    #[arg(long)]
+    pub align: Option<AlignMethod>,
+    /// Error dimension: 2d (the paper) or 3d [default: 2d].
+    #[arg(long)]
+    pub dim: Option<Dim>,
+    /// Survey's own 1-σ error `H[,V]` in metres, folded into the ASPRS statistics.
+    #[arg(long)]
+    pub survey_sigma: Option<String>,
+    /// Seed of the localisation's random draws [default: 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Loose crop radius in metres [default: 5].
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// Loose crop shape [default: cylinder].
+    #[arg(long, value_enum)]
+    pub shape: Option<Shape>,
+    /// Plate width and height `W[,H]` in metres [default: 0.6,0.6].
+    #[arg(long)]
+    pub plate_size: Option<String>,
+    /// Approximate map → survey transform `x,y,yaw_deg` when the map is not in the survey frame.
+    #[arg(long)]
+    pub init: Option<String>,
+    /// ENU origin `lat,lon,alt` for WGS84 surveys [default: the first target].
+    #[arg(long)]
+    pub origin: Option<String>,
+    /// What to print on stdout: table, json, markdown, latex, csv.
+    #[arg(long, default_value = "table")]
+    pub format: TableFormat,
+}
+
+/// Builds the configuration: defaults, then the TOML file, then flags.
+pub fn config(a: &Args) -> Result<EvalConfig> {
+    let mut cfg = match &a.config {
+        Some(p) => EvalConfig::from_toml_file(p)?,
+        None => EvalConfig::default(),
+    };
+    if let Some(m) = a.align {
+        cfg.metrics.align = m;
+    }
+    if let Some(d) = a.dim {
+        cfg.metrics.dim = d;
+    }
+    if let Some(s) = &a.survey_sigma {
+        let v: Vec<f64> = s.split(',').map(|t| t.trim().parse::<f64>()).collect::<std::result::Result<_, _>>().map_err(|_| Error::Param(format!("--survey-sigma: expected H[,V] in metres, got `{s}`")))?;
+        cfg.metrics.survey_sigma_h = v.first().copied();
+        cfg.metrics.survey_sigma_v = v.get(1).copied();
+    }
+    if let Some(s) = a.seed {
+        cfg.locate.seed = s;
+        cfg.tight.seed = s;
+    }
+    if let Some(r) = a.radius {
+        cfg.crop.radius = r;
+    }
+    if let Some(s) = a.shape {
+        cfg.crop.shape = s;
+    }
+    if let Some(s) = &a.plate_size {
+        let v = parse_triple(&format!("{s},0"), "--plate-size")?;
+        cfg.tight.plate_width = v[0];
+        cfg.tight.plate_height = if v[1] > 0.0 { v[1] } else { v[0] };
+    }
+    if let Some(s) = &a.init {
+        cfg.frame.init = Some(parse_triple(s, "--init")?);
+    }
+    Ok(cfg)
+}
+
+/// Runs `eval`.
+pub fn run(a: Args) -> Result<()> {
+    let cfg = config(&a)?;
+    if a.print_config {
+        print!("{}", cfg.to_toml());
+        return Ok(());
+    }
+    let (Some(map), Some(survey_path)) = (a.map.as_deref(), a.survey.as_deref()) else {
+        return Err(Error::Param("--map and --survey are required".into()));
+    };
+    let run = evaluate(map, survey_path, &a, &cfg)?;
+    print!("{}", result::render_report(&run.result, a.format));
+    if let Some(out) = &a.out {
+        write_outputs(&run, out, a.save_crops, &[map, survey_path])?;
+        eprintln!("results written to {}", out.display());
+    }
+    Ok(())
+}
+
+/// Reads the survey and runs the pipeline with a progress bar.
+pub fn evaluate(map: &Path, survey_path: &Path, a: &Args, cfg: &EvalConfig) -> Result<EvalRun> {
+    let origin = a.origin.as_deref().map(|s| parse_triple(s, "--origin")).transpose()?;
+    let survey = read_survey(survey_path, &SurveyOptions { origin: origin.map(|o| Geodetic { lat: o[0], lon: o[1], alt: o[2] }) })?;
+    let pb = progress_bar(std::fs::metadata(map).map(|m| m.len()).unwrap_or(0), "reading map");
+    let inputs = EvalInputs { map, survey: &survey, survey_path, crops_dir: a.crops.clone() };
+    let run = evaluate_map(&inputs, cfg, |b, _| {
+        if let Some(pb) = &pb {
+            pb.set_position(b)
+        }
+    })?;
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    for t in &run.result.targets {
+        if let Some(r) = &t.reason {
+            eprintln!("warning: target {} {}: {r}", t.id, t.status);
+        }
+    }
+    Ok(run)
+}
+
+/// Writes result files (and crops) into `out`.
+pub fn write_outputs(run: &EvalRun, out: &Path, save_crops: bool, inputs: &[&Path]) -> Result<()> {
+    for name in ["result.json", "targets.csv", "pairs.csv"] {
+        refuse_overwrite(&out.join(name), inputs)?;
+    }
+    result::write_outputs(&run.result, out)?;
+    if save_crops {
+        for (kind, crops) in [("loose", &run.loose), ("tight", &run.tight)] {
+            let dir = out.join("crops").join(kind);
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            for (t, pts) in run.result.targets.iter().zip(crops.iter()) {
+                if pts.is_empty() {
+                    continue;
+                }
+                let p = dir.join(format!("{}.ply", file_stem_for(&t.id)));
+                refuse_overwrite(&p, inputs)?;
+                cloud::write(&p, OutFormat::Ply, pts)?;
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,320 @@
+//! The whole pipeline, map to accuracy: loose crop → tight crop → locate →
+//! align → metrics. Each stage is a plain function of the previous stage's
+//! output; this module only composes them and records what happened.
+
+use crate::align::AlignMethod;
+use crate::cloud;
+use crate::crop::{self, LooseParams, Shape, TightParams};
+use crate::locate::{self, LocateParams};
+use crate::metrics::{self, Dim, EvalOptions};
+use crate::result::RunResult;
+use crate::survey::{Estimate, EstimateStatus, Survey};
+use crate::{Error, Point, Result};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Every parameter of `mapgauge eval`; also the TOML configuration file.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EvalConfig {
+    /// Loose crop around each expected position.
+    pub crop: LooseParams,
+    /// Automatic tight crop (ground removal, target detection).
+    pub tight: TightParams,
+    /// Target localisation (the paper's algorithm).
+    pub locate: LocateParams,
+    /// Alignment and metrics.
+    pub metrics: MetricsConfig,
+    /// Frames: where to look for the targets in the map.
+    pub frame: FrameConfig,
+}
+
+/// Alignment and metric settings.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MetricsConfig {
+    /// Map → survey alignment method.
+    pub align: AlignMethod,
+    /// Error dimension, "2d" (the paper) or "3d".
+    pub dim: Dim,
+    /// The survey's own horizontal 1-σ error (m), folded into the ASPRS figures.
+    pub survey_sigma_h: Option<f64>,
+    /// The survey's own vertical 1-σ error (m).
+    pub survey_sigma_v: Option<f64>,
+}
+
+/// Where targets are expected in the map.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FrameConfig {
+    /// Approximate map → survey transform `[x, y, yaw_deg]` (survey = R·map + t);
+    /// `None` = the map is in the survey frame to within a few metres.
+    pub init: Option<[f64; 3]>,
+    /// Search again for targets not found, around the positions predicted by
+    /// the alignment of the ones that were.
+    pub second_pass: bool,
+    /// Only search again when the prediction moved more than this (m).
+    pub second_pass_min_shift: f64,
+}
+
+impl Default for FrameConfig {
+    fn default() -> Self {
+        FrameConfig { init: None, second_pass: true, second_pass_min_shift: 0.5 }
+    }
+}
+
+impl EvalConfig {
+    /// Reads a TOML configuration; unknown keys are errors (a typo must not be ignored).
+    pub fn from_toml_file(path: &Path) -> Result<EvalConfig> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        toml::from_str(&text).map_err(|e| Error::format(path, e.to_string().replace('\n', " ")))
+    }
+    /// The configuration as TOML, every default written out.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_else(|e| format!("# cannot print configuration: {e}\n"))
+    }
+}
+
+/// What the pipeline learned about one target, for reports and debugging.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct TargetDetail {
+    /// Target id.
+    pub id: String,
+    /// Where the target was looked for (map frame).
+    pub expected: [f64; 3],
+    /// Which pass found it (1, or 2 = around the alignment's prediction).
+    pub pass: u8,
+    /// Points in the loose crop.
+    pub loose_points: usize,
+    /// Points in the tight crop.
+    pub tight_points: usize,
+    /// Local ground normal.
+    pub ground_normal: Option<[f64; 3]>,
+    /// Direction used as vertical by the gates.
+    pub up: Option<[f64; 3]>,
+    /// Accepted samples.
+    pub accepted: usize,
+    /// Attempts drawn.
+    pub attempts: usize,
+    /// Per-axis standard deviation of the accepted samples (m).
+    pub spread: Option<[f64; 3]>,
+    /// Angle between the plates (degrees).
+    pub plate_angle_deg: Option<f64>,
+    /// Stage at which it failed (`loose`, `tight`, `locate`), when it did.
+    pub failed_stage: Option<String>,
+}
+
+/// Provenance and per-target details of an `eval` run (the `eval` key of result.json).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct EvalInfo {
+    /// Map file as given.
+    pub map: String,
+    /// Map size in bytes.
+    pub map_bytes: u64,
+    /// Points read from the map.
+    pub map_points: u64,
+    /// Points skipped as NaN / infinite.
+    pub skipped_nonfinite: u64,
+    /// Survey file as given.
+    pub survey: String,
+    /// Per target.
+    pub targets: Vec<TargetDetail>,
+}
+
+/// Everything an `eval` run produces.
+pub struct EvalRun {
+    /// The result (result.json).
+    pub result: RunResult,
+    /// The loose crops, by survey order.
+    pub loose: Vec<Vec<Point>>,
+    /// The tight crops, by survey order (empty when none was made).
+    pub tight: Vec<Vec<Point>>,
+}
+
+/// Inputs of [`evaluate_map`].
+pub struct EvalInputs<'a> {
+    /// The map file.
+    pub map: &'a Path,
+    /// The survey, already read.
+    pub survey: &'a Survey,
+    /// Path the survey came from (for provenance).
+    pub survey_path: &'a Path,
+    /// Hand-made tight crops `DIR/<id>.ply|pcd|...` instead of the automatic ones.
+    pub crops_dir: Option<PathBuf>,
+}
+
+struct Located {
+    status: EstimateStatus,
+    detail: TargetDetail,
+    tight: Vec<Point>,
+}
+
+/// Runs the whole pipeline. `progress` gets (bytes read, total bytes) while the
+/// map streams.
+pub fn evaluate_map(inp: &EvalInputs, cfg: &EvalConfig, mut progress: impl FnMut(u64, u64)) -> Result<EvalRun> {
+    let survey = inp.survey;
+    if survey.targets.is_empty() {
+        return Err(Error::Input(format!("{}: the survey has no targets", inp.survey_path.display())));
+    }
+    let init = cfg.frame.init.unwrap_or([0.0, 0.0, 0.0]);
+    let expected: Vec<Point> = survey.targets.iter().map(|t| survey_to_map(&init, &t.reference())).collect();
+    let mut crop_params = cfg.crop;
+    if crop_params.shape == Shape::Sphere && !survey.has_z() {
+        eprintln!("warning: the survey has no heights; cropping with a vertical cylinder instead of a sphere");
+        crop_params.shape = Shape::Cylinder;
+    }
+    let mut info = EvalInfo { map: inp.map.display().to_string(), survey: inp.survey_path.display().to_string(), ..Default::default() };
+
+    let loose = read_crops(inp.map, &expected, &crop_params, &mut info, &mut progress)?;
+    let mut found: Vec<Located> = survey
+        .targets
+        .par_iter()
+        .zip(&expected)
+        .zip(&loose)
+        .map(|((t, e), pts)| locate_one(&t.id, e, pts, inp.crops_dir.as_deref(), cfg, 1))
+        .collect();
+
+    let opts = EvalOptions {
+        method: cfg.metrics.align,
+        dim: cfg.metrics.dim,
+        survey_sigma: cfg.metrics.survey_sigma_h.map(|h| (h, cfg.metrics.survey_sigma_v)),
+    };
+    let mut loose = loose;
+    let estimates = |found: &[Located]| -> Vec<Estimate> {
+        survey
+            .targets
+            .iter()
+            .zip(found)
+            .map(|(t, l)| Estimate { id: t.id.clone(), status: l.status.clone(), has_z: true })
+            .collect()
+    };
+
+    // Second pass: look again where the alignment of the found targets says the
+    // missing ones should be.
+    let missing: Vec<usize> = (0..found.len()).filter(|&i| !matches!(found[i].status, EstimateStatus::Found(_))).collect();
+    if cfg.frame.second_pass && inp.crops_dir.is_none() && !missing.is_empty() {
+        if let Ok(first) = metrics::evaluate(survey, &estimates(&found), &opts) {
+            let inverse = alignment_of(&first).inverse();
+            let mut redo = Vec::new();
+            for &i in &missing {
+                let predicted = inverse.apply(&survey.targets[i].reference());
+                if (predicted - expected[i]).xy().norm() > cfg.frame.second_pass_min_shift {
+                    redo.push((i, predicted));
+                }
+            }
+            if !redo.is_empty() {
+                let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
+                let mut again_info = EvalInfo::default();
+                let again = read_crops(inp.map, &centres, &crop_params, &mut again_info, &mut progress)?;
+                for ((i, c), pts) in redo.into_iter().zip(again) {
+                    let l = locate_one(&survey.targets[i].id, &c, &pts, None, cfg, 2);
+                    if matches!(l.status, EstimateStatus::Found(_)) {
+                        found[i] = l;
+                        loose[i] = pts;
+                    }
+                }
+            }
+        }
+    }
+
+    let mut result = metrics::evaluate(survey, &estimates(&found), &opts)?;
+    let mut tight = Vec::with_capacity(found.len());
+    for l in found {
+        info.targets.push(l.detail);
+        tight.push(l.tight);
+    }
+    result.eval = Some(info);
+    Ok(EvalRun { result, loose, tight })
+}
+
+fn alignment_of(r: &RunResult) -> crate::align::Alignment {
+    r.alignment.to_alignment()
+}
+
+/// Applies the inverse of the approximate map → survey transform.
+fn survey_to_map(init: &[f64; 3], p: &Point) -> Point {
+    let (s, c) = init[2].to_radians().sin_cos();
+    let (dx, dy) = (p.x - init[0], p.y - init[1]);
+    Point::new(c * dx + s * dy, -s * dx + c * dy, p.z)
+}
+
+fn read_crops(
+    map: &Path,
+    centres: &[Point],
+    params: &LooseParams,
+    info: &mut EvalInfo,
+    progress: &mut impl FnMut(u64, u64),
+) -> Result<Vec<Vec<Point>>> {
+    let mut reader = cloud::open(map)?;
+    let total = reader.info().file_bytes;
+    info.map_bytes = total;
+    let crop = crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?;
+    info.map_points = crop.map_points;
+    info.skipped_nonfinite = crop.skipped_nonfinite;
+    Ok(crop.points)
+}
+
+fn locate_one(id: &str, expected: &Point, loose: &[Point], crops_dir: Option<&Path>, cfg: &EvalConfig, pass: u8) -> Located {
+    let mut detail = TargetDetail { id: id.to_string(), expected: [expected.x, expected.y, expected.z], pass, loose_points: loose.len(), ..Default::default() };
+    let fail = |mut detail: TargetDetail, stage: &str, reason: String| {
+        detail.failed_stage = Some(stage.into());
+        Located { status: EstimateStatus::NotFound { reason }, detail, tight: Vec::new() }
+    };
+    // Hand-made tight crops (the paper's workflow) or the automatic one.
+    let (points, ups): (Vec<Point>, Vec<Vector3<f64>>) = match crops_dir {
+        Some(dir) => match manual_crop(dir, id) {
+            Ok(p) => (p, vec![Vector3::z()]),
+            Err(e) => return fail(detail, "tight", e.to_string()),
+        },
+        None => {
+            if loose.is_empty() {
+                return fail(detail, "loose", "no map points within the crop radius of the expected position".into());
+            }
+            match crop::tight_crop(loose, expected, &cfg.tight) {
+                Ok(t) => {
+                    detail.ground_normal = Some(t.ground_normal);
+                    let up = Vector3::from(t.up);
+                    // A fallback "up" in case the ground normal misleads the gates.
+                    let mut ups = vec![up];
+                    if up != Vector3::z() {
+                        ups.push(Vector3::z());
+                    }
+                    (t.points, ups)
+                }
+                Err(e) => return fail(detail, "tight", e.to_string()),
+            }
+        }
+    };
+    detail.tight_points = points.len();
+    let mut last_err = None;
+    for up in ups {
+        match locate::locate(&points, Some(up), &cfg.locate) {
+            Ok(l) => {
+                detail.up = Some(up.into());
+                detail.accepted = l.accepted;
+                detail.attempts = l.attempts;
+                detail.spread = Some(l.std);
+                detail.plate_angle_deg = Some(l.plate_angle_deg);
+                return Located { status: EstimateStatus::Found(l.corner), detail, tight: points };
+            }
+            Err(e) => last_err = Some(e),
+        }
+    }
+    let reason = last_err.map(|e| format!("localisation failed: {e}")).unwrap_or_default();
+    let mut l = fail(detail, "locate", reason);
+    l.tight = points;
+    l
+}
+
+/// Finds `DIR/<id>.<ext>` for any readable cloud extension and reads it.
+fn manual_crop(dir: &Path, id: &str) -> Result<Vec<Point>> {
+    for ext in ["ply", "pcd", "las", "laz", "xyz", "txt", "csv", "e57"] {
+        let p = dir.join(format!("{id}.{ext}"));
+        if p.is_file() {
+            return cloud::read_all(&p);
+        }
+    }
+    Err(Error::Input(format!("no tight crop {}/{id}.ply|pcd|las|laz|xyz|e57", dir.display())))
+}
