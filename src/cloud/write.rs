@@ -1,15 +1,178 @@
 //! PLY and PCD writers, atomic (temporary sibling, then rename).
+//!
+//! Both formats put the point count in the header, but crops are streamed and
+//! their size is only known at the end. The header is therefore written with a
+//! fixed length up front and rewritten in place by `finish`: the count's width
+//! varies, so a comment line absorbs the difference with trailing spaces
+//! (comments are ignored by every reader, unlike padded numbers, which some
+//! parsers reject). Points go to `.NAME.tmp-PID-N` beside the target and the
+//! file is renamed into place only when complete; dropping an unfinished
+//! writer removes the temporary file.
 
 use super::Sink;
-use crate::{Error, Result};
-use std::path::Path;
+use crate::{Error, Point, Result};
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Distinguishes temporary files of writers in the same process.
+static TMP_SEQ: AtomicU64 = AtomicU64::new(0);
+/// Widest decimal u64: the header is sized for it.
+const COUNT_WIDTH: usize = 20;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Ply,
+    Pcd,
+}
+
+/// The header for `n` points; `pad` trailing spaces go on the comment line.
+fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
+    let pad = " ".repeat(pad);
+    let s = match kind {
+        Kind::Ply => format!(
+            "ply\nformat binary_little_endian 1.0\ncomment written by mapgauge{pad}\n\
+             element vertex {n}\nproperty double x\nproperty double y\nproperty double z\nend_header\n"
+        ),
+        Kind::Pcd => format!(
+            "# .PCD v0.7 - Point Cloud Data file format{pad}\nVERSION 0.7\nFIELDS x y z\n\
+             SIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
+             VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
+        ),
+    };
+    s.into_bytes()
+}
+
+/// The header for `n` points, padded to the length reserved at creation.
+fn fixed_header(kind: Kind, n: u64) -> Vec<u8> {
+    let digits = n.to_string().len();
+    let per_count = if kind == Kind::Pcd { 2 } else { 1 };
+    header(kind, n, (COUNT_WIDTH - digits) * per_count)
+}
+
+/// A binary x, y, z (f64, little endian) writer for PLY or PCD.
+struct XyzSink {
+    kind: Kind,
+    dest: PathBuf,
+    /// `Some` until finished; removed on drop otherwise.
+    tmp: Option<PathBuf>,
+    out: Option<BufWriter<File>>,
+    count: u64,
+    scratch: Vec<u8>,
+}
+
+impl XyzSink {
+    fn create(path: &Path, kind: Kind) -> Result<XyzSink> {
+        let name = path.file_name().ok_or_else(|| {
+            Error::Param(format!("{}: output path has no file name", path.display()))
+        })?;
+        let tmp_name = format!(
+            ".{}.tmp-{}-{}",
+            name.to_string_lossy(),
+            std::process::id(),
+            TMP_SEQ.fetch_add(1, Ordering::Relaxed)
+        );
+        let tmp = path.with_file_name(tmp_name);
+        let file = File::options()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| Error::io(&tmp, e))?;
+        let mut sink = XyzSink {
+            kind,
+            dest: path.to_path_buf(),
+            tmp: Some(tmp.clone()),
+            out: Some(BufWriter::with_capacity(1 << 20, file)),
+            count: 0,
+            scratch: Vec::new(),
+        };
+        let head = fixed_header(kind, 0);
+        sink.out_mut()?
+            .write_all(&head)
+            .map_err(|e| Error::io(&tmp, e))?;
+        Ok(sink)
+    }
+
+    fn out_mut(&mut self) -> Result<&mut BufWriter<File>> {
+        self.out.as_mut().ok_or_else(|| {
+            Error::Input(format!("{}: writer already finished", self.dest.display()))
+        })
+    }
+
+    fn tmp_path(&self) -> PathBuf {
+        self.tmp.clone().unwrap_or_else(|| self.dest.clone())
+    }
+}
+
+impl Sink for XyzSink {
+    fn write(&mut self, points: &[Point]) -> Result<()> {
+        let tmp = self.tmp_path();
+        for block in points.chunks(1 << 14) {
+            self.scratch.clear();
+            for p in block {
+                self.scratch.extend_from_slice(&p.x.to_le_bytes());
+                self.scratch.extend_from_slice(&p.y.to_le_bytes());
+                self.scratch.extend_from_slice(&p.z.to_le_bytes());
+            }
+            let scratch = std::mem::take(&mut self.scratch);
+            let res = self.out_mut()?.write_all(&scratch);
+            self.scratch = scratch;
+            res.map_err(|e| Error::io(&tmp, e))?;
+        }
+        self.count += points.len() as u64;
+        Ok(())
+    }
+
+    fn finish(mut self: Box<Self>) -> Result<u64> {
+        let tmp = self.tmp_path();
+        let out = self.out.take().ok_or_else(|| {
+            Error::Input(format!("{}: writer already finished", self.dest.display()))
+        })?;
+        let mut file = out
+            .into_inner()
+            .map_err(|e| Error::io(&tmp, e.into_error()))?;
+        let head = fixed_header(self.kind, self.count);
+        file.seek(SeekFrom::Start(0))
+            .map_err(|e| Error::io(&tmp, e))?;
+        file.write_all(&head).map_err(|e| Error::io(&tmp, e))?;
+        drop(file);
+        std::fs::rename(&tmp, &self.dest).map_err(|e| Error::io(&self.dest, e))?;
+        self.tmp = None;
+        Ok(self.count)
+    }
+}
+
+impl Drop for XyzSink {
+    fn drop(&mut self) {
+        if let Some(tmp) = self.tmp.take() {
+            drop(self.out.take());
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}
 
 /// Starts a binary PLY writer.
 pub(super) fn ply_sink(path: &Path) -> Result<Box<dyn Sink>> {
-    Err(Error::format(path, "PLY writing is not implemented yet"))
+    Ok(Box::new(XyzSink::create(path, Kind::Ply)?))
 }
 
 /// Starts a binary PCD writer.
 pub(super) fn pcd_sink(path: &Path) -> Result<Box<dyn Sink>> {
-    Err(Error::format(path, "PCD writing is not implemented yet"))
+    Ok(Box::new(XyzSink::create(path, Kind::Pcd)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_length_is_fixed_for_every_count() {
+        for kind in [Kind::Ply, Kind::Pcd] {
+            let len = fixed_header(kind, 0).len();
+            for n in [1, 9, 10, 12345, u64::MAX / 3, u64::MAX] {
+                assert_eq!(fixed_header(kind, n).len(), len, "{kind:?} {n}");
+            }
+        }
+    }
 }
