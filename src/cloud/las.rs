@@ -1,15 +1,594 @@
-//! LAS/LAZ reader and LAS writer.
+//! LAS/LAZ reader and LAS writer, on the `las` crate.
+//!
+//! The crate's reader is not `Send`, so it runs on its own thread and hands
+//! blocks of points over a bounded channel ([`Producer`]); that also overlaps
+//! decoding (and LAZ decompression, itself parallel) with the caller's work.
+//! Memory stays at a few blocks whatever the file size.
 
-use super::PointReader;
-use crate::{Error, Result};
-use std::path::Path;
+use super::{CloudInfo, Format, PointReader, ReadStats, Sink};
+use crate::{Error, Point, Result};
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+
+/// Points per block.
+const CHUNK: u64 = 1 << 18;
+
+/// A message from a reader thread.
+pub(super) enum Msg {
+    /// Header facts, sent first.
+    Info(CloudInfo),
+    /// A block of finite points, the non-finite/invalid points skipped while
+    /// producing it, and the bytes of the file consumed so far.
+    Chunk(Vec<Point>, u64, u64),
+    /// The cloud is exhausted; skipped points since the last chunk.
+    Done(u64),
+    /// Reading failed.
+    Err(Error),
+}
+
+/// The sending side given to a reader thread's body.
+pub(super) struct Tx {
+    tx: SyncSender<Msg>,
+    recycle: Receiver<Vec<Point>>,
+}
+
+impl Tx {
+    /// Sends a message; false when the consumer has gone away (stop reading).
+    pub(super) fn send(&self, m: Msg) -> bool {
+        self.tx.send(m).is_ok()
+    }
+    /// An empty buffer to fill, reusing one the consumer handed back.
+    pub(super) fn buffer(&self) -> Vec<Point> {
+        let mut v = self.recycle.try_recv().unwrap_or_default();
+        v.clear();
+        v
+    }
+}
+
+/// A [`PointReader`] fed by a background thread (for crates whose readers are not
+/// `Send` or borrow themselves). A panic in the thread becomes an error.
+pub(super) struct Producer {
+    path: PathBuf,
+    info: CloudInfo,
+    rx: Receiver<Msg>,
+    recycle: SyncSender<Vec<Point>>,
+    stats: ReadStats,
+    bytes: u64,
+    done: bool,
+}
+
+impl Producer {
+    /// Runs `body` on a new thread; it must send `Msg::Info` first, then chunks,
+    /// then `Msg::Done` (or `Msg::Err`). Waits for the header.
+    pub(super) fn spawn(path: &Path, body: impl FnOnce(Tx) + Send + 'static) -> Result<Self> {
+        let (tx, rx) = sync_channel(1);
+        let (recycle, back) = sync_channel(2);
+        std::thread::Builder::new()
+            .name("mapgauge-reader".into())
+            .spawn(move || body(Tx { tx, recycle: back }))
+            .map_err(|e| Error::io(path, e))?;
+        let mut p = Producer {
+            path: path.to_path_buf(),
+            info: CloudInfo {
+                format: Format::Las,
+                declared_points: None,
+                file_bytes: 0,
+            },
+            rx,
+            recycle,
+            stats: ReadStats::default(),
+            bytes: 0,
+            done: false,
+        };
+        match p.rx.recv() {
+            Ok(Msg::Info(info)) => p.info = info,
+            Ok(Msg::Err(e)) => return Err(e),
+            _ => return Err(p.died()),
+        }
+        Ok(p)
+    }
+
+    fn died(&self) -> Error {
+        Error::format(
+            &self.path,
+            "the reader stopped unexpectedly (malformed file?)",
+        )
+    }
+}
+
+impl PointReader for Producer {
+    fn info(&self) -> &CloudInfo {
+        &self.info
+    }
+
+    fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+        buf.clear();
+        if self.done {
+            return Ok(false);
+        }
+        match self.rx.recv() {
+            Ok(Msg::Chunk(mut v, skipped, bytes)) => {
+                std::mem::swap(buf, &mut v);
+                let _ = self.recycle.try_send(v);
+                self.stats.points += buf.len() as u64;
+                self.stats.skipped_nonfinite += skipped;
+                self.bytes = bytes;
+                Ok(true)
+            }
+            Ok(Msg::Done(skipped)) => {
+                self.stats.skipped_nonfinite += skipped;
+                self.bytes = self.info.file_bytes;
+                self.done = true;
+                Ok(false)
+            }
+            Ok(Msg::Err(e)) => {
+                self.done = true;
+                Err(e)
+            }
+            Ok(Msg::Info(_)) | Err(_) => {
+                self.done = true;
+                Err(self.died())
+            }
+        }
+    }
+
+    fn stats(&self) -> ReadStats {
+        self.stats
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.bytes
+    }
+}
+
+fn las_err(path: &Path, e: las::Error) -> Error {
+    Error::format(path, format!("LAS: {e}"))
+}
 
 /// Opens a LAS file for streaming.
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
-    Err(Error::format(path, "LAS reading is not implemented yet"))
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let p = path.to_path_buf();
+    let producer = Producer::spawn(path, move |tx| {
+        let mut reader = match las::Reader::new(BufReader::with_capacity(1 << 20, file)) {
+            Ok(r) => r,
+            Err(e) => {
+                tx.send(Msg::Err(las_err(&p, e)));
+                return;
+            }
+        };
+        let header = reader.header();
+        let total = header.number_of_points();
+        let fmt = *header.point_format();
+        let rec = fmt.len() as u64;
+        let t = *header.transforms();
+        let compressed = fmt.is_compressed;
+        if !compressed {
+            // A declared count larger than the data is an error up front.
+            let start = header
+                .clone()
+                .into_raw()
+                .map(|r| r.offset_to_point_data as u64)
+                .unwrap_or(0);
+            let need = total.checked_mul(rec).and_then(|b| b.checked_add(start));
+            if need.is_none_or(|n| n > file_bytes) {
+                tx.send(Msg::Err(Error::format(
+                    &p,
+                    format!(
+                        "LAS point data truncated: header declares {total} points of {rec} bytes, the file holds {}",
+                        file_bytes.saturating_sub(start) / rec.max(1)
+                    ),
+                )));
+                return;
+            }
+        }
+        let format = if compressed { Format::Laz } else { Format::Las };
+        if !tx.send(Msg::Info(CloudInfo {
+            format,
+            declared_points: Some(total),
+            file_bytes,
+        })) {
+            return;
+        }
+        let mut pd = las::PointDataBuilder::new()
+            .for_header(reader.header())
+            .build();
+        let mut done = 0u64;
+        loop {
+            let n = match reader.fill_points(CHUNK, &mut pd) {
+                Ok(n) => n,
+                Err(e) => {
+                    tx.send(Msg::Err(Error::format(
+                        &p,
+                        format!("LAS: reading points {done}.. of {total}: {e}"),
+                    )));
+                    return;
+                }
+            };
+            if n == 0 {
+                break;
+            }
+            done += n;
+            let mut out = tx.buffer();
+            out.reserve(n as usize);
+            let mut skipped = 0;
+            for r in pd.raw_bytes().chunks_exact(pd.record_len()) {
+                let i = |o: usize| i32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
+                let q = Point::new(t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8)));
+                if q.x.is_finite() && q.y.is_finite() && q.z.is_finite() {
+                    out.push(q);
+                } else {
+                    skipped += 1;
+                }
+            }
+            let bytes = if total > 0 {
+                file_bytes.saturating_mul(done) / total
+            } else {
+                file_bytes
+            };
+            if !tx.send(Msg::Chunk(out, skipped, bytes)) {
+                return;
+            }
+        }
+        tx.send(Msg::Done(0));
+    })?;
+    Ok(Box::new(producer))
 }
 
+/// A file that turns into a no-op once aborted, so the `las` writer's drop (which
+/// rewrites the header) cannot fail or panic after we gave up on the file.
+struct Abortable {
+    inner: BufWriter<File>,
+    abort: Arc<AtomicBool>,
+}
+
+impl Write for Abortable {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        if self.abort.load(Ordering::Relaxed) {
+            Ok(b.len())
+        } else {
+            self.inner.write(b)
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        if self.abort.load(Ordering::Relaxed) {
+            Ok(())
+        } else {
+            self.inner.flush()
+        }
+    }
+}
+
+impl Seek for Abortable {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        if self.abort.load(Ordering::Relaxed) {
+            Ok(0)
+        } else {
+            self.inner.seek(pos)
+        }
+    }
+}
+
+/// Streaming LAS 1.2 point format 0 writer, millimetre scale, offset from the
+/// first point (floored to 1 km) so projected coordinates keep full precision.
+struct LasSink {
+    path: PathBuf,
+    tmp: PathBuf,
+    file: Option<File>,
+    writer: Option<las::Writer<Abortable>>,
+    abort: Arc<AtomicBool>,
+    pd: Option<las::PointData>,
+    offset: [f64; 3],
+    count: u64,
+    finished: bool,
+}
+
+/// Scale of written coordinates (metres per unit).
+const SCALE: f64 = 0.001;
+
 /// Starts a LAS writer.
-pub(super) fn las_sink(path: &Path) -> Result<Box<dyn super::Sink>> {
-    Err(Error::format(path, "LAS writing is not implemented yet"))
+pub(super) fn las_sink(path: &Path) -> Result<Box<dyn Sink>> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.partial"));
+    let file = File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    Ok(Box::new(LasSink {
+        path: path.to_path_buf(),
+        tmp,
+        file: Some(file),
+        writer: None,
+        abort: Arc::new(AtomicBool::new(false)),
+        pd: None,
+        offset: [0.0; 3],
+        count: 0,
+        finished: false,
+    }))
+}
+
+impl LasSink {
+    fn start(&mut self, first: Option<&Point>) -> Result<()> {
+        if let Some(p) = first {
+            self.offset = [p.x, p.y, p.z].map(|c| (c / 1000.0).floor() * 1000.0);
+        }
+        let mut b = las::Builder::from((1, 2));
+        b.point_format = las::point::Format::new(0).map_err(|e| las_err(&self.path, e))?;
+        b.generating_software = format!("mapgauge {}", env!("CARGO_PKG_VERSION"));
+        b.system_identifier = "mapgauge".into();
+        b.date = None;
+        let tr = |o: f64| las::Transform {
+            scale: SCALE,
+            offset: o,
+        };
+        b.transforms = las::Vector {
+            x: tr(self.offset[0]),
+            y: tr(self.offset[1]),
+            z: tr(self.offset[2]),
+        };
+        let header = b.into_header().map_err(|e| las_err(&self.path, e))?;
+        let file = self
+            .file
+            .take()
+            .ok_or_else(|| Error::format(&self.path, "LAS writer reused"))?;
+        let w = Abortable {
+            inner: BufWriter::with_capacity(1 << 20, file),
+            abort: self.abort.clone(),
+        };
+        let writer = las::Writer::new(w, header).map_err(|e| las_err(&self.tmp, e))?;
+        self.pd = Some(
+            las::PointDataBuilder::new()
+                .for_header(writer.header())
+                .build(),
+        );
+        self.writer = Some(writer);
+        Ok(())
+    }
+}
+
+impl Sink for LasSink {
+    fn write(&mut self, points: &[Point]) -> Result<()> {
+        if points.is_empty() {
+            return Ok(());
+        }
+        if self.writer.is_none() {
+            self.start(
+                points
+                    .iter()
+                    .find(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite()),
+            )?;
+        }
+        let (Some(writer), Some(pd)) = (self.writer.as_mut(), self.pd.as_mut()) else {
+            return Err(Error::format(&self.path, "LAS writer not started"));
+        };
+        let bytes = pd.resize_for(points.len());
+        for (k, (p, rec)) in points.iter().zip(bytes.chunks_exact_mut(20)).enumerate() {
+            let mut q = [0i32; 3];
+            for (c, v) in [p.x, p.y, p.z].into_iter().enumerate() {
+                let u = ((v - self.offset[c]) / SCALE).round();
+                if !(u >= i32::MIN as f64 && u <= i32::MAX as f64) {
+                    return Err(Error::format(
+                        &self.path,
+                        format!(
+                            "point {}: ({}, {}, {}) is not finite or lies over 2000 km from the first point; LAS millimetre coordinates cannot hold it",
+                            self.count + k as u64,
+                            p.x,
+                            p.y,
+                            p.z
+                        ),
+                    ));
+                }
+                q[c] = u as i32;
+            }
+            rec[0..4].copy_from_slice(&q[0].to_le_bytes());
+            rec[4..8].copy_from_slice(&q[1].to_le_bytes());
+            rec[8..12].copy_from_slice(&q[2].to_le_bytes());
+            rec[12..14].copy_from_slice(&0u16.to_le_bytes()); // intensity
+            rec[14] = 0b0000_1001; // return 1 of 1
+            rec[15] = 1; // classification: unclassified
+            rec[16] = 0; // scan angle
+            rec[17] = 0; // user data
+            rec[18..20].copy_from_slice(&0u16.to_le_bytes()); // point source id
+        }
+        writer.write_points(pd).map_err(|e| las_err(&self.tmp, e))?;
+        self.count += points.len() as u64;
+        Ok(())
+    }
+
+    fn finish(mut self: Box<Self>) -> Result<u64> {
+        if self.writer.is_none() {
+            self.start(None)?;
+        }
+        let Some(writer) = self.writer.take() else {
+            return Err(Error::format(&self.path, "LAS writer not started"));
+        };
+        let mut inner = writer.into_inner().map_err(|e| las_err(&self.tmp, e))?;
+        inner.inner.flush().map_err(|e| Error::io(&self.tmp, e))?;
+        drop(inner);
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        self.finished = true;
+        Ok(self.count)
+    }
+}
+
+impl Drop for LasSink {
+    fn drop(&mut self) {
+        if !self.finished {
+            self.abort.store(true, Ordering::Relaxed);
+            self.writer = None;
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(path: &Path) -> Result<(Vec<Point>, ReadStats, CloudInfo)> {
+        let mut r = super::super::open(path)?;
+        let mut all = Vec::new();
+        let mut buf = Vec::new();
+        while r.next_chunk(&mut buf)? {
+            all.extend_from_slice(&buf);
+        }
+        Ok((all, r.stats(), r.info().clone()))
+    }
+
+    fn truth(n: usize) -> Vec<Point> {
+        (0..n)
+            .map(|i| {
+                Point::new(
+                    350123.456 + i as f64 * 0.01,
+                    4150234.567 - i as f64 * 0.002,
+                    12.5 + i as f64 * 0.001,
+                )
+            })
+            .collect()
+    }
+
+    /// Writes `pts` with the las crate itself in point format `fmt`.
+    fn write_with_crate(path: &Path, fmt: u8, version: (u8, u8), pts: &[Point]) {
+        let mut b = las::Builder::from(version);
+        b.point_format = las::point::Format::new(fmt).unwrap();
+        let tr = |o| las::Transform {
+            scale: 0.001,
+            offset: o,
+        };
+        b.transforms = las::Vector {
+            x: tr(350000.0),
+            y: tr(4150000.0),
+            z: tr(0.0),
+        };
+        let mut w = las::Writer::from_path(path, b.into_header().unwrap()).unwrap();
+        for p in pts {
+            let mut q = las::Point {
+                x: p.x,
+                y: p.y,
+                z: p.z,
+                intensity: 7,
+                return_number: 1,
+                number_of_returns: 1,
+                ..Default::default()
+            };
+            let f = w.header().point_format();
+            if f.has_gps_time {
+                q.gps_time = Some(1234.5);
+            }
+            if f.has_color {
+                q.color = Some(las::Color::new(1, 2, 3));
+            }
+            w.write_point(q).unwrap();
+        }
+        w.close().unwrap();
+    }
+
+    fn assert_mm(got: &[Point], want: &[Point]) {
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs().max() < 0.0005 + 1e-9, "{g} vs {w}");
+        }
+    }
+
+    #[test]
+    fn reads_formats_0_1_3_6_and_laz() {
+        let dir = tempfile::tempdir().unwrap();
+        let pts = truth(CHUNK as usize + 1000);
+        for (fmt, ver, ext) in [
+            (0, (1, 2), "las"),
+            (1, (1, 2), "las"),
+            (3, (1, 2), "las"),
+            (6, (1, 4), "las"),
+            (3, (1, 2), "laz"),
+            (6, (1, 4), "laz"),
+        ] {
+            let path = dir.path().join(format!("f{fmt}.{ext}"));
+            write_with_crate(&path, fmt, ver, &pts);
+            let (got, st, info) = read(&path).unwrap();
+            assert_eq!(
+                info.format,
+                if ext == "laz" {
+                    Format::Laz
+                } else {
+                    Format::Las
+                },
+                "{fmt} {ext}"
+            );
+            assert_eq!(info.declared_points, Some(pts.len() as u64));
+            assert_eq!(st.points, pts.len() as u64);
+            assert_mm(&got, &pts);
+        }
+    }
+
+    #[test]
+    fn truncated_las_is_a_clear_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.las");
+        write_with_crate(&path, 0, (1, 2), &truth(100));
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() - 30]).unwrap();
+        let e = read(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("t.las") && e.contains("declares 100 points") && e.contains("holds 98"),
+            "{e}"
+        );
+        std::fs::write(&path, &bytes[..50]).unwrap();
+        let e = read(&path).unwrap_err().to_string();
+        assert!(e.contains("t.las") && e.contains("LAS"), "{e}");
+    }
+
+    #[test]
+    fn sink_roundtrip_keeps_millimetres_at_utm() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.las");
+        let pts = truth(5000);
+        let mut w = super::super::CloudWriter::create(&path, super::super::OutFormat::Las).unwrap();
+        for c in pts.chunks(777) {
+            w.write(c).unwrap();
+        }
+        assert!(!path.exists(), "final name appears only on finish");
+        assert_eq!(w.finish().unwrap(), pts.len() as u64);
+        let (got, _, _) = read(&path).unwrap();
+        assert_mm(&got, &pts);
+        // exact to the millimetre grid
+        assert_eq!(got[0], Point::new(350123.456, 4150234.567, 12.5));
+        // header bounds computed by the crate
+        let r = las::Reader::from_path(&path).unwrap();
+        let b = r.header().bounds();
+        assert!((b.min.x - 350123.456).abs() < 1e-6 && (b.max.z - (12.5 + 4.999)).abs() < 1e-6);
+        // deterministic bytes
+        let path2 = dir.path().join("out2.las");
+        super::super::write(&path2, super::super::OutFormat::Las, &pts).unwrap();
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            std::fs::read(&path2).unwrap()
+        );
+    }
+
+    #[test]
+    fn sink_dropped_without_finish_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("gone.las");
+        let mut w = super::super::CloudWriter::create(&path, super::super::OutFormat::Las).unwrap();
+        w.write(&truth(10)).unwrap();
+        drop(w);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // empty cloud is a valid file
+        super::super::write(&path, super::super::OutFormat::Las, &[]).unwrap();
+        assert_eq!(read(&path).unwrap().0.len(), 0);
+        // a point too far away is an error, not garbage
+        let e = super::super::write(
+            &path,
+            super::super::OutFormat::Las,
+            &[Point::origin(), Point::new(3e6, 0., 0.)],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("point 1"), "{e}");
+    }
 }

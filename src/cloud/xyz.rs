@@ -1,10 +1,517 @@
 //! XYZ / CSV text reader.
+//!
+//! `x y z [more columns]`, separated by spaces/tabs, commas or semicolons (chosen
+//! from the first data line). An optional header line names the columns; `x`,
+//! `y`, `z` are then found by name (case-insensitive). `#` and `//` lines and
+//! blank lines are skipped. The file is read in blocks of whole lines and each
+//! block is parsed in parallel (order kept), without per-line allocation.
 
-use super::PointReader;
-use crate::{Error, Result};
-use std::path::Path;
+use super::{CloudInfo, Format, PointReader, ReadStats};
+use crate::{Error, Point, Result};
+use rayon::prelude::*;
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// Bytes read per block of lines.
+const BLOCK_BYTES: usize = 4 << 20;
+/// A single line longer than this is rejected (guards memory on hostile input).
+const MAX_LINE: usize = 16 << 20;
+/// Lines per parallel parse task.
+const TASK_BYTES: usize = 256 << 10;
+
+/// Reads a text file in blocks that always end on a line boundary, so memory stays
+/// bounded and blocks can be parsed independently.
+pub(super) struct LineBlocks {
+    file: File,
+    path: PathBuf,
+    buf: Vec<u8>,
+    /// Bytes at the start of `buf` that belong to the next block (a partial line).
+    carry: usize,
+    /// Length of the block handed out last (drained on the next call).
+    last: usize,
+    eof: bool,
+    /// Bytes consumed from the file so far.
+    pub(super) bytes: u64,
+}
+
+impl LineBlocks {
+    /// Starts reading `file` at its current position.
+    pub(super) fn new(file: File, path: &Path) -> Self {
+        LineBlocks {
+            file,
+            path: path.to_path_buf(),
+            buf: Vec::with_capacity(BLOCK_BYTES),
+            carry: 0,
+            last: 0,
+            eof: false,
+            bytes: 0,
+        }
+    }
+
+    /// The next block of whole lines (the final line may lack its newline), or
+    /// `None` at the end of the file.
+    pub(super) fn next_block(&mut self) -> Result<Option<&[u8]>> {
+        // Drop the previous block, keep the carried partial line.
+        self.buf.drain(..self.last);
+        self.last = 0;
+        let mut want = BLOCK_BYTES;
+        loop {
+            if !self.eof && self.buf.len() < want {
+                let start = self.buf.len();
+                self.buf.resize(want, 0);
+                let mut filled = start;
+                while filled < want {
+                    match self.file.read(&mut self.buf[filled..]) {
+                        Ok(0) => {
+                            self.eof = true;
+                            break;
+                        }
+                        Ok(k) => filled += k,
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                        Err(e) => return Err(Error::io(&self.path, e)),
+                    }
+                }
+                self.bytes += (filled - start) as u64;
+                self.buf.truncate(filled);
+            }
+            if self.buf.is_empty() {
+                return Ok(None);
+            }
+            if self.eof {
+                self.last = self.buf.len();
+                self.carry = 0;
+                return Ok(Some(&self.buf[..self.last]));
+            }
+            if let Some(nl) = self.buf.iter().rposition(|&b| b == b'\n') {
+                self.last = nl + 1;
+                self.carry = self.buf.len() - self.last;
+                return Ok(Some(&self.buf[..self.last]));
+            }
+            // One line longer than the block: grow, within reason.
+            if want >= MAX_LINE {
+                return Err(Error::format(
+                    &self.path,
+                    format!("a line is longer than {} MiB", MAX_LINE >> 20),
+                ));
+            }
+            want *= 2;
+        }
+    }
+}
+
+/// How fields are separated on a line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sep {
+    /// Runs of spaces and tabs.
+    Space,
+    /// A single character (comma or semicolon); spaces around fields are trimmed.
+    Char(u8),
+}
+
+/// Column layout found from the first data line.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    sep: Sep,
+    cols: [usize; 3],
+}
+
+/// Splits a line into fields per `sep` and calls `f(index, field)` until it
+/// returns false.
+#[inline]
+fn for_fields<'a>(line: &'a [u8], sep: Sep, mut f: impl FnMut(usize, &'a [u8]) -> bool) {
+    match sep {
+        Sep::Space => {
+            let mut i = 0;
+            let mut idx = 0;
+            let n = line.len();
+            while i < n {
+                while i < n && (line[i] == b' ' || line[i] == b'\t') {
+                    i += 1;
+                }
+                if i >= n {
+                    break;
+                }
+                let s = i;
+                while i < n && line[i] != b' ' && line[i] != b'\t' {
+                    i += 1;
+                }
+                if !f(idx, &line[s..i]) {
+                    return;
+                }
+                idx += 1;
+            }
+        }
+        Sep::Char(c) => {
+            for (idx, field) in line.split(|&b| b == c).enumerate() {
+                if !f(idx, field.trim_ascii()) {
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// Strips a trailing `\r` and surrounding blanks.
+#[inline]
+fn clean(line: &[u8]) -> &[u8] {
+    line.trim_ascii()
+}
+
+/// True for lines that carry no data.
+#[inline]
+fn is_skip(line: &[u8]) -> bool {
+    line.is_empty() || line[0] == b'#' || line.starts_with(b"//")
+}
+
+/// Parses one number field.
+#[inline]
+pub(super) fn parse_f64(field: &[u8]) -> Option<f64> {
+    std::str::from_utf8(field).ok()?.parse::<f64>().ok()
+}
+
+/// Parses a block of whole lines; `first_line` is the 1-based number of its first
+/// line. Appends finite points to `out`; returns the number of non-finite rows.
+fn parse_block(
+    path: &Path,
+    block: &[u8],
+    first_line: u64,
+    layout: Layout,
+    out: &mut Vec<Point>,
+) -> Result<u64> {
+    let mut skipped = 0;
+    let need = layout.cols.iter().copied().max().unwrap_or(0);
+    for (k, raw) in block.split(|&b| b == b'\n').enumerate() {
+        let line = clean(raw);
+        if is_skip(line) {
+            continue;
+        }
+        let mut v = [f64::NAN; 3];
+        let mut seen = 0usize;
+        let mut bad: Option<usize> = None;
+        for_fields(line, layout.sep, |i, field| {
+            for c in 0..3 {
+                if layout.cols[c] == i {
+                    match parse_f64(field) {
+                        Some(x) => v[c] = x,
+                        None => {
+                            bad = Some(i);
+                            return false;
+                        }
+                    }
+                }
+            }
+            seen = i + 1;
+            i < need
+        });
+        let line_no = first_line + k as u64;
+        if let Some(i) = bad {
+            return Err(Error::table(
+                path,
+                line_no,
+                format!(
+                    "column {} is not a number: {:?}",
+                    i + 1,
+                    String::from_utf8_lossy(field_at(line, layout.sep, i))
+                ),
+            ));
+        }
+        if seen <= need {
+            return Err(Error::table(
+                path,
+                line_no,
+                format!("expected at least {} columns, found {seen}", need + 1),
+            ));
+        }
+        if v.iter().all(|c| c.is_finite()) {
+            out.push(Point::new(v[0], v[1], v[2]));
+        } else {
+            skipped += 1;
+        }
+    }
+    Ok(skipped)
+}
+
+/// The `i`-th field of a line (for error messages).
+fn field_at(line: &[u8], sep: Sep, i: usize) -> &[u8] {
+    let mut r: &[u8] = &[];
+    for_fields(line, sep, |j, f| {
+        if j == i {
+            r = f;
+            return false;
+        }
+        true
+    });
+    r
+}
+
+/// Streaming XYZ reader.
+struct XyzReader {
+    info: CloudInfo,
+    path: PathBuf,
+    lines: LineBlocks,
+    /// Layout, once the first data line was seen.
+    layout: Option<Layout>,
+    /// 1-based number of the first line of the next block.
+    line_no: u64,
+    stats: ReadStats,
+    done: bool,
+}
 
 /// Opens a XYZ file for streaming.
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
-    Err(Error::format(path, "XYZ reading is not implemented yet"))
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    Ok(Box::new(XyzReader {
+        info: CloudInfo {
+            format: Format::Xyz,
+            declared_points: None,
+            file_bytes,
+        },
+        path: path.to_path_buf(),
+        lines: LineBlocks::new(file, path),
+        layout: None,
+        line_no: 1,
+        stats: ReadStats::default(),
+        done: false,
+    }))
+}
+
+/// Finds the layout from the first non-comment line. Returns the layout and
+/// whether that line is a header (to be skipped).
+fn detect_layout(path: &Path, line: &[u8], line_no: u64) -> Result<(Layout, bool)> {
+    let sep = if line.contains(&b',') {
+        Sep::Char(b',')
+    } else if line.contains(&b';') {
+        Sep::Char(b';')
+    } else {
+        Sep::Space
+    };
+    let mut fields: Vec<String> = Vec::new();
+    let mut numeric = true;
+    for_fields(line, sep, |_, f| {
+        if parse_f64(f).is_none() {
+            numeric = false;
+        }
+        fields.push(String::from_utf8_lossy(f).into_owned());
+        true
+    });
+    if numeric {
+        if fields.len() < 3 {
+            return Err(Error::table(
+                path,
+                line_no,
+                format!(
+                    "expected at least 3 columns (x y z), found {}",
+                    fields.len()
+                ),
+            ));
+        }
+        return Ok((
+            Layout {
+                sep,
+                cols: [0, 1, 2],
+            },
+            false,
+        ));
+    }
+    let mut cols = [usize::MAX; 3];
+    for (i, name) in fields.iter().enumerate() {
+        let n = name
+            .trim_matches(|c| c == '"' || c == '\'')
+            .trim()
+            .to_ascii_lowercase();
+        for (c, want) in ["x", "y", "z"].iter().enumerate() {
+            if n == *want && cols[c] == usize::MAX {
+                cols[c] = i;
+            }
+        }
+    }
+    for (c, want) in ["x", "y", "z"].iter().enumerate() {
+        if cols[c] == usize::MAX {
+            return Err(Error::table(
+                path,
+                line_no,
+                format!(
+                    "header line has no column named {want} (columns: {})",
+                    fields.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok((Layout { sep, cols }, true))
+}
+
+impl PointReader for XyzReader {
+    fn info(&self) -> &CloudInfo {
+        &self.info
+    }
+
+    fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+        buf.clear();
+        while !self.done {
+            let Some(block) = self.lines.next_block()? else {
+                self.done = true;
+                break;
+            };
+            let mut block = block;
+            let mut first = self.line_no;
+            let lines_in_block = block.iter().filter(|&&b| b == b'\n').count() as u64;
+            self.line_no += lines_in_block;
+            if self.layout.is_none() {
+                // Skip comment lines up to the first data line and detect the layout.
+                while !block.is_empty() {
+                    let end = block
+                        .iter()
+                        .position(|&b| b == b'\n')
+                        .map_or(block.len(), |p| p + 1);
+                    let line = clean(&block[..end]);
+                    if is_skip(line) {
+                        block = &block[end..];
+                        first += 1;
+                        continue;
+                    }
+                    let (layout, header) = detect_layout(&self.path, line, first)?;
+                    self.layout = Some(layout);
+                    if header {
+                        block = &block[end..];
+                        first += 1;
+                    }
+                    break;
+                }
+            }
+            let Some(layout) = self.layout else { continue };
+            // Split the block into tasks on line boundaries, parse in parallel.
+            let mut tasks: Vec<(&[u8], u64)> = Vec::new();
+            let mut rest = block;
+            let mut line = first;
+            while !rest.is_empty() {
+                let cut = if rest.len() <= TASK_BYTES {
+                    rest.len()
+                } else {
+                    rest[TASK_BYTES..]
+                        .iter()
+                        .position(|&b| b == b'\n')
+                        .map_or(rest.len(), |p| TASK_BYTES + p + 1)
+                };
+                let (a, b) = rest.split_at(cut);
+                tasks.push((a, line));
+                line += a.iter().filter(|&&b| b == b'\n').count() as u64;
+                rest = b;
+            }
+            let path = &self.path;
+            let parts: Vec<Result<(Vec<Point>, u64)>> = tasks
+                .par_iter()
+                .map(|&(t, l)| {
+                    let mut out = Vec::with_capacity(t.len() / 24);
+                    let skipped = parse_block(path, t, l, layout, &mut out)?;
+                    Ok((out, skipped))
+                })
+                .collect();
+            for part in parts {
+                let (pts, skipped) = part?;
+                buf.extend_from_slice(&pts);
+                self.stats.skipped_nonfinite += skipped;
+            }
+            if !buf.is_empty() {
+                break;
+            }
+        }
+        self.stats.points += buf.len() as u64;
+        Ok(!buf.is_empty())
+    }
+
+    fn stats(&self) -> ReadStats {
+        self.stats
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.lines.bytes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn file(text: &str) -> tempfile::NamedTempFile {
+        let mut f = tempfile::Builder::new().suffix(".xyz").tempfile().unwrap();
+        f.write_all(text.as_bytes()).unwrap();
+        f.flush().unwrap();
+        f
+    }
+
+    fn read(text: &str) -> Result<(Vec<Point>, ReadStats)> {
+        let f = file(text);
+        let mut r = open(f.path())?;
+        let mut all = Vec::new();
+        let mut buf = Vec::new();
+        while r.next_chunk(&mut buf)? {
+            all.extend_from_slice(&buf);
+        }
+        Ok((all, r.stats()))
+    }
+
+    #[test]
+    fn plain_space_separated_with_comments() {
+        let (p, s) =
+            read("# a comment\n// another\n\n1 2 3\n4\t5  6 7 8\r\n350123.456 4150234.567 12.5")
+                .unwrap();
+        assert_eq!(
+            p,
+            vec![
+                Point::new(1., 2., 3.),
+                Point::new(4., 5., 6.),
+                Point::new(350123.456, 4150234.567, 12.5)
+            ]
+        );
+        assert_eq!(s.points, 3);
+    }
+
+    #[test]
+    fn header_names_columns() {
+        let (p, _) = read("intensity,Z,y,X\n9,3,2,1\n9, 6 ,5,4\n").unwrap();
+        assert_eq!(p, vec![Point::new(1., 2., 3.), Point::new(4., 5., 6.)]);
+        let (p, _) = read("X\tY\tZ\tr\n1\t2\t3\t4\n").unwrap();
+        assert_eq!(p, vec![Point::new(1., 2., 3.)]);
+    }
+
+    #[test]
+    fn comma_and_nan() {
+        let (p, s) = read("1,2,3\nnan,1,1\n4,5,inf\n7,8,9\n").unwrap();
+        assert_eq!(p, vec![Point::new(1., 2., 3.), Point::new(7., 8., 9.)]);
+        assert_eq!(s.skipped_nonfinite, 2);
+    }
+
+    #[test]
+    fn bad_rows_name_the_line() {
+        let e = read("1 2 3\n4 5\n").unwrap_err().to_string();
+        assert!(e.contains(":2:") && e.contains("at least 3 columns"), "{e}");
+        let e = read("# c\n1 2 3\n4 5 abc\n").unwrap_err().to_string();
+        assert!(
+            e.contains(":3:") && e.contains("column 3") && e.contains("abc"),
+            "{e}"
+        );
+        let e = read("a,b,c\n1,2,3\n").unwrap_err().to_string();
+        assert!(e.contains(":1:") && e.contains("no column named x"), "{e}");
+    }
+
+    #[test]
+    fn many_lines_across_blocks_keep_order_and_line_numbers() {
+        let mut s = String::new();
+        let n = 300_000;
+        for i in 0..n {
+            s.push_str(&format!("{i} {}.5 -{i}\n", i * 2));
+        }
+        let (p, st) = read(&s).unwrap();
+        assert_eq!(p.len(), n);
+        assert_eq!(st.points, n as u64);
+        for (i, q) in p.iter().enumerate().step_by(9973) {
+            assert_eq!(*q, Point::new(i as f64, i as f64 * 2. + 0.5, -(i as f64)));
+        }
+        s.push_str("1 2 x\n");
+        let e = read(&s).unwrap_err().to_string();
+        assert!(e.contains(&format!(":{}:", n + 1)), "{e}");
+    }
 }
