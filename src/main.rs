@@ -14,11 +14,16 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Align estimated target positions to the survey and report every error (steps 6–7).
+    Errors(cmd::errors::Args),
+}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: mapgauge::Result<()> = match cli.command {};
+    let result: mapgauge::Result<()> = match cli.command {
+        Command::Errors(a) => cmd::errors::run(a),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
