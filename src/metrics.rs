@@ -120,11 +120,7 @@ pub fn relative_errors(ids: &[String], map: &[Point], survey: &[Point], dim: Dim
                 survey_distance: sd,
                 map_distance: md,
                 error,
-                error_per_100m: if sd > 0.0 {
-                    error / sd * 100.0
-                } else {
-                    f64::NAN
-                },
+                error_per_100m: (sd > 0.0).then(|| error / sd * 100.0),
             });
         }
     }

@@ -91,9 +91,10 @@ pub struct Pair {
     pub map_distance: f64,
     /// | map_distance − survey_distance | (m).
     pub error: f64,
-    /// The error per 100 m of survey distance (m), for comparing short and long pairs.
+    /// The error per 100 m of survey distance (m), for comparing short and long
+    /// pairs; `null` for coincident survey points.
     #[serde(default)]
-    pub error_per_100m: f64,
+    pub error_per_100m: Option<f64>,
 }
 
 /// Relative error statistics and every pair.
@@ -591,7 +592,9 @@ pub fn pairs_grid(r: &RunResult) -> Grid {
                 format!("{:.6}", p.survey_distance),
                 format!("{:.6}", p.map_distance),
                 format!("{:.6}", p.error),
-                format!("{:.6}", p.error_per_100m),
+                p.error_per_100m
+                    .map(|v| format!("{v:.6}"))
+                    .unwrap_or_default(),
             ]
         })
         .collect();

@@ -138,11 +138,22 @@ struct Table {
 
 impl Table {
     fn read(path: &Path) -> Result<Table> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        // Blank out comment lines but keep their newlines, so csv's line numbers
+        // stay those of the file (csv counts neither its comments nor blank lines;
+        // a lone comma is a record of empty fields, skipped below).
+        let mut bytes = Vec::with_capacity(raw.len());
+        for l in raw.split_inclusive(|b| *b == b'\n') {
+            let t = l.trim_ascii_start();
+            if t.is_empty() && l.ends_with(b"\n") || t.starts_with(b"#") {
+                bytes.extend_from_slice(b",\n");
+            } else {
+                bytes.extend_from_slice(l);
+            }
+        }
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
-            .comment(Some(b'#'))
             .trim(csv::Trim::All)
             .from_reader(bytes.as_slice());
         let mut headers = None;
@@ -493,8 +504,8 @@ mod tests {
 
     #[test]
     fn bad_surveys_name_file_and_line() {
-        let e = err("id,x,y\n1,0,0\n# c\n1,1,1\n");
-        assert!(e.contains(":4:") && e.contains("duplicate"), "{e}");
+        let e = err("id,x,y\n1,0,0\n\n# c\n\n1,1,1\n");
+        assert!(e.contains(":6:") && e.contains("duplicate"), "{e}");
         let e = err("id,x\n1,0\n");
         assert!(
             e.contains(":1:") && e.contains("missing position columns"),
