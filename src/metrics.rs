@@ -222,7 +222,7 @@ fn asprs(
     let z = vertical.then(|| axis(&res.iter().map(|r| r.z).collect::<Vec<_>>()));
     let rmse_h_measured = x.rmse.hypot(y.rmse);
     let rmse_v_measured = z.map(|z| z.rmse);
-    let (sh, sv) = sigma.map(|(h, v)| (h, v)).unwrap_or((0.0, None));
+    let (sh, sv) = sigma.unwrap_or((0.0, None));
     let rmse_h = rmse_h_measured.hypot(sh);
     let rmse_v = rmse_v_measured.map(|v| v.hypot(sv.unwrap_or(0.0)));
     let rmse_3d = rmse_v.map(|v| rmse_h.hypot(v));
@@ -478,7 +478,8 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
             });
         }
     }
-    let vertical = all_z && opts.method.uses_z();
+    // Heights are comparable when the fit corrected them or the map is already in the survey frame.
+    let vertical = all_z && (opts.method.uses_z() || opts.method == AlignMethod::None);
     let asprs = match check_residuals {
         Some(r) => asprs(&r, vertical, opts.survey_sigma, true),
         None => {
@@ -486,7 +487,7 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
             asprs(&r, vertical, opts.survey_sigma, false)
         }
     };
-    if all_z && !opts.method.uses_z() {
+    if all_z && !vertical {
         warnings.push(
             "vertical accuracy not reported: choose an alignment that fits z (rigid2d+z, rigid3d)"
                 .into(),
@@ -726,6 +727,20 @@ mod tests {
         let r = evaluate(&s, &est, &opts).unwrap();
         assert!((r.absolute.mean - 0.01).abs() < 1e-9, "{:?}", r.absolute);
         assert!(r.asprs.rmse_v.is_some() && r.asprs.rmse_3d.is_some());
+        // The antenna height is taken off the survey z before comparing.
+        let mut raised = s.clone();
+        raised.targets[1].position.z += 1.8;
+        raised.targets[1].antenna_height = 1.8;
+        let r2 = evaluate(&raised, &est, &opts).unwrap();
+        assert!((r2.absolute.mean - r.absolute.mean).abs() < 1e-12);
+        // With no alignment heights are compared as they are.
+        let none = EvalOptions {
+            method: AlignMethod::None,
+            dim: Dim::D3,
+            survey_sigma: None,
+        };
+        let r3 = evaluate(&s, &est, &none).unwrap();
+        assert!(r3.asprs.rmse_v.unwrap() > 99.0);
         let mut no_z = est.clone();
         no_z[0].has_z = false;
         assert!(evaluate(&s, &no_z, &opts).is_err());
