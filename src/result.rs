@@ -333,6 +333,10 @@ fn latex_escape(s: &str) -> String {
                 o.push(c);
             }
             'σ' => o.push_str("$\\sigma$"),
+            '→' => o.push_str("$\\to$"),
+            '\\' => o.push_str("\\textbackslash{}"),
+            '^' => o.push_str("\\^{}"),
+            '~' => o.push_str("\\~{}"),
             _ => o.push(c),
         }
     }
@@ -368,7 +372,8 @@ impl Grid {
                 }
             }
             TableFormat::Markdown => {
-                let _ = writeln!(o, "| {} |", self.header.join(" | "));
+                let h: Vec<String> = self.header.iter().map(|c| c.replace('|', "\\|")).collect();
+                let _ = writeln!(o, "| {} |", h.join(" | "));
                 let seps: Vec<&str> = (0..self.header.len())
                     .map(|i| if i == 0 { ":--" } else { "--:" })
                     .collect();
@@ -378,10 +383,11 @@ impl Grid {
                         .iter()
                         .enumerate()
                         .map(|(i, c)| {
+                            let c = c.replace('|', "\\|");
                             if self.bold.contains(&i) && c != "–" {
                                 format!("**{c}**")
                             } else {
-                                c.clone()
+                                c
                             }
                         })
                         .collect();
@@ -835,4 +841,32 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
         Error::io(path, e)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_escapes_per_format() {
+        let g = Grid {
+            header: vec!["id".into(), "E_rel".into()],
+            rows: vec![vec!["a|b,c_\"d\"".into(), "0.1".into()]],
+            bold: vec![1],
+        };
+        let md = g.render(TableFormat::Markdown);
+        assert!(md.contains("a\\|b") && md.contains("**0.1**"), "{md}");
+        let tex = g.render(TableFormat::Latex);
+        assert!(
+            tex.contains("$E_{rel}$") && tex.contains("c\\_") && tex.contains("\\textbf{0.1}"),
+            "{tex}"
+        );
+        assert!(tex.contains("\\toprule") && tex.contains("\\bottomrule"));
+        let csv = g.render(TableFormat::Csv);
+        assert_eq!(csv.lines().nth(1), Some("\"a|b,c_\"\"d\"\"\",0.1"), "{csv}");
+        let txt = g.render(TableFormat::Text);
+        assert_eq!(txt.lines().count(), 2);
+        assert_eq!(target_label("3"), "t3");
+        assert_eq!(target_label("T3"), "T3");
+    }
 }
