@@ -6,9 +6,13 @@
 //! Data flows one way: map → crop → locate → align → metrics → report.
 #![deny(missing_docs)]
 
+pub mod align;
 pub mod cloud;
 pub mod crop;
 mod error;
+pub mod metrics;
+pub mod result;
+pub mod survey;
 
 pub use error::{Error, Result};
 

@@ -2,7 +2,11 @@
 
 pub mod crop;
 pub mod demo;
+pub mod errors;
 pub mod eval;
+pub mod locate;
+pub mod synth;
+pub mod table;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use mapgauge::{Error, Result};

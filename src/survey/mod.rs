@@ -1,0 +1,557 @@
+//! Survey files (the ground truth) and estimate files (positions found in the map).
+//!
+//! Both are CSV with a header line; `#` starts a comment line. Every bad row is
+//! reported with its file and line, so a 200-target survey can be fixed quickly.
+
+mod geodesy;
+
+pub use geodesy::{Geodetic, WGS84_A, WGS84_E2, WGS84_F};
+
+use crate::{Error, Point, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::HashSet;
+use std::path::Path;
+
+/// How a survey's coordinates were given, so reports say which frame errors are in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SurveyFrame {
+    /// `x, y[, z]` already in a local metric frame (ENU about a base, UTM/TM, ...).
+    Local,
+    /// `lat, lon[, alt]` in WGS84, converted to ENU about [`Survey::origin`].
+    Wgs84Enu,
+}
+
+/// Whether a target may be used to fit the alignment or only to check it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Used to fit the alignment.
+    Control,
+    /// Held out: scored with an alignment fitted without it (an honest error).
+    Check,
+}
+
+/// One surveyed target.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurveyTarget {
+    /// Name, matched against estimate ids.
+    pub id: String,
+    /// Position in the survey frame as given (antenna position; z = 0 when absent).
+    pub position: Point,
+    /// Whether the survey gives a height for this target.
+    pub has_z: bool,
+    /// Control or check, when the survey says.
+    pub role: Option<Role>,
+    /// Metres from the antenna down to the target's reference height (0 if absent).
+    pub antenna_height: f64,
+    /// 1-based line in the survey file, for messages.
+    pub line: u64,
+}
+
+impl SurveyTarget {
+    /// The target's reference point: the antenna position lowered by the antenna
+    /// height. This is what map estimates are compared with.
+    pub fn reference(&self) -> Point {
+        Point::new(
+            self.position.x,
+            self.position.y,
+            self.position.z - self.antenna_height,
+        )
+    }
+}
+
+/// A whole survey: the ground truth every map is measured against.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Survey {
+    /// Targets in file order.
+    pub targets: Vec<SurveyTarget>,
+    /// The frame the positions are in.
+    pub frame: SurveyFrame,
+    /// ENU origin, for [`SurveyFrame::Wgs84Enu`].
+    pub origin: Option<Geodetic>,
+}
+
+impl Survey {
+    /// True when every target has a height (3D metrics are possible).
+    pub fn has_z(&self) -> bool {
+        !self.targets.is_empty() && self.targets.iter().all(|t| t.has_z)
+    }
+    /// Looks a target up by id.
+    pub fn get(&self, id: &str) -> Option<&SurveyTarget> {
+        self.targets.iter().find(|t| t.id == id)
+    }
+}
+
+/// How to read a survey.
+#[derive(Debug, Clone, Default)]
+pub struct SurveyOptions {
+    /// ENU origin for lat/lon surveys; `None` = the first target (its altitude too).
+    pub origin: Option<Geodetic>,
+}
+
+/// Why a target has no usable estimate, or the estimate itself.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EstimateStatus {
+    /// The target was located at this map-frame position.
+    Found(Point),
+    /// The target could not be located (reported, never scored).
+    NotFound {
+        /// Human-readable cause.
+        reason: String,
+    },
+    /// The target was deliberately left out (reported, never scored).
+    Excluded {
+        /// Human-readable cause.
+        reason: String,
+    },
+}
+
+/// A target position estimated in the map frame (from `locate`, `eval`, or a file).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate {
+    /// Target name, matched against the survey.
+    pub id: String,
+    /// The position, or why there is none.
+    pub status: EstimateStatus,
+    /// Whether the estimate has a meaningful z (3D metrics need it).
+    pub has_z: bool,
+}
+
+impl Estimate {
+    /// A located target with a full 3D position.
+    pub fn found(id: impl Into<String>, p: Point) -> Self {
+        Estimate {
+            id: id.into(),
+            status: EstimateStatus::Found(p),
+            has_z: true,
+        }
+    }
+}
+
+/// A header-indexed CSV reader with file/line error reporting.
+struct Table {
+    path: std::path::PathBuf,
+    headers: Vec<String>,
+    rows: Vec<(u64, csv::StringRecord)>,
+}
+
+impl Table {
+    fn read(path: &Path) -> Result<Table> {
+        let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        // Blank out comment lines but keep their newlines, so csv's line numbers
+        // stay those of the file (csv counts neither its comments nor blank lines;
+        // a lone comma is a record of empty fields, skipped below).
+        let mut bytes = Vec::with_capacity(raw.len());
+        for l in raw.split_inclusive(|b| *b == b'\n') {
+            let t = l.trim_ascii_start();
+            if t.is_empty() && l.ends_with(b"\n") || t.starts_with(b"#") {
+                bytes.extend_from_slice(b",\n");
+            } else {
+                bytes.extend_from_slice(l);
+            }
+        }
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .from_reader(bytes.as_slice());
+        let mut headers = None;
+        let mut rows = Vec::new();
+        for rec in rdr.records() {
+            let rec = rec.map_err(|e| {
+                let line = e.position().map(|p| p.line()).unwrap_or(0);
+                Error::table(path, line, format!("not valid CSV: {e}"))
+            })?;
+            let line = rec.position().map(|p| p.line()).unwrap_or(0);
+            if rec.iter().all(|f| f.is_empty()) {
+                continue;
+            }
+            if headers.is_none() {
+                let h: Vec<String> = rec.iter().map(|f| f.to_ascii_lowercase()).collect();
+                let mut seen = HashSet::new();
+                for name in &h {
+                    if !name.is_empty() && !seen.insert(name.clone()) {
+                        return Err(Error::table(
+                            path,
+                            line,
+                            format!("column `{name}` appears twice"),
+                        ));
+                    }
+                }
+                headers = Some(h);
+            } else {
+                rows.push((line, rec));
+            }
+        }
+        let headers = headers.ok_or_else(|| Error::table(path, 0, "empty file: no header line"))?;
+        Ok(Table {
+            path: path.to_path_buf(),
+            headers,
+            rows,
+        })
+    }
+
+    fn col(&self, names: &[&str]) -> Option<usize> {
+        self.headers
+            .iter()
+            .position(|h| names.contains(&h.as_str()))
+    }
+
+    fn field<'a>(
+        &self,
+        line: u64,
+        rec: &'a csv::StringRecord,
+        col: usize,
+        name: &str,
+    ) -> Result<&'a str> {
+        match rec.get(col) {
+            Some(s) if !s.is_empty() => Ok(s),
+            _ => Err(Error::table(
+                &self.path,
+                line,
+                format!("missing value in column `{name}`"),
+            )),
+        }
+    }
+
+    fn number(&self, line: u64, rec: &csv::StringRecord, col: usize, name: &str) -> Result<f64> {
+        let s = self.field(line, rec, col, name)?;
+        match s.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(Error::table(
+                &self.path,
+                line,
+                format!("column `{name}`: `{s}` is not a finite number"),
+            )),
+        }
+    }
+
+    fn opt_number(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        col: Option<usize>,
+        name: &str,
+    ) -> Result<Option<f64>> {
+        match col {
+            Some(c) if rec.get(c).is_some_and(|s| !s.is_empty()) => {
+                self.number(line, rec, c, name).map(Some)
+            }
+            _ => Ok(None),
+        }
+    }
+
+    fn require(&self, names: &[&str]) -> Result<usize> {
+        self.col(names).ok_or_else(|| {
+            Error::table(
+                &self.path,
+                1,
+                format!(
+                    "missing column `{}` (header has: {})",
+                    names[0],
+                    self.headers.join(",")
+                ),
+            )
+        })
+    }
+}
+
+const ID: &[&str] = &["id", "name", "target"];
+const X: &[&str] = &["x", "east", "easting", "e"];
+const Y: &[&str] = &["y", "north", "northing", "n"];
+const Z: &[&str] = &["z", "up", "u", "height"];
+const LAT: &[&str] = &["lat", "latitude"];
+const LON: &[&str] = &["lon", "lng", "long", "longitude"];
+const ALT: &[&str] = &["alt", "altitude", "h", "ellipsoidal_height"];
+
+/// Reads a survey CSV: `id` and either `x,y[,z]` (local metres) or `lat,lon[,alt]`
+/// (WGS84 degrees, converted to ENU about `opts.origin` or the first target);
+/// optional `role` (control|check) and `antenna_height`.
+pub fn read_survey(path: &Path, opts: &SurveyOptions) -> Result<Survey> {
+    let t = Table::read(path)?;
+    let id_c = t.require(ID)?;
+    let (xy, ll) = ((t.col(X), t.col(Y)), (t.col(LAT), t.col(LON)));
+    let geodetic = match (xy, ll) {
+        ((Some(_), Some(_)), (Some(_), Some(_))) => {
+            return Err(Error::table(
+                path,
+                1,
+                "both x,y and lat,lon columns: keep only one kind",
+            ));
+        }
+        ((Some(_), Some(_)), _) => false,
+        (_, (Some(_), Some(_))) => true,
+        _ => {
+            return Err(Error::table(
+                path,
+                1,
+                format!(
+                    "missing position columns: need x,y[,z] or lat,lon[,alt] (header has: {})",
+                    t.headers.join(",")
+                ),
+            ));
+        }
+    };
+    let (c1, c2, c3, n1, n2, n3) = if geodetic {
+        (
+            t.require(LAT)?,
+            t.require(LON)?,
+            t.col(ALT),
+            "lat",
+            "lon",
+            "alt",
+        )
+    } else {
+        (t.require(X)?, t.require(Y)?, t.col(Z), "x", "y", "z")
+    };
+    let role_c = t.col(&["role"]);
+    let ah_c = t.col(&["antenna_height", "antenna"]);
+    let mut seen = HashSet::new();
+    let mut targets = Vec::with_capacity(t.rows.len());
+    let mut geo = Vec::new();
+    for (line, rec) in &t.rows {
+        let line = *line;
+        let id = t.field(line, rec, id_c, "id")?.to_string();
+        if !seen.insert(id.clone()) {
+            return Err(Error::table(
+                path,
+                line,
+                format!("duplicate target id `{id}`"),
+            ));
+        }
+        let a = t.number(line, rec, c1, n1)?;
+        let b = t.number(line, rec, c2, n2)?;
+        let c = t.opt_number(line, rec, c3, n3)?;
+        if geodetic {
+            if !(-90.0..=90.0).contains(&a) {
+                return Err(Error::table(
+                    path,
+                    line,
+                    format!("latitude {a} is outside -90..90"),
+                ));
+            }
+            if !(-360.0..=360.0).contains(&b) {
+                return Err(Error::table(
+                    path,
+                    line,
+                    format!("longitude {b} is outside -360..360"),
+                ));
+            }
+            geo.push(Geodetic {
+                lat: a,
+                lon: b,
+                alt: c.unwrap_or(0.0),
+            });
+        }
+        let role = match role_c.and_then(|c| rec.get(c)).filter(|s| !s.is_empty()) {
+            None => None,
+            Some(s) => match s.to_ascii_lowercase().as_str() {
+                "control" | "gcp" => Some(Role::Control),
+                "check" | "checkpoint" => Some(Role::Check),
+                _ => {
+                    return Err(Error::table(
+                        path,
+                        line,
+                        format!("role `{s}` is neither control nor check"),
+                    ));
+                }
+            },
+        };
+        let antenna_height = t
+            .opt_number(line, rec, ah_c, "antenna_height")?
+            .unwrap_or(0.0);
+        targets.push(SurveyTarget {
+            id,
+            position: Point::new(a, b, c.unwrap_or(0.0)),
+            has_z: c.is_some(),
+            role,
+            antenna_height,
+            line,
+        });
+    }
+    if targets.is_empty() {
+        return Err(Error::table(path, 0, "no targets in survey"));
+    }
+    let (frame, origin) = if geodetic {
+        let origin = opts.origin.unwrap_or(geo[0]);
+        for (t, g) in targets.iter_mut().zip(&geo) {
+            let enu = origin.enu_of(g);
+            t.position = if t.has_z {
+                enu
+            } else {
+                Point::new(enu.x, enu.y, 0.0)
+            };
+        }
+        (SurveyFrame::Wgs84Enu, Some(origin))
+    } else {
+        (SurveyFrame::Local, None)
+    };
+    Ok(Survey {
+        targets,
+        frame,
+        origin,
+    })
+}
+
+/// Reads an estimates CSV `id,x,y[,z]` (map frame; extra columns ignored).
+/// Empty x/y cells mean "not found" (the reason column `reason`, if any, is kept).
+pub fn read_estimates(path: &Path) -> Result<Vec<Estimate>> {
+    let t = Table::read(path)?;
+    let id_c = t.require(ID)?;
+    let x_c = t.require(X)?;
+    let y_c = t.require(Y)?;
+    let z_c = t.col(Z);
+    let reason_c = t.col(&["reason"]);
+    let mut seen = HashSet::new();
+    let mut out = Vec::with_capacity(t.rows.len());
+    for (line, rec) in &t.rows {
+        let line = *line;
+        let id = t.field(line, rec, id_c, "id")?.to_string();
+        if !seen.insert(id.clone()) {
+            return Err(Error::table(
+                path,
+                line,
+                format!("duplicate target id `{id}`"),
+            ));
+        }
+        let empty = |c: usize| rec.get(c).is_none_or(|s| s.is_empty());
+        if empty(x_c) && empty(y_c) {
+            let reason = reason_c
+                .and_then(|c| rec.get(c))
+                .filter(|s| !s.is_empty())
+                .unwrap_or("no position in estimates file")
+                .to_string();
+            out.push(Estimate {
+                id,
+                status: EstimateStatus::NotFound { reason },
+                has_z: false,
+            });
+            continue;
+        }
+        let x = t.number(line, rec, x_c, "x")?;
+        let y = t.number(line, rec, y_c, "y")?;
+        let z = t.opt_number(line, rec, z_c, "z")?;
+        out.push(Estimate {
+            id,
+            status: EstimateStatus::Found(Point::new(x, y, z.unwrap_or(0.0))),
+            has_z: z.is_some(),
+        });
+    }
+    if out.is_empty() {
+        return Err(Error::table(path, 0, "no estimates in file"));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn file(content: &str) -> tempfile::NamedTempFile {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        f.write_all(content.as_bytes()).unwrap();
+        f
+    }
+
+    fn err(content: &str) -> String {
+        let f = file(content);
+        read_survey(f.path(), &SurveyOptions::default())
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn local_survey_with_comments_roles_and_antenna() {
+        let f = file(
+            "# site A\nid,x,y,z,role,antenna_height\n# base at pillar\nT1,350000.123456,4150000.654321,12.5,control,1.8\nT2,350010,4150005,13,check,\n",
+        );
+        let s = read_survey(f.path(), &SurveyOptions::default()).unwrap();
+        assert_eq!(s.frame, SurveyFrame::Local);
+        assert_eq!(s.targets.len(), 2);
+        let t1 = &s.targets[0];
+        assert_eq!(t1.id, "T1");
+        assert_eq!(t1.position.x, 350000.123456);
+        assert_eq!(t1.position.y, 4150000.654321);
+        assert_eq!(t1.role, Some(Role::Control));
+        assert!((t1.reference().z - 10.7).abs() < 1e-12);
+        assert_eq!(t1.line, 4);
+        assert_eq!(s.targets[1].antenna_height, 0.0);
+        assert!(s.has_z());
+    }
+
+    #[test]
+    fn geodetic_survey_about_first_target_and_given_origin() {
+        let f = file("id,lat,lon,alt\na,36.0,127.0,50\nb,36.001,127.0,51\n");
+        let s = read_survey(f.path(), &SurveyOptions::default()).unwrap();
+        assert_eq!(s.frame, SurveyFrame::Wgs84Enu);
+        assert!(s.targets[0].position.coords.norm() < 1e-9);
+        let b = s.targets[1].position;
+        assert!(
+            (b.y - 110.95).abs() < 0.1 && b.x.abs() < 1e-6 && (b.z - 1.0).abs() < 0.01,
+            "{b}"
+        );
+        let o = Geodetic {
+            lat: 36.0,
+            lon: 127.0,
+            alt: 0.0,
+        };
+        let s2 = read_survey(f.path(), &SurveyOptions { origin: Some(o) }).unwrap();
+        assert!((s2.targets[0].position.z - 50.0).abs() < 1e-6);
+        assert_eq!(s2.origin, Some(o));
+    }
+
+    #[test]
+    fn bad_surveys_name_file_and_line() {
+        let e = err("id,x,y\n1,0,0\n\n# c\n\n1,1,1\n");
+        assert!(e.contains(":6:") && e.contains("duplicate"), "{e}");
+        let e = err("id,x\n1,0\n");
+        assert!(
+            e.contains(":1:") && e.contains("missing position columns"),
+            "{e}"
+        );
+        let e = err("x,y\n1,0\n");
+        assert!(e.contains("missing column `id`"), "{e}");
+        let e = err("id,x,y\n1,0,0\n2,abc,0\n");
+        assert!(
+            e.contains(":3:") && e.contains("`abc` is not a finite number"),
+            "{e}"
+        );
+        let e = err("id,x,y\n1,0,0\n2,5\n");
+        assert!(
+            e.contains(":3:") && e.contains("missing value in column `y`"),
+            "{e}"
+        );
+        let e = err("id,lat,lon\n1,91,0\n");
+        assert!(e.contains(":2:") && e.contains("latitude"), "{e}");
+        let e = err("id,x,y,role\n1,0,0,boss\n");
+        assert!(e.contains(":2:") && e.contains("role"), "{e}");
+        let e = err("# only a comment\n");
+        assert!(e.contains("no header"), "{e}");
+        let e = err("id,x,y\n");
+        assert!(e.contains("no targets"), "{e}");
+        let e = err("id,x,y,lat,lon\n1,0,0,0,0\n");
+        assert!(e.contains("both"), "{e}");
+        let e = err("id,x,y\n1,NaN,0\n");
+        assert!(e.contains("not a finite number"), "{e}");
+    }
+
+    #[test]
+    fn estimates_reader() {
+        let f = file("id,x,y,z,score\n1,1.5,2.5,3.5,0.9\n2,,,,\n");
+        let e = read_estimates(f.path()).unwrap();
+        assert_eq!(
+            e[0].status,
+            EstimateStatus::Found(Point::new(1.5, 2.5, 3.5))
+        );
+        assert!(e[0].has_z);
+        assert!(matches!(e[1].status, EstimateStatus::NotFound { .. }));
+        let f = file("id,x,y\n1,1,2\n1,1,2\n");
+        let m = read_estimates(f.path()).unwrap_err().to_string();
+        assert!(m.contains(":3:") && m.contains("duplicate"), "{m}");
+        let f = file("id,x,y\n1,1,\n");
+        let m = read_estimates(f.path()).unwrap_err().to_string();
+        assert!(m.contains(":2:") && m.contains("`y`"), "{m}");
+    }
+}
