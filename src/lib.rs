@@ -9,6 +9,7 @@
 pub mod align;
 pub mod cloud;
 pub mod crop;
+pub mod eval;
 mod error;
 pub mod metrics;
 pub mod result;

@@ -533,6 +533,7 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
             estimates_only,
         },
         warnings,
+        eval: None,
     })
 }
 

@@ -50,6 +50,22 @@ pub struct AlignmentOut {
     pub iterations: usize,
 }
 
+impl AlignmentOut {
+    /// The transform this line describes, to map further points.
+    pub fn to_alignment(&self) -> crate::align::Alignment {
+        let m = self.rotation_matrix;
+        crate::align::Alignment {
+            method: self.method.parse().unwrap_or_default(),
+            rotation: nalgebra::Matrix3::new(
+                m[0][0], m[0][1], m[0][2], m[1][0], m[1][1], m[1][2], m[2][0], m[2][1], m[2][2],
+            ),
+            translation: nalgebra::Vector3::from(self.translation),
+            scale: self.scale,
+            iterations: self.iterations,
+        }
+    }
+}
+
 /// One target's line in the result.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TargetOut {
@@ -262,6 +278,9 @@ pub struct RunResult {
     /// Caveats for the reader.
     #[serde(default)]
     pub warnings: Vec<String>,
+    /// Provenance and per-target details of a map evaluation (`eval` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eval: Option<crate::eval::EvalInfo>,
 }
 
 fn local() -> SurveyFrame {
@@ -303,6 +322,20 @@ pub enum TableFormat {
     Latex,
     /// CSV.
     Csv,
+}
+
+/// Parses a `--format` value: `None` means JSON, otherwise a table flavour.
+pub fn parse_output_format(s: &str) -> Result<Option<TableFormat>> {
+    match s.to_ascii_lowercase().as_str() {
+        "table" | "text" => Ok(Some(TableFormat::Text)),
+        "markdown" | "md" => Ok(Some(TableFormat::Markdown)),
+        "latex" | "tex" => Ok(Some(TableFormat::Latex)),
+        "csv" => Ok(Some(TableFormat::Csv)),
+        "json" => Ok(None),
+        other => Err(Error::Param(format!(
+            "unknown --format `{other}` (table, json, csv, markdown, latex)"
+        ))),
+    }
 }
 
 /// A header and rows of cells, rendered in any [`TableFormat`].

@@ -2,7 +2,7 @@
 
 use mapgauge::align::AlignMethod;
 use mapgauge::metrics::{Dim, EvalOptions, evaluate};
-use mapgauge::result::{TableFormat, render_report, write_outputs};
+use mapgauge::result::{parse_output_format, render_report, write_outputs};
 use mapgauge::survey::{Geodetic, SurveyOptions, read_estimates, read_survey};
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
@@ -81,18 +81,7 @@ pub fn run(a: Args) -> Result<()> {
             })
         }
     };
-    let fmt = match a.format.to_ascii_lowercase().as_str() {
-        "table" | "text" => Some(TableFormat::Text),
-        "markdown" | "md" => Some(TableFormat::Markdown),
-        "latex" | "tex" => Some(TableFormat::Latex),
-        "csv" => Some(TableFormat::Csv),
-        "json" => None,
-        other => {
-            return Err(Error::Param(format!(
-                "unknown --format `{other}` (table, json, csv, markdown, latex)"
-            )));
-        }
-    };
+    let fmt = parse_output_format(&a.format)?;
     let survey = read_survey(&a.survey, &SurveyOptions { origin })?;
     let estimates = read_estimates(&a.estimates)?;
     let result = evaluate(

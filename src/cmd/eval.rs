@@ -6,7 +6,7 @@ use mapgauge::cloud::{self, OutFormat};
 use mapgauge::crop::Shape;
 use mapgauge::eval::{EvalConfig, EvalInputs, EvalRun, evaluate_map};
 use mapgauge::metrics::Dim;
-use mapgauge::result::{self, TableFormat};
+use mapgauge::result;
 use mapgauge::survey::{Geodetic, SurveyOptions, read_survey};
 use mapgauge::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -64,7 +64,7 @@ pub struct Args {
     pub origin: Option<String>,
     /// What to print on stdout: table, json, markdown, latex, csv.
     #[arg(long, default_value = "table")]
-    pub format: TableFormat,
+    pub format: String,
 }
 
 /// Builds the configuration: defaults, then the TOML file, then flags.
@@ -115,8 +115,12 @@ pub fn run(a: Args) -> Result<()> {
     let (Some(map), Some(survey_path)) = (a.map.as_deref(), a.survey.as_deref()) else {
         return Err(Error::Param("--map and --survey are required".into()));
     };
+    let fmt = result::parse_output_format(&a.format)?;
     let run = evaluate(map, survey_path, &a, &cfg)?;
-    print!("{}", result::render_report(&run.result, a.format));
+    match fmt {
+        Some(f) => print!("{}", result::render_report(&run.result, f)),
+        None => print!("{}", run.result.to_json()),
+    }
     if let Some(out) = &a.out {
         write_outputs(&run, out, a.save_crops, &[map, survey_path])?;
         eprintln!("results written to {}", out.display());
