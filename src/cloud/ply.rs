@@ -760,7 +760,9 @@ mod tests {
         .into_bytes();
         if enc == "ascii" {
             for q in &p {
-                out.extend_from_slice(format!("{} 200 {} 100 {} 50 0.75\n", q.x, q.y, q.z).as_bytes());
+                out.extend_from_slice(
+                    format!("{} 200 {} 100 {} 50 0.75\n", q.x, q.y, q.z).as_bytes(),
+                );
             }
             out.extend_from_slice(b"3 0 1 2\n3 1 2 3\n");
             return out;
