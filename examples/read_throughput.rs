@@ -5,6 +5,9 @@
 //! the second run's rate.
 //!
 //!     cargo run --release --example read_throughput [-- POINTS [DIR]]
+//!
+//! `read_throughput read FILE` only reads FILE once (for peak-memory checks with
+//! `/usr/bin/time -v`).
 
 use mapgauge::Point;
 use mapgauge::cloud::{self, OutFormat};
@@ -97,6 +100,20 @@ fn time_read(path: &Path) -> (u64, f64) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("read") {
+        let path = PathBuf::from(args.get(2).expect("FILE"));
+        let t = Instant::now();
+        let mut r = cloud::open(&path).unwrap();
+        let mut buf = Vec::new();
+        while r.next_chunk(&mut buf).unwrap() {}
+        let s = t.elapsed().as_secs_f64();
+        let n = r.stats().points;
+        println!(
+            "{n} points in {s:.3} s: {:.1} M points/s",
+            n as f64 / s / 1e6
+        );
+        return;
+    }
     let n: usize = args
         .get(1)
         .map_or(3_000_000, |s| s.parse().expect("POINTS"));
@@ -111,6 +128,9 @@ fn main() {
     let xyz = dir.join("bench.xyz");
     eprintln!("generating {n} points in {}", dir.display());
     write_ply(&ply, n);
+    if args.get(3).map(String::as_str) == Some("ply-only") {
+        return;
+    }
     let pts: Vec<Point> = cloud_points(n).collect();
     let t = Instant::now();
     cloud::write(&las_path, OutFormat::Las, &pts).unwrap();

@@ -885,6 +885,33 @@ end_header\n3 0 1 2\n3 1 2 0\n2 9 9 1 2 3\n0 4 5 6\n";
         assert_eq!(got, want);
     }
 
+    #[test]
+    fn ascii_across_blocks_stops_at_vertex_count() {
+        let n = 300_000;
+        let mut s = format!(
+            "ply\nformat ascii 1.0\nelement edge {n}\nproperty int a\nproperty int b\n\
+             element vertex {n}\nproperty double x\nproperty double y\nproperty double z\n\
+             element face {n}\nproperty list uchar int vertex_indices\nend_header\n"
+        );
+        for i in 0..n {
+            s.push_str(&format!("{i} {}\n", i + 1));
+        }
+        for i in 0..n {
+            s.push_str(&format!("{i}.25 {} -{i}\n", 350000 + i));
+        }
+        for _ in 0..n {
+            s.push_str("3 0 1 2\n");
+        }
+        let (got, st) = read_bytes(s.as_bytes()).unwrap();
+        assert_eq!(st.points, n as u64);
+        for (i, p) in got.iter().enumerate() {
+            assert_eq!(
+                *p,
+                Point::new(i as f64 + 0.25, (350000 + i) as f64, -(i as f64))
+            );
+        }
+    }
+
     fn err(bytes: &[u8]) -> String {
         read_bytes(bytes).unwrap_err().to_string()
     }
