@@ -745,8 +745,8 @@ mod tests {
         ]
     }
 
-    /// A PLY with a vertex element (float or double xyz, uchar rgb, float
-    /// intensity) and a face element after it.
+    /// A PLY with a vertex element (float or double x, y; float z; uchar rgb;
+    /// float intensity) and a face element after it.
     fn ply(enc: &str, double: bool) -> Vec<u8> {
         let t = if double { "double" } else { "float" };
         let p = pts();
@@ -758,68 +758,38 @@ mod tests {
             p.len()
         )
         .into_bytes();
+        if enc == "ascii" {
+            for q in &p {
+                out.extend_from_slice(
+                    format!("{} 200 {} 100 {} 50 0.75\n", q.x, q.y, q.z).as_bytes(),
+                );
+            }
+            out.extend_from_slice(b"3 0 1 2\n3 1 2 3\n");
+            return out;
+        }
         let be = enc == "binary_big_endian";
-        let mut f = |v: f64, dbl: bool| {
-            if enc == "ascii" {
-                out.extend_from_slice(format!("{v} ").as_bytes());
-            } else if dbl {
-                out.extend_from_slice(&if be { v.to_be_bytes() } else { v.to_le_bytes() });
-            } else {
-                let v = v as f32;
-                out.extend_from_slice(&if be { v.to_be_bytes() } else { v.to_le_bytes() });
+        let w = |v: f64, dbl: bool| -> Vec<u8> {
+            match (dbl, be) {
+                (true, true) => v.to_be_bytes().to_vec(),
+                (true, false) => v.to_le_bytes().to_vec(),
+                (false, true) => (v as f32).to_be_bytes().to_vec(),
+                (false, false) => (v as f32).to_le_bytes().to_vec(),
             }
         };
-        let mut body: Vec<(f64, u8)> = Vec::new();
-        let _ = &mut body;
         for q in &p {
-            // x red y green z blue intensity
-            f(q.x, double);
-            f(200.0, false); // placeholder, replaced below for binary uchar
-            f(q.y, double);
-            f(100.0, false);
-            f(q.z, false);
-            f(50.0, false);
-            f(0.75, false);
+            out.extend(w(q.x, double));
+            out.push(200);
+            out.extend(w(q.y, double));
+            out.push(100);
+            out.extend(w(q.z, false));
+            out.push(50);
+            out.extend(w(0.75, false));
         }
-        let _ = f;
-        if enc != "ascii" {
-            // Rebuild binary body with correct uchar sizes.
-            let head_len = out.len() - p.len() * if double { 16 + 5 * 4 } else { 7 * 4 };
-            out.truncate(head_len);
-            for q in &p {
-                let mut put = |b: &[u8]| out.extend_from_slice(b);
-                let w = |v: f64, dbl: bool| -> Vec<u8> {
-                    if dbl {
-                        (if be { v.to_be_bytes() } else { v.to_le_bytes() }).to_vec()
-                    } else {
-                        let v = v as f32;
-                        (if be { v.to_be_bytes() } else { v.to_le_bytes() }).to_vec()
-                    }
-                };
-                put(&w(q.x, double));
-                put(&[200]);
-                put(&w(q.y, double));
-                put(&[100]);
-                put(&w(q.z, false));
-                put(&[50]);
-                put(&w(0.75, false));
+        for _ in 0..2 {
+            out.push(3);
+            for i in 0..3i32 {
+                out.extend_from_slice(&if be { i.to_be_bytes() } else { i.to_le_bytes() });
             }
-            for _ in 0..2 {
-                out.push(3);
-                for i in 0..3i32 {
-                    out.extend_from_slice(&if be { i.to_be_bytes() } else { i.to_le_bytes() });
-                }
-            }
-        } else {
-            // One vertex per line.
-            let text = String::from_utf8(out).unwrap();
-            let (head, _) = text.split_at(text.find("end_header\n").unwrap() + 11);
-            let mut s = head.to_string();
-            for q in &p {
-                s.push_str(&format!("{} 200 {} 100 {} 50 0.75\n", q.x, q.y, q.z));
-            }
-            s.push_str("3 0 1 2\n3 1 2 3\n");
-            out = s.into_bytes();
         }
         out
     }
@@ -913,6 +883,33 @@ end_header\n3 0 1 2\n3 1 2 0\n2 9 9 1 2 3\n0 4 5 6\n";
             .collect();
         assert_eq!(st.skipped_nonfinite, (n - want.len()) as u64);
         assert_eq!(got, want);
+    }
+
+    #[test]
+    fn ascii_across_blocks_stops_at_vertex_count() {
+        let n = 300_000;
+        let mut s = format!(
+            "ply\nformat ascii 1.0\nelement edge {n}\nproperty int a\nproperty int b\n\
+             element vertex {n}\nproperty double x\nproperty double y\nproperty double z\n\
+             element face {n}\nproperty list uchar int vertex_indices\nend_header\n"
+        );
+        for i in 0..n {
+            s.push_str(&format!("{i} {}\n", i + 1));
+        }
+        for i in 0..n {
+            s.push_str(&format!("{i}.25 {} -{i}\n", 350000 + i));
+        }
+        for _ in 0..n {
+            s.push_str("3 0 1 2\n");
+        }
+        let (got, st) = read_bytes(s.as_bytes()).unwrap();
+        assert_eq!(st.points, n as u64);
+        for (i, p) in got.iter().enumerate() {
+            assert_eq!(
+                *p,
+                Point::new(i as f64 + 0.25, (350000 + i) as f64, -(i as f64))
+            );
+        }
     }
 
     fn err(bytes: &[u8]) -> String {
