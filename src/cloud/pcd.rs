@@ -818,8 +818,12 @@ fn read_compressed(path: &Path, file: &mut File, h: &Header, after: u64) -> Resu
 /// LZF decoder writing into an exactly-sized buffer; refuses any stream whose
 /// output would not be exactly `len` bytes.
 pub(crate) fn lzf_decompress(src: &[u8], len: usize) -> std::result::Result<Vec<u8>, String> {
-    let mut out: Vec<u8> = Vec::with_capacity(len);
+    // Zeroed allocation is lazily backed by the OS; every byte is overwritten
+    // (the final length check guarantees it).
+    let mut out = vec![0u8; len];
+    let too_long = || format!("output exceeds the declared {len} bytes");
     let mut i = 0usize;
+    let mut o = 0usize;
     while i < src.len() {
         let ctrl = src[i] as usize;
         i += 1;
@@ -828,11 +832,11 @@ pub(crate) fn lzf_decompress(src: &[u8], len: usize) -> std::result::Result<Vec<
             let lit = src
                 .get(i..i + n)
                 .ok_or("literal run past the end of the input")?;
-            if out.len() + n > len {
-                return Err(format!("output exceeds the declared {len} bytes"));
-            }
-            out.extend_from_slice(lit);
+            out.get_mut(o..o + n)
+                .ok_or_else(too_long)?
+                .copy_from_slice(lit);
             i += n;
+            o += n;
         } else {
             let mut n = ctrl >> 5;
             if n == 7 {
@@ -848,28 +852,26 @@ pub(crate) fn lzf_decompress(src: &[u8], len: usize) -> std::result::Result<Vec<
                 .ok_or("back-reference past the end of the input")? as usize;
             i += 1;
             let dist = ((ctrl & 0x1f) << 8) + lo + 1;
-            if dist > out.len() {
+            if dist > o {
                 return Err("back-reference before the start of the output".into());
             }
-            if out.len() + n > len {
-                return Err(format!("output exceeds the declared {len} bytes"));
+            if o + n > len {
+                return Err(too_long());
             }
-            let start = out.len() - dist;
+            let start = o - dist;
             if dist >= n {
-                out.extend_from_within(start..start + n);
+                out.copy_within(start..start + n, o);
             } else {
+                // Overlapping: a run that repeats the last `dist` bytes.
                 for k in 0..n {
-                    let b = out[start + k];
-                    out.push(b);
+                    out[o + k] = out[start + k];
                 }
             }
+            o += n;
         }
     }
-    if out.len() != len {
-        return Err(format!(
-            "decompressed to {} bytes, header declares {len}",
-            out.len()
-        ));
+    if o != len {
+        return Err(format!("decompressed to {o} bytes, header declares {len}"));
     }
     Ok(out)
 }
