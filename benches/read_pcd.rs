@@ -65,6 +65,20 @@ fn read(path: &Path) -> u64 {
     n
 }
 
+fn cat(path: &Path) -> u64 {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).unwrap();
+    let mut block = vec![0u8; 1 << 20];
+    let mut n = 0u64;
+    loop {
+        let k = f.read(&mut block).unwrap();
+        if k == 0 {
+            return n;
+        }
+        n += k as u64;
+    }
+}
+
 fn bench(c: &mut Criterion) {
     let n: usize = std::env::var("READ_PCD_POINTS")
         .ok()
@@ -79,6 +93,12 @@ fn bench(c: &mut Criterion) {
         assert_eq!(read(&path), points as u64);
         g.throughput(Throughput::Elements(points as u64));
         g.bench_function(format!("{data}/{points}"), |b| b.iter(|| read(&path)));
+        if data == "binary" {
+            // Baseline: the cost of just reading the same bytes (like `cat`).
+            g.bench_function(format!("read_bytes_baseline/{points}"), |b| {
+                b.iter(|| cat(&path))
+            });
+        }
     }
     g.finish();
 }

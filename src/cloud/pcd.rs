@@ -12,7 +12,7 @@ use super::{CloudInfo, Format, PointReader, ReadStats};
 use crate::{Error, Point, Result};
 use rayon::prelude::*;
 use std::fs::File;
-use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
+use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 /// Points handed out per `next_chunk` call (24 MiB of `Point`s).
@@ -452,13 +452,8 @@ enum Source {
     Mapped { map: memmap2::Mmap, released: usize },
     /// binary_compressed: the decompressed column-wise block.
     Columns(Vec<u8>),
-    /// ascii: a buffered line reader.
-    Text {
-        rd: BufReader<File>,
-        line: Vec<u8>,
-        lineno: u64,
-        consumed: u64,
-    },
+    /// ascii: the file, read in blocks parsed in parallel.
+    Text(Box<TextState>),
 }
 
 struct PcdReader {
@@ -548,13 +543,13 @@ impl PcdReader {
                     base: [f(0).token, f(1).token, f(2).token],
                     stride: [0; 3],
                 };
-                let rd = BufReader::with_capacity(1 << 20, file);
-                let src = Source::Text {
-                    rd,
-                    line: Vec::new(),
+                let src = Source::Text(Box::new(TextState {
+                    file,
+                    block: Vec::new(),
+                    eof: false,
                     lineno: header.lines,
                     consumed: 0,
-                };
+                }));
                 (src, layout, after)
             }
         };
@@ -570,89 +565,186 @@ impl PcdReader {
         })
     }
 
+    /// Reads the next block of ascii lines, parses it in parallel pieces and
+    /// appends the finite points (at most the declared count) to `buf`.
     fn next_text(&mut self, buf: &mut Vec<Point>) -> Result<()> {
-        let Source::Text {
-            rd,
-            line,
-            lineno,
-            consumed,
-        } = &mut self.source
-        else {
+        let Source::Text(st) = &mut self.source else {
             return Ok(());
         };
-        let want = (self.header.points - self.next).min(CHUNK_POINTS as u64);
-        let ntok = self.header.tokens_per_line;
-        let idx = self.layout.base;
-        let names = [0, 1, 2].map(|i| self.header.fields[self.header.xyz[i]].name.as_str());
-        let mut done = 0u64;
-        while done < want {
-            line.clear();
-            let k = rd
-                .read_until(b'\n', line)
-                .map_err(|e| Error::io(&self.path, e))?;
-            if k == 0 {
+        let path = &self.path;
+        // Read on until the block holds at least one whole line (the carried
+        // partial line never contains a newline).
+        while !st.eof {
+            let before = st.block.len();
+            (&mut st.file)
+                .take(TEXT_BLOCK as u64)
+                .read_to_end(&mut st.block)
+                .map_err(|e| Error::io(path, e))?;
+            if st.block.len() == before {
+                st.eof = true;
+            } else if st.block[before..].contains(&b'\n') {
+                break;
+            } else if st.block.len() > MAX_LINE {
                 return Err(Error::format(
-                    &self.path,
-                    format!(
-                        "truncated ascii data: header declares POINTS {} but the data ends after {} points (line {})",
-                        self.header.points,
-                        self.next + done,
-                        *lineno
-                    ),
+                    path,
+                    format!("line {}: longer than {} bytes", st.lineno + 1, MAX_LINE),
                 ));
-            }
-            *consumed += k as u64;
-            *lineno += 1;
-            let mut vals = [0f64; 3];
-            let mut seen = 0usize;
-            let mut toks = line
-                .split(|b| matches!(b, b' ' | b'\t' | b'\r' | b'\n' | b','))
-                .filter(|t| !t.is_empty());
-            let mut t = 0usize;
-            let last = *idx.iter().max().unwrap_or(&0);
-            while t <= last {
-                let Some(tok) = toks.next() else { break };
-                for c in 0..3 {
-                    if idx[c] == t {
-                        vals[c] = parse_f64(tok).ok_or_else(|| {
-                            Error::format(
-                                &self.path,
-                                format!(
-                                    "line {}: field '{}' value '{}' is not a number",
-                                    *lineno,
-                                    names[c],
-                                    String::from_utf8_lossy(tok)
-                                ),
-                            )
-                        })?;
-                        seen += 1;
-                    }
-                }
-                t += 1;
-            }
-            if t == 0 {
-                continue; // blank line
-            }
-            if seen < 3 {
-                let found = t + toks.count();
-                return Err(Error::format(
-                    &self.path,
-                    format!(
-                        "line {}: expected {} values, found {}",
-                        *lineno, ntok, found
-                    ),
-                ));
-            }
-            done += 1;
-            if vals.iter().all(|v| v.is_finite()) {
-                buf.push(Point::new(vals[0], vals[1], vals[2]));
-            } else {
-                self.stats.skipped_nonfinite += 1;
             }
         }
-        self.next += done;
+        let end = if st.eof {
+            st.block.len()
+        } else {
+            st.block
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |i| i + 1)
+        };
+        if end == 0 && st.eof {
+            return Err(Error::format(
+                path,
+                format!(
+                    "truncated ascii data: header declares POINTS {} but the data ends after {} points (line {})",
+                    self.header.points, self.next, st.lineno
+                ),
+            ));
+        }
+        let text = &st.block[..end];
+        // Cut into pieces at line boundaries, parse them in parallel.
+        let mut cuts = vec![0usize];
+        while let Some(&last) = cuts.last() {
+            if last >= end {
+                break;
+            }
+            let at = (last + TEXT_PIECE).min(end);
+            let next = match text[at..].iter().position(|&b| b == b'\n') {
+                Some(i) if at < end => at + i + 1,
+                _ => end,
+            };
+            cuts.push(next);
+        }
+        let cols = self.layout.base;
+        let pieces: Vec<Piece> = cuts
+            .par_windows(2)
+            .map(|w| parse_piece(&text[w[0]..w[1]], cols))
+            .collect();
+        let ntok = self.header.tokens_per_line;
+        let mut remaining = self.header.points - self.next;
+        for piece in &pieces {
+            for p in &piece.points {
+                if remaining == 0 {
+                    break;
+                }
+                remaining -= 1;
+                self.next += 1;
+                if p.iter().all(|v| v.is_finite()) {
+                    buf.push(Point::new(p[0], p[1], p[2]));
+                } else {
+                    self.stats.skipped_nonfinite += 1;
+                }
+            }
+            if remaining == 0 {
+                break;
+            }
+            if let Some((line, ref what)) = piece.error {
+                let line = st.lineno + line;
+                let msg = match what {
+                    LineError::Short(found) => {
+                        format!("line {line}: expected {ntok} values, found {found}")
+                    }
+                    LineError::NotNumber(c, tok) => format!(
+                        "line {line}: field '{}' value '{tok}' is not a number",
+                        self.header.fields[self.header.xyz[*c]].name
+                    ),
+                };
+                return Err(Error::format(path, msg));
+            }
+            st.lineno += piece.lines;
+        }
+        st.consumed += end as u64;
+        st.block.drain(..end);
         Ok(())
     }
+}
+
+/// Bytes of ascii data read per block.
+const TEXT_BLOCK: usize = 8 << 20;
+/// Bytes of ascii data parsed by one rayon task.
+const TEXT_PIECE: usize = 256 << 10;
+/// Longest ascii data line accepted.
+const MAX_LINE: usize = 64 << 20;
+
+struct TextState {
+    file: File,
+    /// Unparsed bytes: a partial line carried over, then the next block.
+    block: Vec<u8>,
+    eof: bool,
+    /// Physical lines consumed so far (header included), for messages.
+    lineno: u64,
+    consumed: u64,
+}
+
+enum LineError {
+    /// Fewer tokens than needed to reach x, y and z.
+    Short(usize),
+    /// Coordinate `c` is not a number.
+    NotNumber(usize, String),
+}
+
+/// The parsed lines of one piece of ascii data.
+struct Piece {
+    /// x, y, z of every data line, non-finite ones included (in order).
+    points: Vec<[f64; 3]>,
+    /// Physical lines in the piece.
+    lines: u64,
+    /// First bad line (1-based within the piece), after which parsing stopped.
+    error: Option<(u64, LineError)>,
+}
+
+fn parse_piece(text: &[u8], cols: [usize; 3]) -> Piece {
+    let last = cols.iter().copied().max().unwrap_or(0);
+    let mut piece = Piece {
+        points: Vec::with_capacity(text.len() / 24),
+        lines: 0,
+        error: None,
+    };
+    for line in text.split(|&b| b == b'\n') {
+        piece.lines += 1;
+        let mut vals = [0f64; 3];
+        let mut toks = line
+            .split(|b| matches!(b, b' ' | b'\t' | b'\r' | b','))
+            .filter(|t| !t.is_empty());
+        let mut t = 0usize;
+        while t <= last {
+            let Some(tok) = toks.next() else { break };
+            for c in 0..3 {
+                if cols[c] == t {
+                    match parse_f64(tok) {
+                        Some(v) => vals[c] = v,
+                        None => {
+                            let tok =
+                                String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned();
+                            piece.error = Some((piece.lines, LineError::NotNumber(c, tok)));
+                            return piece;
+                        }
+                    }
+                }
+            }
+            t += 1;
+        }
+        if t == 0 {
+            continue; // blank line
+        }
+        if t <= last {
+            piece.error = Some((piece.lines, LineError::Short(t + toks.count())));
+            return piece;
+        }
+        piece.points.push(vals);
+    }
+    // `split` yields an empty tail after a final newline: it is not a line.
+    if text.last() == Some(&b'\n') {
+        piece.lines -= 1;
+    }
+    piece
 }
 
 /// Parses an ascii number; PCL writes `nan` for missing points.
@@ -726,8 +818,12 @@ fn read_compressed(path: &Path, file: &mut File, h: &Header, after: u64) -> Resu
 /// LZF decoder writing into an exactly-sized buffer; refuses any stream whose
 /// output would not be exactly `len` bytes.
 pub(crate) fn lzf_decompress(src: &[u8], len: usize) -> std::result::Result<Vec<u8>, String> {
-    let mut out: Vec<u8> = Vec::with_capacity(len);
+    // Zeroed allocation is lazily backed by the OS; every byte is overwritten
+    // (the final length check guarantees it).
+    let mut out = vec![0u8; len];
+    let too_long = || format!("output exceeds the declared {len} bytes");
     let mut i = 0usize;
+    let mut o = 0usize;
     while i < src.len() {
         let ctrl = src[i] as usize;
         i += 1;
@@ -736,11 +832,11 @@ pub(crate) fn lzf_decompress(src: &[u8], len: usize) -> std::result::Result<Vec<
             let lit = src
                 .get(i..i + n)
                 .ok_or("literal run past the end of the input")?;
-            if out.len() + n > len {
-                return Err(format!("output exceeds the declared {len} bytes"));
-            }
-            out.extend_from_slice(lit);
+            out.get_mut(o..o + n)
+                .ok_or_else(too_long)?
+                .copy_from_slice(lit);
             i += n;
+            o += n;
         } else {
             let mut n = ctrl >> 5;
             if n == 7 {
@@ -756,28 +852,26 @@ pub(crate) fn lzf_decompress(src: &[u8], len: usize) -> std::result::Result<Vec<
                 .ok_or("back-reference past the end of the input")? as usize;
             i += 1;
             let dist = ((ctrl & 0x1f) << 8) + lo + 1;
-            if dist > out.len() {
+            if dist > o {
                 return Err("back-reference before the start of the output".into());
             }
-            if out.len() + n > len {
-                return Err(format!("output exceeds the declared {len} bytes"));
+            if o + n > len {
+                return Err(too_long());
             }
-            let start = out.len() - dist;
+            let start = o - dist;
             if dist >= n {
-                out.extend_from_within(start..start + n);
+                out.copy_within(start..start + n, o);
             } else {
+                // Overlapping: a run that repeats the last `dist` bytes.
                 for k in 0..n {
-                    let b = out[start + k];
-                    out.push(b);
+                    out[o + k] = out[start + k];
                 }
             }
+            o += n;
         }
     }
-    if out.len() != len {
-        return Err(format!(
-            "decompressed to {} bytes, header declares {len}",
-            out.len()
-        ));
+    if o != len {
+        return Err(format!("decompressed to {o} bytes, header declares {len}"));
     }
     Ok(out)
 }
@@ -797,7 +891,7 @@ impl PointReader for PcdReader {
                 return Ok(false);
             }
             match &mut self.source {
-                Source::Text { .. } => self.next_text(buf)?,
+                Source::Text(_) => self.next_text(buf)?,
                 Source::Mapped { map, released } => {
                     let first = self.next as usize;
                     let n = (self.header.points - self.next).min(CHUNK_POINTS as u64) as usize;
@@ -845,7 +939,7 @@ impl PointReader for PcdReader {
     fn bytes_read(&self) -> u64 {
         let head = self.header.data_offset as u64;
         match &self.source {
-            Source::Text { consumed, .. } => head + consumed,
+            Source::Text(st) => head + st.consumed,
             _ if self.header.points == 0 => self.info.file_bytes,
             _ => {
                 let frac = self.next as f64 / self.header.points as f64;

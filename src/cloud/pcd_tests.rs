@@ -695,3 +695,61 @@ fn unfinished_writer_leaves_no_file() {
         .to_string();
     assert!(e.contains("no/such/dir"), "{e}");
 }
+
+#[test]
+fn ascii_across_pieces_and_blocks() {
+    let dir = tempfile::tempdir().unwrap();
+    // Long lines so that the data spans several read blocks and parse pieces.
+    let n = 25_000usize;
+    let junk = "j".repeat(400);
+    let mut text = header(
+        &[
+            ("x", 'F', 4, 1),
+            ("y", 'F', 4, 1),
+            ("z", 'F', 4, 1),
+            ("tag", 'U', 1, 1),
+        ],
+        n as u64,
+        1,
+        "ascii",
+    );
+    let mut want = Vec::new();
+    for i in 0..n {
+        if i % 1000 == 7 {
+            text.push_str(&format!("nan nan nan {junk}\n"));
+        } else {
+            text.push_str(&format!("{i} {}.25 -{i} {junk}\n", i % 13));
+            want.push([i as f64, (i % 13) as f64 + 0.25, -(i as f64)]);
+        }
+        if i == 12_345 {
+            text.push_str("\n  \r\n"); // blank lines are not points
+        }
+    }
+    assert!(text.len() > TEXT_BLOCK + TEXT_PIECE);
+    text.push_str("garbage after the declared points is ignored\n");
+    let p = file(&dir, "long.pcd", text.as_bytes());
+    let (got, stats) = read(&p).unwrap();
+    assert_eq!(stats.skipped_nonfinite, 25);
+    assert_eq!(got, want);
+    // A bad value deep in the file is reported with its line number.
+    let bad = text.replacen(
+        &format!("\n20000 {}.25 -20000", 20000 % 13),
+        "\n20000 x -20000",
+        1,
+    );
+    let p = file(&dir, "longbad.pcd", bad.as_bytes());
+    let e = err(&p);
+    // 11 header lines + 20000 data lines before it + 2 blank lines.
+    assert!(
+        e.contains("line 20014: field 'y' value 'x' is not a number"),
+        "{e}"
+    );
+    // Missing final lines.
+    let cut = &text[..text.len() - 47 - 3 * (junk.len() + 20)];
+    let p = file(&dir, "longcut.pcd", cut.as_bytes());
+    assert!(
+        err(&p).contains("header declares POINTS 25000 but the data ends after"),
+        "{}",
+        err(&p)
+    );
+}
