@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod cloud;
+pub mod locate;
 mod error;
 
 pub use error::{Error, Result};
