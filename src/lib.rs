@@ -7,8 +7,8 @@
 #![deny(missing_docs)]
 
 pub mod cloud;
-pub mod locate;
 mod error;
+pub mod locate;
 
 pub use error::{Error, Result};
 

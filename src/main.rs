@@ -14,11 +14,16 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Locate the L-target corner in tight crops (the paper's k-means → RANSAC → SVD).
+    Locate(cmd::locate::Args),
+}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: mapgauge::Result<()> = match cli.command {};
+    let result: mapgauge::Result<()> = match cli.command {
+        Command::Locate(a) => cmd::locate::run(a),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -1,1 +1,2 @@
 //! One module per subcommand: flag definitions and printing only.
+pub mod locate;

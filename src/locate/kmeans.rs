@@ -123,7 +123,15 @@ mod tests {
             for init in [Init::Random, Init::PlusPlus] {
                 let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
                 let mut labels = Vec::new();
-                assert!(split2(&pts, &Vector3::z(), space, init, 20, &mut rng, &mut labels));
+                assert!(split2(
+                    &pts,
+                    &Vector3::z(),
+                    space,
+                    init,
+                    20,
+                    &mut rng,
+                    &mut labels
+                ));
                 for pair in labels.chunks(2) {
                     assert_ne!(pair[0], pair[1]);
                 }
@@ -137,7 +145,23 @@ mod tests {
         let pts = vec![Vector3::new(1.0, 2.0, 3.0); 10];
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(1);
         let mut labels = Vec::new();
-        assert!(!split2(&pts, &Vector3::z(), Space::Full, Init::PlusPlus, 10, &mut rng, &mut labels));
-        assert!(!split2(&pts, &Vector3::z(), Space::Full, Init::Random, 10, &mut rng, &mut labels));
+        assert!(!split2(
+            &pts,
+            &Vector3::z(),
+            Space::Full,
+            Init::PlusPlus,
+            10,
+            &mut rng,
+            &mut labels
+        ));
+        assert!(!split2(
+            &pts,
+            &Vector3::z(),
+            Space::Full,
+            Init::Random,
+            10,
+            &mut rng,
+            &mut labels
+        ));
     }
 }

@@ -26,7 +26,10 @@ impl Plane {
             return None;
         }
         let normal = n / len;
-        Some(Plane { normal, offset: normal.dot(a) })
+        Some(Plane {
+            normal,
+            offset: normal.dot(a),
+        })
     }
 
     /// Signed distance of `p` from the plane.
@@ -66,7 +69,10 @@ pub fn fit(pts: &[Vector3<f64>], idx: &[u32]) -> Option<Plane> {
     if !normal.iter().all(|v| v.is_finite()) {
         return None;
     }
-    Some(Plane { normal, offset: normal.dot(&mean) })
+    Some(Plane {
+        normal,
+        offset: normal.dot(&mean),
+    })
 }
 
 #[cfg(test)]
@@ -93,7 +99,12 @@ mod tests {
 
     #[test]
     fn degenerate_inputs_give_none() {
-        let pts = vec![Vector3::zeros(), Vector3::x(), Vector3::x() * 2.0, Vector3::x() * 3.0];
+        let pts = vec![
+            Vector3::zeros(),
+            Vector3::x(),
+            Vector3::x() * 2.0,
+            Vector3::x() * 3.0,
+        ];
         assert!(fit(&pts, &[0, 1, 2, 3]).is_none());
         assert!(fit(&pts, &[0, 1]).is_none());
         assert!(Plane::through(&pts[0], &pts[1], &pts[2]).is_none());

@@ -39,7 +39,11 @@ pub fn best_plane<R: Rng>(
                 c += 1;
             }
         }
-        let (pa, pb, pc) = (&pts[idx[a] as usize], &pts[idx[b] as usize], &pts[idx[c] as usize]);
+        let (pa, pb, pc) = (
+            &pts[idx[a] as usize],
+            &pts[idx[b] as usize],
+            &pts[idx[c] as usize],
+        );
         let Some(plane) = Plane::through(pa, pb, pc) else {
             continue;
         };
@@ -52,7 +56,11 @@ pub fn best_plane<R: Rng>(
         }
     }
     let (_, plane) = best?;
-    inliers.extend(idx.iter().copied().filter(|&i| plane.distance(&pts[i as usize]).abs() < threshold));
+    inliers.extend(
+        idx.iter()
+            .copied()
+            .filter(|&i| plane.distance(&pts[i as usize]).abs() < threshold),
+    );
     Some(plane)
 }
 
@@ -71,7 +79,11 @@ mod tests {
         }
         for i in 0..40 {
             let t = i as f64;
-            pts.push(Vector3::new((t * 0.37).sin(), 1.2 + (t * 0.91).cos(), (t * 0.53).sin()));
+            pts.push(Vector3::new(
+                (t * 0.37).sin(),
+                1.2 + (t * 0.91).cos(),
+                (t * 0.53).sin(),
+            ));
         }
         let idx: Vec<u32> = (0..pts.len() as u32).collect();
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);

@@ -75,9 +75,17 @@ pub fn viewpoint<R: Rng>(rng: &mut R, first: bool) -> Vector3<f64> {
 pub fn random_spec<R: Rng>(rng: &mut R, utm: bool) -> Spec {
     let origin = if utm {
         Vector3::new(350_000.0, 4_150_000.0, 50.0)
-            + Vector3::new(rng.random_range(-5e3..5e3), rng.random_range(-5e3..5e3), rng.random_range(-20.0..20.0))
+            + Vector3::new(
+                rng.random_range(-5e3..5e3),
+                rng.random_range(-5e3..5e3),
+                rng.random_range(-20.0..20.0),
+            )
     } else {
-        Vector3::new(rng.random_range(-50.0..50.0), rng.random_range(-50.0..50.0), rng.random_range(-2.0..2.0))
+        Vector3::new(
+            rng.random_range(-50.0..50.0),
+            rng.random_range(-50.0..50.0),
+            rng.random_range(-2.0..2.0),
+        )
     };
     let nv = rng.random_range(1..=3);
     Spec {
@@ -106,7 +114,14 @@ fn solid(u: f64, v: f64) -> bool {
     rim || (u - RIM).rem_euclid(PITCH) >= HOLE || (v - RIM).rem_euclid(PITCH) >= HOLE
 }
 
-fn cylinder(o: &Vector3<f64>, d: &Vector3<f64>, c: (f64, f64), r: f64, z0: f64, z1: f64) -> Option<f64> {
+fn cylinder(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    c: (f64, f64),
+    r: f64,
+    z0: f64,
+    z1: f64,
+) -> Option<f64> {
     let (ox, oy) = (o.x - c.0, o.y - c.1);
     let a = d.x * d.x + d.y * d.y;
     let b = 2.0 * (ox * d.x + oy * d.y);
@@ -161,7 +176,9 @@ pub fn generate<R: Rng>(rng: &mut R, spec: &Spec) -> Target {
         .iter()
         .map(|o| {
             let (mut a0, mut a1, mut e0, mut e1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-            let centre_az = ((BOX_LO + BOX_HI) / 2.0 - o).y.atan2(((BOX_LO + BOX_HI) / 2.0 - o).x);
+            let centre_az = ((BOX_LO + BOX_HI) / 2.0 - o)
+                .y
+                .atan2(((BOX_LO + BOX_HI) / 2.0 - o).x);
             for i in 0..8 {
                 let c = Vector3::new(
                     if i & 1 == 0 { BOX_LO.x } else { BOX_HI.x },
@@ -170,7 +187,8 @@ pub fn generate<R: Rng>(rng: &mut R, spec: &Spec) -> Target {
                 );
                 let v = c - o;
                 let az = centre_az
-                    + (v.y.atan2(v.x) - centre_az + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    + (v.y.atan2(v.x) - centre_az + std::f64::consts::PI)
+                        .rem_euclid(std::f64::consts::TAU)
                     - std::f64::consts::PI;
                 let el = v.z.atan2((v.x * v.x + v.y * v.y).sqrt());
                 (a0, a1, e0, e1) = (a0.min(az), a1.max(az), e0.min(el), e1.max(el));
@@ -207,7 +225,8 @@ pub fn generate<R: Rng>(rng: &mut R, spec: &Spec) -> Target {
     for p in &mut local {
         *p += Vector3::new(normal.sample(rng), normal.sample(rng), normal.sample(rng));
     }
-    let n_out = (local.len() as f64 * spec.outlier_fraction / (1.0 - spec.outlier_fraction)).round() as usize;
+    let n_out = (local.len() as f64 * spec.outlier_fraction / (1.0 - spec.outlier_fraction)).round()
+        as usize;
     let (lo, hi) = (BOX_LO - Vector3::repeat(0.3), BOX_HI + Vector3::repeat(0.3));
     for _ in 0..n_out {
         local.push(Vector3::new(
@@ -217,11 +236,20 @@ pub fn generate<R: Rng>(rng: &mut R, spec: &Spec) -> Target {
         ));
     }
     let (tilt, tilt_az) = spec.tilt;
-    let rot = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(Vector3::new(tilt_az.cos(), tilt_az.sin(), 0.0)), tilt)
-        * Rotation3::from_axis_angle(&Vector3::z_axis(), spec.heading);
-    let zc = if plate_z.1 > 0 { plate_z.0 / plate_z.1 as f64 } else { SIZE / 2.0 };
+    let rot = Rotation3::from_axis_angle(
+        &nalgebra::Unit::new_normalize(Vector3::new(tilt_az.cos(), tilt_az.sin(), 0.0)),
+        tilt,
+    ) * Rotation3::from_axis_angle(&Vector3::z_axis(), spec.heading);
+    let zc = if plate_z.1 > 0 {
+        plate_z.0 / plate_z.1 as f64
+    } else {
+        SIZE / 2.0
+    };
     Target {
-        points: local.iter().map(|p| Point::from(spec.origin + rot * p)).collect(),
+        points: local
+            .iter()
+            .map(|p| Point::from(spec.origin + rot * p))
+            .collect(),
         corner: Point::from(spec.origin + rot * Vector3::new(0.0, 0.0, zc)),
         up: rot * Vector3::z(),
     }
