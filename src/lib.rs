@@ -11,6 +11,7 @@ pub mod cloud;
 pub mod crop;
 pub mod eval;
 mod error;
+pub mod locate;
 pub mod metrics;
 pub mod result;
 pub mod survey;

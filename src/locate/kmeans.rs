@@ -1,0 +1,167 @@
+//! Two-cluster k-means: splits a tight crop into the two plates.
+//!
+//! The paper runs k-means (K = 2) on the raw 3D points with a random start. The
+//! pole under the target and the antenna on top stretch the crop vertically, so
+//! a 3D split often cuts it into top and bottom halves that each hold both
+//! plates. Seen from above an L is two segments, so clustering the horizontal
+//! components (the points projected along `up`) separates the plates far more
+//! reliably; [`Space`] chooses which.
+
+use nalgebra::Vector3;
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// Which coordinates k-means compares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Space {
+    /// Full 3D coordinates (the paper).
+    Full,
+    /// The component perpendicular to `up`: the target as seen from above.
+    Horizontal,
+}
+
+/// How the two initial centres are drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Init {
+    /// Two distinct random points (Forgy).
+    Random,
+    /// k-means++: the second centre drawn with probability ∝ squared distance to the first.
+    PlusPlus,
+}
+
+/// Splits `pts` into two clusters; `labels[i]` becomes 0 or 1.
+///
+/// Returns `false` when a cluster ends up empty (the split is unusable).
+pub fn split2<R: Rng>(
+    pts: &[Vector3<f64>],
+    up: &Vector3<f64>,
+    space: Space,
+    init: Init,
+    iterations: usize,
+    rng: &mut R,
+    labels: &mut Vec<u8>,
+) -> bool {
+    let n = pts.len();
+    labels.clear();
+    labels.resize(n, 0);
+    if n < 2 {
+        return false;
+    }
+    let proj = |p: &Vector3<f64>| match space {
+        Space::Full => *p,
+        Space::Horizontal => p - up * up.dot(p),
+    };
+    let first = rng.random_range(0..n);
+    let c0 = proj(&pts[first]);
+    let c1 = match init {
+        Init::Random => {
+            let mut second = rng.random_range(0..n - 1);
+            if second >= first {
+                second += 1;
+            }
+            proj(&pts[second])
+        }
+        Init::PlusPlus => {
+            let total: f64 = pts.iter().map(|p| (proj(p) - c0).norm_squared()).sum();
+            if !(total > 0.0) {
+                return false;
+            }
+            let mut target = rng.random::<f64>() * total;
+            let mut pick = n - 1;
+            for (i, p) in pts.iter().enumerate() {
+                target -= (proj(p) - c0).norm_squared();
+                if target < 0.0 {
+                    pick = i;
+                    break;
+                }
+            }
+            proj(&pts[pick])
+        }
+    };
+    let mut centres = [c0, c1];
+    for it in 0..iterations.max(1) {
+        let mut changed = false;
+        let mut sums = [Vector3::zeros(); 2];
+        let mut counts = [0usize; 2];
+        for (p, l) in pts.iter().zip(labels.iter_mut()) {
+            let q = proj(p);
+            let lab = u8::from((q - centres[1]).norm_squared() < (q - centres[0]).norm_squared());
+            if *l != lab || it == 0 {
+                changed |= *l != lab;
+                *l = lab;
+            }
+            sums[lab as usize] += q;
+            counts[lab as usize] += 1;
+        }
+        if counts[0] == 0 || counts[1] == 0 {
+            return false;
+        }
+        centres = [sums[0] / counts[0] as f64, sums[1] / counts[1] as f64];
+        if !changed && it > 0 {
+            break;
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn separates_two_blobs_in_both_spaces() {
+        let mut pts = Vec::new();
+        for i in 0..50 {
+            let t = i as f64 * 0.01;
+            pts.push(Vector3::new(t, 0.0, t * 3.0));
+            pts.push(Vector3::new(5.0 + t, 1.0, -t * 3.0));
+        }
+        for space in [Space::Full, Space::Horizontal] {
+            for init in [Init::Random, Init::PlusPlus] {
+                let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+                let mut labels = Vec::new();
+                assert!(split2(
+                    &pts,
+                    &Vector3::z(),
+                    space,
+                    init,
+                    20,
+                    &mut rng,
+                    &mut labels
+                ));
+                for pair in labels.chunks(2) {
+                    assert_ne!(pair[0], pair[1]);
+                }
+                assert!(labels.iter().step_by(2).all(|&l| l == labels[0]));
+            }
+        }
+    }
+
+    #[test]
+    fn identical_points_cannot_be_split() {
+        let pts = vec![Vector3::new(1.0, 2.0, 3.0); 10];
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(1);
+        let mut labels = Vec::new();
+        assert!(!split2(
+            &pts,
+            &Vector3::z(),
+            Space::Full,
+            Init::PlusPlus,
+            10,
+            &mut rng,
+            &mut labels
+        ));
+        assert!(!split2(
+            &pts,
+            &Vector3::z(),
+            Space::Full,
+            Init::Random,
+            10,
+            &mut rng,
+            &mut labels
+        ));
+    }
+}

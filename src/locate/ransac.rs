@@ -1,0 +1,100 @@
+//! RANSAC plane detection inside one cluster.
+//!
+//! Hypotheses are planes through 3 random points of the cluster; the one with
+//! the most points within the inlier threshold wins (first one on ties, so the
+//! result depends only on the random stream).
+
+use super::plane::Plane;
+use nalgebra::Vector3;
+use rand::Rng;
+
+/// Best plane among `iterations` 3-point hypotheses drawn from `idx`, and its
+/// inliers (indices into `pts`, appended to `inliers` after clearing it).
+///
+/// Returns `None` when the cluster has fewer than 3 points or every hypothesis
+/// was degenerate (collinear draws).
+pub fn best_plane<R: Rng>(
+    pts: &[Vector3<f64>],
+    idx: &[u32],
+    iterations: usize,
+    threshold: f64,
+    rng: &mut R,
+    inliers: &mut Vec<u32>,
+) -> Option<Plane> {
+    inliers.clear();
+    let n = idx.len();
+    if n < 3 {
+        return None;
+    }
+    let mut best: Option<(usize, Plane)> = None;
+    for _ in 0..iterations {
+        let a = rng.random_range(0..n);
+        let mut b = rng.random_range(0..n - 1);
+        if b >= a {
+            b += 1;
+        }
+        let mut c = rng.random_range(0..n - 2);
+        for lo in if a < b { [a, b] } else { [b, a] } {
+            if c >= lo {
+                c += 1;
+            }
+        }
+        let (pa, pb, pc) = (
+            &pts[idx[a] as usize],
+            &pts[idx[b] as usize],
+            &pts[idx[c] as usize],
+        );
+        let Some(plane) = Plane::through(pa, pb, pc) else {
+            continue;
+        };
+        let count = idx
+            .iter()
+            .filter(|&&i| plane.distance(&pts[i as usize]).abs() < threshold)
+            .count();
+        if best.is_none_or(|(k, _)| count > k) {
+            best = Some((count, plane));
+        }
+    }
+    let (_, plane) = best?;
+    inliers.extend(
+        idx.iter()
+            .copied()
+            .filter(|&i| plane.distance(&pts[i as usize]).abs() < threshold),
+    );
+    Some(plane)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn finds_the_dominant_plane_and_ignores_clutter() {
+        let mut pts = Vec::new();
+        for i in 0..30 {
+            for j in 0..10 {
+                pts.push(Vector3::new(i as f64 * 0.02, 1.0, j as f64 * 0.05));
+            }
+        }
+        for i in 0..40 {
+            let t = i as f64;
+            pts.push(Vector3::new(
+                (t * 0.37).sin(),
+                1.2 + (t * 0.91).cos(),
+                (t * 0.53).sin(),
+            ));
+        }
+        let idx: Vec<u32> = (0..pts.len() as u32).collect();
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let mut inl = Vec::new();
+        let p = best_plane(&pts, &idx, 100, 0.01, &mut rng, &mut inl).unwrap();
+        assert!(p.normal.y.abs() > 0.999);
+        assert!(inl.len() >= 300 && inl.len() < 310);
+        // the distinctness of the three draws: 3 points in a cluster always give a plane
+        let tri = [Vector3::zeros(), Vector3::x(), Vector3::y()];
+        let mut inl = Vec::new();
+        assert!(best_plane(&tri, &[0, 1, 2], 5, 0.01, &mut rng, &mut inl).is_some());
+        assert_eq!(inl.len(), 3);
+    }
+}
