@@ -8,6 +8,7 @@
 
 pub mod cloud;
 mod error;
+pub mod synth;
 
 pub use error::{Error, Result};
 

@@ -14,11 +14,16 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Generate a synthetic map of L-targets with known truth.
+    Synth(cmd::synth::Args),
+}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: mapgauge::Result<()> = match cli.command {};
+    let result: mapgauge::Result<()> = match cli.command {
+        Command::Synth(a) => cmd::synth::run(a),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

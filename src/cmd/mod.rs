@@ -1,1 +1,3 @@
 //! One module per subcommand: flag definitions and printing only.
+
+pub mod synth;
