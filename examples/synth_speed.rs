@@ -1,6 +1,6 @@
 //! Measures synthetic map generation speed with a counting sink (no I/O).
 //!
-//! `cargo run --release --example synth_speed -- [POINTS] [SEED]`
+//! `cargo run --release --example synth_speed -- [POINTS] [SEED] [TARGET_DISTANCE_M]`
 
 use mapgauge::synth::{SynthParams, generate};
 

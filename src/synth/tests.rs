@@ -200,3 +200,42 @@ fn params_round_trip_through_toml() {
     assert_eq!(p, q);
     assert!(toml::from_str::<SynthParams>("sead = 3").is_err());
 }
+
+#[test]
+fn noise_free_target_returns_lie_on_plates_or_post() {
+    let mut p = small(11, 100_000);
+    p.lidar.range_noise_m = 0.0;
+    p.distortion = DistortParams {
+        offset_m: [0.0; 3],
+        yaw_deg: 0.0,
+        tilt_deg: 0.0,
+        tilt_axis_deg: 0.0,
+        drift_m: [0.0; 3],
+        drift_wave_m: 0.0,
+    };
+    let (pts, truth, _) = collect(&p);
+    let mut on_plate = [0usize; 2];
+    for t in &truth.targets {
+        let a = t.heading_deg.to_radians();
+        let (u1, u2) = ((a.cos(), a.sin()), (-a.sin(), a.cos()));
+        for q in &pts {
+            let (dx, dy) = (q.x - t.world[0], q.y - t.world[1]);
+            if dx.hypot(dy) > 0.9 || q.z < t.plate_bottom_z + 0.01 || q.z > t.plate_top_z - 0.01 {
+                continue;
+            }
+            let s1 = dx * u1.0 + dy * u1.1;
+            let s2 = dx * u2.0 + dy * u2.1;
+            let post = s1.abs() <= 0.0151 && s2.abs() <= 0.0151;
+            let a_ = s2.abs() < 1e-6 && (-1e-6..=0.6 + 1e-6).contains(&s1);
+            let b_ = s1.abs() < 1e-6 && (-1e-6..=0.6 + 1e-6).contains(&s2);
+            assert!(
+                post || a_ || b_,
+                "target {}: stray point s1={s1} s2={s2}",
+                t.id
+            );
+            on_plate[0] += a_ as usize;
+            on_plate[1] += b_ as usize;
+        }
+    }
+    assert!(on_plate[0] > 20 && on_plate[1] > 20, "{on_plate:?}");
+}
