@@ -11,11 +11,14 @@ fn main() -> mapgauge::Result<()> {
         .and_then(|s| s.parse().ok())
         .unwrap_or(2_000_000u64);
     let seed = args.next().and_then(|s| s.parse().ok()).unwrap_or(1u64);
-    let p = SynthParams {
+    let mut p = SynthParams {
         points,
         seed,
         ..Default::default()
     };
+    if let Some(d) = args.next().and_then(|s| s.parse::<f64>().ok()) {
+        p.target_distance_m = [d, d];
+    }
     let start = std::time::Instant::now();
     let mut n = 0u64;
     let mut checksum = 0f64;
