@@ -131,6 +131,9 @@ pub struct SynthParams {
     pub distortion: DistortParams,
     /// 1σ noise added to the surveyed positions (x, y, z), metres.
     pub survey_noise_m: f64,
+    /// Geodetic origin (lat°, lon°, ellipsoidal height m) of the local ENU world
+    /// frame, for writing the survey in WGS84.
+    pub origin_llh: [f64; 3],
 }
 
 impl Default for SynthParams {
@@ -150,6 +153,7 @@ impl Default for SynthParams {
             lidar: LidarParams::default(),
             distortion: DistortParams::default(),
             survey_noise_m: 0.0,
+            origin_llh: [36.3725, 127.3631, 70.0],
         }
     }
 }
@@ -182,6 +186,10 @@ impl SynthParams {
         }
         if !(self.survey_noise_m >= 0.0 && self.survey_noise_m <= 1.0) {
             return bad("survey_noise_m must be in [0, 1]");
+        }
+        let [lat, lon, hgt] = self.origin_llh;
+        if !(lat.abs() <= 89.0 && lon.abs() <= 180.0 && hgt.abs() <= 10_000.0) {
+            return bad("origin_llh = [lat, lon, h] with |lat| <= 89, |lon| <= 180, |h| <= 10000");
         }
         let t = &self.target;
         let pos = [
