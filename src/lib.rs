@@ -15,6 +15,7 @@ pub mod locate;
 pub mod metrics;
 pub mod result;
 pub mod survey;
+pub mod synth;
 
 pub use error::{Error, Result};
 
