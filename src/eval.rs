@@ -78,7 +78,7 @@ impl EvalConfig {
 }
 
 /// What the pipeline learned about one target, for reports and debugging.
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct TargetDetail {
     /// Target id.
     pub id: String,
@@ -107,7 +107,7 @@ pub struct TargetDetail {
 }
 
 /// Provenance and per-target details of an `eval` run (the `eval` key of result.json).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct EvalInfo {
     /// Map file as given.
     pub map: String,

@@ -121,19 +121,6 @@ fn params(a: &Args) -> Result<SynthParams> {
     Ok(p)
 }
 
-/// Writes `survey.csv`: id,x,y,z,antenna_height (z = antenna top).
-fn write_survey(path: &Path, truth: &synth::Truth) -> Result<()> {
-    let mut s = String::from("id,x,y,z,antenna_height\n");
-    for t in &truth.targets {
-        let v = &t.survey;
-        s += &format!(
-            "{},{:.4},{:.4},{:.4},{:.4}\n",
-            t.id, v.x, v.y, v.z, v.antenna_height
-        );
-    }
-    std::fs::write(path, s).map_err(|e| Error::io(path, e))
-}
-
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
     let p = params(&a)?;
@@ -147,22 +134,13 @@ pub fn run(a: Args) -> Result<()> {
     let Some(dir) = a.out else {
         return Err(Error::Param("--out DIR is required".into()));
     };
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let map_path = dir.join(format!("map.{}", a.format.extension()));
-    let mut writer = CloudWriter::create(&map_path, a.format)?;
     let start = std::time::Instant::now();
     eprintln!(
         "synth: about {} points, {} targets, seed {}",
         p.points, p.targets, p.seed
     );
-    let truth = synth::generate(&p, &mut |pts| writer.write(pts))?;
-    writer.finish()?;
+    let (files, truth, expected) = synth::write_scene(&dir, &p, a.format)?;
     let secs = start.elapsed().as_secs_f64();
-    let survey = dir.join("survey.csv");
-    write_survey(&survey, &truth)?;
-    let truth_path = dir.join("truth.json");
-    let json = serde_json::to_string_pretty(&truth).map_err(|e| Error::Input(e.to_string()))?;
-    std::fs::write(&truth_path, json + "\n").map_err(|e| Error::io(&truth_path, e))?;
     eprintln!(
         "synth: {} points in {} scans, {:.1} s ({:.2} M points/s)",
         truth.points,
@@ -170,9 +148,14 @@ pub fn run(a: Args) -> Result<()> {
         secs,
         truth.points as f64 / secs.max(1e-9) / 1e6
     );
-    println!("map     {}", map_path.display());
-    println!("survey  {}", survey.display());
-    println!("truth   {}", truth_path.display());
+    println!("map         {}", files.map.display());
+    println!("survey      {}", files.survey.display());
+    println!("survey_llh  {}", files.survey_llh.display());
+    println!("truth       {}", files.truth.display());
+    println!(
+        "expected    E_abs {:.4} m, E_rel {:.4} m (true map positions, rigid2d)",
+        expected.absolute.mean, expected.relative.mean
+    );
     for t in &truth.targets {
         println!(
             "target {:>3}  world ({:9.3}, {:9.3}, {:7.3})  map ({:9.3}, {:9.3}, {:7.3})  {:>6} returns",

@@ -812,3 +812,6 @@ pub fn generate(
 
 #[cfg(test)]
 mod tests;
+
+mod files;
+pub use files::{SceneFiles, TruthFile, write_scene};

@@ -1,0 +1,70 @@
+//! A synthetic scene on disk: the map, the survey (local and WGS84) and the
+//! truth, including the errors a perfect locator would report.
+
+use super::{SynthParams, Truth, generate};
+use crate::cloud::{CloudWriter, OutFormat};
+use crate::metrics::{self, EvalOptions};
+use crate::result::{RunResult, write_atomic};
+use crate::survey::{Estimate, Geodetic, SurveyOptions, read_survey};
+use crate::{Error, Point, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Where [`write_scene`] put things.
+#[derive(Debug, Clone)]
+pub struct SceneFiles {
+    /// The map.
+    pub map: PathBuf,
+    /// `id,x,y,z,antenna_height` in the local (survey) frame.
+    pub survey: PathBuf,
+    /// `id,lat,lon,alt,antenna_height` in WGS84.
+    pub survey_llh: PathBuf,
+    /// The truth (JSON).
+    pub truth: PathBuf,
+}
+
+/// The truth plus what evaluating the true map positions gives: the errors a
+/// perfect locator would report, which `eval` should reproduce.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct TruthFile<'a> {
+    /// Scene truth.
+    #[serde(flatten)]
+    pub truth: &'a Truth,
+    /// Result of aligning the true map positions to the survey (rigid2d, 2D).
+    pub expected: &'a RunResult,
+}
+
+/// Generates the scene into `dir` (created if missing). Returns the files and
+/// the expected result.
+pub fn write_scene(dir: &Path, params: &SynthParams, format: OutFormat) -> Result<(SceneFiles, Truth, RunResult)> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let files = SceneFiles {
+        map: dir.join(format!("map.{}", format.extension())),
+        survey: dir.join("survey.csv"),
+        survey_llh: dir.join("survey_llh.csv"),
+        truth: dir.join("truth.json"),
+    };
+    let mut writer = CloudWriter::create(&files.map, format)?;
+    let truth = generate(params, &mut |pts| writer.write(pts))?;
+    writer.finish()?;
+
+    let mut local = String::from("id,x,y,z,antenna_height\n");
+    let mut llh = String::from("id,lat,lon,alt,antenna_height\n");
+    let [lat, lon, alt] = params.origin_llh;
+    let origin = Geodetic { lat, lon, alt };
+    for t in &truth.targets {
+        let s = &t.survey;
+        let _ = writeln!(local, "{},{:.4},{:.4},{:.4},{:.4}", t.id, s.x, s.y, s.z, s.antenna_height);
+        let g = origin.geodetic_of(&Point::new(s.x, s.y, s.z));
+        let _ = writeln!(llh, "{},{:.10},{:.10},{:.4},{:.4}", t.id, g.lat, g.lon, g.alt, s.antenna_height);
+    }
+    write_atomic(&files.survey, local.as_bytes())?;
+    write_atomic(&files.survey_llh, llh.as_bytes())?;
+
+    let survey = read_survey(&files.survey, &SurveyOptions::default())?;
+    let estimates: Vec<Estimate> = truth.targets.iter().map(|t| Estimate::found(t.id.clone(), Point::from(t.map))).collect();
+    let expected = metrics::evaluate(&survey, &estimates, &EvalOptions::default())?;
+    let json = serde_json::to_string_pretty(&TruthFile { truth: &truth, expected: &expected }).map_err(|e| Error::Input(e.to_string()))?;
+    write_atomic(&files.truth, (json + "\n").as_bytes())?;
+    Ok((files, truth, expected))
+}
