@@ -665,7 +665,6 @@ mod tests {
     #[ignore]
     fn acceptance_report() {
         let variants = [
-            ("paper", LocateParams::paper()),
             ("default", LocateParams::default()),
             (
                 "refit3",
