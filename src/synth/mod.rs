@@ -181,7 +181,7 @@ impl SynthParams {
         if !(self.undulation_m >= 0.0 && self.undulation_m <= 2.0) {
             return bad("undulation_m must be in [0, 2]");
         }
-        if !(self.road_curve_m.abs() <= 50.0) {
+        if !self.road_curve_m.is_finite() || self.road_curve_m.abs() > 50.0 {
             return bad("|road_curve_m| must be <= 50");
         }
         if !(self.survey_noise_m >= 0.0 && self.survey_noise_m <= 1.0) {
