@@ -2,9 +2,10 @@
 //!
 //! `cargo run --release --example synth_speed -- [POINTS] [SEED] [TARGET_DISTANCE_M]`
 //!
-//! Measured 2026-11-23, release, 2 cores shared with other jobs (load ~8):
-//! default scene (2.0 M points, 57 scans) 3.3 s = 0.62 M points/s;
-//! 20 M points 27 s = 0.73 M points/s; one thread 0.81 M points/s (same checksum).
+//! Measured 2026-11-23, release, 2 cores shared with other jobs (load ~6):
+//! default scene (2.0 M points, 57 scans) 1.7 s = 1.15 M points/s;
+//! 20 M points 22 s = 0.91 M points/s; one thread 0.86 M points/s (same checksum).
+//! Profile: ~50 % in `sin` of the ground height field (sphere tracing).
 
 use mapgauge::synth::{SynthParams, generate};
 

@@ -181,7 +181,7 @@ impl SynthParams {
         if !(self.undulation_m >= 0.0 && self.undulation_m <= 2.0) {
             return bad("undulation_m must be in [0, 2]");
         }
-        if !(self.road_curve_m.abs() <= 50.0) {
+        if !self.road_curve_m.is_finite() || self.road_curve_m.abs() > 50.0 {
             return bad("|road_curve_m| must be <= 50");
         }
         if !(self.survey_noise_m >= 0.0 && self.survey_noise_m <= 1.0) {
@@ -685,8 +685,10 @@ fn car(g: &Ground, x: f64, y: f64, yaw: f64) -> Object {
     Object::new(prims)
 }
 
-/// Scans cast per parallel batch; any value gives the same output.
-const BATCH: usize = 16;
+/// Scans cast per parallel batch (at most); any value gives the same output.
+const BATCH: u64 = 16;
+/// Points held in memory per batch (at most, roughly): 4 M points = 96 MB.
+const BATCH_POINTS: u64 = 4_000_000;
 
 /// Generates the scene described by `params`, handing the map (distorted,
 /// accumulated scans, in scan order) to `sink` in blocks, and returns the truth.
@@ -747,9 +749,10 @@ pub fn generate(
     let mut total = 0u64;
     let mut counts = vec![0u64; k];
     let mut path = Vec::with_capacity(n_scans.min(1 << 24) as usize);
+    let batch_scans = (BATCH_POINTS / per_scan).clamp(1, BATCH);
     let mut first = 0u64;
     while first < n_scans {
-        let last = (first + BATCH as u64).min(n_scans);
+        let last = (first + batch_scans).min(n_scans);
         let batch: Vec<(Vec<Point>, Vec<u64>)> = (first..last)
             .into_par_iter()
             .map(|i| {
