@@ -15,8 +15,8 @@ use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-/// Points handed out per `next_chunk` call (24 MiB of `Point`s).
-const CHUNK_POINTS: usize = 1 << 20;
+/// Points handed out per `next_chunk` call (6 MiB of `Point`s).
+const CHUNK_POINTS: usize = 1 << 18;
 /// Points decoded by one rayon task.
 const TASK_POINTS: usize = 1 << 16;
 /// Longest header accepted before concluding it never ends.
