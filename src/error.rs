@@ -45,15 +45,25 @@ pub enum Error {
 impl Error {
     /// Wraps an I/O error with the path it concerns.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
     /// A format error in `path`.
     pub fn format(path: impl Into<PathBuf>, msg: impl Into<String>) -> Self {
-        Error::Format { path: path.into(), msg: msg.into() }
+        Error::Format {
+            path: path.into(),
+            msg: msg.into(),
+        }
     }
     /// A table error in `path` at 1-based `line`.
     pub fn table(path: impl Into<PathBuf>, line: u64, msg: impl Into<String>) -> Self {
-        Error::Table { path: path.into(), line, msg: msg.into() }
+        Error::Table {
+            path: path.into(),
+            line,
+            msg: msg.into(),
+        }
     }
 }
 

@@ -61,7 +61,11 @@ pub struct FrameConfig {
 
 impl Default for FrameConfig {
     fn default() -> Self {
-        FrameConfig { init: None, second_pass: true, second_pass_min_shift: 0.5 }
+        FrameConfig {
+            init: None,
+            second_pass: true,
+            second_pass_min_shift: 0.5,
+        }
     }
 }
 
@@ -73,7 +77,8 @@ impl EvalConfig {
     }
     /// The configuration as TOML, every default written out.
     pub fn to_toml(&self) -> String {
-        toml::to_string_pretty(self).unwrap_or_else(|e| format!("# cannot print configuration: {e}\n"))
+        toml::to_string_pretty(self)
+            .unwrap_or_else(|e| format!("# cannot print configuration: {e}\n"))
     }
 }
 
@@ -153,19 +158,36 @@ struct Located {
 
 /// Runs the whole pipeline. `progress` gets (bytes read, total bytes) while the
 /// map streams.
-pub fn evaluate_map(inp: &EvalInputs, cfg: &EvalConfig, mut progress: impl FnMut(u64, u64)) -> Result<EvalRun> {
+pub fn evaluate_map(
+    inp: &EvalInputs,
+    cfg: &EvalConfig,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<EvalRun> {
     let survey = inp.survey;
     if survey.targets.is_empty() {
-        return Err(Error::Input(format!("{}: the survey has no targets", inp.survey_path.display())));
+        return Err(Error::Input(format!(
+            "{}: the survey has no targets",
+            inp.survey_path.display()
+        )));
     }
     let init = cfg.frame.init.unwrap_or([0.0, 0.0, 0.0]);
-    let expected: Vec<Point> = survey.targets.iter().map(|t| survey_to_map(&init, &t.reference())).collect();
+    let expected: Vec<Point> = survey
+        .targets
+        .iter()
+        .map(|t| survey_to_map(&init, &t.reference()))
+        .collect();
     let mut crop_params = cfg.crop;
     if crop_params.shape == Shape::Sphere && !survey.has_z() {
-        eprintln!("warning: the survey has no heights; cropping with a vertical cylinder instead of a sphere");
+        eprintln!(
+            "warning: the survey has no heights; cropping with a vertical cylinder instead of a sphere"
+        );
         crop_params.shape = Shape::Cylinder;
     }
-    let mut info = EvalInfo { map: inp.map.display().to_string(), survey: inp.survey_path.display().to_string(), ..Default::default() };
+    let mut info = EvalInfo {
+        map: inp.map.display().to_string(),
+        survey: inp.survey_path.display().to_string(),
+        ..Default::default()
+    };
 
     let loose = read_crops(inp.map, &expected, &crop_params, &mut info, &mut progress)?;
     let mut found: Vec<Located> = survey
@@ -179,7 +201,10 @@ pub fn evaluate_map(inp: &EvalInputs, cfg: &EvalConfig, mut progress: impl FnMut
     let opts = EvalOptions {
         method: cfg.metrics.align,
         dim: cfg.metrics.dim,
-        survey_sigma: cfg.metrics.survey_sigma_h.map(|h| (h, cfg.metrics.survey_sigma_v)),
+        survey_sigma: cfg
+            .metrics
+            .survey_sigma_h
+            .map(|h| (h, cfg.metrics.survey_sigma_v)),
     };
     let mut loose = loose;
     let estimates = |found: &[Located]| -> Vec<Estimate> {
@@ -187,13 +212,19 @@ pub fn evaluate_map(inp: &EvalInputs, cfg: &EvalConfig, mut progress: impl FnMut
             .targets
             .iter()
             .zip(found)
-            .map(|(t, l)| Estimate { id: t.id.clone(), status: l.status.clone(), has_z: true })
+            .map(|(t, l)| Estimate {
+                id: t.id.clone(),
+                status: l.status.clone(),
+                has_z: true,
+            })
             .collect()
     };
 
     // Second pass: look again where the alignment of the found targets says the
     // missing ones should be.
-    let missing: Vec<usize> = (0..found.len()).filter(|&i| !matches!(found[i].status, EstimateStatus::Found(_))).collect();
+    let missing: Vec<usize> = (0..found.len())
+        .filter(|&i| !matches!(found[i].status, EstimateStatus::Found(_)))
+        .collect();
     if cfg.frame.second_pass && inp.crops_dir.is_none() && !missing.is_empty() {
         if let Ok(first) = metrics::evaluate(survey, &estimates(&found), &opts) {
             let inverse = alignment_of(&first).inverse();
@@ -207,7 +238,13 @@ pub fn evaluate_map(inp: &EvalInputs, cfg: &EvalConfig, mut progress: impl FnMut
             if !redo.is_empty() {
                 let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
                 let mut again_info = EvalInfo::default();
-                let again = read_crops(inp.map, &centres, &crop_params, &mut again_info, &mut progress)?;
+                let again = read_crops(
+                    inp.map,
+                    &centres,
+                    &crop_params,
+                    &mut again_info,
+                    &mut progress,
+                )?;
                 for ((i, c), pts) in redo.into_iter().zip(again) {
                     let l = locate_one(&survey.targets[i].id, &c, &pts, None, cfg, 2);
                     if matches!(l.status, EstimateStatus::Found(_)) {
@@ -226,7 +263,11 @@ pub fn evaluate_map(inp: &EvalInputs, cfg: &EvalConfig, mut progress: impl FnMut
         tight.push(l.tight);
     }
     result.eval = Some(info);
-    Ok(EvalRun { result, loose, tight })
+    Ok(EvalRun {
+        result,
+        loose,
+        tight,
+    })
 }
 
 fn alignment_of(r: &RunResult) -> crate::align::Alignment {
@@ -256,11 +297,28 @@ fn read_crops(
     Ok(crop.points)
 }
 
-fn locate_one(id: &str, expected: &Point, loose: &[Point], crops_dir: Option<&Path>, cfg: &EvalConfig, pass: u8) -> Located {
-    let mut detail = TargetDetail { id: id.to_string(), expected: [expected.x, expected.y, expected.z], pass, loose_points: loose.len(), ..Default::default() };
+fn locate_one(
+    id: &str,
+    expected: &Point,
+    loose: &[Point],
+    crops_dir: Option<&Path>,
+    cfg: &EvalConfig,
+    pass: u8,
+) -> Located {
+    let mut detail = TargetDetail {
+        id: id.to_string(),
+        expected: [expected.x, expected.y, expected.z],
+        pass,
+        loose_points: loose.len(),
+        ..Default::default()
+    };
     let fail = |mut detail: TargetDetail, stage: &str, reason: String| {
         detail.failed_stage = Some(stage.into());
-        Located { status: EstimateStatus::NotFound { reason }, detail, tight: Vec::new() }
+        Located {
+            status: EstimateStatus::NotFound { reason },
+            detail,
+            tight: Vec::new(),
+        }
     };
     // Hand-made tight crops (the paper's workflow) or the automatic one.
     let (points, ups): (Vec<Point>, Vec<Vector3<f64>>) = match crops_dir {
@@ -270,7 +328,11 @@ fn locate_one(id: &str, expected: &Point, loose: &[Point], crops_dir: Option<&Pa
         },
         None => {
             if loose.is_empty() {
-                return fail(detail, "loose", "no map points within the crop radius of the expected position".into());
+                return fail(
+                    detail,
+                    "loose",
+                    "no map points within the crop radius of the expected position".into(),
+                );
             }
             match crop::tight_crop(loose, expected, &cfg.tight) {
                 Ok(t) => {
@@ -297,12 +359,18 @@ fn locate_one(id: &str, expected: &Point, loose: &[Point], crops_dir: Option<&Pa
                 detail.attempts = l.attempts;
                 detail.spread = Some(l.std);
                 detail.plate_angle_deg = Some(l.plate_angle_deg);
-                return Located { status: EstimateStatus::Found(l.corner), detail, tight: points };
+                return Located {
+                    status: EstimateStatus::Found(l.corner),
+                    detail,
+                    tight: points,
+                };
             }
             Err(e) => last_err = Some(e),
         }
     }
-    let reason = last_err.map(|e| format!("localisation failed: {e}")).unwrap_or_default();
+    let reason = last_err
+        .map(|e| format!("localisation failed: {e}"))
+        .unwrap_or_default();
     let mut l = fail(detail, "locate", reason);
     l.tight = points;
     l
@@ -316,5 +384,8 @@ fn manual_crop(dir: &Path, id: &str) -> Result<Vec<Point>> {
             return cloud::read_all(&p);
         }
     }
-    Err(Error::Input(format!("no tight crop {}/{id}.ply|pcd|las|laz|xyz|e57", dir.display())))
+    Err(Error::Input(format!(
+        "no tight crop {}/{id}.ply|pcd|las|laz|xyz|e57",
+        dir.display()
+    )))
 }

@@ -9,8 +9,8 @@
 pub mod align;
 pub mod cloud;
 pub mod crop;
-pub mod eval;
 mod error;
+pub mod eval;
 pub mod locate;
 pub mod metrics;
 pub mod result;

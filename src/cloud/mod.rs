@@ -113,7 +113,11 @@ pub fn detect(path: &Path) -> Result<Format> {
     if head.starts_with(b"LASF") {
         // Point data format id at byte 104; LAZ sets bit 7 (and 6).
         let compressed = head.get(104).is_some_and(|b| b & 0x80 != 0);
-        return Ok(if compressed || ext == "laz" { Format::Laz } else { Format::Las });
+        return Ok(if compressed || ext == "laz" {
+            Format::Laz
+        } else {
+            Format::Las
+        });
     }
     if head.starts_with(b"ASTM-E57") {
         return Ok(Format::E57);
@@ -152,7 +156,9 @@ pub fn read_all(path: &Path) -> Result<Vec<Point>> {
 }
 
 /// An output format for crops and synthetic maps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum OutFormat {
     /// Binary little-endian PLY with double x, y, z.

@@ -38,9 +38,27 @@ pub struct Args {
 
 /// Runs `crop`.
 pub fn run(a: Args) -> Result<()> {
-    let origin = a.origin.as_deref().map(|s| parse_triple(s, "--origin")).transpose()?;
-    let survey = read_survey(&a.survey, &SurveyOptions { origin: origin.map(|o| Geodetic { lat: o[0], lon: o[1], alt: o[2] }) })?;
-    let init = a.init.as_deref().map(|s| parse_triple(s, "--init")).transpose()?.unwrap_or([0.0; 3]);
+    let origin = a
+        .origin
+        .as_deref()
+        .map(|s| parse_triple(s, "--origin"))
+        .transpose()?;
+    let survey = read_survey(
+        &a.survey,
+        &SurveyOptions {
+            origin: origin.map(|o| Geodetic {
+                lat: o[0],
+                lon: o[1],
+                alt: o[2],
+            }),
+        },
+    )?;
+    let init = a
+        .init
+        .as_deref()
+        .map(|s| parse_triple(s, "--init"))
+        .transpose()?
+        .unwrap_or([0.0; 3]);
     let (s, c) = init[2].to_radians().sin_cos();
     let centres: Vec<Point> = survey
         .targets
@@ -58,11 +76,19 @@ pub fn run(a: Args) -> Result<()> {
     }
     let mut reader = cloud::open(&a.map)?;
     let pb = progress_bar(reader.info().file_bytes, "reading map");
-    let crop = loose_crop(reader.as_mut(), &centres, &LooseParams { radius: a.radius, shape }, |b| {
-        if let Some(pb) = &pb {
-            pb.set_position(b)
-        }
-    })?;
+    let crop = loose_crop(
+        reader.as_mut(),
+        &centres,
+        &LooseParams {
+            radius: a.radius,
+            shape,
+        },
+        |b| {
+            if let Some(pb) = &pb {
+                pb.set_position(b)
+            }
+        },
+    )?;
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
@@ -70,19 +96,28 @@ pub fn run(a: Args) -> Result<()> {
     println!("{:<12} {:>10}  file", "id", "points");
     let mut empty = 0;
     for (t, pts) in survey.targets.iter().zip(&crop.points) {
-        let path = a.out.join(format!("{}.{}", file_stem_for(&t.id), a.format.extension()));
+        let path = a
+            .out
+            .join(format!("{}.{}", file_stem_for(&t.id), a.format.extension()));
         refuse_overwrite(&path, &[&a.map, &a.survey])?;
         cloud::write(&path, a.format, pts)?;
         println!("{:<12} {:>10}  {}", t.id, pts.len(), path.display());
         if pts.is_empty() {
             empty += 1;
-            eprintln!("warning: target {} has no map points within {} m (outside the map, or wrong frame?)", t.id, a.radius);
+            eprintln!(
+                "warning: target {} has no map points within {} m (outside the map, or wrong frame?)",
+                t.id, a.radius
+            );
         }
     }
     eprintln!(
         "{} points read{}; {} of {} targets have points",
         crop.map_points,
-        if crop.skipped_nonfinite > 0 { format!(", {} non-finite skipped", crop.skipped_nonfinite) } else { String::new() },
+        if crop.skipped_nonfinite > 0 {
+            format!(", {} non-finite skipped", crop.skipped_nonfinite)
+        } else {
+            String::new()
+        },
         survey.targets.len() - empty,
         survey.targets.len()
     );

@@ -80,7 +80,15 @@ pub fn config(a: &Args) -> Result<EvalConfig> {
         cfg.metrics.dim = d;
     }
     if let Some(s) = &a.survey_sigma {
-        let v: Vec<f64> = s.split(',').map(|t| t.trim().parse::<f64>()).collect::<std::result::Result<_, _>>().map_err(|_| Error::Param(format!("--survey-sigma: expected H[,V] in metres, got `{s}`")))?;
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|t| t.trim().parse::<f64>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| {
+                Error::Param(format!(
+                    "--survey-sigma: expected H[,V] in metres, got `{s}`"
+                ))
+            })?;
         cfg.metrics.survey_sigma_h = v.first().copied();
         cfg.metrics.survey_sigma_v = v.get(1).copied();
     }
@@ -130,10 +138,31 @@ pub fn run(a: Args) -> Result<()> {
 
 /// Reads the survey and runs the pipeline with a progress bar.
 pub fn evaluate(map: &Path, survey_path: &Path, a: &Args, cfg: &EvalConfig) -> Result<EvalRun> {
-    let origin = a.origin.as_deref().map(|s| parse_triple(s, "--origin")).transpose()?;
-    let survey = read_survey(survey_path, &SurveyOptions { origin: origin.map(|o| Geodetic { lat: o[0], lon: o[1], alt: o[2] }) })?;
-    let pb = progress_bar(std::fs::metadata(map).map(|m| m.len()).unwrap_or(0), "reading map");
-    let inputs = EvalInputs { map, survey: &survey, survey_path, crops_dir: a.crops.clone() };
+    let origin = a
+        .origin
+        .as_deref()
+        .map(|s| parse_triple(s, "--origin"))
+        .transpose()?;
+    let survey = read_survey(
+        survey_path,
+        &SurveyOptions {
+            origin: origin.map(|o| Geodetic {
+                lat: o[0],
+                lon: o[1],
+                alt: o[2],
+            }),
+        },
+    )?;
+    let pb = progress_bar(
+        std::fs::metadata(map).map(|m| m.len()).unwrap_or(0),
+        "reading map",
+    );
+    let inputs = EvalInputs {
+        map,
+        survey: &survey,
+        survey_path,
+        crops_dir: a.crops.clone(),
+    };
     let run = evaluate_map(&inputs, cfg, |b, _| {
         if let Some(pb) = &pb {
             pb.set_position(b)

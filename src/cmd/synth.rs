@@ -1,10 +1,10 @@
 //! `mapgauge synth`: write a synthetic map with known truth.
 
-use mapgauge::cloud::{CloudWriter, OutFormat};
+use mapgauge::cloud::OutFormat;
 use mapgauge::synth::{self, SynthParams};
 use mapgauge::{Error, Result};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Generate a LiDAR-like map of L-targets with known truth (map, survey.csv, truth.json).
 #[derive(clap::Args)]

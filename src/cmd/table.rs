@@ -25,14 +25,26 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let fmt = match mapgauge::result::parse_output_format(&a.format)? {
         Some(f) => f,
-        None => return Err(Error::Param("--format json is not a table; use the result files themselves".into())),
+        None => {
+            return Err(Error::Param(
+                "--format json is not a table; use the result files themselves".into(),
+            ));
+        }
     };
-    let results: Vec<RunResult> = a.results.iter().map(|p| RunResult::from_json_file(p)).collect::<Result<_>>()?;
+    let results: Vec<RunResult> = a
+        .results
+        .iter()
+        .map(|p| RunResult::from_json_file(p))
+        .collect::<Result<_>>()?;
     let names: Vec<String> = match &a.names {
         Some(n) => {
             let v: Vec<String> = n.split(',').map(|s| s.trim().to_string()).collect();
             if v.len() != results.len() {
-                return Err(Error::Param(format!("--names has {} names for {} result files", v.len(), results.len())));
+                return Err(Error::Param(format!(
+                    "--names has {} names for {} result files",
+                    v.len(),
+                    results.len()
+                )));
             }
             v
         }
@@ -52,7 +64,11 @@ pub fn run(a: Args) -> Result<()> {
         "both" => (true, true),
         "relative" => (true, false),
         "absolute" => (false, true),
-        w => return Err(Error::Param(format!("--which `{w}`: relative, absolute or both"))),
+        w => {
+            return Err(Error::Param(format!(
+                "--which `{w}`: relative, absolute or both"
+            )));
+        }
     };
     if rel {
         if fmt == TableFormat::Markdown {

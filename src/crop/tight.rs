@@ -62,7 +62,7 @@ impl Default for TightParams {
             search_radius: 4.5,
             keep_distance: 0.08,
             min_plate_points: 12,
-            max_up_tilt_deg: 1.5,
+            max_up_tilt_deg: 0.75,
             seed: 0,
         }
     }
@@ -382,7 +382,9 @@ fn detect_l(
         if window.len() < 2 * params.min_plate_points {
             continue;
         }
-        if let Some(l) = fit_l(&window, up, params) {
+        if let Some(l) =
+            fit_l(&window, up, params).filter(|l| is_bounded(l, &cells, ap, step, up, params))
+        {
             best_score = best_score.max(l.score);
             if l.score >= params.min_plate_points {
                 found.push(l);
@@ -501,6 +503,60 @@ fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LSh
     })
 }
 
+/// A plate ends where the target ends: along each plate's plane, beyond its far
+/// edge and above or below its height band (away from the post), there must be
+/// little. A car, a box or a building corner is L-shaped too, but its faces go
+/// on; this is what tells them apart.
+fn is_bounded(
+    l: &LShape,
+    cells: &HashMap<(i64, i64), Vec<u32>>,
+    ap: &[Vector3<f64>],
+    step: f64,
+    up: &Vector3<f64>,
+    p: &TightParams,
+) -> bool {
+    let w = p.plate_width;
+    let h = l.band.1 - l.band.0;
+    let reach = w + 0.9;
+    let r = (reach / step).ceil() as i64 + 1;
+    let (cx, cy) = (
+        (l.corner.x / step).floor() as i64,
+        (l.corner.y / step).floor() as i64,
+    );
+    let tol = 0.05;
+    let mut beyond = [0usize; 2];
+    let mut support = [0usize; 2];
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let Some(ids) = cells.get(&(cx + dx, cy + dy)) else {
+                continue;
+            };
+            for &i in ids {
+                let v = ap[i as usize];
+                let z = up.dot(&v);
+                for k in 0..2 {
+                    if (l.n[k].dot(&v) - l.off[k]).abs() >= tol {
+                        continue;
+                    }
+                    let t = l.along[k].dot(&(v - l.corner));
+                    let in_band = z > l.band.0 - 0.03 && z < l.band.1 + 0.03;
+                    if in_band && t > 0.1 * w && t < w {
+                        support[k] += 1;
+                    } else if (in_band && t > w + 0.15 && t < reach)
+                        || (t > 0.15 * w
+                            && t < w
+                            && (z > l.band.1 + 0.15 && z < l.band.1 + 0.15 + h
+                                || z < l.band.0 - 0.15 && z > l.band.0 - 0.15 - h))
+                    {
+                        beyond[k] += 1;
+                    }
+                }
+            }
+        }
+    }
+    (0..2).all(|k| 4 * beyond[k] <= support[k])
+}
+
 /// Largest count in three consecutive bins, and the centre of those bins.
 fn peak(h: &HashMap<i64, usize>, bin: f64) -> (usize, f64) {
     let mut best = (0, 0.0);
@@ -608,6 +664,20 @@ mod tests {
                         }
                     }
                 }
+                "car" => {
+                    // A car body 0.8 m tall (as tall as an L of plates), its
+                    // corner nearer the expected position than the target.
+                    for _ in 0..8000 {
+                        let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.3..1.1));
+                        let v = match rng.random_range(0..4) {
+                            0 => Vector3::new(-4.0 + s, -2.0, 0.0),
+                            1 => Vector3::new(-4.0 + s, -3.8, 0.0),
+                            2 => Vector3::new(-4.0, -2.0 - s * 0.4, 0.0),
+                            _ => Vector3::new(0.5, -2.0 - s * 0.4, 0.0),
+                        };
+                        push(v + Vector3::new(0.0, 0.0, ground(v.x, v.y) + h), &mut rng);
+                    }
+                }
                 "box" => {
                     for _ in 0..6000 {
                         let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.0..1.5));
@@ -659,6 +729,13 @@ mod tests {
             // 4° of ground slope is a slope, not a tilted map.
             assert_eq!(t.up, [0.0, 0.0, 1.0]);
         }
+    }
+
+    #[test]
+    fn a_car_corner_is_not_a_target() {
+        let sc = scene(8, 1.0, 0.4, &["car"]);
+        // Expected position 1.6 m from the car's corner, 2.2 m from the target.
+        check(&sc, Vector3::new(-2.0, -0.8, 0.0));
     }
 
     #[test]

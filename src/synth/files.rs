@@ -36,7 +36,11 @@ pub struct TruthFile<'a> {
 
 /// Generates the scene into `dir` (created if missing). Returns the files and
 /// the expected result.
-pub fn write_scene(dir: &Path, params: &SynthParams, format: OutFormat) -> Result<(SceneFiles, Truth, RunResult)> {
+pub fn write_scene(
+    dir: &Path,
+    params: &SynthParams,
+    format: OutFormat,
+) -> Result<(SceneFiles, Truth, RunResult)> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let files = SceneFiles {
         map: dir.join(format!("map.{}", format.extension())),
@@ -54,17 +58,33 @@ pub fn write_scene(dir: &Path, params: &SynthParams, format: OutFormat) -> Resul
     let origin = Geodetic { lat, lon, alt };
     for t in &truth.targets {
         let s = &t.survey;
-        let _ = writeln!(local, "{},{:.4},{:.4},{:.4},{:.4}", t.id, s.x, s.y, s.z, s.antenna_height);
+        let _ = writeln!(
+            local,
+            "{},{:.4},{:.4},{:.4},{:.4}",
+            t.id, s.x, s.y, s.z, s.antenna_height
+        );
         let g = origin.geodetic_of(&Point::new(s.x, s.y, s.z));
-        let _ = writeln!(llh, "{},{:.10},{:.10},{:.4},{:.4}", t.id, g.lat, g.lon, g.alt, s.antenna_height);
+        let _ = writeln!(
+            llh,
+            "{},{:.10},{:.10},{:.4},{:.4}",
+            t.id, g.lat, g.lon, g.alt, s.antenna_height
+        );
     }
     write_atomic(&files.survey, local.as_bytes())?;
     write_atomic(&files.survey_llh, llh.as_bytes())?;
 
     let survey = read_survey(&files.survey, &SurveyOptions::default())?;
-    let estimates: Vec<Estimate> = truth.targets.iter().map(|t| Estimate::found(t.id.clone(), Point::from(t.map))).collect();
+    let estimates: Vec<Estimate> = truth
+        .targets
+        .iter()
+        .map(|t| Estimate::found(t.id.clone(), Point::from(t.map)))
+        .collect();
     let expected = metrics::evaluate(&survey, &estimates, &EvalOptions::default())?;
-    let json = serde_json::to_string_pretty(&TruthFile { truth: &truth, expected: &expected }).map_err(|e| Error::Input(e.to_string()))?;
+    let json = serde_json::to_string_pretty(&TruthFile {
+        truth: &truth,
+        expected: &expected,
+    })
+    .map_err(|e| Error::Input(e.to_string()))?;
     write_atomic(&files.truth, (json + "\n").as_bytes())?;
     Ok((files, truth, expected))
 }
