@@ -57,6 +57,12 @@ pub struct FrameConfig {
     pub second_pass: bool,
     /// Only search again when the prediction moved more than this (m).
     pub second_pass_min_shift: f64,
+    /// The targets' common plumb line is trusted as the map's vertical up to this
+    /// tilt from +z (degrees).
+    pub max_tilt_deg: f64,
+    /// Targets located with an "up" further than this from the common plumb line
+    /// are located again with it (degrees).
+    pub tilt_redo_deg: f64,
 }
 
 impl Default for FrameConfig {
@@ -65,6 +71,8 @@ impl Default for FrameConfig {
             init: None,
             second_pass: true,
             second_pass_min_shift: 0.5,
+            max_tilt_deg: 3.0,
+            tilt_redo_deg: 0.25,
         }
     }
 }
@@ -107,6 +115,8 @@ pub struct TargetDetail {
     pub spread: Option<[f64; 3]>,
     /// Angle between the plates (degrees).
     pub plate_angle_deg: Option<f64>,
+    /// Direction of the plates' intersection line (the target's plumb line in the map).
+    pub axis: Option<[f64; 3]>,
     /// Stage at which it failed (`loose`, `tight`, `locate`), when it did.
     pub failed_stage: Option<String>,
 }
@@ -256,6 +266,36 @@ pub fn evaluate_map(
         }
     }
 
+    // Map tilt: when the targets agree on a vertical that differs from the one a
+    // target was located with, locate it again with the common one.
+    if let Some(axis) = consensus_up(&found) {
+        if axis.angle(&Vector3::z()).to_degrees() <= cfg.frame.max_tilt_deg {
+            let redo: Vec<usize> = (0..found.len())
+                .filter(|&i| {
+                    let used = found[i].detail.up.map(Vector3::from);
+                    !found[i].tight.is_empty()
+                        && used
+                            .is_none_or(|u| u.angle(&axis).to_degrees() > cfg.frame.tilt_redo_deg)
+                })
+                .collect();
+            let again: Vec<(usize, Located)> = redo
+                .into_par_iter()
+                .map(|i| {
+                    let l = &found[i];
+                    (
+                        i,
+                        locate_with(l.tight.clone(), &[axis], l.detail.clone(), cfg),
+                    )
+                })
+                .collect();
+            for (i, l) in again {
+                if matches!(l.status, EstimateStatus::Found(_)) {
+                    found[i] = l;
+                }
+            }
+        }
+    }
+
     let mut result = metrics::evaluate(survey, &estimates(&found), &opts)?;
     let mut tight = Vec::with_capacity(found.len());
     for l in found {
@@ -350,15 +390,43 @@ fn locate_one(
         }
     };
     detail.tight_points = points.len();
+    locate_with(points, &ups, detail, cfg)
+}
+
+/// Step 5 on a tight crop, trying each "up" in turn.
+fn locate_with(
+    points: Vec<Point>,
+    ups: &[Vector3<f64>],
+    mut detail: TargetDetail,
+    cfg: &EvalConfig,
+) -> Located {
+    // The refit makes every attempt converge to the same planes: when that one
+    // answer misses a gate, every attempt does. Drawing like the paper (no refit)
+    // lets RANSAC's own variety find the samples that pass the same gates.
+    let mut variants = vec![cfg.locate.clone()];
+    if cfg.locate.refit_iterations > 0 {
+        variants.push(LocateParams {
+            refit_iterations: 0,
+            ..cfg.locate.clone()
+        });
+    }
     let mut last_err = None;
-    for up in ups {
-        match locate::locate(&points, Some(up), &cfg.locate) {
+    for (up, params) in ups
+        .iter()
+        .flat_map(|u| variants.iter().map(move |v| (*u, v)))
+    {
+        match locate::locate(&points, Some(up), params) {
             Ok(l) => {
+                let axis =
+                    Vector3::from(l.plates[0].normal).cross(&Vector3::from(l.plates[1].normal));
+                let axis = if axis.z < 0.0 { -axis } else { axis };
+                detail.axis = Some(axis.normalize().into());
                 detail.up = Some(up.into());
                 detail.accepted = l.accepted;
                 detail.attempts = l.attempts;
                 detail.spread = Some(l.std);
                 detail.plate_angle_deg = Some(l.plate_angle_deg);
+                detail.failed_stage = None;
                 return Located {
                     status: EstimateStatus::Found(l.corner),
                     detail,
@@ -371,9 +439,28 @@ fn locate_one(
     let reason = last_err
         .map(|e| format!("localisation failed: {e}"))
         .unwrap_or_default();
-    let mut l = fail(detail, "locate", reason);
-    l.tight = points;
-    l
+    detail.failed_stage = Some("locate".into());
+    Located {
+        status: EstimateStatus::NotFound { reason },
+        detail,
+        tight: points,
+    }
+}
+
+/// The map's vertical from the targets themselves: each target's plates meet
+/// along a plumb line, so the mean of those axes is the map's "up" (a tilted
+/// map tilts them all alike, while ground slopes differ from place to place).
+/// Needs three located targets.
+fn consensus_up(found: &[Located]) -> Option<Vector3<f64>> {
+    let axes: Vec<Vector3<f64>> = found
+        .iter()
+        .filter_map(|l| l.detail.axis.map(Vector3::from))
+        .collect();
+    if axes.len() < 3 {
+        return None;
+    }
+    let sum = axes.iter().fold(Vector3::zeros(), |s, a| s + a);
+    Some(sum.normalize())
 }
 
 /// Finds `DIR/<id>.<ext>` for any readable cloud extension and reads it.

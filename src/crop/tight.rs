@@ -11,10 +11,11 @@
 //!    perpendicular vertical planes with the most support (the weaker plate's
 //!    count is the score). A window passes when both plates lie on one side of
 //!    their intersection (an L, not a T or a cross), are no longer than a plate,
-//!    and the supporting points span no more than twice the plate height (walls,
-//!    boxes and poles are taller or lack a second plate).
-//! 4. **Choice.** Among windows scoring at least half the best, the one whose
-//!    corner is nearest the expected position wins.
+//!    the supporting points span no more than a plate's height (plus 0.25 m),
+//!    and the faces stop where a plate stops (a car's or a cabinet's go on).
+//! 4. **Choice.** Among windows scoring at least a quarter of the best (solid
+//!    clutter returns more points than a mesh plate), the one whose corner is
+//!    nearest the expected position wins.
 //! 5. **Crop.** Points near either plate plane, on the plate's side of the
 //!    corner, inside the plates' height band (the post below and the antenna
 //!    above are dropped, so the corner height is the plates' mean height).
@@ -399,7 +400,7 @@ fn detect_l(
     // window on that same corner.
     let near = found
         .iter()
-        .filter(|l| 2 * l.score >= top)
+        .filter(|l| 4 * l.score >= top)
         .min_by(|a, b| a.corner.xy().norm().total_cmp(&b.corner.xy().norm()))
         .map(|l| l.corner)
         .expect("top exists");
@@ -490,8 +491,8 @@ fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LSh
     inl_h.sort_by(f64::total_cmp);
     let lo = inl_h[inl_h.len() / 50];
     let hi = inl_h[inl_h.len() - 1 - inl_h.len() / 50];
-    if hi - lo > 2.0 * p.plate_height {
-        return None; // a wall, a box or a tree, not a plate
+    if hi - lo > p.plate_height + 0.25 {
+        return None; // taller than a plate: a wall, a cabinet, a tree
     }
     Some(LShape {
         n: [na, nb],
