@@ -296,6 +296,35 @@ pub fn evaluate_map(
         }
     }
 
+    let n_found = found
+        .iter()
+        .filter(|l| matches!(l.status, EstimateStatus::Found(_)))
+        .count();
+    if n_found < cfg.metrics.align.min_points() {
+        let why: Vec<String> = survey
+            .targets
+            .iter()
+            .zip(&found)
+            .filter_map(|(t, l)| match &l.status {
+                EstimateStatus::NotFound { reason } => Some(format!("{}: {reason}", t.id)),
+                _ => None,
+            })
+            .take(5)
+            .collect();
+        return Err(Error::Input(format!(
+            "{}: only {n_found} of {} targets found in the map (need {} for {}); {}{}. Is the map in the survey frame? If not, give --init x,y,yaw_deg",
+            inp.map.display(),
+            survey.targets.len(),
+            cfg.metrics.align.min_points(),
+            cfg.metrics.align.name(),
+            why.join("; "),
+            if survey.targets.len() - n_found > why.len() {
+                "; ..."
+            } else {
+                ""
+            },
+        )));
+    }
     let mut result = metrics::evaluate(survey, &estimates(&found), &opts)?;
     let mut tight = Vec::with_capacity(found.len());
     for l in found {

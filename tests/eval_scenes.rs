@@ -188,3 +188,197 @@ fn twelve_targets() {
         5.0,
     );
 }
+
+fn eval(args: &[&std::ffi::OsStr]) -> std::process::Output {
+    Command::new(BIN).arg("eval").args(args).output().unwrap()
+}
+
+#[test]
+fn init_transform_hand_crops_and_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = d.join("scene");
+    // A map 30° and ~50 m away from the survey frame.
+    let out = Command::new(BIN)
+        .args([
+            "synth",
+            "--seed",
+            "11",
+            "--points",
+            "1000000",
+            "--yaw-deg",
+            "30",
+            "--offset-m",
+            "40,-25,1",
+            "--out",
+        ])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (map, survey) = (scene.join("map.ply"), scene.join("survey.csv"));
+    let os = |s: &'static str| std::ffi::OsStr::new(s);
+
+    // Without --init nothing is where the survey says: a clear error, exit 1.
+    let out = eval(&[
+        os("--map"),
+        map.as_os_str(),
+        os("--survey"),
+        survey.as_os_str(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--init") && err.contains("targets found"),
+        "{err}"
+    );
+
+    // An approximate transform (off by 2° and ~1.5 m) finds them all; the
+    // second pass picks up the ones the first missed.
+    let res = d.join("res");
+    let out = eval(&[
+        os("--map"),
+        map.as_os_str(),
+        os("--survey"),
+        survey.as_os_str(),
+        os("--init=-14,65,-28"),
+        os("--save-crops"),
+        os("--out"),
+        res.as_os_str(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: Value =
+        serde_json::from_slice(&std::fs::read(res.join("result.json")).unwrap()).unwrap();
+    assert!(
+        r["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|t| t["status"] == "ok")
+    );
+    assert!((r["alignment"]["rotation_deg"].as_f64().unwrap() + 30.0).abs() < 0.05);
+    assert!(r["absolute"]["mean"].as_f64().unwrap() < 0.05);
+
+    // The paper's manual workflow: the tight crops as hand-made crops give the
+    // same targets; a missing crop is reported, not fatal.
+    let crops = res.join("crops").join("tight");
+    std::fs::remove_file(crops.join("5.ply")).unwrap();
+    let out = eval(&[
+        os("--map"),
+        map.as_os_str(),
+        os("--survey"),
+        survey.as_os_str(),
+        os("--init=-14,65,-28"),
+        os("--crops"),
+        crops.as_os_str(),
+        os("--format"),
+        os("json"),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let m: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let status: Vec<&str> = m["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["status"].as_str().unwrap())
+        .collect();
+    assert_eq!(status, ["ok", "ok", "ok", "ok", "not_found"]);
+    for (a, b) in m["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(r["targets"].as_array().unwrap())
+        .take(4)
+    {
+        let dx = a["map"]["x"].as_f64().unwrap() - b["map"]["x"].as_f64().unwrap();
+        assert!(dx.abs() < 0.01, "{} manual vs automatic: {dx}", a["id"]);
+    }
+    assert!(String::from_utf8_lossy(&out.stderr).contains("5.ply"));
+
+    // A map that does not exist, a survey with a bad row: exit 1, one line.
+    let out = eval(&[
+        os("--map"),
+        d.join("nope.pcd").as_os_str(),
+        os("--survey"),
+        survey.as_os_str(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("error: "));
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, "id,x,y\n1,2,3\n2,abc,4\n").unwrap();
+    let out = eval(&[
+        os("--map"),
+        map.as_os_str(),
+        os("--survey"),
+        bad.as_os_str(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.csv:3"), "{err}");
+
+    // Paper-style table across two runs.
+    let out = Command::new(BIN)
+        .args(["table", "--format", "latex", "--names", "a,b"])
+        .arg(res.join("result.json"))
+        .arg(res.join("result.json"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let t = String::from_utf8_lossy(&out.stdout);
+    assert!(t.contains("toprule") && t.contains("t1 \\& t2"), "{t}");
+}
+
+#[test]
+fn same_input_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = d.join("scene");
+    let out = Command::new(BIN)
+        .args(["synth", "--seed", "12", "--points", "600000", "--out"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let run = |name: &str, threads: &str| {
+        let res = d.join(name);
+        let out = Command::new(BIN)
+            .env("RAYON_NUM_THREADS", threads)
+            .args(["eval", "--map"])
+            .arg(scene.join("map.ply"))
+            .arg("--survey")
+            .arg(scene.join("survey.csv"))
+            .arg("--out")
+            .arg(&res)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read(res.join("result.json")).unwrap()
+    };
+    let a = run("a", "1");
+    let b = run("b", "2");
+    let c = run("c", "2");
+    assert!(
+        a == b && b == c,
+        "result.json differs between runs or thread counts"
+    );
+}
