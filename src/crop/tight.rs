@@ -536,18 +536,25 @@ fn is_bounded(
                 let v = ap[i as usize];
                 let z = up.dot(&v);
                 for k in 0..2 {
-                    if (l.n[k].dot(&v) - l.off[k]).abs() >= tol {
-                        continue;
-                    }
+                    let d = (l.n[k].dot(&v) - l.off[k]).abs();
                     let t = l.along[k].dot(&(v - l.corner));
                     let in_band = z > l.band.0 - 0.03 && z < l.band.1 + 0.03;
+                    // Past the plate's end, look in a 15° wedge, not only the
+                    // slab: a face the Hough vote saw a few degrees off still
+                    // shows there.
+                    if in_band && t > w + 0.15 && t < reach && d < tol + 0.27 * (t - w) {
+                        beyond[k] += 1;
+                        continue;
+                    }
+                    if d >= tol {
+                        continue;
+                    }
                     if in_band && t > 0.1 * w && t < w {
                         support[k] += 1;
-                    } else if (in_band && t > w + 0.15 && t < reach)
-                        || (t > 0.15 * w
-                            && t < w
-                            && (z > l.band.1 + 0.15 && z < l.band.1 + 0.15 + h
-                                || z < l.band.0 - 0.15 && z > l.band.0 - 0.15 - h))
+                    } else if t > 0.15 * w
+                        && t < w
+                        && (z > l.band.1 + 0.15 && z < l.band.1 + 0.15 + h
+                            || z < l.band.0 - 0.15 && z > l.band.0 - 0.15 - h)
                     {
                         beyond[k] += 1;
                     }
