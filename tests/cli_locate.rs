@@ -18,7 +18,8 @@ fn stderr(o: &Output) -> String {
 }
 
 /// One scene for all tests: synth (1 M points; 300 k is too sparse for the tight
-/// crop) and `eval --save-crops`. Lives under Cargo's target tmp dir.
+/// crop) and `eval --save-crops`. Lives under Cargo's target tmp dir (`cargo clean`
+/// removes what is left).
 struct Scene {
     _dir: tempfile::TempDir,
     root: PathBuf,
@@ -50,6 +51,9 @@ fn scene() -> &'static Scene {
             .output()
             .unwrap();
         assert!(o.status.success(), "eval: {}", stderr(&o));
+        // A static is never dropped: keep only what the tests read (crops, truth),
+        // not the 24 MB map, in target/tmp.
+        std::fs::remove_file(s.join("map.pcd")).unwrap();
         let truth: serde_json::Value =
             serde_json::from_slice(&std::fs::read(s.join("truth.json")).unwrap()).unwrap();
         let truth = truth["targets"]
