@@ -1,0 +1,98 @@
+//! Map formats through the whole command line: the same synthetic scene written as
+//! PCD, PLY and LAS (`mapgauge synth --format`) and evaluated (`mapgauge eval`)
+//! finds the same targets at the same places.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
+}
+
+/// One row of targets.csv: status and the located map position.
+type Found = BTreeMap<String, (String, Option<[f64; 3]>)>;
+
+/// synth (1 M points, seed 7) in `format`, eval it; returns targets.csv by id.
+fn synth_and_eval(dir: &Path, format: &str) -> Found {
+    let scene = dir.join(format!("scene-{format}"));
+    let o = bin()
+        .args([
+            "synth", "--points", "1000000", "--seed", "7", "--format", format,
+        ])
+        .arg("--out")
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "synth {format}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let map = scene.join(format!("map.{format}"));
+    let head = std::fs::read(&map).unwrap();
+    let magic: &[u8] = match format {
+        "pcd" => b"# .PCD",
+        "ply" => b"ply",
+        _ => b"LASF",
+    };
+    assert!(head.starts_with(magic), "{format}: not a {format} file");
+    let out = dir.join(format!("eval-{format}"));
+    let o = bin()
+        .arg("eval")
+        .arg("--map")
+        .arg(&map)
+        .arg("--survey")
+        .arg(scene.join("survey.csv"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "eval {format}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mut rd = csv::Reader::from_path(out.join("targets.csv")).unwrap();
+    let head = rd.headers().unwrap().clone();
+    let col = |n: &str| head.iter().position(|h| h == n).expect(n);
+    let (id, status, mx) = (col("id"), col("status"), col("map_x"));
+    rd.records()
+        .map(|r| {
+            let r = r.unwrap();
+            let p = (0..3)
+                .map(|k| r[mx + k].parse::<f64>().ok())
+                .collect::<Option<Vec<f64>>>()
+                .map(|v| [v[0], v[1], v[2]]);
+            (r[id].to_string(), (r[status].to_string(), p))
+        })
+        .collect()
+}
+
+#[test]
+fn pcd_ply_and_las_maps_find_the_same_targets() {
+    let dir = tempfile::tempdir().unwrap();
+    let pcd = synth_and_eval(dir.path(), "pcd");
+    let ply = synth_and_eval(dir.path(), "ply");
+    let las = synth_and_eval(dir.path(), "las");
+    let ok = pcd.values().filter(|(s, _)| s == "ok").count();
+    assert!(ok >= 4, "only {ok} of {} targets found: {pcd:?}", pcd.len());
+    // PCD and PLY hold the same numbers: the same result to the printed digit.
+    assert_eq!(pcd, ply);
+    // LAS rounds to the millimetre: the same targets, positions within a few mm.
+    assert_eq!(
+        pcd.iter().map(|(k, v)| (k, &v.0)).collect::<Vec<_>>(),
+        las.iter().map(|(k, v)| (k, &v.0)).collect::<Vec<_>>()
+    );
+    for (id, (_, p)) in &pcd {
+        if let (Some(a), Some(b)) = (p, &las[id].1) {
+            let dh = (a[0] - b[0]).hypot(a[1] - b[1]);
+            assert!(dh < 0.005, "target {id}: pcd {a:?}, las {b:?}");
+            assert!(
+                (a[2] - b[2]).abs() < 0.01,
+                "target {id}: pcd {a:?}, las {b:?}"
+            );
+        }
+    }
+}
