@@ -3,7 +3,7 @@
 use super::{file_stem_for, parse_triple, progress_bar, refuse_overwrite};
 use mapgauge::cloud::{self, OutFormat};
 use mapgauge::crop::{LooseParams, Shape, loose_crop};
-use mapgauge::survey::{Geodetic, SurveyOptions, read_survey};
+use mapgauge::survey::{SurveyOptions, read_survey};
 use mapgauge::{Point, Result};
 use std::path::PathBuf;
 
@@ -38,25 +38,12 @@ pub struct Args {
 
 /// Runs `crop`.
 pub fn run(a: Args) -> Result<()> {
-    let origin = a
-        .origin
-        .as_deref()
-        .map(|s| parse_triple(s, "--origin"))
-        .transpose()?;
-    let survey = read_survey(
-        &a.survey,
-        &SurveyOptions {
-            origin: origin.map(|o| Geodetic {
-                lat: o[0],
-                lon: o[1],
-                alt: o[2],
-            }),
-        },
-    )?;
+    let origin = a.origin.as_deref().map(super::parse_origin).transpose()?;
+    let survey = read_survey(&a.survey, &SurveyOptions { origin })?;
     let init = a
         .init
         .as_deref()
-        .map(|s| parse_triple(s, "--init"))
+        .map(|s| parse_triple(s, "init"))
         .transpose()?
         .unwrap_or([0.0; 3]);
     let (s, c) = init[2].to_radians().sin_cos();

@@ -3,7 +3,7 @@
 use mapgauge::align::AlignMethod;
 use mapgauge::metrics::{Dim, EvalOptions, evaluate};
 use mapgauge::result::{parse_output_format, render_report, write_outputs};
-use mapgauge::survey::{Geodetic, SurveyOptions, read_estimates, read_survey};
+use mapgauge::survey::{SurveyOptions, read_estimates, read_survey};
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
 
@@ -36,20 +36,6 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-fn numbers(flag: &str, s: &str, min: usize, max: usize) -> Result<Vec<f64>> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
-        .collect::<Option<_>>()
-        .ok_or_else(|| Error::Param(format!("--{flag} `{s}`: not a list of numbers")))?;
-    if v.len() < min || v.len() > max {
-        return Err(Error::Param(format!(
-            "--{flag} `{s}`: expected {min} to {max} comma-separated numbers"
-        )));
-    }
-    Ok(v)
-}
-
 /// Runs `mapgauge errors`.
 pub fn run(a: Args) -> Result<()> {
     let method: AlignMethod = a.align.parse()?;
@@ -57,30 +43,14 @@ pub fn run(a: Args) -> Result<()> {
     let survey_sigma = match &a.survey_sigma {
         None => None,
         Some(s) => {
-            let v = numbers("survey-sigma", s, 1, 2)?;
+            let v = super::numbers("survey-sigma", s, 1, 2)?;
             if v.iter().any(|x| *x < 0.0) {
                 return Err(Error::Param("--survey-sigma must be ≥ 0".into()));
             }
             Some((v[0], v.get(1).copied()))
         }
     };
-    let origin = match &a.origin {
-        None => None,
-        Some(s) => {
-            let v = numbers("origin", s, 2, 3)?;
-            if !(-90.0..=90.0).contains(&v[0]) {
-                return Err(Error::Param(format!(
-                    "--origin latitude {} is outside -90..90",
-                    v[0]
-                )));
-            }
-            Some(Geodetic {
-                lat: v[0],
-                lon: v[1],
-                alt: v.get(2).copied().unwrap_or(0.0),
-            })
-        }
-    };
+    let origin = a.origin.as_deref().map(super::parse_origin).transpose()?;
     let fmt = parse_output_format(&a.format)?;
     let survey = read_survey(&a.survey, &SurveyOptions { origin })?;
     let estimates = read_estimates(&a.estimates)?;

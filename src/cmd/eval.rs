@@ -7,7 +7,7 @@ use mapgauge::crop::Shape;
 use mapgauge::eval::{EvalConfig, EvalInputs, EvalRun, evaluate_map};
 use mapgauge::metrics::Dim;
 use mapgauge::result;
-use mapgauge::survey::{Geodetic, SurveyOptions, read_survey};
+use mapgauge::survey::{SurveyOptions, read_survey};
 use mapgauge::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -80,15 +80,7 @@ pub fn config(a: &Args) -> Result<EvalConfig> {
         cfg.metrics.dim = d;
     }
     if let Some(s) = &a.survey_sigma {
-        let v: Vec<f64> = s
-            .split(',')
-            .map(|t| t.trim().parse::<f64>())
-            .collect::<std::result::Result<_, _>>()
-            .map_err(|_| {
-                Error::Param(format!(
-                    "--survey-sigma: expected H[,V] in metres, got `{s}`"
-                ))
-            })?;
+        let v = super::numbers("survey-sigma", s, 1, 2)?;
         cfg.metrics.survey_sigma_h = v.first().copied();
         cfg.metrics.survey_sigma_v = v.get(1).copied();
     }
@@ -103,12 +95,17 @@ pub fn config(a: &Args) -> Result<EvalConfig> {
         cfg.crop.shape = s;
     }
     if let Some(s) = &a.plate_size {
-        let v = parse_triple(&format!("{s},0"), "--plate-size")?;
+        let v = super::numbers("plate-size", s, 1, 2)?;
+        if v.iter().any(|&x| x <= 0.0) {
+            return Err(Error::Param(format!(
+                "--plate-size `{s}`: sizes must be positive"
+            )));
+        }
         cfg.tight.plate_width = v[0];
-        cfg.tight.plate_height = if v[1] > 0.0 { v[1] } else { v[0] };
+        cfg.tight.plate_height = v.get(1).copied().unwrap_or(v[0]);
     }
     if let Some(s) = &a.init {
-        cfg.frame.init = Some(parse_triple(s, "--init")?);
+        cfg.frame.init = Some(parse_triple(s, "init")?);
     }
     Ok(cfg)
 }
@@ -138,21 +135,8 @@ pub fn run(a: Args) -> Result<()> {
 
 /// Reads the survey and runs the pipeline with a progress bar.
 pub fn evaluate(map: &Path, survey_path: &Path, a: &Args, cfg: &EvalConfig) -> Result<EvalRun> {
-    let origin = a
-        .origin
-        .as_deref()
-        .map(|s| parse_triple(s, "--origin"))
-        .transpose()?;
-    let survey = read_survey(
-        survey_path,
-        &SurveyOptions {
-            origin: origin.map(|o| Geodetic {
-                lat: o[0],
-                lon: o[1],
-                alt: o[2],
-            }),
-        },
-    )?;
+    let origin = a.origin.as_deref().map(super::parse_origin).transpose()?;
+    let survey = read_survey(survey_path, &SurveyOptions { origin })?;
     let pb = progress_bar(
         std::fs::metadata(map).map(|m| m.len()).unwrap_or(0),
         "reading map",

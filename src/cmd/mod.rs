@@ -29,24 +29,36 @@ pub fn progress_bar(total: u64, what: &str) -> Option<ProgressBar> {
     Some(pb)
 }
 
-/// Parses `a,b,c` into three numbers (used by `--init` and `--origin`).
-pub fn parse_triple(s: &str, what: &str) -> Result<[f64; 3]> {
+/// Parses a comma-separated list of `min..=max` finite numbers given to `--flag`.
+pub fn numbers(flag: &str, s: &str, min: usize, max: usize) -> Result<Vec<f64>> {
     let v: Vec<f64> = s
         .split(',')
-        .map(|t| t.trim().parse::<f64>())
-        .collect::<std::result::Result<_, _>>()
-        .map_err(|_| {
-            Error::Param(format!(
-                "{what}: expected three comma-separated numbers, got `{s}`"
-            ))
-        })?;
-    match v.as_slice() {
-        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c]),
-        [a, b] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, 0.0]),
-        _ => Err(Error::Param(format!(
-            "{what}: expected three comma-separated numbers, got `{s}`"
-        ))),
+        .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| Error::Param(format!("--{flag} `{s}`: not a list of numbers")))?;
+    if v.len() < min || v.len() > max {
+        return Err(Error::Param(format!(
+            "--{flag} `{s}`: expected {min} to {max} comma-separated numbers"
+        )));
     }
+    Ok(v)
+}
+
+/// Parses `a,b[,c]` (c = 0 when absent), e.g. `--init x,y,yaw`.
+pub fn parse_triple(s: &str, flag: &str) -> Result<[f64; 3]> {
+    let v = numbers(flag, s, 2, 3)?;
+    Ok([v[0], v[1], v.get(2).copied().unwrap_or(0.0)])
+}
+
+/// Parses `--origin lat,lon[,alt]` in WGS84 degrees and metres.
+pub fn parse_origin(s: &str) -> Result<mapgauge::survey::Geodetic> {
+    let [lat, lon, alt] = parse_triple(s, "origin")?;
+    if !(-90.0..=90.0).contains(&lat) || !(-180.0..=360.0).contains(&lon) {
+        return Err(Error::Param(format!(
+            "--origin `{s}`: latitude must be within ±90° and longitude within ±180°"
+        )));
+    }
+    Ok(mapgauge::survey::Geodetic { lat, lon, alt })
 }
 
 /// A target id made safe as a file name (ids are free text in the survey).
