@@ -424,10 +424,11 @@ fn decode_block(data: &[u8], lay: &Layout, first: usize, out: &mut [Point]) -> u
     }
 }
 
-/// Decodes points `first..first + n` in parallel into `buf` (cleared first),
-/// keeping file order; returns the number of non-finite points skipped.
+/// Decodes points `first..first + n` in parallel into `buf` (its old contents
+/// are overwritten, not cleared: zero-filling a reused buffer cost an eighth of
+/// a binary read), keeping file order; returns the number of non-finite points
+/// skipped.
 fn decode_parallel(data: &[u8], lay: &Layout, first: usize, n: usize, buf: &mut Vec<Point>) -> u64 {
-    buf.clear();
     buf.resize(n, Point::origin());
     let kept: Vec<usize> = buf
         .par_chunks_mut(TASK_POINTS)
@@ -882,16 +883,19 @@ impl PointReader for PcdReader {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
-        buf.clear();
         loop {
             if self.next >= self.header.points {
+                buf.clear();
                 if let Source::Columns(c) = &mut self.source {
                     *c = Vec::new(); // free the block as soon as it is consumed
                 }
                 return Ok(false);
             }
             match &mut self.source {
-                Source::Text(_) => self.next_text(buf)?,
+                Source::Text(_) => {
+                    buf.clear();
+                    self.next_text(buf)?
+                }
                 Source::Mapped { map, released } => {
                     let first = self.next as usize;
                     let n = (self.header.points - self.next).min(CHUNK_POINTS as u64) as usize;
