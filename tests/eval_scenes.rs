@@ -16,12 +16,13 @@ struct Outcome {
     e_rel: (f64, f64),
 }
 
-fn run(dir: &Path, synth: &[&str]) -> Outcome {
-    let scene = dir.join("scene");
+/// Runs `mapgauge synth --out SCENE ARGS...`, which must succeed.
+fn synth_into(scene: &Path, args: &[&str]) {
     let out = Command::new(BIN)
-        .args(["synth", "--format", "pcd", "--out"])
-        .arg(&scene)
-        .args(synth)
+        .arg("synth")
+        .arg("--out")
+        .arg(scene)
+        .args(args)
         .output()
         .unwrap();
     assert!(
@@ -29,20 +30,43 @@ fn run(dir: &Path, synth: &[&str]) -> Outcome {
         "synth: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let res = dir.join("eval");
-    let out = Command::new(BIN)
-        .args(["eval", "--map"])
-        .arg(scene.join("map.pcd"))
+}
+
+/// Runs `mapgauge eval` on a scene's map and survey into `res` with `threads`
+/// rayon threads (None: the default); must succeed.
+fn eval_into(map: &Path, survey: &Path, res: &Path, threads: Option<&str>) {
+    let mut cmd = Command::new(BIN);
+    if let Some(t) = threads {
+        cmd.env("RAYON_NUM_THREADS", t);
+    }
+    let out = cmd
+        .arg("eval")
+        .arg("--map")
+        .arg(map)
         .arg("--survey")
-        .arg(scene.join("survey.csv"))
+        .arg(survey)
         .arg("--out")
-        .arg(&res)
+        .arg(res)
         .output()
         .unwrap();
     assert!(
         out.status.success(),
         "eval: {}",
         String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn run(dir: &Path, synth: &[&str]) -> Outcome {
+    let scene = dir.join("scene");
+    let mut args = vec!["--format", "pcd"];
+    args.extend_from_slice(synth);
+    synth_into(&scene, &args);
+    let res = dir.join("eval");
+    eval_into(
+        &scene.join("map.pcd"),
+        &scene.join("survey.csv"),
+        &res,
+        None,
     );
     let truth: Value =
         serde_json::from_slice(&std::fs::read(scene.join("truth.json")).unwrap()).unwrap();
@@ -197,9 +221,9 @@ fn init_transform_hand_crops_and_failures() {
     let d = dir.path();
     let scene = d.join("scene");
     // A map 30° and ~50 m away from the survey frame.
-    let out = Command::new(BIN)
-        .args([
-            "synth",
+    synth_into(
+        &scene,
+        &[
             "--seed",
             "11",
             "--points",
@@ -208,15 +232,7 @@ fn init_transform_hand_crops_and_failures() {
             "30",
             "--offset-m",
             "40,-25,1",
-            "--out",
-        ])
-        .arg(&scene)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
     );
     let (map, survey) = (scene.join("map.ply"), scene.join("survey.csv"));
     let os = |s: &'static str| std::ffi::OsStr::new(s);
@@ -347,28 +363,14 @@ fn same_input_same_bytes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let scene = d.join("scene");
-    let out = Command::new(BIN)
-        .args(["synth", "--seed", "12", "--points", "600000", "--out"])
-        .arg(&scene)
-        .output()
-        .unwrap();
-    assert!(out.status.success());
+    synth_into(&scene, &["--seed", "12", "--points", "600000"]);
     let run = |name: &str, threads: &str| {
         let res = d.join(name);
-        let out = Command::new(BIN)
-            .env("RAYON_NUM_THREADS", threads)
-            .args(["eval", "--map"])
-            .arg(scene.join("map.ply"))
-            .arg("--survey")
-            .arg(scene.join("survey.csv"))
-            .arg("--out")
-            .arg(&res)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        eval_into(
+            &scene.join("map.ply"),
+            &scene.join("survey.csv"),
+            &res,
+            Some(threads),
         );
         std::fs::read(res.join("result.json")).unwrap()
     };
