@@ -56,6 +56,11 @@ pub struct LocateParams {
     pub kmeans_init: Init,
     /// RANSAC hypotheses per plate (paper: 100).
     pub ransac_iterations: usize,
+    /// Preemptive RANSAC: hypotheses are scored on a random subset of this many
+    /// cluster points and only the best few on all of them (paper: 0 = score
+    /// every hypothesis on every point). The plate's plane is in any case the SVD
+    /// fit on all inliers of the winner, so this trades little accuracy for speed.
+    pub ransac_score_points: usize,
     /// RANSAC / refit inlier distance, metres (paper: 0.03).
     pub inlier_threshold: f64,
     /// Extra SVD refits on the inliers of the previous fit (paper: 0).
@@ -83,6 +88,7 @@ impl Default for LocateParams {
             kmeans_space: Space::Horizontal,
             kmeans_init: Init::PlusPlus,
             ransac_iterations: 100,
+            ransac_score_points: 128,
             inlier_threshold: 0.03,
             refit_iterations: 1,
             corner_margin: 0.1,
@@ -103,6 +109,7 @@ impl LocateParams {
             kmeans_space: Space::Full,
             kmeans_init: Init::Random,
             refit_iterations: 0,
+            ransac_score_points: 0,
             max_attempts: 10_000,
             ..LocateParams::default()
         }
@@ -288,12 +295,24 @@ enum Reason {
     Tilted,
 }
 
-/// Scratch state of one attempt, and its inputs.
+/// Inputs shared by all attempts.
 struct Ctx<'a> {
     pts: &'a [Vector3<f64>],
+    /// The points in k-means' space (horizontal projection or `pts` itself).
+    kpts: &'a [Vector3<f64>],
     up: Vector3<f64>,
     params: &'a LocateParams,
     sin_tol: f64,
+}
+
+/// Buffers of one attempt, reused across the attempts of a rayon work item.
+#[derive(Default)]
+struct Scratch {
+    cl: Vec<u8>,
+    idx: Vec<u32>,
+    inl: [Vec<u32>; 2],
+    next: Vec<u32>,
+    sub: Vec<Vector3<f64>>,
 }
 
 fn attempt_rng(seed: u64, attempt: usize) -> rand_pcg::Pcg64Mcg {
@@ -309,18 +328,24 @@ fn attempt_rng(seed: u64, attempt: usize) -> rand_pcg::Pcg64Mcg {
 
 impl Ctx<'_> {
     /// Runs attempt `index`; with `labels`, also records each point's role.
-    fn attempt(&self, index: usize, labels: Option<&mut Vec<Label>>) -> Outcome {
+    fn attempt(&self, index: usize, s: &mut Scratch, labels: Option<&mut Vec<Label>>) -> Outcome {
         let p = self.params;
         let mut rng = attempt_rng(p.seed, index);
-        let mut cl = Vec::new();
+        let Scratch {
+            cl,
+            idx,
+            inl,
+            next,
+            sub,
+        } = s;
         if !kmeans::split2(
-            self.pts,
+            self.kpts,
             &self.up,
-            p.kmeans_space,
+            Space::Full,
             p.kmeans_init,
             p.kmeans_iterations,
             &mut rng,
-            &mut cl,
+            cl,
         ) {
             return Outcome::Rejected(Reason::Degenerate);
         }
@@ -328,17 +353,17 @@ impl Ctx<'_> {
             normal: Vector3::zeros(),
             offset: 0.0,
         }; 2];
-        let mut inl: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
         for k in 0..2 {
-            let idx: Vec<u32> = (0..self.pts.len() as u32)
-                .filter(|&i| cl[i as usize] == k as u8)
-                .collect();
+            idx.clear();
+            idx.extend((0..self.pts.len() as u32).filter(|&i| cl[i as usize] == k as u8));
             let Some(_) = ransac::best_plane(
                 self.pts,
-                &idx,
+                idx,
                 p.ransac_iterations,
                 p.inlier_threshold,
+                p.ransac_score_points,
                 &mut rng,
+                sub,
                 &mut inl[k],
             ) else {
                 return Outcome::Rejected(Reason::Degenerate);
@@ -361,24 +386,23 @@ impl Ctx<'_> {
             let mut changed = false;
             for k in 0..2 {
                 let (own, other) = (planes[k], planes[1 - k]);
-                let next: Vec<u32> = (0..self.pts.len() as u32)
-                    .filter(|&i| {
-                        let q = &self.pts[i as usize];
-                        own.distance(q).abs() < p.inlier_threshold
-                            && other.distance(q).abs() >= p.corner_margin
-                    })
-                    .collect();
-                if next == inl[k] {
+                next.clear();
+                next.extend((0..self.pts.len() as u32).filter(|&i| {
+                    let q = &self.pts[i as usize];
+                    own.distance(q).abs() < p.inlier_threshold
+                        && other.distance(q).abs() >= p.corner_margin
+                }));
+                if *next == inl[k] {
                     continue;
                 }
                 if next.len() < MIN_PLATE_INLIERS {
                     return Outcome::Rejected(Reason::Degenerate);
                 }
-                match plane::fit(self.pts, &next) {
+                match plane::fit(self.pts, next) {
                     Some(q) => planes[k] = q,
                     None => return Outcome::Rejected(Reason::Degenerate),
                 }
-                inl[k] = next;
+                std::mem::swap(&mut inl[k], next);
                 changed = true;
             }
             if !changed {
@@ -473,8 +497,13 @@ pub fn locate(
     let mean_off = points.iter().map(|p| p.coords - p0).sum::<Vector3<f64>>() / points.len() as f64;
     let origin = p0 + mean_off;
     let pts: Vec<Vector3<f64>> = points.iter().map(|p| p.coords - origin).collect();
+    let kpts: Vec<Vector3<f64>> = match params.kmeans_space {
+        Space::Full => Vec::new(),
+        Space::Horizontal => pts.iter().map(|p| p - up * up.dot(p)).collect(),
+    };
     let ctx = Ctx {
         pts: &pts,
+        kpts: if kpts.is_empty() { &pts } else { &kpts },
         up,
         params,
         sin_tol: params.angle_tolerance_deg.to_radians().sin(),
@@ -488,7 +517,7 @@ pub fn locate(
         let end = (attempts + BATCH).min(params.max_attempts);
         let outcomes: Vec<Outcome> = (attempts..end)
             .into_par_iter()
-            .map(|i| ctx.attempt(i, None))
+            .map_init(Scratch::default, |s, i| ctx.attempt(i, s, None))
             .collect();
         for outcome in outcomes {
             attempts += 1;
@@ -539,7 +568,7 @@ pub fn locate(
         .sum::<Vector3<f64>>()
         / k;
     let mut labels = Vec::new();
-    let reference = match ctx.attempt(last_accepted, Some(&mut labels)) {
+    let reference = match ctx.attempt(last_accepted, &mut Scratch::default(), Some(&mut labels)) {
         Outcome::Accepted(s) => s,
         // The same attempt index replays the same random stream; kept total anyway.
         Outcome::Rejected(_) => *samples.last().expect("min_samples >= 1"),
@@ -793,5 +822,57 @@ mod behaviour {
             t.corner
         );
         assert!(l.plates.iter().all(|q| q.tilt_deg <= 1.0));
+    }
+}
+
+#[cfg(test)]
+mod diag {
+    use super::testgen;
+    use super::*;
+
+    /// The benchmark's target: reject breakdown per parameter set.
+    #[test]
+    #[ignore]
+    fn bench_target_rejects() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(42);
+        let mut spec = testgen::random_spec(&mut rng, true);
+        spec.points = 950;
+        spec.noise = 0.02;
+        let t = testgen::generate(&mut rng, &spec);
+        for (name, p) in [
+            ("default", LocateParams::default()),
+            ("paper", LocateParams::paper()),
+            (
+                "exact-ransac",
+                LocateParams {
+                    ransac_score_points: 0,
+                    ..LocateParams::default()
+                },
+            ),
+            (
+                "refit5",
+                LocateParams {
+                    refit_iterations: 5,
+                    ..LocateParams::default()
+                },
+            ),
+        ] {
+            let t0 = std::time::Instant::now();
+            let r = locate(&t.points, None, &p);
+            let dt = t0.elapsed();
+            match r {
+                Ok(l) => eprintln!(
+                    "{name}: {:?} {}/{} {:?} err {:.4} plates {:?} {:.3}",
+                    dt,
+                    l.accepted,
+                    l.attempts,
+                    l.rejects,
+                    (l.corner - t.corner).norm(),
+                    l.plates,
+                    l.plate_angle_deg
+                ),
+                Err(e) => eprintln!("{name}: {dt:?} {e}"),
+            }
+        }
     }
 }
