@@ -61,6 +61,11 @@ pub struct LocateParams {
     /// every hypothesis on every point). The plate's plane is in any case the SVD
     /// fit on all inliers of the winner, so this trades little accuracy for speed.
     pub ransac_score_points: usize,
+    /// Adaptive RANSAC stop: draw hypotheses only until the best plane so far was
+    /// found with this probability by the standard N = ln(1 − p) / ln(1 − w³)
+    /// bound (w: its inlier fraction), at most `ransac_iterations` (paper: 0 =
+    /// always draw all of them).
+    pub ransac_confidence: f64,
     /// RANSAC / refit inlier distance, metres (paper: 0.03).
     pub inlier_threshold: f64,
     /// Extra SVD refits on the inliers of the previous fit (paper: 0).
@@ -89,6 +94,7 @@ impl Default for LocateParams {
             kmeans_init: Init::PlusPlus,
             ransac_iterations: 100,
             ransac_score_points: 128,
+            ransac_confidence: 0.999,
             inlier_threshold: 0.03,
             refit_iterations: 1,
             corner_margin: 0.1,
@@ -110,6 +116,7 @@ impl LocateParams {
             kmeans_init: Init::Random,
             refit_iterations: 0,
             ransac_score_points: 0,
+            ransac_confidence: 0.0,
             max_attempts: 10_000,
             ..LocateParams::default()
         }
@@ -125,6 +132,9 @@ impl LocateParams {
         }
         if !(self.angle_tolerance_deg > 0.0 && self.angle_tolerance_deg < 45.0) {
             return bad("angle_tolerance_deg must be in (0, 45)");
+        }
+        if !(0.0..1.0).contains(&self.ransac_confidence) {
+            return bad("ransac_confidence must be in [0, 1)");
         }
         if self.samples == 0 || self.ransac_iterations == 0 || self.max_attempts == 0 {
             return bad("samples, ransac_iterations and max_attempts must be at least 1");
@@ -362,6 +372,7 @@ impl Ctx<'_> {
                 p.ransac_iterations,
                 p.inlier_threshold,
                 p.ransac_score_points,
+                p.ransac_confidence,
                 &mut rng,
                 sub,
                 &mut inl[k],
@@ -843,6 +854,20 @@ mod diag {
             ("default", LocateParams::default()),
             ("paper", LocateParams::paper()),
             (
+                "no-adaptive",
+                LocateParams {
+                    ransac_confidence: 0.0,
+                    ..LocateParams::default()
+                },
+            ),
+            (
+                "margin0.15",
+                LocateParams {
+                    corner_margin: 0.15,
+                    ..LocateParams::default()
+                },
+            ),
+            (
                 "exact-ransac",
                 LocateParams {
                     ransac_score_points: 0,
@@ -857,6 +882,9 @@ mod diag {
                 },
             ),
         ] {
+            if std::env::var_os("MG_DIAG_DEFAULT").is_some() && name != "default" {
+                continue;
+            }
             let t0 = std::time::Instant::now();
             let r = locate(&t.points, None, &p);
             let dt = t0.elapsed();

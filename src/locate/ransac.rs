@@ -21,6 +21,11 @@ const KEEP: usize = 4;
 /// [`KEEP`] are scored on the whole cluster. With 0, every hypothesis is scored
 /// on every point (the reference algorithm). `scratch` is reused between calls.
 ///
+/// With `confidence` in (0, 1), RANSAC stops early once the standard bound
+/// N = ln(1 − confidence) / ln(1 − w³) on the hypotheses needed is reached, w
+/// being the best inlier fraction so far; `iterations` stays the maximum. With
+/// 0, all `iterations` hypotheses are drawn (the reference algorithm).
+///
 /// Returns `None` when the cluster has fewer than 3 points or every hypothesis
 /// was degenerate (collinear draws).
 #[allow(clippy::too_many_arguments)]
@@ -30,6 +35,7 @@ pub fn best_plane<R: Rng>(
     iterations: usize,
     threshold: f64,
     score_points: usize,
+    confidence: f64,
     rng: &mut R,
     scratch: &mut Vec<Vector3<f64>>,
     inliers: &mut Vec<u32>,
@@ -57,7 +63,13 @@ pub fn best_plane<R: Rng>(
     let mut best: Option<(usize, Plane)> = None;
     // Preemptive: the KEEP best by subset score, best first; ties keep the earlier one.
     let mut top: [(usize, Option<Plane>); KEEP] = [(0, None); KEEP];
-    for _ in 0..iterations {
+    let log_miss = if confidence > 0.0 && confidence < 1.0 {
+        (1.0 - confidence).ln()
+    } else {
+        0.0
+    };
+    let scored = if preemptive { score_points } else { n } as f64;
+    for it in 1..=iterations {
         let a = rng.random_range(0..n);
         let mut b = rng.random_range(0..n - 1);
         if b >= a {
@@ -74,19 +86,30 @@ pub fn best_plane<R: Rng>(
             &pts[idx[b] as usize],
             &pts[idx[c] as usize],
         );
-        let Some(plane) = Plane::through(pa, pb, pc) else {
-            continue;
-        };
-        if preemptive {
-            let count = count_in(&plane, scratch);
-            if let Some(pos) = top.iter().position(|(k, p)| p.is_none() || count > *k) {
-                top.copy_within(pos..KEEP - 1, pos + 1);
-                top[pos] = (count, Some(plane));
+        if let Some(plane) = Plane::through(pa, pb, pc) {
+            if preemptive {
+                let count = count_in(&plane, scratch);
+                if let Some(pos) = top.iter().position(|(k, p)| p.is_none() || count > *k) {
+                    top.copy_within(pos..KEEP - 1, pos + 1);
+                    top[pos] = (count, Some(plane));
+                }
+            } else {
+                let count = count_all(&plane);
+                if best.is_none_or(|(k, _)| count > k) {
+                    best = Some((count, plane));
+                }
             }
-        } else {
-            let count = count_all(&plane);
-            if best.is_none_or(|(k, _)| count > k) {
-                best = Some((count, plane));
+        }
+        if log_miss < 0.0 {
+            let found = if preemptive {
+                top[0].0
+            } else {
+                best.map_or(0, |b| b.0)
+            };
+            let w3 = (found as f64 / scored).powi(3);
+            // w3 ≥ 1 (every point an inlier): one hypothesis is enough.
+            if w3 >= 1.0 || (w3 > 0.0 && it as f64 >= log_miss / (1.0 - w3).ln()) {
+                break;
             }
         }
     }
@@ -137,6 +160,7 @@ mod tests {
             100,
             0.01,
             0,
+            0.0,
             &mut rng,
             &mut Vec::new(),
             &mut inl,
@@ -146,7 +170,10 @@ mod tests {
         assert!(inl.len() >= 300 && inl.len() < 310);
         // Preemptive scoring on 64 of the 340 points finds the same plate.
         let mut sub = Vec::new();
-        let p = best_plane(&pts, &idx, 100, 0.01, 64, &mut rng, &mut sub, &mut inl).unwrap();
+        let p = best_plane(
+            &pts, &idx, 100, 0.01, 64, 0.999, &mut rng, &mut sub, &mut inl,
+        )
+        .unwrap();
         assert_eq!(sub.len(), 64);
         assert!(p.normal.y.abs() > 0.999);
         assert!(inl.len() >= 300 && inl.len() < 310);
@@ -160,6 +187,7 @@ mod tests {
                 5,
                 0.01,
                 0,
+                0.0,
                 &mut rng,
                 &mut Vec::new(),
                 &mut inl
