@@ -7,7 +7,7 @@
 //! components (the points projected along `up`) separates the plates far more
 //! reliably; [`Space`] chooses which.
 
-use nalgebra::Vector3;
+use nalgebra::{SVector, Vector2, Vector3};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -43,55 +43,84 @@ pub fn split2<R: Rng>(
     rng: &mut R,
     labels: &mut Vec<u8>,
 ) -> bool {
+    match space {
+        Space::Full => split2_points(pts, init, iterations, rng, labels),
+        Space::Horizontal => {
+            let flat = horizontal(pts, up);
+            split2_points(&flat, init, iterations, rng, labels)
+        }
+    }
+}
+
+/// The points' horizontal coordinates in a basis perpendicular to `up` (a unit
+/// vector): distances between them are those of the projections along `up`,
+/// at two thirds of the cost.
+pub fn horizontal(pts: &[Vector3<f64>], up: &Vector3<f64>) -> Vec<Vector2<f64>> {
+    let helper = if up.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = up.cross(&helper).normalize();
+    let e2 = up.cross(&e1);
+    pts.iter()
+        .map(|p| Vector2::new(e1.dot(p), e2.dot(p)))
+        .collect()
+}
+
+/// [`split2`] on points already in the space to cluster in (any dimension).
+pub fn split2_points<const D: usize, R: Rng>(
+    pts: &[SVector<f64, D>],
+    init: Init,
+    iterations: usize,
+    rng: &mut R,
+    labels: &mut Vec<u8>,
+) -> bool {
     let n = pts.len();
     labels.clear();
     labels.resize(n, 0);
     if n < 2 {
         return false;
     }
-    let proj = |p: &Vector3<f64>| match space {
-        Space::Full => *p,
-        Space::Horizontal => p - up * up.dot(p),
-    };
     let first = rng.random_range(0..n);
-    let c0 = proj(&pts[first]);
+    let c0 = pts[first];
     let c1 = match init {
         Init::Random => {
             let mut second = rng.random_range(0..n - 1);
             if second >= first {
                 second += 1;
             }
-            proj(&pts[second])
+            pts[second]
         }
         Init::PlusPlus => {
-            let total: f64 = pts.iter().map(|p| (proj(p) - c0).norm_squared()).sum();
+            let total: f64 = pts.iter().map(|p| (p - c0).norm_squared()).sum();
             if !(total > 0.0) {
                 return false;
             }
             let mut target = rng.random::<f64>() * total;
             let mut pick = n - 1;
             for (i, p) in pts.iter().enumerate() {
-                target -= (proj(p) - c0).norm_squared();
+                target -= (p - c0).norm_squared();
                 if target < 0.0 {
                     pick = i;
                     break;
                 }
             }
-            proj(&pts[pick])
+            pts[pick]
         }
     };
     let mut centres = [c0, c1];
     for it in 0..iterations.max(1) {
+        // Nearer to c1 than to c0  ⇔  q · (c1 − c0) > (|c1|² − |c0|²) / 2: one dot per point.
+        let dir = centres[1] - centres[0];
+        let cut = (centres[1].norm_squared() - centres[0].norm_squared()) / 2.0;
         let mut changed = false;
-        let mut sums = [Vector3::zeros(); 2];
+        let mut sums = [SVector::<f64, D>::zeros(); 2];
         let mut counts = [0usize; 2];
-        for (p, l) in pts.iter().zip(labels.iter_mut()) {
-            let q = proj(p);
-            let lab = u8::from((q - centres[1]).norm_squared() < (q - centres[0]).norm_squared());
-            if *l != lab || it == 0 {
-                changed |= *l != lab;
-                *l = lab;
-            }
+        for (q, l) in pts.iter().zip(labels.iter_mut()) {
+            let lab = u8::from(q.dot(&dir) > cut);
+            changed |= *l != lab;
+            *l = lab;
             sums[lab as usize] += q;
             counts[lab as usize] += 1;
         }

@@ -308,11 +308,17 @@ enum Reason {
 /// Inputs shared by all attempts.
 struct Ctx<'a> {
     pts: &'a [Vector3<f64>],
-    /// The points in k-means' space (horizontal projection or `pts` itself).
-    kpts: &'a [Vector3<f64>],
+    /// The points in k-means' space.
+    kpts: KPoints<'a>,
     up: Vector3<f64>,
     params: &'a LocateParams,
     sin_tol: f64,
+}
+
+/// The points as k-means compares them.
+enum KPoints<'a> {
+    Full(&'a [Vector3<f64>]),
+    Horizontal(Vec<nalgebra::Vector2<f64>>),
 }
 
 /// Buffers of one attempt, reused across the attempts of a rayon work item.
@@ -348,15 +354,15 @@ impl Ctx<'_> {
             next,
             sub,
         } = s;
-        if !kmeans::split2(
-            self.kpts,
-            &self.up,
-            Space::Full,
-            p.kmeans_init,
-            p.kmeans_iterations,
-            &mut rng,
-            cl,
-        ) {
+        let split = match &self.kpts {
+            KPoints::Full(k) => {
+                kmeans::split2_points(k, p.kmeans_init, p.kmeans_iterations, &mut rng, cl)
+            }
+            KPoints::Horizontal(k) => {
+                kmeans::split2_points(k, p.kmeans_init, p.kmeans_iterations, &mut rng, cl)
+            }
+        };
+        if !split {
             return Outcome::Rejected(Reason::Degenerate);
         }
         let mut planes = [Plane {
@@ -508,13 +514,12 @@ pub fn locate(
     let mean_off = points.iter().map(|p| p.coords - p0).sum::<Vector3<f64>>() / points.len() as f64;
     let origin = p0 + mean_off;
     let pts: Vec<Vector3<f64>> = points.iter().map(|p| p.coords - origin).collect();
-    let kpts: Vec<Vector3<f64>> = match params.kmeans_space {
-        Space::Full => Vec::new(),
-        Space::Horizontal => pts.iter().map(|p| p - up * up.dot(p)).collect(),
-    };
     let ctx = Ctx {
         pts: &pts,
-        kpts: if kpts.is_empty() { &pts } else { &kpts },
+        kpts: match params.kmeans_space {
+            Space::Full => KPoints::Full(&pts),
+            Space::Horizontal => KPoints::Horizontal(kmeans::horizontal(&pts, &up)),
+        },
         up,
         params,
         sin_tol: params.angle_tolerance_deg.to_radians().sin(),
