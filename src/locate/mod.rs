@@ -50,6 +50,9 @@ const BATCH: usize = 32;
 pub struct LocateParams {
     /// Lloyd iterations of k-means (it usually converges in fewer).
     pub kmeans_iterations: usize,
+    /// k-means finds its centres on this many randomly drawn points, then
+    /// assigns every point to the nearer centre (paper: 0 = iterate on all points).
+    pub kmeans_points: usize,
     /// Coordinates k-means clusters on.
     pub kmeans_space: Space,
     /// How k-means picks its starting centres.
@@ -90,6 +93,7 @@ impl Default for LocateParams {
     fn default() -> Self {
         LocateParams {
             kmeans_iterations: 20,
+            kmeans_points: 256,
             kmeans_space: Space::Horizontal,
             kmeans_init: Init::PlusPlus,
             ransac_iterations: 100,
@@ -115,6 +119,7 @@ impl LocateParams {
             kmeans_space: Space::Full,
             kmeans_init: Init::Random,
             refit_iterations: 0,
+            kmeans_points: 0,
             ransac_score_points: 0,
             ransac_confidence: 0.0,
             max_attempts: 10_000,
@@ -355,12 +360,22 @@ impl Ctx<'_> {
             sub,
         } = s;
         let split = match &self.kpts {
-            KPoints::Full(k) => {
-                kmeans::split2_points(k, p.kmeans_init, p.kmeans_iterations, &mut rng, cl)
-            }
-            KPoints::Horizontal(k) => {
-                kmeans::split2_points(k, p.kmeans_init, p.kmeans_iterations, &mut rng, cl)
-            }
+            KPoints::Full(k) => kmeans::split2_points(
+                k,
+                p.kmeans_init,
+                p.kmeans_iterations,
+                p.kmeans_points,
+                &mut rng,
+                cl,
+            ),
+            KPoints::Horizontal(k) => kmeans::split2_points(
+                k,
+                p.kmeans_init,
+                p.kmeans_iterations,
+                p.kmeans_points,
+                &mut rng,
+                cl,
+            ),
         };
         if !split {
             return Outcome::Rejected(Reason::Degenerate);
