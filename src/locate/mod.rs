@@ -330,7 +330,7 @@ enum KPoints<'a> {
 #[derive(Default)]
 struct Scratch {
     cl: Vec<u8>,
-    idx: Vec<u32>,
+    idx: [Vec<u32>; 2],
     inl: [Vec<u32>; 2],
     next: Vec<u32>,
     sub: Vec<Vector3<f64>>,
@@ -384,12 +384,16 @@ impl Ctx<'_> {
             normal: Vector3::zeros(),
             offset: 0.0,
         }; 2];
+        for v in idx.iter_mut() {
+            v.clear();
+        }
+        for (i, &c) in cl.iter().enumerate() {
+            idx[usize::from(c & 1)].push(i as u32);
+        }
         for k in 0..2 {
-            idx.clear();
-            idx.extend((0..self.pts.len() as u32).filter(|&i| cl[i as usize] == k as u8));
             let Some(_) = ransac::best_plane(
                 self.pts,
-                idx,
+                &idx[k],
                 p.ransac_iterations,
                 p.inlier_threshold,
                 p.ransac_score_points,
@@ -419,11 +423,13 @@ impl Ctx<'_> {
             for k in 0..2 {
                 let (own, other) = (planes[k], planes[1 - k]);
                 next.clear();
-                next.extend((0..self.pts.len() as u32).filter(|&i| {
-                    let q = &self.pts[i as usize];
-                    own.distance(q).abs() < p.inlier_threshold
+                for (i, q) in self.pts.iter().enumerate() {
+                    if own.distance(q).abs() < p.inlier_threshold
                         && other.distance(q).abs() >= p.corner_margin
-                }));
+                    {
+                        next.push(i as u32);
+                    }
+                }
                 if *next == inl[k] {
                     continue;
                 }
