@@ -97,7 +97,7 @@ impl Default for LocateParams {
             kmeans_space: Space::Horizontal,
             kmeans_init: Init::PlusPlus,
             ransac_iterations: 100,
-            ransac_score_points: 128,
+            ransac_score_points: 64,
             ransac_confidence: 0.999,
             inlier_threshold: 0.03,
             refit_iterations: 1,
@@ -730,20 +730,45 @@ mod tests {
     #[test]
     #[ignore]
     fn acceptance_report() {
+        let d = LocateParams::default;
         let variants = [
-            ("default", LocateParams::default()),
+            ("default", d()),
+            (
+                // The default before the speed-ups: exact RANSAC and k-means.
+                "exhaustive",
+                LocateParams {
+                    kmeans_points: 0,
+                    ransac_score_points: 0,
+                    ransac_confidence: 0.0,
+                    ..d()
+                },
+            ),
+            (
+                "kmeans-all",
+                LocateParams {
+                    kmeans_points: 0,
+                    ..d()
+                },
+            ),
+            (
+                "confidence-0.99999",
+                LocateParams {
+                    ransac_confidence: 0.99999,
+                    ..d()
+                },
+            ),
+            (
+                "score128",
+                LocateParams {
+                    ransac_score_points: 128,
+                    ..d()
+                },
+            ),
             (
                 "refit3",
                 LocateParams {
                     refit_iterations: 3,
-                    ..LocateParams::default()
-                },
-            ),
-            (
-                "horizontal-only",
-                LocateParams {
-                    refit_iterations: 0,
-                    ..LocateParams::default()
+                    ..d()
                 },
             ),
         ];
