@@ -15,6 +15,12 @@
 //! plane → SVD again) that removes the dependence of the normal on RANSAC's
 //! 3-point hypothesis; together they raise acceptance without touching the gates.
 //!
+//! Speed (also switchable, all off in [`LocateParams::paper`]): k-means finds its
+//! centres on a random sample of the crop, RANSAC scores its hypotheses on a
+//! random subset of each cluster (preemptive RANSAC, the best few re-scored on
+//! all points) and stops once the standard confidence bound is met. The gates,
+//! the inlier threshold and the final SVD fit on all inliers are unchanged.
+//!
 //! Determinism: attempt `i` draws from its own generator seeded from
 //! `(seed, i)`, attempts run in fixed-size batches (in parallel with rayon) and
 //! are consumed in index order, so results are bit-identical for any thread count.
@@ -50,12 +56,25 @@ const BATCH: usize = 32;
 pub struct LocateParams {
     /// Lloyd iterations of k-means (it usually converges in fewer).
     pub kmeans_iterations: usize,
+    /// k-means finds its centres on this many randomly drawn points, then
+    /// assigns every point to the nearer centre (paper: 0 = iterate on all points).
+    pub kmeans_points: usize,
     /// Coordinates k-means clusters on.
     pub kmeans_space: Space,
     /// How k-means picks its starting centres.
     pub kmeans_init: Init,
     /// RANSAC hypotheses per plate (paper: 100).
     pub ransac_iterations: usize,
+    /// Preemptive RANSAC: hypotheses are scored on a random subset of this many
+    /// cluster points and only the best few on all of them (paper: 0 = score
+    /// every hypothesis on every point). The plate's plane is in any case the SVD
+    /// fit on all inliers of the winner, so this trades little accuracy for speed.
+    pub ransac_score_points: usize,
+    /// Adaptive RANSAC stop: draw hypotheses only until the best plane so far was
+    /// found with this probability by the standard N = ln(1 − p) / ln(1 − w³)
+    /// bound (w: its inlier fraction), at most `ransac_iterations` (paper: 0 =
+    /// always draw all of them).
+    pub ransac_confidence: f64,
     /// RANSAC / refit inlier distance, metres (paper: 0.03).
     pub inlier_threshold: f64,
     /// Extra SVD refits on the inliers of the previous fit (paper: 0).
@@ -80,9 +99,12 @@ impl Default for LocateParams {
     fn default() -> Self {
         LocateParams {
             kmeans_iterations: 20,
+            kmeans_points: 256,
             kmeans_space: Space::Horizontal,
             kmeans_init: Init::PlusPlus,
             ransac_iterations: 100,
+            ransac_score_points: 128,
+            ransac_confidence: 0.999,
             inlier_threshold: 0.03,
             refit_iterations: 1,
             corner_margin: 0.1,
@@ -103,6 +125,9 @@ impl LocateParams {
             kmeans_space: Space::Full,
             kmeans_init: Init::Random,
             refit_iterations: 0,
+            kmeans_points: 0,
+            ransac_score_points: 0,
+            ransac_confidence: 0.0,
             max_attempts: 10_000,
             ..LocateParams::default()
         }
@@ -118,6 +143,9 @@ impl LocateParams {
         }
         if !(self.angle_tolerance_deg > 0.0 && self.angle_tolerance_deg < 45.0) {
             return bad("angle_tolerance_deg must be in (0, 45)");
+        }
+        if !(0.0..1.0).contains(&self.ransac_confidence) {
+            return bad("ransac_confidence must be in [0, 1)");
         }
         if self.samples == 0 || self.ransac_iterations == 0 || self.max_attempts == 0 {
             return bad("samples, ransac_iterations and max_attempts must be at least 1");
@@ -288,12 +316,30 @@ enum Reason {
     Tilted,
 }
 
-/// Scratch state of one attempt, and its inputs.
+/// Inputs shared by all attempts.
 struct Ctx<'a> {
     pts: &'a [Vector3<f64>],
+    /// The points in k-means' space.
+    kpts: KPoints<'a>,
     up: Vector3<f64>,
     params: &'a LocateParams,
     sin_tol: f64,
+}
+
+/// The points as k-means compares them.
+enum KPoints<'a> {
+    Full(&'a [Vector3<f64>]),
+    Horizontal(Vec<nalgebra::Vector2<f64>>),
+}
+
+/// Buffers of one attempt, reused across the attempts of a rayon work item.
+#[derive(Default)]
+struct Scratch {
+    cl: Vec<u8>,
+    idx: [Vec<u32>; 2],
+    inl: [Vec<u32>; 2],
+    next: Vec<u32>,
+    sub: Vec<Vector3<f64>>,
 }
 
 fn attempt_rng(seed: u64, attempt: usize) -> rand_pcg::Pcg64Mcg {
@@ -309,36 +355,57 @@ fn attempt_rng(seed: u64, attempt: usize) -> rand_pcg::Pcg64Mcg {
 
 impl Ctx<'_> {
     /// Runs attempt `index`; with `labels`, also records each point's role.
-    fn attempt(&self, index: usize, labels: Option<&mut Vec<Label>>) -> Outcome {
+    fn attempt(&self, index: usize, s: &mut Scratch, labels: Option<&mut Vec<Label>>) -> Outcome {
         let p = self.params;
         let mut rng = attempt_rng(p.seed, index);
-        let mut cl = Vec::new();
-        if !kmeans::split2(
-            self.pts,
-            &self.up,
-            p.kmeans_space,
-            p.kmeans_init,
-            p.kmeans_iterations,
-            &mut rng,
-            &mut cl,
-        ) {
+        let Scratch {
+            cl,
+            idx,
+            inl,
+            next,
+            sub,
+        } = s;
+        let split = match &self.kpts {
+            KPoints::Full(k) => kmeans::split2_points(
+                k,
+                p.kmeans_init,
+                p.kmeans_iterations,
+                p.kmeans_points,
+                &mut rng,
+                cl,
+            ),
+            KPoints::Horizontal(k) => kmeans::split2_points(
+                k,
+                p.kmeans_init,
+                p.kmeans_iterations,
+                p.kmeans_points,
+                &mut rng,
+                cl,
+            ),
+        };
+        if !split {
             return Outcome::Rejected(Reason::Degenerate);
         }
         let mut planes = [Plane {
             normal: Vector3::zeros(),
             offset: 0.0,
         }; 2];
-        let mut inl: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
+        for v in idx.iter_mut() {
+            v.clear();
+        }
+        for (i, &c) in cl.iter().enumerate() {
+            idx[usize::from(c & 1)].push(i as u32);
+        }
         for k in 0..2 {
-            let idx: Vec<u32> = (0..self.pts.len() as u32)
-                .filter(|&i| cl[i as usize] == k as u8)
-                .collect();
             let Some(_) = ransac::best_plane(
                 self.pts,
-                &idx,
+                &idx[k],
                 p.ransac_iterations,
                 p.inlier_threshold,
+                p.ransac_score_points,
+                p.ransac_confidence,
                 &mut rng,
+                sub,
                 &mut inl[k],
             ) else {
                 return Outcome::Rejected(Reason::Degenerate);
@@ -361,24 +428,25 @@ impl Ctx<'_> {
             let mut changed = false;
             for k in 0..2 {
                 let (own, other) = (planes[k], planes[1 - k]);
-                let next: Vec<u32> = (0..self.pts.len() as u32)
-                    .filter(|&i| {
-                        let q = &self.pts[i as usize];
-                        own.distance(q).abs() < p.inlier_threshold
-                            && other.distance(q).abs() >= p.corner_margin
-                    })
-                    .collect();
-                if next == inl[k] {
+                next.clear();
+                for (i, q) in self.pts.iter().enumerate() {
+                    if own.distance(q).abs() < p.inlier_threshold
+                        && other.distance(q).abs() >= p.corner_margin
+                    {
+                        next.push(i as u32);
+                    }
+                }
+                if *next == inl[k] {
                     continue;
                 }
                 if next.len() < MIN_PLATE_INLIERS {
                     return Outcome::Rejected(Reason::Degenerate);
                 }
-                match plane::fit(self.pts, &next) {
+                match plane::fit(self.pts, next) {
                     Some(q) => planes[k] = q,
                     None => return Outcome::Rejected(Reason::Degenerate),
                 }
-                inl[k] = next;
+                std::mem::swap(&mut inl[k], next);
                 changed = true;
             }
             if !changed {
@@ -475,6 +543,10 @@ pub fn locate(
     let pts: Vec<Vector3<f64>> = points.iter().map(|p| p.coords - origin).collect();
     let ctx = Ctx {
         pts: &pts,
+        kpts: match params.kmeans_space {
+            Space::Full => KPoints::Full(&pts),
+            Space::Horizontal => KPoints::Horizontal(kmeans::horizontal(&pts, &up)),
+        },
         up,
         params,
         sin_tol: params.angle_tolerance_deg.to_radians().sin(),
@@ -488,7 +560,7 @@ pub fn locate(
         let end = (attempts + BATCH).min(params.max_attempts);
         let outcomes: Vec<Outcome> = (attempts..end)
             .into_par_iter()
-            .map(|i| ctx.attempt(i, None))
+            .map_init(Scratch::default, |s, i| ctx.attempt(i, s, None))
             .collect();
         for outcome in outcomes {
             attempts += 1;
@@ -539,7 +611,7 @@ pub fn locate(
         .sum::<Vector3<f64>>()
         / k;
     let mut labels = Vec::new();
-    let reference = match ctx.attempt(last_accepted, Some(&mut labels)) {
+    let reference = match ctx.attempt(last_accepted, &mut Scratch::default(), Some(&mut labels)) {
         Outcome::Accepted(s) => s,
         // The same attempt index replays the same random stream; kept total anyway.
         Outcome::Rejected(_) => *samples.last().expect("min_samples >= 1"),
@@ -664,20 +736,45 @@ mod tests {
     #[test]
     #[ignore]
     fn acceptance_report() {
+        let d = LocateParams::default;
         let variants = [
-            ("default", LocateParams::default()),
+            ("default", d()),
+            (
+                // The default before the speed-ups: exact RANSAC and k-means.
+                "exhaustive",
+                LocateParams {
+                    kmeans_points: 0,
+                    ransac_score_points: 0,
+                    ransac_confidence: 0.0,
+                    ..d()
+                },
+            ),
+            (
+                "kmeans-all",
+                LocateParams {
+                    kmeans_points: 0,
+                    ..d()
+                },
+            ),
+            (
+                "confidence-0.99999",
+                LocateParams {
+                    ransac_confidence: 0.99999,
+                    ..d()
+                },
+            ),
+            (
+                "score64",
+                LocateParams {
+                    ransac_score_points: 64,
+                    ..d()
+                },
+            ),
             (
                 "refit3",
                 LocateParams {
                     refit_iterations: 3,
-                    ..LocateParams::default()
-                },
-            ),
-            (
-                "horizontal-only",
-                LocateParams {
-                    refit_iterations: 0,
-                    ..LocateParams::default()
+                    ..d()
                 },
             ),
         ];
@@ -793,5 +890,75 @@ mod behaviour {
             t.corner
         );
         assert!(l.plates.iter().all(|q| q.tilt_deg <= 1.0));
+    }
+}
+
+#[cfg(test)]
+mod diag {
+    use super::testgen;
+    use super::*;
+
+    /// The benchmark's target: reject breakdown per parameter set
+    /// (`MG_DIAG_DEFAULT=1`: the default only, e.g. under `perf record`).
+    #[test]
+    #[ignore]
+    fn bench_target_rejects() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(42);
+        let mut spec = testgen::random_spec(&mut rng, true);
+        spec.points = 950;
+        spec.noise = 0.02;
+        let t = testgen::generate(&mut rng, &spec);
+        for (name, p) in [
+            ("default", LocateParams::default()),
+            ("paper", LocateParams::paper()),
+            (
+                "no-adaptive",
+                LocateParams {
+                    ransac_confidence: 0.0,
+                    ..LocateParams::default()
+                },
+            ),
+            (
+                "margin0.15",
+                LocateParams {
+                    corner_margin: 0.15,
+                    ..LocateParams::default()
+                },
+            ),
+            (
+                "exact-ransac",
+                LocateParams {
+                    ransac_score_points: 0,
+                    ..LocateParams::default()
+                },
+            ),
+            (
+                "refit5",
+                LocateParams {
+                    refit_iterations: 5,
+                    ..LocateParams::default()
+                },
+            ),
+        ] {
+            if std::env::var_os("MG_DIAG_DEFAULT").is_some() && name != "default" {
+                continue;
+            }
+            let t0 = std::time::Instant::now();
+            let r = locate(&t.points, None, &p);
+            let dt = t0.elapsed();
+            match r {
+                Ok(l) => eprintln!(
+                    "{name}: {:?} {}/{} {:?} err {:.4} plates {:?} {:.3}",
+                    dt,
+                    l.accepted,
+                    l.attempts,
+                    l.rejects,
+                    (l.corner - t.corner).norm(),
+                    l.plates,
+                    l.plate_angle_deg
+                ),
+                Err(e) => eprintln!("{name}: {dt:?} {e}"),
+            }
+        }
     }
 }
