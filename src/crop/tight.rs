@@ -422,22 +422,31 @@ fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LSh
     let e1 = (Vector3::x() - up * up.x).normalize();
     let e2 = up.cross(&e1);
     let bin = 0.02;
+    let first = *win.first()?;
+    // Histograms over a fixed range around the first point (every window point
+    // is within two window radii of it, plus what a slightly tilted "up" adds):
+    // arrays, not hash maps, since this loop is most of a dense map's crop time.
+    let half = ((4.0 * p.plate_width + 0.3) / bin).ceil() as i64 + 2;
+    let mut hist_a = vec![0u32; (2 * half + 1) as usize];
+    let mut hist_b = vec![0u32; (2 * half + 1) as usize];
     let mut best: Option<(usize, f64, f64, f64)> = None; // score, theta, offA, offB
-    let mut hist_a: HashMap<i64, usize> = HashMap::new();
-    let mut hist_b: HashMap<i64, usize> = HashMap::new();
     let mut deg = 0.0;
     while deg < 90.0 {
         let th = f64::to_radians(deg);
         let na = e1 * th.cos() + e2 * th.sin();
         let nb = up.cross(&na);
-        hist_a.clear();
-        hist_b.clear();
+        let base_a = (na.dot(&first) / bin).floor() as i64 - half;
+        let base_b = (nb.dot(&first) / bin).floor() as i64 - half;
+        hist_a.fill(0);
+        hist_b.fill(0);
         for v in win {
-            *hist_a.entry((na.dot(v) / bin).floor() as i64).or_default() += 1;
-            *hist_b.entry((nb.dot(v) / bin).floor() as i64).or_default() += 1;
+            let ia = ((na.dot(v) / bin).floor() as i64 - base_a).clamp(0, 2 * half);
+            let ib = ((nb.dot(v) / bin).floor() as i64 - base_b).clamp(0, 2 * half);
+            hist_a[ia as usize] += 1;
+            hist_b[ib as usize] += 1;
         }
-        let (ca, oa) = peak(&hist_a, bin);
-        let (cb, ob) = peak(&hist_b, bin);
+        let (ca, oa) = peak(&hist_a, base_a, bin);
+        let (cb, ob) = peak(&hist_b, base_b, bin);
         let s = ca.min(cb);
         if best.is_none_or(|b| s > b.0) {
             best = Some((s, deg, oa, ob));
@@ -566,15 +575,17 @@ fn is_bounded(
 }
 
 /// Largest count in three consecutive bins, and the centre of those bins.
-fn peak(h: &HashMap<i64, usize>, bin: f64) -> (usize, f64) {
+fn peak(h: &[u32], base: i64, bin: f64) -> (usize, f64) {
     let mut best = (0, 0.0);
-    let mut keys: Vec<i64> = h.keys().copied().collect();
-    keys.sort_unstable();
-    for &k in &keys {
-        let c =
-            h.get(&(k - 1)).copied().unwrap_or(0) + h[&k] + h.get(&(k + 1)).copied().unwrap_or(0);
+    for k in 0..h.len() {
+        if h[k] == 0 {
+            continue;
+        }
+        let c = h[k] as usize
+            + k.checked_sub(1).map_or(0, |j| h[j] as usize)
+            + h.get(k + 1).map_or(0, |&x| x as usize);
         if c > best.0 {
-            best = (c, (k as f64 + 0.5) * bin);
+            best = (c, (k as i64 + base) as f64 * bin + 0.5 * bin);
         }
     }
     best
