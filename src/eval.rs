@@ -256,7 +256,7 @@ pub fn evaluate_map(
         .collect();
     if cfg.frame.second_pass && inp.crops_dir.is_none() && !missing.is_empty() {
         if let Ok(first) = metrics::evaluate(survey, &estimates(&found), &opts) {
-            let inverse = alignment_of(&first).inverse();
+            let inverse = first.alignment.to_alignment().inverse();
             let mut redo = Vec::new();
             for &i in &missing {
                 let predicted = inverse.apply(&survey.targets[i].reference());
@@ -356,10 +356,6 @@ pub fn evaluate_map(
         loose,
         tight,
     })
-}
-
-fn alignment_of(r: &RunResult) -> crate::align::Alignment {
-    r.alignment.to_alignment()
 }
 
 /// Applies the inverse of the approximate map → survey transform.
