@@ -14,6 +14,7 @@ mod e57;
 mod las;
 mod pcd;
 mod ply;
+mod scalar;
 mod write;
 mod xyz;
 

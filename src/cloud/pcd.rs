@@ -28,20 +28,7 @@ const RELEASE_ALIGN: usize = 1 << 16;
 /// An LZF back-reference turns 3 input bytes into at most 264 output bytes.
 const LZF_MAX_RATIO: u64 = 88;
 
-/// The storage type of one PCD field value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Scalar {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
+use super::scalar::Scalar;
 
 impl Scalar {
     fn from_type_size(ty: &str, size: usize) -> Option<Scalar> {
@@ -58,30 +45,6 @@ impl Scalar {
             ("U", 8) => Scalar::U64,
             _ => return None,
         })
-    }
-
-    /// Reads one little-endian value at `o`; the caller guarantees bounds.
-    #[inline(always)]
-    fn read(self, b: &[u8], o: usize) -> f64 {
-        macro_rules! get {
-            ($t:ty, $n:expr) => {{
-                let mut a = [0u8; $n];
-                a.copy_from_slice(&b[o..o + $n]);
-                <$t>::from_le_bytes(a) as f64
-            }};
-        }
-        match self {
-            Scalar::I8 => get!(i8, 1),
-            Scalar::U8 => get!(u8, 1),
-            Scalar::I16 => get!(i16, 2),
-            Scalar::U16 => get!(u16, 2),
-            Scalar::I32 => get!(i32, 4),
-            Scalar::U32 => get!(u32, 4),
-            Scalar::I64 => get!(i64, 8),
-            Scalar::U64 => get!(u64, 8),
-            Scalar::F32 => get!(f32, 4),
-            Scalar::F64 => get!(f64, 8),
-        }
     }
 }
 
@@ -412,13 +375,13 @@ fn decode_into<F: Fn(&[u8], usize) -> f64>(
 }
 
 fn decode_block(data: &[u8], lay: &Layout, first: usize, out: &mut [Point]) -> usize {
-    let f32r = |b: &[u8], o: usize| Scalar::F32.read(b, o);
-    let f64r = |b: &[u8], o: usize| Scalar::F64.read(b, o);
+    let f32r = |b: &[u8], o: usize| Scalar::F32.read_at(b, o, false);
+    let f64r = |b: &[u8], o: usize| Scalar::F64.read_at(b, o, false);
     match lay.kind {
         [Scalar::F32, Scalar::F32, Scalar::F32] => decode_into(data, lay, first, out, [f32r; 3]),
         [Scalar::F64, Scalar::F64, Scalar::F64] => decode_into(data, lay, first, out, [f64r; 3]),
         kinds => {
-            let rd = |c: usize| move |b: &[u8], o: usize| kinds[c].read(b, o);
+            let rd = |c: usize| move |b: &[u8], o: usize| kinds[c].read_at(b, o, false);
             decode_into(data, lay, first, out, [rd(0), rd(1), rd(2)])
         }
     }

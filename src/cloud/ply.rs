@@ -25,18 +25,7 @@ const MAX_HEADER: usize = 1 << 20;
 /// Granularity for releasing consumed pages (a multiple of every common page size).
 const RELEASE: usize = 1 << 16;
 
-/// A PLY scalar type.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Ty {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
+use super::scalar::Scalar as Ty;
 
 impl Ty {
     fn parse(s: &str) -> Option<Ty> {
@@ -51,39 +40,6 @@ impl Ty {
             "double" | "float64" => Ty::F64,
             _ => return None,
         })
-    }
-    fn size(self) -> usize {
-        match self {
-            Ty::I8 | Ty::U8 => 1,
-            Ty::I16 | Ty::U16 => 2,
-            Ty::I32 | Ty::U32 | Ty::F32 => 4,
-            Ty::F64 => 8,
-        }
-    }
-    /// Reads a value as f64 (`b` must hold at least `size()` bytes).
-    #[inline]
-    fn read(self, b: &[u8], be: bool) -> f64 {
-        macro_rules! rd {
-            ($t:ty, $n:expr) => {{
-                let mut a = [0u8; $n];
-                a.copy_from_slice(&b[..$n]);
-                if be {
-                    <$t>::from_be_bytes(a) as f64
-                } else {
-                    <$t>::from_le_bytes(a) as f64
-                }
-            }};
-        }
-        match self {
-            Ty::I8 => rd!(i8, 1),
-            Ty::U8 => rd!(u8, 1),
-            Ty::I16 => rd!(i16, 2),
-            Ty::U16 => rd!(u16, 2),
-            Ty::I32 => rd!(i32, 4),
-            Ty::U32 => rd!(u32, 4),
-            Ty::F32 => rd!(f32, 4),
-            Ty::F64 => rd!(f64, 8),
-        }
     }
 }
 
