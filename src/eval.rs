@@ -32,18 +32,13 @@ pub struct EvalConfig {
 }
 
 impl Default for EvalConfig {
-    /// The locator draws like the paper here (no refit): on whole scenes the
-    /// refit's single converged answer was biased by up to 14 mm on some
-    /// targets, while RANSAC's own variety averaged it out (synthetic scenes,
-    /// median 2–6 mm either way). The refit stays as the fallback.
+    /// The locator's defaults (one refit in a noise-scaled band); the paper's
+    /// plain draws are the fallback (see `locate_with`).
     fn default() -> Self {
         EvalConfig {
             crop: LooseParams::default(),
             tight: TightParams::default(),
-            locate: LocateParams {
-                refit_iterations: 0,
-                ..LocateParams::default()
-            },
+            locate: LocateParams::default(),
             metrics: MetricsConfig::default(),
             frame: FrameConfig::default(),
         }

@@ -45,6 +45,9 @@ pub struct Args {
     /// SVD refits after RANSAC (0 = the paper).
     #[arg(long, default_value_t = LocateParams::default().refit_iterations)]
     refit_iterations: usize,
+    /// Refit inlier band in noise standard deviations (0 = the RANSAC inlier distance).
+    #[arg(long, default_value_t = LocateParams::default().refit_sigmas)]
+    refit_sigmas: f64,
     /// Local vertical as X,Y,Z (e.g. a ground normal).
     #[arg(long, value_parser = parse_up, default_value = "0,0,1")]
     up: Vector3<f64>,
@@ -85,6 +88,7 @@ impl Args {
             inlier_threshold: self.inlier_threshold,
             angle_tolerance_deg: self.angle_tolerance,
             refit_iterations: if self.paper { 0 } else { self.refit_iterations },
+            refit_sigmas: self.refit_sigmas,
             kmeans_space: if self.paper {
                 Space::Full
             } else {
