@@ -167,9 +167,9 @@ fn bush_touching_a_target() {
 
 #[test]
 fn ground_sloped_four_degrees() {
-    // Measured: E_rel 0.0239 against 0.0290 (5.1 mm): the 5 mm goal is missed
-    // by a fraction of a millimetre on this seed (one target 9 mm off).
-    accept(&["--seed", "5", "--slope-deg", "4"], 5.0, 6.0);
+    // Measured: E_rel 0.0247 against 0.0290 on this seed (per-target errors up to
+    // 7 mm, not a bias: seeds 10–13 at 4° are within 0.7 mm).
+    accept(&["--seed", "5", "--slope-deg", "4"], 5.0, 5.0);
 }
 
 #[test]
