@@ -322,6 +322,8 @@ pub enum TableFormat {
     Latex,
     /// CSV.
     Csv,
+    /// An HTML `<table>` (a fragment; `mapgauge table` wraps it in a page).
+    Html,
 }
 
 /// Parses a `--format` value: `None` means JSON, otherwise a table flavour.
@@ -331,9 +333,10 @@ pub fn parse_output_format(s: &str) -> Result<Option<TableFormat>> {
         "markdown" | "md" => Ok(Some(TableFormat::Markdown)),
         "latex" | "tex" => Ok(Some(TableFormat::Latex)),
         "csv" => Ok(Some(TableFormat::Csv)),
+        "html" => Ok(Some(TableFormat::Html)),
         "json" => Ok(None),
         other => Err(Error::Param(format!(
-            "unknown --format `{other}` (table, json, csv, markdown, latex)"
+            "unknown --format `{other}` (table, json, csv, markdown, latex, html)"
         ))),
     }
 }
@@ -417,7 +420,7 @@ impl Grid {
                         .enumerate()
                         .map(|(i, c)| {
                             let c = c.replace('|', "\\|");
-                            if self.bold.contains(&i) && c != "–" {
+                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
                                 format!("**{c}**")
                             } else {
                                 c
@@ -442,7 +445,7 @@ impl Grid {
                         .enumerate()
                         .map(|(i, c)| {
                             let e = latex_escape(c);
-                            if self.bold.contains(&i) && c != "–" {
+                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
                                 format!("\\textbf{{{e}}}")
                             } else {
                                 e
@@ -459,6 +462,27 @@ impl Grid {
                     let cells: Vec<String> = r.iter().map(|c| csv_cell(c)).collect();
                     let _ = writeln!(o, "{}", cells.join(","));
                 }
+            }
+            TableFormat::Html => {
+                use crate::report::html::escape;
+                o.push_str("<table class=\"grid\">\n<thead><tr>");
+                for h in &self.header {
+                    let _ = write!(o, "<th>{}</th>", escape(h));
+                }
+                o.push_str("</tr></thead>\n<tbody>\n");
+                for r in &self.rows {
+                    o.push_str("<tr>");
+                    for (i, c) in r.iter().enumerate() {
+                        let e = escape(c);
+                        if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                            let _ = write!(o, "<td><strong>{e}</strong></td>");
+                        } else {
+                            let _ = write!(o, "<td>{e}</td>");
+                        }
+                    }
+                    o.push_str("</tr>\n");
+                }
+                o.push_str("</tbody>\n</table>\n");
             }
         }
         o
@@ -492,14 +516,53 @@ fn f4(v: f64) -> String {
     }
 }
 
-/// Table I (relative errors) over several runs: E_rel, σ_rel, then each pair.
-/// Pairs missing from a run are shown as "–".
-pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
-    let mut keys: Vec<(String, String)> = Vec::new();
+/// Target ids of several runs in one order: each run's survey order, a target
+/// first seen in a later run placed right after its predecessor there. One run
+/// keeps its survey order; runs with different target sets line up.
+pub fn merged_ids(runs: &[(String, &RunResult)]) -> Vec<String> {
+    let mut ids: Vec<String> = Vec::new();
     for (_, r) in runs {
-        for p in &r.relative.pairs {
-            if !keys.iter().any(|k| k.0 == p.a && k.1 == p.b) {
-                keys.push((p.a.clone(), p.b.clone()));
+        let mut after: Option<usize> = None;
+        for t in &r.targets {
+            match ids.iter().position(|i| i == &t.id) {
+                Some(p) => after = Some(p),
+                None => {
+                    let at = after.map(|p| p + 1).unwrap_or(0);
+                    ids.insert(at, t.id.clone());
+                    after = Some(at);
+                }
+            }
+        }
+    }
+    ids
+}
+
+/// A missing cell: blank when the run has no such target (or pair) at all,
+/// "–" when it has the target but could not score it (not found, excluded).
+fn missing_cell(r: &RunResult, ids: &[&str]) -> String {
+    if ids.iter().all(|id| r.targets.iter().any(|t| t.id == *id)) {
+        "–".into()
+    } else {
+        String::new()
+    }
+}
+
+/// Table I (relative errors) over several runs: E_rel, σ_rel, then every pair
+/// "t1 & t2" in target order, columns keyed by id so different target sets
+/// line up. A pair the run lacks is blank; one it could not score is "–".
+pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
+    let ids = merged_ids(runs);
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for (i, a) in ids.iter().enumerate() {
+        for b in &ids[i + 1..] {
+            let present = runs.iter().any(|(_, r)| {
+                r.relative
+                    .pairs
+                    .iter()
+                    .any(|p| (&p.a == a && &p.b == b) || (&p.a == b && &p.b == a))
+            });
+            if present {
+                keys.push((a.clone(), b.clone()));
             }
         }
     }
@@ -517,9 +580,9 @@ pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
                     .relative
                     .pairs
                     .iter()
-                    .find(|p| &p.a == a && &p.b == b)
+                    .find(|p| (&p.a == a && &p.b == b) || (&p.a == b && &p.b == a))
                     .map(|p| p.error);
-                row.push(v.map(f4).unwrap_or_else(|| "–".into()));
+                row.push(v.map(f4).unwrap_or_else(|| missing_cell(r, &[a, b])));
             }
             row
         })
@@ -532,15 +595,9 @@ pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
 }
 
 /// Table II (absolute errors) over several runs: E_abs, σ_abs, then each target.
+/// A target the run lacks is blank; one it could not locate is "–".
 pub fn absolute_grid(runs: &[(String, &RunResult)]) -> Grid {
-    let mut ids: Vec<String> = Vec::new();
-    for (_, r) in runs {
-        for t in &r.targets {
-            if !ids.contains(&t.id) {
-                ids.push(t.id.clone());
-            }
-        }
-    }
+    let ids = merged_ids(runs);
     let mut header = vec!["Run".to_string(), "E_abs".into(), "σ_abs".into()];
     header.extend(ids.iter().map(|i| target_label(i)));
     let rows = runs
@@ -553,7 +610,7 @@ pub fn absolute_grid(runs: &[(String, &RunResult)]) -> Grid {
                     .iter()
                     .find(|t| &t.id == id)
                     .and_then(|t| t.abs_error);
-                row.push(v.map(f4).unwrap_or_else(|| "–".into()));
+                row.push(v.map(f4).unwrap_or_else(|| missing_cell(r, &[id])));
             }
             row
         })
@@ -744,6 +801,9 @@ fn with_caption(o: &mut String, fmt: TableFormat, caption: &str, g: &Grid) {
         TableFormat::Latex => {
             let _ = writeln!(o, "% {caption}");
         }
+        TableFormat::Html => {
+            let _ = writeln!(o, "<h3>{}</h3>", crate::report::html::escape(caption));
+        }
         TableFormat::Csv => {}
     }
     o.push_str(&g.render(fmt));
@@ -792,6 +852,7 @@ pub fn render_report(r: &RunResult, fmt: TableFormat) -> String {
         let _ = match fmt {
             TableFormat::Latex => writeln!(o, "% {n}"),
             TableFormat::Markdown => writeln!(o, "- {n}"),
+            TableFormat::Html => writeln!(o, "<p>{}</p>", crate::report::html::escape(&n)),
             _ => writeln!(o, "{n}"),
         };
     }
