@@ -43,10 +43,12 @@ import re, struct, sys, zlib
 report, shot, dom_path, *logs = sys.argv[1:]
 fail = []
 
-# 1. Console errors (Chromium logs page console messages as CONSOLE lines).
+# 1. Console errors. Headless Chromium logs every console message (errors,
+# uncaught exceptions, failed loads) as an INFO:CONSOLE line without its level.
+# The report has no script, so any console message at all is a failure.
 for log in logs:
     for line in open(log, errors="replace"):
-        if "CONSOLE" in line and ("ERROR" in line or "Uncaught" in line or "error" in line.lower()):
+        if ":CONSOLE" in line or "Uncaught" in line or "net::ERR_" in line:
             fail.append("console: " + line.strip())
 
 # 2. Every figure is in the rendered DOM: as many <svg> as the page says it has.

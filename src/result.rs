@@ -555,11 +555,9 @@ pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
     let mut keys: Vec<(String, String)> = Vec::new();
     for (i, a) in ids.iter().enumerate() {
         for b in &ids[i + 1..] {
+            // Every pair some run surveyed, scored or not.
             let present = runs.iter().any(|(_, r)| {
-                r.relative
-                    .pairs
-                    .iter()
-                    .any(|p| (&p.a == a && &p.b == b) || (&p.a == b && &p.b == a))
+                r.targets.iter().any(|t| &t.id == a) && r.targets.iter().any(|t| &t.id == b)
             });
             if present {
                 keys.push((a.clone(), b.clone()));
@@ -961,6 +959,84 @@ mod tests {
         let txt = g.render(TableFormat::Text);
         assert_eq!(txt.lines().count(), 2);
         assert_eq!(target_label("3"), "t3");
+        let html = g.render(TableFormat::Html);
+        assert!(
+            html.contains("<td>a|b,c_&quot;d&quot;</td><td><strong>0.1</strong></td>"),
+            "{html}"
+        );
         assert_eq!(target_label("T3"), "T3");
+    }
+
+    fn run(ids: &[&str], found: &[&str]) -> RunResult {
+        let mut r: RunResult = serde_json::from_str(&format!(
+            r#"{{"schema":"{SCHEMA}","mapgauge_version":"0","alignment":{{"method":"rigid2d","rotation_deg":0,"translation":[0,0,0],"scale":1}},
+            "targets":[],"absolute":{{"n":0,"mean":0.01,"std":0.0,"rmse":0,"median":0,"max":0}},
+            "relative":{{"n":0,"mean":0.02,"std":0,"pairs":[]}},
+            "asprs":{{"n_checkpoints":0,"independent":false,"x":{{"bias":0,"std":0,"rmse":0}},"y":{{"bias":0,"std":0,"rmse":0}},"z":null,
+            "rmse_x":0,"rmse_y":0,"rmse_h":0,"rmse_v":null,"rmse_3d":null,"rmse_h_measured":0,"rmse_v_measured":null,
+            "survey_sigma_h":null,"survey_sigma_v":null,"nssda_horizontal_95":0,"nssda_vertical_95":null,"nssda_lines":[],"warnings":[]}}}}"#
+        ))
+        .unwrap();
+        for id in ids {
+            let ok = found.contains(id);
+            r.targets.push(TargetOut {
+                id: id.to_string(),
+                status: if ok { "ok" } else { "not_found" }.into(),
+                reason: None,
+                survey: Xyz {
+                    x: 0.0,
+                    y: 0.0,
+                    z: None,
+                },
+                map: None,
+                aligned: None,
+                abs_error: ok.then_some(0.005),
+                loo_error: None,
+                role: None,
+            });
+        }
+        for (i, a) in found.iter().enumerate() {
+            for b in &found[i + 1..] {
+                r.relative.pairs.push(Pair {
+                    a: a.to_string(),
+                    b: b.to_string(),
+                    survey_distance: 1.0,
+                    map_distance: 1.0,
+                    error: 0.001,
+                    error_per_100m: None,
+                });
+            }
+        }
+        r
+    }
+
+    #[test]
+    fn runs_with_different_targets_line_up() {
+        let a = run(&["1", "2", "4"], &["1", "2", "4"]);
+        let b = run(&["1", "2", "3", "4"], &["1", "3", "4"]);
+        let runs = [("A".to_string(), &a), ("B".to_string(), &b)];
+        assert_eq!(merged_ids(&runs), vec!["1", "2", "3", "4"]);
+        let g = absolute_grid(&runs);
+        assert_eq!(
+            g.header,
+            vec!["Run", "E_abs", "σ_abs", "t1", "t2", "t3", "t4"]
+        );
+        // A lacks t3 entirely (blank); B has t2 but did not find it ("–").
+        assert_eq!(g.rows[0][5], "");
+        assert_eq!(g.rows[1][4], "–");
+        assert_eq!(g.rows[1][5], "0.0050");
+        let r = relative_grid(&runs);
+        assert_eq!(
+            r.header[3..],
+            [
+                "t1 & t2", "t1 & t3", "t1 & t4", "t2 & t3", "t2 & t4", "t3 & t4"
+            ]
+        );
+        assert_eq!(r.rows[0][4], "", "A has no t3");
+        assert_eq!(r.rows[1][3], "–", "B has t2 but no pair with it");
+        assert_eq!(r.rows[1][6], "–", "t2 & t3: B surveyed both, found one");
+        assert_eq!(r.rows[0][6], "", "t2 & t3: A has no t3");
+        let tex = r.render(TableFormat::Latex);
+        assert!(tex.contains("\\textbf{0.0200}") && tex.contains("\\toprule"));
     }
 }
