@@ -474,10 +474,16 @@ impl Grid {
                     o.push_str("<tr>");
                     for (i, c) in r.iter().enumerate() {
                         let e = escape(c);
+                        // Numbers align right (the stylesheet's default), words left.
+                        let num = c.is_empty()
+                            || c == "–"
+                            || c.chars()
+                                .all(|ch| ch.is_ascii_digit() || "+-.eE".contains(ch));
+                        let class = if num || i == 0 { "" } else { " class=\"t\"" };
                         if self.bold.contains(&i) && !c.is_empty() && c != "–" {
-                            let _ = write!(o, "<td><strong>{e}</strong></td>");
+                            let _ = write!(o, "<td{class}><strong>{e}</strong></td>");
                         } else {
-                            let _ = write!(o, "<td>{e}</td>");
+                            let _ = write!(o, "<td{class}>{e}</td>");
                         }
                     }
                     o.push_str("</tr>\n");

@@ -67,7 +67,7 @@ pub struct Args {
     #[arg(long, default_value = "table")]
     pub format: String,
     /// Do not write OUT/report.html (written by default with --out; it reads the
-    /// map once more for its SHA-256, about 0.5 s per GB).
+    /// map once more for its SHA-256, about 1 s per GB).
     #[arg(long)]
     pub no_report: bool,
     /// Also write the report's figures as DIR/<name>.svg and DIR/<name>.png.

@@ -54,7 +54,7 @@ figcaption{color:var(--muted);font-size:13px;margin-top:4px}
 .reason{color:var(--bad);font-weight:bold}
 table.grid{border-collapse:collapse;margin:8px 0 16px;background:var(--card);font-size:13px}
 table.grid th,table.grid td{border-bottom:1px solid var(--line);padding:4px 10px;text-align:right;white-space:nowrap}
-table.grid th:first-child,table.grid td:first-child{text-align:left}
+table.grid th:first-child,table.grid td:first-child,table.grid td.t{text-align:left}
 table.grid thead th{border-bottom:2px solid #999}
 .scroll{overflow-x:auto}
 ul.warn{color:#a04000}
