@@ -395,14 +395,15 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::super::{Provenance, Report};
     use super::*;
     use crate::Point;
     use crate::metrics::{EvalOptions, evaluate};
     use crate::survey::{Estimate, EstimateStatus, Survey, SurveyFrame, SurveyTarget};
 
-    fn result(ids: &[&str]) -> crate::result::RunResult {
+    /// A result with 4 targets at tens of metres, the fourth not found.
+    pub(crate) fn result(ids: &[&str]) -> crate::result::RunResult {
         let pos = [(0.0, 0.0), (30.0, 1.0), (12.0, 25.0), (-14.0, 18.0)];
         let targets: Vec<SurveyTarget> = ids
             .iter()

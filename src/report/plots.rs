@@ -417,10 +417,11 @@ fn cloud(
     proj: impl Fn(&Point) -> (f64, f64),
     color: impl Fn(usize) -> Color,
     order: &[Color],
+    max: usize,
 ) {
     let mut groups: Vec<(Color, Vec<(f64, f64)>)> =
         order.iter().map(|c| (*c, Vec::new())).collect();
-    for i in thin(pts.len(), MAX_POINTS_PER_VIEW) {
+    for i in thin(pts.len(), max) {
         let c = color(i);
         let (x, y) = proj(&pts[i]);
         if !panel.contains(x, y) {
@@ -518,7 +519,15 @@ fn located_panels(f: &mut Figure, r: &RunResult, t: &TargetOut, view: &TargetVie
     }
     let top = Panel::new(TOP, pad(bx, 0.08), pad(by, 0.08), true);
     top.axes(f, "top view", "x − corner x (m)", "y − corner y (m)");
-    cloud(f, &top, tight, |p| (p.x - c.x, p.y - c.y), colour, &order);
+    cloud(
+        f,
+        &top,
+        tight,
+        |p| (p.x - c.x, p.y - c.y),
+        colour,
+        &order,
+        MAX_POINTS_PER_VIEW,
+    );
     // Plate traces: each plane's horizontal line, over its inliers' extent.
     let mut dirs: Vec<Vector2<f64>> = Vec::new();
     if let Some(normals) = d.plate_normals {
@@ -582,7 +591,15 @@ fn located_panels(f: &mut Figure, r: &RunResult, t: &TargetOut, view: &TargetVie
         "across the L (m)",
         "z − corner z (m)",
     );
-    cloud(f, &side, tight, side_of, colour, &order);
+    cloud(
+        f,
+        &side,
+        tight,
+        side_of,
+        colour,
+        &order,
+        MAX_POINTS_PER_VIEW,
+    );
     if let Some(n) = d.plate_normals {
         // The plates' intersection line (the target's edge).
         let axis = Vector3::from(n[0]).cross(&Vector3::from(n[1]));
@@ -742,8 +759,24 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         "x − expected x (m)",
         "y − expected y (m)",
     );
-    cloud(f, &top, loose, top_of, |_| palette::OUTLIER, &order);
-    cloud(f, &top, view.tight, top_of, |_| palette::TIGHT, &order);
+    cloud(
+        f,
+        &top,
+        loose,
+        top_of,
+        |_| palette::OUTLIER,
+        &order,
+        MAX_POINTS_PER_VIEW * 2 / 3,
+    );
+    cloud(
+        f,
+        &top,
+        view.tight,
+        top_of,
+        |_| palette::TIGHT,
+        &order,
+        MAX_POINTS_PER_VIEW / 3,
+    );
     f.marker(top.map(0.0, 0.0), MarkerKind::Ring, 6.0, palette::ESTIMATE);
     let s = survey_in_map(rep.result, t);
     if top.contains(s.x - c.x, s.y - c.y) {
@@ -767,8 +800,24 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         "x − expected x (m)",
         "z − expected z (m)",
     );
-    cloud(f, &side, loose, side_of, |_| palette::OUTLIER, &order);
-    cloud(f, &side, view.tight, side_of, |_| palette::TIGHT, &order);
+    cloud(
+        f,
+        &side,
+        loose,
+        side_of,
+        |_| palette::OUTLIER,
+        &order,
+        MAX_POINTS_PER_VIEW * 2 / 3,
+    );
+    cloud(
+        f,
+        &side,
+        view.tight,
+        side_of,
+        |_| palette::TIGHT,
+        &order,
+        MAX_POINTS_PER_VIEW / 3,
+    );
     // The reason, wrapped, in the third column.
     f.bold(
         (THIRD.0, THIRD.1 - 10.0),
@@ -841,5 +890,71 @@ mod tests {
         assert!(fit_line(&[(1.0, 1.0)]).is_none());
         assert_eq!(wrap("aa bb cc dd", 5), vec!["aa bb", "cc dd"]);
         assert_eq!(file_stem("<t&1>"), "_t_1_");
+    }
+
+    #[test]
+    fn crop_views_are_thinned() {
+        use crate::eval::TargetDiagnostics;
+        let r = crate::report::html::tests::result(&["1", "2", "3", "4"]);
+        // 20 000 points on two plates around target 1's corner, and a big loose crop.
+        let c = r.targets[0].map.map(|m| Point::new(m.x, m.y, 0.0)).unwrap();
+        let pts: Vec<Point> = (0..20_000)
+            .map(|i| {
+                let s = (i % 100) as f64 * 0.006;
+                let z = (i / 200) as f64 * 0.006;
+                if i % 2 == 0 {
+                    Point::new(c.x + s, c.y, z)
+                } else {
+                    Point::new(c.x, c.y + s, z)
+                }
+            })
+            .collect();
+        let labels: Vec<Label> = (0..pts.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    Label::Plate1
+                } else {
+                    Label::Plate2
+                }
+            })
+            .collect();
+        let diag = TargetDiagnostics {
+            labels,
+            plate_normals: Some([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
+            corner: Some(c),
+            samples: vec![c; 100],
+        };
+        let mut views = vec![TargetView::default(); 4];
+        views[0] = TargetView {
+            loose: &pts,
+            tight: &pts,
+            diag: Some(&diag),
+        };
+        views[3] = TargetView {
+            loose: &pts,
+            tight: &pts,
+            diag: None,
+        };
+        let rep = Report {
+            result: &r,
+            targets: views,
+            provenance: Default::default(),
+        };
+        let figs = figures(&rep);
+        assert_eq!(figs.len(), 6);
+        // Two crop views each, at most MAX_POINTS_PER_VIEW apiece, plus samples and legend.
+        for f in &figs[2..] {
+            assert!(
+                f.dot_count() <= 2 * MAX_POINTS_PER_VIEW + 100 + 10,
+                "{}: {}",
+                f.name,
+                f.dot_count()
+            );
+        }
+        assert!(figs[2].dot_count() > 2000, "the located target is drawn");
+        assert!(
+            figs[5].dot_count() > 2000,
+            "the failed target's crops are drawn"
+        );
     }
 }
