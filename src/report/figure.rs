@@ -323,7 +323,7 @@ impl Panel {
             fill: Some(Color(0xff, 0xff, 0xff)),
             stroke: None,
         });
-        for v in nice_ticks(self.x.0, self.x.1, (w / 60.0).clamp(3.0, 8.0) as usize) {
+        for v in nice_ticks(self.x.0, self.x.1, (w / 50.0).clamp(3.0, 8.0) as usize) {
             let (px, _) = self.map(v, self.y.0);
             f.line((px, t), (px, t + h), palette::GRID, 1.0, false);
             f.line((px, t + h), (px, t + h + 4.0), palette::INK, 1.0, false);
