@@ -152,6 +152,21 @@ pub struct EvalInfo {
     pub targets: Vec<TargetDetail>,
 }
 
+/// What a report needs to draw one target, kept from localisation so the report
+/// never has to run it again. Not part of result.json (per-point data).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TargetDiagnostics {
+    /// Role of each tight-crop point in the reference sample (plate 1, plate 2,
+    /// outlier), in the order of [`EvalRun::tight`]; empty when not located.
+    pub labels: Vec<locate::Label>,
+    /// Unit normals of the two fitted plate planes (map frame), when located.
+    pub plate_normals: Option<[[f64; 3]; 2]>,
+    /// The estimated corner (map frame), when located.
+    pub corner: Option<Point>,
+    /// Every accepted sample corner (map frame): the spread behind `corner`.
+    pub samples: Vec<Point>,
+}
+
 /// Everything an `eval` run produces.
 pub struct EvalRun {
     /// The result (result.json).
@@ -160,6 +175,8 @@ pub struct EvalRun {
     pub loose: Vec<Vec<Point>>,
     /// The tight crops, by survey order (empty when none was made).
     pub tight: Vec<Vec<Point>>,
+    /// Per-target plotting data, by survey order.
+    pub diagnostics: Vec<TargetDiagnostics>,
 }
 
 /// Inputs of [`evaluate_map`].
@@ -178,6 +195,7 @@ struct Located {
     status: EstimateStatus,
     detail: TargetDetail,
     tight: Vec<Point>,
+    diag: TargetDiagnostics,
 }
 
 /// Runs the whole pipeline. `progress` gets (bytes read, total bytes) while the
@@ -341,15 +359,18 @@ pub fn evaluate_map(
     }
     let mut result = metrics::evaluate(survey, &estimates(&found), &opts)?;
     let mut tight = Vec::with_capacity(found.len());
+    let mut diagnostics = Vec::with_capacity(found.len());
     for l in found {
         info.targets.push(l.detail);
         tight.push(l.tight);
+        diagnostics.push(l.diag);
     }
     result.eval = Some(info);
     Ok(EvalRun {
         result,
         loose,
         tight,
+        diagnostics,
     })
 }
 
@@ -397,6 +418,7 @@ fn locate_one(
             status: EstimateStatus::NotFound { reason },
             detail,
             tight: Vec::new(),
+            diag: TargetDiagnostics::default(),
         }
     };
     // Hand-made tight crops (the paper's workflow) or the automatic one.
@@ -470,10 +492,17 @@ fn locate_with(
                 detail.spread = Some(l.std);
                 detail.plate_angle_deg = Some(l.plate_angle_deg);
                 detail.failed_stage = None;
+                let diag = TargetDiagnostics {
+                    plate_normals: Some([l.plates[0].normal, l.plates[1].normal]),
+                    corner: Some(l.corner),
+                    samples: l.samples,
+                    labels: l.labels,
+                };
                 return Located {
                     status: EstimateStatus::Found(l.corner),
                     detail,
                     tight: points,
+                    diag,
                 };
             }
             Err(e) => last_err = Some(e),
@@ -487,6 +516,7 @@ fn locate_with(
         status: EstimateStatus::NotFound { reason },
         detail,
         tight: points,
+        diag: TargetDiagnostics::default(),
     }
 }
 

@@ -14,6 +14,7 @@
 //! | align | [`align`] | rigid / similarity / robust (Eq. 1) map → survey fits |
 //! | metrics | [`metrics`], [`result`] | absolute, relative, leave-one-out, ASPRS; result.json |
 //! | all of it | [`eval`] | the pipeline, as `mapgauge eval` runs it |
+//! | report | [`report`] | report.html, SVG and PNG figures of an `eval` run |
 //! | test data | [`synth`] | LiDAR-like synthetic scenes with known truth |
 //!
 //! Locating a target in a tight crop:
@@ -79,6 +80,7 @@ mod error;
 pub mod eval;
 pub mod locate;
 pub mod metrics;
+pub mod report;
 pub mod result;
 pub mod survey;
 pub mod synth;

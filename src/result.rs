@@ -322,6 +322,8 @@ pub enum TableFormat {
     Latex,
     /// CSV.
     Csv,
+    /// An HTML `<table>` (a fragment; `mapgauge table` wraps it in a page).
+    Html,
 }
 
 /// Parses a `--format` value: `None` means JSON, otherwise a table flavour.
@@ -331,9 +333,10 @@ pub fn parse_output_format(s: &str) -> Result<Option<TableFormat>> {
         "markdown" | "md" => Ok(Some(TableFormat::Markdown)),
         "latex" | "tex" => Ok(Some(TableFormat::Latex)),
         "csv" => Ok(Some(TableFormat::Csv)),
+        "html" => Ok(Some(TableFormat::Html)),
         "json" => Ok(None),
         other => Err(Error::Param(format!(
-            "unknown --format `{other}` (table, json, csv, markdown, latex)"
+            "unknown --format `{other}` (table, json, csv, markdown, latex, html)"
         ))),
     }
 }
@@ -368,6 +371,8 @@ fn latex_escape(s: &str) -> String {
             'σ' => o.push_str("$\\sigma$"),
             '→' => o.push_str("$\\to$"),
             '\\' => o.push_str("\\textbackslash{}"),
+            '<' => o.push_str("\\textless{}"),
+            '>' => o.push_str("\\textgreater{}"),
             '^' => o.push_str("\\^{}"),
             '~' => o.push_str("\\~{}"),
             _ => o.push(c),
@@ -417,7 +422,7 @@ impl Grid {
                         .enumerate()
                         .map(|(i, c)| {
                             let c = c.replace('|', "\\|");
-                            if self.bold.contains(&i) && c != "–" {
+                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
                                 format!("**{c}**")
                             } else {
                                 c
@@ -442,7 +447,7 @@ impl Grid {
                         .enumerate()
                         .map(|(i, c)| {
                             let e = latex_escape(c);
-                            if self.bold.contains(&i) && c != "–" {
+                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
                                 format!("\\textbf{{{e}}}")
                             } else {
                                 e
@@ -459,6 +464,33 @@ impl Grid {
                     let cells: Vec<String> = r.iter().map(|c| csv_cell(c)).collect();
                     let _ = writeln!(o, "{}", cells.join(","));
                 }
+            }
+            TableFormat::Html => {
+                use crate::report::html::escape;
+                o.push_str("<table class=\"grid\">\n<thead><tr>");
+                for h in &self.header {
+                    let _ = write!(o, "<th>{}</th>", escape(h));
+                }
+                o.push_str("</tr></thead>\n<tbody>\n");
+                for r in &self.rows {
+                    o.push_str("<tr>");
+                    for (i, c) in r.iter().enumerate() {
+                        let e = escape(c);
+                        // Numbers align right (the stylesheet's default), words left.
+                        let num = c.is_empty()
+                            || c == "–"
+                            || c.chars()
+                                .all(|ch| ch.is_ascii_digit() || "+-.eE".contains(ch));
+                        let class = if num || i == 0 { "" } else { " class=\"t\"" };
+                        if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                            let _ = write!(o, "<td{class}><strong>{e}</strong></td>");
+                        } else {
+                            let _ = write!(o, "<td{class}>{e}</td>");
+                        }
+                    }
+                    o.push_str("</tr>\n");
+                }
+                o.push_str("</tbody>\n</table>\n");
             }
         }
         o
@@ -492,14 +524,55 @@ fn f4(v: f64) -> String {
     }
 }
 
-/// Table I (relative errors) over several runs: E_rel, σ_rel, then each pair.
-/// Pairs missing from a run are shown as "–".
-pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
-    let mut keys: Vec<(String, String)> = Vec::new();
+/// Target ids of several runs in one order: each run's survey order, a target
+/// first seen in a later run placed right after its predecessor there. One run
+/// keeps its survey order; runs with different target sets line up.
+pub fn merged_ids(runs: &[(String, &RunResult)]) -> Vec<String> {
+    let mut ids: Vec<String> = Vec::new();
     for (_, r) in runs {
-        for p in &r.relative.pairs {
-            if !keys.iter().any(|k| k.0 == p.a && k.1 == p.b) {
-                keys.push((p.a.clone(), p.b.clone()));
+        let mut after: Option<usize> = None;
+        for t in &r.targets {
+            match ids.iter().position(|i| i == &t.id) {
+                Some(p) => after = Some(p),
+                None => {
+                    let at = after.map(|p| p + 1).unwrap_or(0);
+                    ids.insert(at, t.id.clone());
+                    after = Some(at);
+                }
+            }
+        }
+    }
+    ids
+}
+
+/// A missing cell: blank when the run has no such target (or pair) at all,
+/// "–" when it has the target but could not score it (not found, excluded).
+fn missing_cell(r: &RunResult, ids: &[&str]) -> String {
+    if ids.iter().all(|id| r.targets.iter().any(|t| t.id == *id)) {
+        "–".into()
+    } else {
+        String::new()
+    }
+}
+
+/// Table I (relative errors) over several runs: E_rel, σ_rel, then every pair
+/// "t1 & t2" in target order, columns keyed by id so different target sets
+/// line up. A pair the run lacks is blank; one it could not score is "–".
+pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
+    let ids = merged_ids(runs);
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for (i, a) in ids.iter().enumerate() {
+        for b in &ids[i + 1..] {
+            // Pairs no run could score would be columns of dashes: Table II
+            // already shows which targets were not found.
+            let present = runs.iter().any(|(_, r)| {
+                r.relative
+                    .pairs
+                    .iter()
+                    .any(|p| (&p.a == a && &p.b == b) || (&p.a == b && &p.b == a))
+            });
+            if present {
+                keys.push((a.clone(), b.clone()));
             }
         }
     }
@@ -517,9 +590,9 @@ pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
                     .relative
                     .pairs
                     .iter()
-                    .find(|p| &p.a == a && &p.b == b)
+                    .find(|p| (&p.a == a && &p.b == b) || (&p.a == b && &p.b == a))
                     .map(|p| p.error);
-                row.push(v.map(f4).unwrap_or_else(|| "–".into()));
+                row.push(v.map(f4).unwrap_or_else(|| missing_cell(r, &[a, b])));
             }
             row
         })
@@ -532,15 +605,9 @@ pub fn relative_grid(runs: &[(String, &RunResult)]) -> Grid {
 }
 
 /// Table II (absolute errors) over several runs: E_abs, σ_abs, then each target.
+/// A target the run lacks is blank; one it could not locate is "–".
 pub fn absolute_grid(runs: &[(String, &RunResult)]) -> Grid {
-    let mut ids: Vec<String> = Vec::new();
-    for (_, r) in runs {
-        for t in &r.targets {
-            if !ids.contains(&t.id) {
-                ids.push(t.id.clone());
-            }
-        }
-    }
+    let ids = merged_ids(runs);
     let mut header = vec!["Run".to_string(), "E_abs".into(), "σ_abs".into()];
     header.extend(ids.iter().map(|i| target_label(i)));
     let rows = runs
@@ -553,7 +620,7 @@ pub fn absolute_grid(runs: &[(String, &RunResult)]) -> Grid {
                     .iter()
                     .find(|t| &t.id == id)
                     .and_then(|t| t.abs_error);
-                row.push(v.map(f4).unwrap_or_else(|| "–".into()));
+                row.push(v.map(f4).unwrap_or_else(|| missing_cell(r, &[id])));
             }
             row
         })
@@ -744,6 +811,9 @@ fn with_caption(o: &mut String, fmt: TableFormat, caption: &str, g: &Grid) {
         TableFormat::Latex => {
             let _ = writeln!(o, "% {caption}");
         }
+        TableFormat::Html => {
+            let _ = writeln!(o, "<h3>{}</h3>", crate::report::html::escape(caption));
+        }
         TableFormat::Csv => {}
     }
     o.push_str(&g.render(fmt));
@@ -792,6 +862,7 @@ pub fn render_report(r: &RunResult, fmt: TableFormat) -> String {
         let _ = match fmt {
             TableFormat::Latex => writeln!(o, "% {n}"),
             TableFormat::Markdown => writeln!(o, "- {n}"),
+            TableFormat::Html => writeln!(o, "<p>{}</p>", crate::report::html::escape(&n)),
             _ => writeln!(o, "{n}"),
         };
     }
@@ -900,6 +971,81 @@ mod tests {
         let txt = g.render(TableFormat::Text);
         assert_eq!(txt.lines().count(), 2);
         assert_eq!(target_label("3"), "t3");
+        let html = g.render(TableFormat::Html);
+        assert!(
+            html.contains("<td>a|b,c_&quot;d&quot;</td><td><strong>0.1</strong></td>"),
+            "{html}"
+        );
         assert_eq!(target_label("T3"), "T3");
+    }
+
+    fn run(ids: &[&str], found: &[&str]) -> RunResult {
+        let mut r: RunResult = serde_json::from_str(&format!(
+            r#"{{"schema":"{SCHEMA}","mapgauge_version":"0","alignment":{{"method":"rigid2d","rotation_deg":0,"translation":[0,0,0],"scale":1}},
+            "targets":[],"absolute":{{"n":0,"mean":0.01,"std":0.0,"rmse":0,"median":0,"max":0}},
+            "relative":{{"n":0,"mean":0.02,"std":0,"pairs":[]}},
+            "asprs":{{"n_checkpoints":0,"independent":false,"x":{{"bias":0,"std":0,"rmse":0}},"y":{{"bias":0,"std":0,"rmse":0}},"z":null,
+            "rmse_x":0,"rmse_y":0,"rmse_h":0,"rmse_v":null,"rmse_3d":null,"rmse_h_measured":0,"rmse_v_measured":null,
+            "survey_sigma_h":null,"survey_sigma_v":null,"nssda_horizontal_95":0,"nssda_vertical_95":null,"nssda_lines":[],"warnings":[]}}}}"#
+        ))
+        .unwrap();
+        for id in ids {
+            let ok = found.contains(id);
+            r.targets.push(TargetOut {
+                id: id.to_string(),
+                status: if ok { "ok" } else { "not_found" }.into(),
+                reason: None,
+                survey: Xyz {
+                    x: 0.0,
+                    y: 0.0,
+                    z: None,
+                },
+                map: None,
+                aligned: None,
+                abs_error: ok.then_some(0.005),
+                loo_error: None,
+                role: None,
+            });
+        }
+        for (i, a) in found.iter().enumerate() {
+            for b in &found[i + 1..] {
+                r.relative.pairs.push(Pair {
+                    a: a.to_string(),
+                    b: b.to_string(),
+                    survey_distance: 1.0,
+                    map_distance: 1.0,
+                    error: 0.001,
+                    error_per_100m: None,
+                });
+            }
+        }
+        r
+    }
+
+    #[test]
+    fn runs_with_different_targets_line_up() {
+        let a = run(&["1", "2", "4"], &["1", "2", "4"]);
+        let b = run(&["1", "2", "3", "4"], &["1", "3", "4"]);
+        let runs = [("A".to_string(), &a), ("B".to_string(), &b)];
+        assert_eq!(merged_ids(&runs), vec!["1", "2", "3", "4"]);
+        let g = absolute_grid(&runs);
+        assert_eq!(
+            g.header,
+            vec!["Run", "E_abs", "σ_abs", "t1", "t2", "t3", "t4"]
+        );
+        // A lacks t3 entirely (blank); B has t2 but did not find it ("–").
+        assert_eq!(g.rows[0][5], "");
+        assert_eq!(g.rows[1][4], "–");
+        assert_eq!(g.rows[1][5], "0.0050");
+        let r = relative_grid(&runs);
+        assert_eq!(
+            r.header[3..],
+            ["t1 & t2", "t1 & t3", "t1 & t4", "t2 & t4", "t3 & t4"]
+        );
+        assert_eq!(r.rows[0][4], "", "A has no t3");
+        assert_eq!(r.rows[1][3], "–", "B has t2 but no pair with it");
+        assert_eq!(r.header.len(), 8, "t2 & t3 was scored by no run");
+        let tex = r.render(TableFormat::Latex);
+        assert!(tex.contains("\\textbf{0.0200}") && tex.contains("\\toprule"));
     }
 }

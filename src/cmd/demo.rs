@@ -61,6 +61,15 @@ pub fn run(a: Args) -> Result<()> {
     let t2 = std::time::Instant::now();
     let out = a.out.join("eval");
     super::eval::write_outputs(&run, &out, true, &[&files.map, &files.survey])?;
+    let t3 = std::time::Instant::now();
+    super::eval::write_report(
+        &run,
+        &cfg,
+        &[("map", &files.map), ("survey", &files.survey)],
+        Some(&out.join("report.html")),
+        None,
+    )?;
+    let t_report = t3.elapsed().as_secs_f64();
 
     print!("{}", render_report(&run.result, TableFormat::Text));
     println!();
@@ -102,13 +111,14 @@ pub fn run(a: Args) -> Result<()> {
         files.map.parent().unwrap_or(&a.out).display()
     );
     println!(
-        "results:  {} (result.json, targets.csv, pairs.csv, crops/)",
+        "results:  {} (result.json, targets.csv, pairs.csv, report.html, crops/)",
         out.display()
     );
     println!(
-        "time:     synthesis {:.1} s, evaluation {:.1} s",
+        "time:     synthesis {:.1} s, evaluation {:.1} s, report {:.2} s",
         (t1 - t0).as_secs_f64(),
-        (t2 - t1).as_secs_f64()
+        (t2 - t1).as_secs_f64(),
+        t_report
     );
     Ok(())
 }

@@ -6,6 +6,7 @@ use mapgauge::cloud::{self, OutFormat};
 use mapgauge::crop::Shape;
 use mapgauge::eval::{EvalConfig, EvalInputs, EvalRun, evaluate_map};
 use mapgauge::metrics::Dim;
+use mapgauge::report::{InputFile, Provenance, Report};
 use mapgauge::result;
 use mapgauge::survey::{SurveyOptions, read_survey};
 use mapgauge::{Error, Result};
@@ -62,9 +63,16 @@ pub struct Args {
     /// ENU origin `lat,lon,alt` for WGS84 surveys [default: the first target].
     #[arg(long)]
     pub origin: Option<String>,
-    /// What to print on stdout: table, json, markdown, latex, csv.
+    /// What to print on stdout: table, json, markdown, latex, csv, html.
     #[arg(long, default_value = "table")]
     pub format: String,
+    /// Do not write OUT/report.html (written by default with --out; it reads the
+    /// map once more for its SHA-256, about 1 s per GB).
+    #[arg(long)]
+    pub no_report: bool,
+    /// Also write the report's figures as DIR/<name>.svg and DIR/<name>.png.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
 }
 
 /// Builds the configuration: defaults, then the TOML file, then flags.
@@ -123,12 +131,74 @@ pub fn run(a: Args) -> Result<()> {
     let fmt = result::parse_output_format(&a.format)?;
     let run = evaluate(map, survey_path, &a, &cfg)?;
     match fmt {
+        Some(result::TableFormat::Html) => print!(
+            "{}",
+            mapgauge::report::html::page(
+                "mapgauge result",
+                &result::render_report(&run.result, result::TableFormat::Html),
+                &[]
+            )
+        ),
         Some(f) => print!("{}", result::render_report(&run.result, f)),
         None => print!("{}", run.result.to_json()),
+    }
+    let mut inputs: Vec<(&str, &Path)> = vec![("map", map), ("survey", survey_path)];
+    if let Some(c) = &a.config {
+        inputs.push(("config", c));
     }
     if let Some(out) = &a.out {
         write_outputs(&run, out, a.save_crops, &[map, survey_path])?;
         eprintln!("results written to {}", out.display());
+    }
+    let html = match &a.out {
+        Some(out) if !a.no_report => Some(out.join("report.html")),
+        _ => None,
+    };
+    write_report(&run, &cfg, &inputs, html.as_deref(), a.plots.as_deref())?;
+    Ok(())
+}
+
+/// Writes report.html (when `html` is given) and the figures as SVG and PNG
+/// under `plots`; logs what it cost on stderr.
+pub fn write_report(
+    run: &EvalRun,
+    cfg: &EvalConfig,
+    inputs: &[(&str, &Path)],
+    html: Option<&Path>,
+    plots: Option<&Path>,
+) -> Result<()> {
+    if html.is_none() && plots.is_none() {
+        return Ok(());
+    }
+    let in_paths: Vec<&Path> = inputs.iter().map(|i| i.1).collect();
+    let t0 = std::time::Instant::now();
+    let mut prov = Provenance::new(Some(cfg.locate.seed), Some(cfg.to_toml()));
+    if html.is_some() {
+        for (role, p) in inputs {
+            prov.inputs.push(InputFile::hash(role, p)?);
+        }
+    }
+    let t_hash = t0.elapsed().as_secs_f64();
+    let report = Report::from_run(run, prov);
+    if let Some(h) = html {
+        refuse_overwrite(h, &in_paths)?;
+        report.write_html(h)?;
+        eprintln!(
+            "report written to {} in {:.2} s (SHA-256 of the inputs {:.2} s)",
+            h.display(),
+            t0.elapsed().as_secs_f64(),
+            t_hash
+        );
+    }
+    if let Some(dir) = plots {
+        let t1 = std::time::Instant::now();
+        let files = report.write_plots(dir)?;
+        eprintln!(
+            "{} figure files written to {} in {:.2} s",
+            files.len(),
+            dir.display(),
+            t1.elapsed().as_secs_f64()
+        );
     }
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `mapgauge table`: the paper's Tables I and II, one row per result file.
 
-use mapgauge::result::{RunResult, TableFormat, absolute_grid, relative_grid};
+use mapgauge::report::html;
+use mapgauge::result::{Grid, RunResult, TableFormat, absolute_grid, relative_grid};
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
 
@@ -13,7 +14,7 @@ pub struct Args {
     /// Row names, comma-separated [default: each file's parent directory name].
     #[arg(long)]
     names: Option<String>,
-    /// Output: markdown, latex, csv or text.
+    /// Output: markdown, latex, csv, html (a standalone page), json or text.
     #[arg(long, default_value = "markdown")]
     format: String,
     /// Which table: relative (Table I), absolute (Table II) or both.
@@ -21,16 +22,32 @@ pub struct Args {
     which: String,
 }
 
+/// A grid as JSON rows keyed by column: numbers as numbers, blank cells as null.
+fn grid_json(g: &Grid) -> serde_json::Value {
+    let rows = g
+        .rows
+        .iter()
+        .map(|r| {
+            let mut m = serde_json::Map::new();
+            for (h, c) in g.header.iter().zip(r) {
+                let v = match c.parse::<f64>() {
+                    Ok(x) if x.is_finite() && !h.eq_ignore_ascii_case("run") => {
+                        serde_json::json!(x)
+                    }
+                    _ if c.is_empty() || c == "–" => serde_json::Value::Null,
+                    _ => serde_json::Value::String(c.clone()),
+                };
+                m.insert(h.clone(), v);
+            }
+            serde_json::Value::Object(m)
+        })
+        .collect();
+    serde_json::Value::Array(rows)
+}
+
 /// Runs `table`.
 pub fn run(a: Args) -> Result<()> {
-    let fmt = match mapgauge::result::parse_output_format(&a.format)? {
-        Some(f) => f,
-        None => {
-            return Err(Error::Param(
-                "--format json is not a table; use the result files themselves".into(),
-            ));
-        }
-    };
+    let fmt = mapgauge::result::parse_output_format(&a.format)?;
     let results: Vec<RunResult> = a
         .results
         .iter()
@@ -70,20 +87,49 @@ pub fn run(a: Args) -> Result<()> {
             )));
         }
     };
+    let mut tables: Vec<(&str, Grid)> = Vec::new();
     if rel {
-        if fmt == TableFormat::Markdown {
-            println!("**Relative error (m)**\n");
-        }
-        print!("{}", relative_grid(&runs).render(fmt));
-    }
-    if rel && abs {
-        println!();
+        tables.push(("Relative error (m) — Table I", relative_grid(&runs)));
     }
     if abs {
-        if fmt == TableFormat::Markdown {
-            println!("**Absolute error (m)**\n");
+        tables.push(("Absolute error (m) — Table II", absolute_grid(&runs)));
+    }
+    let Some(fmt) = fmt else {
+        let mut o = serde_json::Map::new();
+        if rel {
+            o.insert("relative".into(), grid_json(&relative_grid(&runs)));
         }
-        print!("{}", absolute_grid(&runs).render(fmt));
+        if abs {
+            o.insert("absolute".into(), grid_json(&absolute_grid(&runs)));
+        }
+        let text = serde_json::to_string_pretty(&serde_json::Value::Object(o)).unwrap_or_default();
+        println!("{text}");
+        return Ok(());
+    };
+    if fmt == TableFormat::Html {
+        let mut body = String::from("<h1>Map accuracy</h1>\n");
+        for (caption, g) in &tables {
+            body.push_str(&format!(
+                "<h2>{}</h2>\n<div class=\"scroll\">{}</div>\n",
+                html::escape(caption),
+                g.render(fmt)
+            ));
+        }
+        body.push_str(
+            "<p class=\"sub\">Means and standard deviations in bold as in the paper; \
+             a blank cell: the run has no such target; –: it has, but could not locate it.</p>",
+        );
+        print!("{}", html::page("mapgauge tables", &body, &[]));
+        return Ok(());
+    }
+    for (k, (caption, g)) in tables.iter().enumerate() {
+        if k > 0 {
+            println!();
+        }
+        if fmt == TableFormat::Markdown {
+            println!("**{caption}**\n");
+        }
+        print!("{}", g.render(fmt));
     }
     Ok(())
 }

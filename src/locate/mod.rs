@@ -238,6 +238,10 @@ pub struct Located {
     /// Per-point role in the reference sample (same order as the input).
     #[serde(skip)]
     pub labels: Vec<Label>,
+    /// Every accepted sample corner, in the crop's frame (their scatter is the
+    /// spread a report plots).
+    #[serde(skip)]
+    pub samples: Vec<Point>,
 }
 
 impl Located {
@@ -681,6 +685,10 @@ pub fn locate(
         plates: [plate(0), plate(1)],
         plate_angle_deg: cos.acos().to_degrees(),
         labels,
+        samples: samples
+            .iter()
+            .map(|s| Point::from(origin + s.corner))
+            .collect(),
     })
 }
 

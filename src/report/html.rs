@@ -1,0 +1,489 @@
+//! HTML: escaping, the shared stylesheet, standalone pages (`mapgauge table
+//! --format html`) and the report page itself. No script and no external
+//! resource: the page reads the same offline, printed, or with JavaScript off.
+
+use super::figure::Figure;
+use super::plots::{fmt_len, survey_in_map};
+use super::{Report, svg};
+use crate::metrics::Dim;
+use crate::result::{
+    TableFormat, absolute_grid, extra_grid, relative_grid, target_label, targets_grid,
+};
+use std::fmt::Write as _;
+
+/// Escapes text for HTML/XML content and attribute values.
+pub fn escape(s: &str) -> String {
+    let mut o = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => o.push_str("&amp;"),
+            '<' => o.push_str("&lt;"),
+            '>' => o.push_str("&gt;"),
+            '"' => o.push_str("&quot;"),
+            '\'' => o.push_str("&#39;"),
+            _ => o.push(c),
+        }
+    }
+    o
+}
+
+/// The stylesheet shared by every page mapgauge writes.
+pub const CSS: &str = "
+:root{--ink:#222;--muted:#666;--line:#ddd;--bg:#f6f7f9;--card:#fff;--accent:#1f77b4;--bad:#8e44ad}
+*{box-sizing:border-box}
+body{margin:0;background:var(--bg);color:var(--ink);font:15px/1.45 'DejaVu Sans',Verdana,Arial,sans-serif}
+main{max-width:1000px;margin:0 auto;padding:24px 20px 48px}
+h1{font-size:26px;margin:0 0 4px}
+h2{font-size:19px;margin:32px 0 10px;padding-bottom:4px;border-bottom:2px solid var(--line)}
+h3{font-size:16px;margin:0 0 6px}
+p.sub{color:var(--muted);margin:0 0 8px}
+.cards{display:flex;flex-wrap:wrap;gap:10px}
+.card{background:var(--card);border:1px solid var(--line);border-radius:8px;padding:10px 14px;min-width:150px;flex:1}
+.card .k{color:var(--muted);font-size:12px;text-transform:uppercase;letter-spacing:.04em}
+.card .v{font-size:22px;font-weight:bold}
+.card .s{color:var(--muted);font-size:12px}
+figure{margin:10px 0;background:var(--card);border:1px solid var(--line);border-radius:8px;padding:8px;overflow-x:auto}
+figure svg{display:block;max-width:100%;height:auto}
+figcaption{color:var(--muted);font-size:13px;margin-top:4px}
+.target{background:var(--card);border:1px solid var(--line);border-radius:8px;padding:12px 14px;margin:14px 0}
+.target figure{border:none;padding:0;margin:6px 0 0}
+.target.failed{border-left:5px solid var(--bad)}
+.badge{display:inline-block;border-radius:10px;padding:1px 9px;font-size:12px;font-weight:bold;color:#fff;background:#27ae60;vertical-align:middle}
+.failed .badge{background:var(--bad)}
+.facts{color:var(--muted);font-size:13px;margin:2px 0}
+.reason{color:var(--bad);font-weight:bold}
+table.grid{border-collapse:collapse;margin:8px 0 16px;background:var(--card);font-size:13px}
+table.grid th,table.grid td{border-bottom:1px solid var(--line);padding:4px 10px;text-align:right;white-space:nowrap}
+table.grid th:first-child,table.grid td:first-child,table.grid td.t{text-align:left}
+table.grid thead th{border-bottom:2px solid #999}
+.scroll{overflow-x:auto}
+ul.warn{color:#a04000}
+code,pre{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:12px}
+pre{background:var(--card);border:1px solid var(--line);padding:10px;overflow-x:auto}
+td.hash{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:11px;text-align:left}
+footer{color:var(--muted);font-size:12px;margin-top:36px}
+@media print{body{background:#fff}.target,figure,.card{break-inside:avoid}}
+";
+
+/// A complete page around `body` (already HTML).
+pub fn page(title: &str, body: &str, meta: &[(&str, String)]) -> String {
+    let mut o = String::with_capacity(body.len() + CSS.len() + 512);
+    o.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
+    o.push_str("<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n");
+    let _ = writeln!(
+        o,
+        "<meta name=\"generator\" content=\"mapgauge {}\">",
+        env!("CARGO_PKG_VERSION")
+    );
+    for (k, v) in meta {
+        let _ = writeln!(o, "<meta name=\"{}\" content=\"{}\">", escape(k), escape(v));
+    }
+    let _ = writeln!(o, "<title>{}</title>", escape(title));
+    let _ = writeln!(o, "<style>{CSS}</style>\n</head>\n<body>\n<main>");
+    o.push_str(body);
+    o.push_str("\n</main>\n</body>\n</html>\n");
+    o
+}
+
+fn mm(v: f64) -> String {
+    if v.is_finite() {
+        format!("{:.1} mm", v * 1000.0)
+    } else {
+        "–".into()
+    }
+}
+
+fn card(o: &mut String, k: &str, v: &str, s: &str) {
+    let _ = write!(
+        o,
+        "<div class=\"card\"><div class=\"k\">{}</div><div class=\"v\">{}</div><div class=\"s\">{}</div></div>",
+        escape(k),
+        escape(v),
+        escape(s)
+    );
+}
+
+fn figure(o: &mut String, f: &Figure, caption: &str) {
+    let _ = write!(
+        o,
+        "<figure id=\"fig-{}\">{}<figcaption>{}</figcaption></figure>\n",
+        escape(&f.name),
+        svg::render(f),
+        caption
+    );
+}
+
+/// The report page; `figs` are [`Report::figures`] (overview, relative, then
+/// one per target).
+pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
+    let r = rep.result;
+    let p = &rep.provenance;
+    let mut o = String::new();
+    let map_name = r
+        .eval
+        .as_ref()
+        .map(|e| e.map.clone())
+        .or_else(|| {
+            p.inputs
+                .iter()
+                .find(|i| i.role == "map")
+                .map(|i| i.path.clone())
+        })
+        .unwrap_or_else(|| "result".into());
+    let _ = writeln!(o, "<header><h1>Map accuracy report</h1>");
+    let _ = writeln!(
+        o,
+        "<p class=\"sub\">{} · mapgauge {} · {}</p></header>",
+        escape(&map_name),
+        escape(&p.version),
+        escape(&p.date_utc)
+    );
+
+    // Summary.
+    let dim = match r.dim {
+        Dim::D2 => "2D",
+        Dim::D3 => "3D",
+    };
+    let n_ok = r.targets.iter().filter(|t| t.status == "ok").count();
+    o.push_str("<section id=\"summary\"><h2>Summary</h2><div class=\"cards\">");
+    card(
+        &mut o,
+        "E_abs (mean absolute error)",
+        &mm(r.absolute.mean),
+        &format!(
+            "σ_abs {} · {dim} · n = {}",
+            mm(r.absolute.std),
+            r.absolute.n
+        ),
+    );
+    card(
+        &mut o,
+        "E_rel (mean relative error)",
+        &mm(r.relative.mean),
+        &format!("σ_rel {} · {} pairs", mm(r.relative.std), r.relative.n),
+    );
+    card(
+        &mut o,
+        "RMSE_H",
+        &mm(r.asprs.rmse_h),
+        &format!("NSSDA 95 %: {}", mm(r.asprs.nssda_horizontal_95)),
+    );
+    let a = &r.alignment;
+    card(
+        &mut o,
+        "Alignment",
+        &format!("{:.3}°", a.rotation_deg),
+        &format!(
+            "{} · t = ({:.3}, {:.3}) m",
+            a.method, a.translation[0], a.translation[1]
+        ),
+    );
+    card(
+        &mut o,
+        "Targets found",
+        &format!("{n_ok} / {}", r.targets.len()),
+        if n_ok == r.targets.len() {
+            "all located"
+        } else {
+            "see the failed panels below"
+        },
+    );
+    o.push_str("</div>");
+    let mut warn: Vec<String> = r.warnings.clone();
+    warn.extend(r.asprs.warnings.iter().cloned());
+    for t in r.targets.iter().filter(|t| t.status != "ok") {
+        warn.push(format!(
+            "target {} {}: {}",
+            target_label(&t.id),
+            t.status.replace('_', " "),
+            t.reason.as_deref().unwrap_or("")
+        ));
+    }
+    if !warn.is_empty() {
+        o.push_str("<ul class=\"warn\">");
+        for w in &warn {
+            let _ = write!(o, "<li>{}</li>", escape(w));
+        }
+        o.push_str("</ul>");
+    }
+    o.push_str("</section>\n");
+
+    let mut figs = figs.iter();
+    if let Some(f) = figs.next() {
+        o.push_str("<section id=\"overview\"><h2>Target positions</h2>");
+        figure(
+            &mut o,
+            f,
+            "Survey frame. Each arrow runs from a surveyed position to the aligned map estimate, lengthened by the factor in the legend so that centimetre errors are visible on a plan of tens of metres.",
+        );
+        o.push_str("</section>\n");
+    }
+    if let Some(f) = figs.next() {
+        o.push_str("<section id=\"relative\"><h2>Relative error against distance</h2>");
+        figure(
+            &mut o,
+            f,
+            "Every pair of located targets: | map distance − surveyed distance | against the surveyed distance. Relative errors need no alignment; a rising line means the map stretches or drifts with distance.",
+        );
+        o.push_str("</section>\n");
+    }
+
+    // Per target.
+    o.push_str("<section id=\"targets\"><h2>Targets</h2>");
+    let details = r.eval.as_ref().map(|e| &e.targets);
+    for (i, (t, f)) in r.targets.iter().zip(figs).enumerate() {
+        let ok = t.status == "ok";
+        let _ = write!(
+            o,
+            "<div class=\"target{}\" id=\"target-{i}\"><h3>{} <span class=\"badge\">{}</span>{}</h3>",
+            if ok { "" } else { " failed" },
+            escape(&target_label(&t.id)),
+            escape(&t.status.replace('_', " ")),
+            t.abs_error
+                .map(|e| format!(" · absolute error {}", escape(&fmt_len(e))))
+                .unwrap_or_default()
+        );
+        let d = details.and_then(|v| v.iter().find(|d| d.id == t.id));
+        let mut facts: Vec<String> = Vec::new();
+        if let Some(d) = d {
+            facts.push(format!(
+                "{} loose / {} tight points",
+                d.loose_points, d.tight_points
+            ));
+            if d.attempts > 0 {
+                facts.push(format!(
+                    "{} of {} attempts accepted",
+                    d.accepted, d.attempts
+                ));
+            }
+            if let Some(a) = d.plate_angle_deg {
+                facts.push(format!("plates {a:.2}° apart"));
+            }
+            if let Some(s) = d.spread {
+                facts.push(format!(
+                    "sample σ = ({:.1}, {:.1}, {:.1}) mm",
+                    s[0] * 1000.0,
+                    s[1] * 1000.0,
+                    s[2] * 1000.0
+                ));
+            }
+            if d.pass > 1 {
+                facts.push("found in the second pass".into());
+            }
+        }
+        if let (Some(m), true) = (t.map, ok) {
+            let s = survey_in_map(r, t);
+            facts.push(format!(
+                "survey − estimate (map frame) = ({:.1}, {:.1}) mm",
+                (s.x - m.x) * 1000.0,
+                (s.y - m.y) * 1000.0
+            ));
+        }
+        if !facts.is_empty() {
+            let _ = write!(o, "<p class=\"facts\">{}</p>", escape(&facts.join(" · ")));
+        }
+        if let Some(reason) = t.reason.as_deref().filter(|_| !ok) {
+            let _ = write!(o, "<p class=\"reason\">{}</p>", escape(reason));
+        }
+        let cap = if ok {
+            "Tight crop coloured by the reference sample's plate inliers and outliers; dark lines are the fitted plate planes seen from above; the right view shows every accepted sample around the mean corner."
+        } else {
+            "The loose crop (grey) around where the target was looked for, and the tight crop (orange) when one was made."
+        };
+        figure(&mut o, f, cap);
+        o.push_str("</div>\n");
+    }
+    o.push_str("</section>\n");
+
+    // Tables.
+    let runs = [("this run".to_string(), r)];
+    o.push_str("<section id=\"tables\"><h2>Tables</h2>");
+    let _ = write!(
+        o,
+        "<h3>Relative error (m, {dim}) — the paper's Table I</h3><div class=\"scroll\">{}</div>",
+        relative_grid(&runs).render(TableFormat::Html)
+    );
+    let _ = write!(
+        o,
+        "<h3>Absolute error (m, {dim}) — the paper's Table II</h3><div class=\"scroll\">{}</div>",
+        absolute_grid(&runs).render(TableFormat::Html)
+    );
+    let _ = write!(
+        o,
+        "<h3>Statistics</h3><div class=\"scroll\">{}</div>",
+        extra_grid(r).render(TableFormat::Html)
+    );
+    let _ = write!(
+        o,
+        "<h3>Targets</h3><div class=\"scroll\">{}</div>",
+        targets_grid(r).render(TableFormat::Html)
+    );
+    if !r.asprs.nssda_lines.is_empty() {
+        o.push_str("<ul>");
+        for l in &r.asprs.nssda_lines {
+            let _ = write!(o, "<li>{}</li>", escape(l));
+        }
+        o.push_str("</ul>");
+    }
+    o.push_str("</section>\n");
+
+    // Provenance.
+    o.push_str("<section id=\"provenance\"><h2>Parameters and provenance</h2><table class=\"grid\"><tbody>");
+    let mut row = |k: &str, v: &str| {
+        let _ = write!(
+            o,
+            "<tr><th>{}</th><td style=\"text-align:left\">{}</td></tr>",
+            escape(k),
+            escape(v)
+        );
+    };
+    row("mapgauge version", &p.version);
+    row("report written", &p.date_utc);
+    row(
+        "seed",
+        &p.seed.map(|s| s.to_string()).unwrap_or_else(|| "–".into()),
+    );
+    row(
+        "alignment",
+        &format!("{} ({} targets)", r.alignment.method, r.alignment.n_used),
+    );
+    row("error dimension", dim);
+    if let Some(e) = &r.eval {
+        row(
+            "map points read",
+            &format!(
+                "{} ({} non-finite skipped)",
+                e.map_points, e.skipped_nonfinite
+            ),
+        );
+    }
+    o.push_str("</tbody></table>");
+    if !p.inputs.is_empty() {
+        o.push_str("<h3>Input files</h3><div class=\"scroll\"><table class=\"grid\"><thead><tr><th>role</th><th>file</th><th>bytes</th><th>SHA-256</th></tr></thead><tbody>");
+        for f in &p.inputs {
+            let _ = write!(
+                o,
+                "<tr><td>{}</td><td style=\"text-align:left\">{}</td><td>{}</td><td class=\"hash\">{}</td></tr>",
+                escape(&f.role),
+                escape(&f.path),
+                f.bytes,
+                escape(&f.sha256)
+            );
+        }
+        o.push_str("</tbody></table></div>");
+    }
+    if let Some(c) = &p.config_toml {
+        let _ = write!(
+            o,
+            "<details><summary>Every parameter (TOML for <code>--config</code>)</summary><pre>{}</pre></details>",
+            escape(c)
+        );
+    }
+    o.push_str("</section>\n");
+    let _ = write!(
+        o,
+        "<footer>Written by mapgauge {} — the method of Hahn et al., ICCAS 2024, without its manual step. Numbers are metres unless marked.</footer>",
+        escape(&p.version)
+    );
+
+    let n_svg = o.matches("<svg ").count();
+    page(
+        &format!("mapgauge report — {map_name}"),
+        &o,
+        &[("mapgauge-figures", n_svg.to_string())],
+    )
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::super::{Provenance, Report};
+    use super::*;
+    use crate::Point;
+    use crate::metrics::{EvalOptions, evaluate};
+    use crate::survey::{Estimate, EstimateStatus, Survey, SurveyFrame, SurveyTarget};
+
+    /// A result with 4 targets at tens of metres, the fourth not found.
+    pub(crate) fn result(ids: &[&str]) -> crate::result::RunResult {
+        let pos = [(0.0, 0.0), (30.0, 1.0), (12.0, 25.0), (-14.0, 18.0)];
+        let targets: Vec<SurveyTarget> = ids
+            .iter()
+            .zip(pos)
+            .enumerate()
+            .map(|(i, (id, p))| SurveyTarget {
+                id: id.to_string(),
+                position: Point::new(p.0, p.1, 0.0),
+                has_z: false,
+                role: None,
+                antenna_height: 0.0,
+                line: i as u64 + 2,
+            })
+            .collect();
+        let survey = Survey {
+            targets,
+            frame: SurveyFrame::Local,
+            origin: None,
+        };
+        let est: Vec<Estimate> = survey
+            .targets
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Estimate {
+                id: t.id.clone(),
+                status: if i == 3 {
+                    EstimateStatus::NotFound {
+                        reason: "too few points <here> & there".into(),
+                    }
+                } else {
+                    EstimateStatus::Found(
+                        t.position + nalgebra::Vector3::new(0.01 * i as f64, -0.02, 0.0),
+                    )
+                },
+                has_z: false,
+            })
+            .collect();
+        let opts = EvalOptions {
+            method: Default::default(),
+            dim: Dim::D2,
+            survey_sigma: None,
+        };
+        evaluate(&survey, &est, &opts).unwrap()
+    }
+
+    #[test]
+    fn report_page_is_self_contained() {
+        let r = result(&["<t&1>", "2", "3", "4"]);
+        let mut prov = Provenance::new(Some(7), Some("[locate]\nseed = 7\n".into()));
+        prov.date_utc = "2026-01-01 00:00:00 UTC".into();
+        let rep = Report::from_result(&r, prov);
+        let figs = rep.figures();
+        assert_eq!(figs.len(), 2 + 4);
+        let html = rep.html();
+        // One panel per target, one figure each plus overview and relative.
+        assert_eq!(html.matches("<div class=\"target").count(), 4);
+        assert_eq!(html.matches("<svg ").count(), 6);
+        assert!(html.contains("<meta name=\"mapgauge-figures\" content=\"6\">"));
+        assert_eq!(html.matches("class=\"target failed\"").count(), 1);
+        // Ids and reasons are escaped everywhere.
+        assert!(!html.contains("<t&1>"), "raw id in the page");
+        assert!(html.contains("&lt;t&amp;1&gt;"));
+        assert!(html.contains("too few points &lt;here&gt; &amp; there"));
+        // No network: `http` appears only in SVG namespace declarations.
+        let http = html.matches("http").count();
+        let ns = html.matches("xmlns=\"http://www.w3.org/2000/svg\"").count();
+        assert_eq!(http, ns, "external reference in the page");
+        assert!(!html.contains("<script") && !html.contains("<link") && !html.contains("url("));
+        crate::report::tests::check_xmlish(&html[html.find("<html").unwrap()..]);
+        for f in &figs {
+            crate::report::tests::check_xmlish(&svg::render(f));
+        }
+        assert!(html.contains("2026-01-01 00:00:00 UTC") && html.contains("seed = 7"));
+    }
+
+    #[test]
+    fn escape_all_specials() {
+        assert_eq!(
+            escape("<a href='x'>&\"</a>"),
+            "&lt;a href=&#39;x&#39;&gt;&amp;&quot;&lt;/a&gt;"
+        );
+    }
+}

@@ -1,0 +1,285 @@
+//! Reports people read: `report.html` (one self-contained page: inline SVG and
+//! CSS, no script, no network) and the same figures as SVG and PNG files.
+//!
+//! Data flows one way: a [`Report`] borrows what [`crate::eval::evaluate_map`]
+//! produced (the result, the crops and the per-target diagnostics) and only
+//! draws it; it never runs localisation again.
+//!
+//! ```no_run
+//! # fn main() -> mapgauge::Result<()> {
+//! use mapgauge::report::{Provenance, Report};
+//! # let run: mapgauge::eval::EvalRun = unimplemented!();
+//! let prov = Provenance::new(Some(0), None);
+//! let report = Report::from_run(&run, prov);
+//! report.write_html(std::path::Path::new("out/report.html"))?;
+//! report.write_plots(std::path::Path::new("out/plots"))?;
+//! # Ok(()) }
+//! ```
+
+pub mod figure;
+pub mod html;
+pub mod plots;
+pub mod png;
+pub mod svg;
+
+use crate::eval::{EvalRun, TargetDiagnostics};
+use crate::result::{RunResult, write_atomic};
+use crate::{Error, Point, Result};
+use sha2::{Digest, Sha256};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// One input file as the report names it: what it was, how big, its SHA-256.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InputFile {
+    /// Its role (`map`, `survey`, `config`).
+    pub role: String,
+    /// Path as given on the command line.
+    pub path: String,
+    /// Size in bytes.
+    pub bytes: u64,
+    /// SHA-256, lowercase hex.
+    pub sha256: String,
+}
+
+impl InputFile {
+    /// Reads `path` once, streaming (1 MiB at a time: a map need not fit in
+    /// memory), and returns its size and SHA-256.
+    pub fn hash(role: &str, path: &Path) -> Result<InputFile> {
+        let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let mut h = Sha256::new();
+        let mut buf = vec![0u8; 1 << 20];
+        let mut bytes = 0u64;
+        loop {
+            let n = f.read(&mut buf).map_err(|e| Error::io(path, e))?;
+            if n == 0 {
+                break;
+            }
+            h.update(&buf[..n]);
+            bytes += n as u64;
+        }
+        let sha256 = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
+        Ok(InputFile {
+            role: role.into(),
+            path: path.display().to_string(),
+            bytes,
+            sha256,
+        })
+    }
+}
+
+/// Where a report's numbers came from: tool version, inputs, seed, date and
+/// parameters. Kept out of result.json (the date would make reruns differ).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Provenance {
+    /// mapgauge version.
+    pub version: String,
+    /// When the report was written, `YYYY-MM-DD HH:MM:SS UTC`.
+    pub date_utc: String,
+    /// Seed of the random draws.
+    pub seed: Option<u64>,
+    /// Input files with sizes and hashes.
+    pub inputs: Vec<InputFile>,
+    /// Every parameter, as the TOML that reproduces the run.
+    pub config_toml: Option<String>,
+}
+
+impl Provenance {
+    /// Provenance stamped now (or at `SOURCE_DATE_EPOCH`, for reproducible pages).
+    pub fn new(seed: Option<u64>, config_toml: Option<String>) -> Provenance {
+        Provenance {
+            version: env!("CARGO_PKG_VERSION").into(),
+            date_utc: utc_string(report_time()),
+            seed,
+            inputs: Vec::new(),
+            config_toml,
+        }
+    }
+}
+
+/// Seconds since 1970 from `SOURCE_DATE_EPOCH` when set, else the clock.
+pub fn report_time() -> i64 {
+    if let Some(t) = std::env::var("SOURCE_DATE_EPOCH")
+        .ok()
+        .and_then(|s| s.trim().parse::<i64>().ok())
+    {
+        return t;
+    }
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0)
+}
+
+/// `YYYY-MM-DD HH:MM:SS UTC` for seconds since 1970 (proleptic Gregorian).
+pub fn utc_string(secs: i64) -> String {
+    let days = secs.div_euclid(86_400);
+    let s = secs.rem_euclid(86_400);
+    // Days → civil date (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC",
+        s / 3600,
+        s / 60 % 60,
+        s % 60
+    )
+}
+
+/// The crops and diagnostics of one target, borrowed from an [`EvalRun`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TargetView<'a> {
+    /// Loose crop (map frame).
+    pub loose: &'a [Point],
+    /// Tight crop (map frame), empty when none was made.
+    pub tight: &'a [Point],
+    /// What localisation kept for plotting, when it ran.
+    pub diag: Option<&'a TargetDiagnostics>,
+}
+
+/// Everything a report shows.
+#[derive(Debug, Clone)]
+pub struct Report<'a> {
+    /// The result (result.json).
+    pub result: &'a RunResult,
+    /// Per target, in the order of `result.targets`.
+    pub targets: Vec<TargetView<'a>>,
+    /// Inputs, seed, date, parameters.
+    pub provenance: Provenance,
+}
+
+impl<'a> Report<'a> {
+    /// A report of an `eval` run.
+    pub fn from_run(run: &'a EvalRun, provenance: Provenance) -> Report<'a> {
+        let targets = (0..run.result.targets.len())
+            .map(|i| TargetView {
+                loose: run.loose.get(i).map(|v| v.as_slice()).unwrap_or(&[]),
+                tight: run.tight.get(i).map(|v| v.as_slice()).unwrap_or(&[]),
+                diag: run.diagnostics.get(i),
+            })
+            .collect();
+        Report {
+            result: &run.result,
+            targets,
+            provenance,
+        }
+    }
+    /// A report of a result alone (no crops: target panels say so).
+    pub fn from_result(result: &'a RunResult, provenance: Provenance) -> Report<'a> {
+        Report {
+            result,
+            targets: Vec::new(),
+            provenance,
+        }
+    }
+    /// Every figure, in page order.
+    pub fn figures(&self) -> Vec<figure::Figure> {
+        plots::figures(self)
+    }
+    /// The whole page.
+    pub fn html(&self) -> String {
+        html::report_page(self, &self.figures())
+    }
+    /// Writes the page atomically.
+    pub fn write_html(&self, path: &Path) -> Result<()> {
+        write_atomic(path, self.html().as_bytes())
+    }
+    /// Writes every figure as `DIR/<name>.svg` and `DIR/<name>.png`; returns the paths.
+    pub fn write_plots(&self, dir: &Path) -> Result<Vec<PathBuf>> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let mut out = Vec::new();
+        for f in self.figures() {
+            let svg_path = dir.join(format!("{}.svg", f.name));
+            let mut text = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+            text.push_str(&svg::render(&f));
+            text.push('\n');
+            write_atomic(&svg_path, text.as_bytes())?;
+            let png_path = dir.join(format!("{}.png", f.name));
+            png::write(&f, &png_path)?;
+            out.push(svg_path);
+            out.push(png_path);
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A small XML well-formedness check: tags balance, attributes are quoted,
+    /// no raw `<` or `&` in text. Enough to catch a broken builder.
+    pub fn check_xmlish(s: &str) {
+        let mut stack: Vec<String> = Vec::new();
+        let mut i = 0;
+        let b = s.as_bytes();
+        while i < b.len() {
+            match b[i] {
+                b'<' => {
+                    let end = s[i..].find('>').map(|e| i + e).expect("unclosed tag");
+                    let tag = &s[i + 1..end];
+                    assert!(!tag.contains('<'), "`<` inside a tag: {tag}");
+                    if tag.starts_with('!') || tag.starts_with('?') {
+                    } else if let Some(name) = tag.strip_prefix('/') {
+                        let open = stack.pop().unwrap_or_default();
+                        assert_eq!(open, name.trim(), "mismatched close");
+                    } else {
+                        let name: String = tag
+                            .chars()
+                            .take_while(|c| !c.is_whitespace() && *c != '/')
+                            .collect();
+                        assert_eq!(
+                            tag.matches('"').count() % 2,
+                            0,
+                            "unbalanced quotes in {tag}"
+                        );
+                        let void = ["meta", "br", "hr", "img", "link", "input", "col", "wbr"];
+                        if !tag.ends_with('/') && !void.contains(&name.as_str()) {
+                            stack.push(name);
+                        }
+                    }
+                    i = end + 1;
+                }
+                b'&' => {
+                    let semi = s[i..].find(';').expect("bare &");
+                    let ent = &s[i + 1..i + semi];
+                    assert!(
+                        ["amp", "lt", "gt", "quot", "#39"].contains(&ent),
+                        "entity &{ent};"
+                    );
+                    i += semi + 1;
+                }
+                _ => i += 1,
+            }
+        }
+        assert!(stack.is_empty(), "unclosed elements: {stack:?}");
+    }
+
+    #[test]
+    fn dates() {
+        assert_eq!(utc_string(0), "1970-01-01 00:00:00 UTC");
+        assert_eq!(utc_string(951_782_400), "2000-02-29 00:00:00 UTC");
+        assert_eq!(utc_string(1_700_000_000), "2023-11-14 22:13:20 UTC");
+    }
+
+    #[test]
+    fn hash_streams_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.txt");
+        std::fs::write(&p, b"abc").unwrap();
+        let f = InputFile::hash("map", &p).unwrap();
+        assert_eq!(f.bytes, 3);
+        assert_eq!(
+            f.sha256,
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+        assert!(InputFile::hash("map", &dir.path().join("missing")).is_err());
+    }
+}

@@ -1,0 +1,159 @@
+//! `eval` writes report.html and, with `--plots`, every figure as SVG and PNG;
+//! `table` renders several runs as one HTML page or JSON.
+
+use std::path::Path;
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
+}
+
+fn run(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// A small scene (4 targets) plus one surveyed target where nothing stands.
+fn scene(dir: &Path) {
+    run(bin()
+        .args(["synth", "--points", "800000", "--targets", "4", "--out"])
+        .arg(dir));
+    let survey = dir.join("survey.csv");
+    let mut text = std::fs::read_to_string(&survey).unwrap();
+    text.push_str("<t&9>,900.0,900.0,1.0,0.42\n");
+    std::fs::write(dir.join("survey_extra.csv"), text).unwrap();
+}
+
+#[test]
+fn eval_writes_report_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    scene(dir.path());
+    let out = dir.path().join("out");
+    let plots = dir.path().join("plots");
+    run(bin()
+        .args(["eval", "--map"])
+        .arg(dir.path().join("map.ply"))
+        .arg("--survey")
+        .arg(dir.path().join("survey_extra.csv"))
+        .arg("--out")
+        .arg(&out)
+        .arg("--plots")
+        .arg(&plots));
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    // Overview, relative error, and one panel per target (5, one failed).
+    assert_eq!(html.matches("<svg ").count(), 7);
+    assert_eq!(html.matches("<div class=\"target").count(), 5);
+    // The unsurveyable target fails (a sparse synthetic target may too).
+    assert!(html.matches("class=\"target failed\"").count() >= 1);
+    assert!(html.contains("&lt;t&amp;9&gt;") && !html.contains("<t&9>"));
+    assert!(html.contains("no map points within the crop radius"));
+    // Provenance: both inputs with their SHA-256 (64 hex digits).
+    assert!(html.contains("map.ply") && html.contains("survey_extra.csv"));
+    assert_eq!(
+        html.matches("<td class=\"hash\">").count(),
+        2,
+        "two hashed inputs"
+    );
+    assert_eq!(
+        html.matches("http").count(),
+        html.matches("xmlns=\"http://www.w3.org/2000/svg\"").count()
+    );
+    // result.json stays free of the date: byte-identical on a rerun.
+    let first = std::fs::read(out.join("result.json")).unwrap();
+    let out2 = dir.path().join("out2");
+    run(bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(dir.path().join("map.ply"))
+        .arg("--survey")
+        .arg(dir.path().join("survey_extra.csv"))
+        .arg("--out")
+        .arg(&out2));
+    assert_eq!(first, std::fs::read(out2.join("result.json")).unwrap());
+    assert!(!out2.join("report.html").exists(), "--no-report");
+
+    let mut names: Vec<String> = std::fs::read_dir(&plots)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 14, "{names:?}");
+    for stem in [
+        "overview",
+        "relative",
+        "target-1",
+        "target-4",
+        "target-_t_9_",
+    ] {
+        let svg = std::fs::read_to_string(plots.join(format!("{stem}.svg"))).unwrap();
+        assert!(svg.contains("<svg ") && svg.trim_end().ends_with("</svg>"));
+        let png = std::fs::read(plots.join(format!("{stem}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{stem}.png");
+        assert!(png.len() > 10_000, "{stem}.png is {} bytes", png.len());
+    }
+}
+
+#[test]
+fn table_html_and_json_line_up_different_target_sets() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let mut results = Vec::new();
+    for (name, drop) in [("all", None), ("four", Some("3"))] {
+        let out = dir.path().join(name);
+        let est = std::fs::read_to_string(data.join("paper_seq5_estimates.csv")).unwrap();
+        let est: String = est
+            .lines()
+            .filter(|l| drop.is_none_or(|d| !l.starts_with(&format!("{d},"))))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let est_path = dir.path().join(format!("{name}.csv"));
+        std::fs::write(&est_path, est).unwrap();
+        let survey = if drop.is_some() {
+            // The survey without target 3 too: a run with a different target set.
+            let s = std::fs::read_to_string(data.join("paper_seq5_survey.csv")).unwrap();
+            let s: String = s
+                .lines()
+                .filter(|l| !l.starts_with("3,"))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            let p = dir.path().join("survey4.csv");
+            std::fs::write(&p, s).unwrap();
+            p
+        } else {
+            data.join("paper_seq5_survey.csv")
+        };
+        run(bin()
+            .args(["errors", "--survey"])
+            .arg(&survey)
+            .arg("--estimates")
+            .arg(&est_path)
+            .arg("--out")
+            .arg(&out));
+        results.push(out.join("result.json"));
+    }
+    let html = run(bin().arg("table").args(&results).args([
+        "--format",
+        "html",
+        "--names",
+        "Seq <5>,Four",
+    ]));
+    assert!(html.starts_with("<!DOCTYPE html>") && html.contains("Seq &lt;5&gt;"));
+    assert!(html.contains("<td><strong>0.0516</strong></td>"), "{html}");
+    assert!(!html.contains("http"));
+    let json = run(bin()
+        .arg("table")
+        .args(&results)
+        .args(["--format", "json", "--names", "a,b"]));
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let abs = &v["absolute"];
+    assert_eq!(abs[0]["t3"].as_f64(), Some(0.0313));
+    // Target 3 is not in the second run: a blank (null), columns still keyed by id.
+    assert!(abs[1]["t3"].is_null());
+    assert!(abs[1]["t4"].as_f64().is_some());
+    assert!(v["relative"][1]["t1 & t3"].is_null());
+    assert_eq!(v["relative"][0]["t1 & t2"].as_f64(), Some(0.0095));
+}
