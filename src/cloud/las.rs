@@ -16,6 +16,8 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 /// Points per block.
 const CHUNK: u64 = 1 << 18;
+/// Points per block of a LAZ file (about 20 LASzip chunks).
+const LAZ_CHUNK: u64 = 1 << 20;
 
 /// A message from a reader thread.
 pub(super) enum Msg {
@@ -202,8 +204,11 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
             .for_header(reader.header())
             .build();
         let mut done = 0u64;
+        // LAZ is decompressed in parallel one LASzip chunk (typically 50 000
+        // points) per task: ask for many chunks at a time so every core has one.
+        let block = if compressed { LAZ_CHUNK } else { CHUNK };
         loop {
-            let n = match reader.fill_points(CHUNK, &mut pd) {
+            let n = match reader.fill_points(block, &mut pd) {
                 Ok(n) => n,
                 Err(e) => {
                     tx.send(Msg::Err(Error::format(
