@@ -162,21 +162,43 @@ pub fn loose_crop(
     reader: &mut dyn PointReader,
     centers: &[Point],
     params: &LooseParams,
-    mut progress: impl FnMut(u64),
+    progress: impl FnMut(u64),
 ) -> Result<LooseCrop> {
+    let mut points = vec![Vec::new(); centers.len()];
+    let (map_points, skipped_nonfinite) =
+        loose_crop_each(reader, centers, params, progress, |i, p| {
+            points[i].extend_from_slice(p);
+            Ok(())
+        })?;
+    Ok(LooseCrop {
+        points,
+        map_points,
+        skipped_nonfinite,
+    })
+}
+
+/// [`loose_crop`] that hands the points of each crop to `sink(target, points)`
+/// as they are found (in map order per target) instead of keeping them, so a
+/// caller that writes crops to files needs memory independent of the crops'
+/// size. Returns the map's finite and skipped non-finite point counts.
+pub fn loose_crop_each(
+    reader: &mut dyn PointReader,
+    centers: &[Point],
+    params: &LooseParams,
+    mut progress: impl FnMut(u64),
+    mut sink: impl FnMut(usize, &[Point]) -> Result<()>,
+) -> Result<(u64, u64)> {
     if !(params.radius.is_finite() && params.radius > 0.0) {
         return Err(Error::Param(format!(
             "crop radius must be positive, got {}",
             params.radius
         )));
     }
-    let mut out = LooseCrop {
-        points: vec![Vec::new(); centers.len()],
-        ..Default::default()
-    };
+    let mut out = LooseCrop::default();
     if centers.is_empty() {
-        return Ok(out);
+        return Ok((0, 0));
     }
+    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centers.len()];
     let grid = Grid::new(centers, params.radius);
     let r2 = params.radius * params.radius;
     let sphere = params.shape == Shape::Sphere;
@@ -229,13 +251,18 @@ pub fn loose_crop(
             let (n, h) = h?;
             out.map_points += n;
             for (i, p) in h {
-                out.points[i as usize].push(p);
+                per[i as usize].push(p);
+            }
+        }
+        for (i, pts) in per.iter_mut().enumerate() {
+            if !pts.is_empty() {
+                sink(i, pts)?;
+                pts.clear();
             }
         }
         progress(reader.bytes_read());
     }
-    out.skipped_nonfinite = reader.stats().skipped_nonfinite;
-    Ok(out)
+    Ok((out.map_points, reader.stats().skipped_nonfinite))
 }
 
 #[cfg(test)]
