@@ -1,12 +1,11 @@
 //! PCD reader (v0.5-v0.7; ascii, binary, binary_compressed).
 //!
-//! Hand-written because it is the hot path of every map read: binary data is
-//! memory-mapped and decoded block by block in parallel straight into the
-//! caller's buffer, reading only the x, y, z fields whatever else a point
-//! carries. Consumed pages are handed back to the kernel, so resident memory
-//! stays bounded for maps larger than RAM. binary_compressed clouds are LZF
-//! compressed as one column-wise block by PCL, so they are decompressed whole
-//! (the only PCD variant whose memory grows with the cloud).
+//! Hand-written because it is the hot path of every map read, and reads only
+//! the x, y, z fields whatever else a point carries. binary data goes to the
+//! `pread` record reader (`records.rs`), binary_compressed to the streamed
+//! two-pass LZF decoder (`pcd_lzf.rs`); ascii data is read in blocks whose
+//! lines are parsed in parallel pieces with the exact fast number parser
+//! (`num.rs`). Memory stays bounded whatever the cloud's size.
 
 use super::{CloudInfo, Format, PointReader, ReadStats, pcd_lzf, records};
 use crate::{Error, Point, Result};

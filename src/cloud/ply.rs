@@ -1,8 +1,7 @@
 //! PLY reader (ascii, binary little and big endian).
 //!
 //! Hand-written: the header is parsed line by line; binary vertex data with a
-//! fixed stride is memory-mapped and decoded in blocks in parallel (order kept,
-//! consumed pages released so resident memory stays bounded); vertex elements
+//! fixed stride goes to the `pread` record reader (`records.rs`); vertex elements
 //! with list properties (variable stride) are walked sequentially; ascii data is
 //! streamed in blocks of lines. Elements before `vertex` are skipped, elements
 //! after it are ignored.

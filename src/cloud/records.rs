@@ -24,7 +24,7 @@ const PIECE_BYTES: usize = 128 << 10;
 /// Pieces per batch: enough to keep every core busy between two batches.
 const BATCH_PIECES: usize = 128;
 
-/// Where one coordinate sits in a record and how to turn it into metres.
+/// Where one coordinate sits in a record and how it is stored.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Coord {
     /// Stored type.
@@ -66,8 +66,8 @@ pub(super) struct Records {
 }
 
 impl Records {
-    /// Checks `lay` against the file and the record size; `what` names the
-    /// format in messages.
+    /// Checks `lay` against the record size and the file size (so nothing is
+    /// allocated or read from an untrusted count that the file cannot hold).
     pub(super) fn new(file: File, path: &Path, info: CloudInfo, lay: Layout) -> Result<Records> {
         if lay.stride == 0 {
             return Err(Error::format(path, "point records have zero size"));
