@@ -28,6 +28,8 @@ enum Command {
     Errors(cmd::errors::Args),
     /// Paper-style tables (Table I relative, Table II absolute) across result files.
     Table(cmd::table::Args),
+    /// Rewrite a map in another format (streamed).
+    Convert(cmd::convert::Args),
     /// Generate a synthetic LiDAR map with surveyed targets and known truth.
     Synth(cmd::synth::Args),
     /// Synthesise a scene, evaluate it, and print the tables.
@@ -43,6 +45,7 @@ fn main() -> ExitCode {
         Command::Errors(a) => cmd::errors::run(a),
         Command::Table(a) => cmd::table::run(a),
         Command::Synth(a) => cmd::synth::run(a),
+        Command::Convert(a) => cmd::convert::run(a),
         Command::Demo(a) => cmd::demo::run(a),
     };
     match result {

@@ -96,3 +96,83 @@ fn pcd_ply_and_las_maps_find_the_same_targets() {
         }
     }
 }
+
+/// Point count of every crop file `mapgauge crop` wrote (its stdout table).
+fn crop_counts(map: &Path, survey: &Path, out: &Path) -> Vec<u64> {
+    let o = bin()
+        .args(["crop", "--map"])
+        .arg(map)
+        .arg("--survey")
+        .arg(survey)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "crop {}: {}",
+        map.display(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .skip(1)
+        .map(|l| l.split_whitespace().nth(1).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn convert_to_every_format_keeps_the_crops() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    let o = bin()
+        .args([
+            "synth", "--points", "300000", "--seed", "3", "--format", "pcd", "--out",
+        ])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let map = scene.join("map.pcd");
+    let survey = scene.join("survey.csv");
+    let want = crop_counts(&map, &survey, &dir.path().join("c-pcd"));
+    assert!(want.iter().all(|&n| n > 0), "{want:?}");
+    for (fmt, ext, exact) in [
+        ("ply", "ply", true),
+        ("pcd-compressed", "pcd", true),
+        ("pcd-ascii", "pcd", false),
+        ("las", "las", false),
+        ("laz", "laz", false),
+    ] {
+        let out = dir.path().join(format!("map-{fmt}.{ext}"));
+        let o = bin()
+            .args(["convert", "--map"])
+            .arg(&map)
+            .arg("--out")
+            .arg(&out)
+            .args(["--format", fmt])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "convert {fmt}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let got = crop_counts(&out, &survey, &dir.path().join(format!("c-{fmt}")));
+        for (g, w) in got.iter().zip(&want) {
+            // Rounding to micrometres (ascii) or millimetres (LAS) moves a few
+            // points across the 5 m boundary at most.
+            let tol = if exact { 0 } else { 1 + w / 1000 };
+            assert!(g.abs_diff(*w) <= tol, "{fmt}: {got:?} vs {want:?}");
+        }
+    }
+    // The input is never overwritten.
+    let o = bin()
+        .args(["convert", "--map"])
+        .arg(&map)
+        .arg("--out")
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+}

@@ -16,6 +16,8 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 /// Points per block.
 const CHUNK: u64 = 1 << 18;
+/// Points per block of a LAZ file (about 20 LASzip chunks).
+const LAZ_CHUNK: u64 = 1 << 20;
 
 /// A message from a reader thread.
 pub(super) enum Msg {
@@ -153,6 +155,9 @@ fn las_err(path: &Path, e: las::Error) -> Error {
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    if let Some(r) = open_records(path, &file, file_bytes)? {
+        return Ok(r);
+    }
     let p = path.to_path_buf();
     let producer = Producer::spawn(path, move |tx| {
         let mut reader = match las::Reader::new(BufReader::with_capacity(1 << 20, file)) {
@@ -199,8 +204,11 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
             .for_header(reader.header())
             .build();
         let mut done = 0u64;
+        // LAZ is decompressed in parallel one LASzip chunk (typically 50 000
+        // points) per task: ask for many chunks at a time so every core has one.
+        let block = if compressed { LAZ_CHUNK } else { CHUNK };
         loop {
-            let n = match reader.fill_points(CHUNK, &mut pd) {
+            let n = match reader.fill_points(block, &mut pd) {
                 Ok(n) => n,
                 Err(e) => {
                     tx.send(Msg::Err(Error::format(
@@ -238,6 +246,70 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         tx.send(Msg::Done(0));
     })?;
     Ok(Box::new(producer))
+}
+
+/// Uncompressed LAS: every point format stores X, Y, Z as little-endian i32 at
+/// the start of a fixed-size record, so the points go through the `pread`
+/// record reader (the `las` crate's reader copies each record twice). `None`
+/// for LAZ.
+fn open_records(path: &Path, file: &File, file_bytes: u64) -> Result<Option<Box<dyn PointReader>>> {
+    let own = || File::open(path).map_err(|e| Error::io(path, e));
+    let reader = las::Reader::new(BufReader::new(own()?)).map_err(|e| las_err(path, e))?;
+    let header = reader.header();
+    if header.point_format().is_compressed {
+        return Ok(None);
+    }
+    let count = header.number_of_points();
+    let t = *header.transforms();
+    drop(reader);
+    let mut head = BufReader::new(own()?);
+    let raw = las::raw::Header::read_from(&mut head).map_err(|e| las_err(path, e))?;
+    let stride = raw.point_data_record_length as usize;
+    if stride < 12 {
+        return Err(Error::format(
+            path,
+            format!("LAS point records of {stride} bytes cannot hold X, Y, Z"),
+        ));
+    }
+    let start = u64::from(raw.offset_to_point_data);
+    if count
+        .checked_mul(stride as u64)
+        .and_then(|b| b.checked_add(start))
+        .is_none_or(|n| n > file_bytes)
+    {
+        return Err(Error::format(
+            path,
+            format!(
+                "LAS point data truncated: header declares {count} points of {stride} bytes, the file holds {}",
+                file_bytes.saturating_sub(start) / stride as u64
+            ),
+        ));
+    }
+    let file = file.try_clone().map_err(|e| Error::io(path, e))?;
+    let info = CloudInfo {
+        format: Format::Las,
+        declared_points: Some(count),
+        file_bytes,
+    };
+    let coord = |offset| super::records::Coord {
+        kind: super::scalar::Scalar::I32,
+        offset,
+    };
+    let lay = super::records::Layout {
+        start,
+        stride,
+        count,
+        coords: [coord(0), coord(4), coord(8)],
+        big_endian: false,
+        transform: Some([
+            (t.x.scale, t.x.offset),
+            (t.y.scale, t.y.offset),
+            (t.z.scale, t.z.offset),
+        ]),
+    };
+    Ok(Some(Box::new(super::records::Records::new(
+        file, path, info, lay,
+    )?)))
 }
 
 /// A file that turns into a no-op once aborted, so the `las` writer's drop (which
@@ -286,13 +358,15 @@ struct LasSink {
     offset: [f64; 3],
     count: u64,
     finished: bool,
+    /// Write LAZ.
+    compressed: bool,
 }
 
 /// Scale of written coordinates (metres per unit).
 const SCALE: f64 = 0.001;
 
 /// Starts a LAS writer.
-pub(super) fn las_sink(path: &Path) -> Result<Box<dyn Sink>> {
+pub(super) fn las_sink(path: &Path, compressed: bool) -> Result<Box<dyn Sink>> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -309,6 +383,7 @@ pub(super) fn las_sink(path: &Path) -> Result<Box<dyn Sink>> {
         offset: [0.0; 3],
         count: 0,
         finished: false,
+        compressed,
     }))
 }
 
@@ -319,6 +394,7 @@ impl LasSink {
         }
         let mut b = las::Builder::from((1, 2));
         b.point_format = las::point::Format::new(0).map_err(|e| las_err(&self.path, e))?;
+        b.point_format.is_compressed = self.compressed;
         b.generating_software = format!("mapgauge {}", env!("CARGO_PKG_VERSION"));
         b.system_identifier = "mapgauge".into();
         b.date = None;

@@ -12,8 +12,11 @@ use std::path::Path;
 
 mod e57;
 mod las;
+mod num;
 mod pcd;
+mod pcd_lzf;
 mod ply;
+mod records;
 mod scalar;
 mod write;
 mod xyz;
@@ -67,6 +70,60 @@ pub trait PointReader: Send {
     fn stats(&self) -> ReadStats;
     /// Bytes of the file consumed so far (for progress bars).
     fn bytes_read(&self) -> u64;
+    /// The next stretch of the cloud as a [`Batch`] of pieces that threads can
+    /// read, decode and consume independently (so each piece is used while it
+    /// is in the cache), or `None` once the cloud is exhausted. `buf` is the
+    /// storage readers without a parallel path decode into; the default
+    /// implementation fills it with [`PointReader::next_chunk`].
+    fn next_batch<'a>(
+        &'a mut self,
+        buf: &'a mut Vec<Point>,
+    ) -> Result<Option<Box<dyn Batch + 'a>>> {
+        if self.next_chunk(buf)? {
+            Ok(Some(Box::new(Decoded(buf))))
+        } else {
+            Ok(None)
+        }
+    }
+}
+
+/// Consecutive pieces of a cloud, in file order, each decodable on any thread.
+pub trait Batch: Sync {
+    /// Number of pieces.
+    fn pieces(&self) -> usize;
+    /// The finite points of piece `i` (`i < pieces()`), decoded into `scratch`
+    /// where the reader needs storage. Counters in [`PointReader::stats`]
+    /// include a piece once it has been decoded.
+    fn piece<'s>(&'s self, i: usize, scratch: &'s mut Scratch) -> Result<&'s [Point]>;
+}
+
+/// Per-thread buffers a [`Batch`] decodes into; reuse one across pieces so its
+/// memory is allocated (and faulted in) once.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    /// Raw bytes of a piece.
+    bytes: Vec<u8>,
+    /// Decoded points of a piece.
+    points: Vec<Point>,
+    /// Decompressed columns of a piece (binary_compressed PCD).
+    cols: Vec<Vec<u8>>,
+}
+
+/// Points per piece of an already decoded block.
+const DECODED_PIECE: usize = 1 << 16;
+
+/// An already decoded block handed out in pieces.
+struct Decoded<'a>(&'a mut Vec<Point>);
+
+impl Batch for Decoded<'_> {
+    fn pieces(&self) -> usize {
+        self.0.len().div_ceil(DECODED_PIECE)
+    }
+    fn piece<'s>(&'s self, i: usize, _: &'s mut Scratch) -> Result<&'s [Point]> {
+        let from = (i * DECODED_PIECE).min(self.0.len());
+        let to = (from + DECODED_PIECE).min(self.0.len());
+        Ok(&self.0[from..to])
+    }
 }
 
 /// Opens a map of any supported format, recognised from its content.
@@ -168,6 +225,15 @@ pub enum OutFormat {
     Pcd,
     /// LAS 1.2, point format 0 (millimetre scale).
     Las,
+    /// ascii PCD with double x, y, z written to the micrometre (6 decimals).
+    #[serde(rename = "pcd-ascii")]
+    PcdAscii,
+    /// binary_compressed PCD (PCL's LZF, column-wise) with double x, y, z; the
+    /// format's 32-bit sizes limit it to 178 956 970 points.
+    #[serde(rename = "pcd-compressed")]
+    PcdCompressed,
+    /// LAZ (LASzip-compressed LAS 1.2, point format 0, millimetre scale).
+    Laz,
 }
 
 impl OutFormat {
@@ -175,8 +241,9 @@ impl OutFormat {
     pub fn extension(self) -> &'static str {
         match self {
             OutFormat::Ply => "ply",
-            OutFormat::Pcd => "pcd",
+            OutFormat::Pcd | OutFormat::PcdAscii | OutFormat::PcdCompressed => "pcd",
             OutFormat::Las => "las",
+            OutFormat::Laz => "laz",
         }
     }
 }
@@ -201,7 +268,10 @@ impl CloudWriter {
         let sink: Box<dyn Sink> = match format {
             OutFormat::Ply => write::ply_sink(path)?,
             OutFormat::Pcd => write::pcd_sink(path)?,
-            OutFormat::Las => las::las_sink(path)?,
+            OutFormat::Las => las::las_sink(path, false)?,
+            OutFormat::Laz => las::las_sink(path, true)?,
+            OutFormat::PcdAscii => write::pcd_ascii_sink(path)?,
+            OutFormat::PcdCompressed => write::pcd_compressed_sink(path)?,
         };
         Ok(CloudWriter { sink })
     }

@@ -1,14 +1,13 @@
 //! PCD reader (v0.5-v0.7; ascii, binary, binary_compressed).
 //!
-//! Hand-written because it is the hot path of every map read: binary data is
-//! memory-mapped and decoded block by block in parallel straight into the
-//! caller's buffer, reading only the x, y, z fields whatever else a point
-//! carries. Consumed pages are handed back to the kernel, so resident memory
-//! stays bounded for maps larger than RAM. binary_compressed clouds are LZF
-//! compressed as one column-wise block by PCL, so they are decompressed whole
-//! (the only PCD variant whose memory grows with the cloud).
+//! Hand-written because it is the hot path of every map read, and reads only
+//! the x, y, z fields whatever else a point carries. binary data goes to the
+//! `pread` record reader (`records.rs`), binary_compressed to the streamed
+//! two-pass LZF decoder (`pcd_lzf.rs`); ascii data is read in blocks whose
+//! lines are parsed in parallel pieces with the exact fast number parser
+//! (`num.rs`). Memory stays bounded whatever the cloud's size.
 
-use super::{CloudInfo, Format, PointReader, ReadStats};
+use super::{CloudInfo, Format, PointReader, ReadStats, pcd_lzf, records};
 use crate::{Error, Point, Result};
 use rayon::prelude::*;
 use std::fs::File;
@@ -16,15 +15,15 @@ use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 /// Points handed out per `next_chunk` call (6 MiB of `Point`s).
+#[cfg(test)]
 const CHUNK_POINTS: usize = 1 << 18;
 /// Points decoded by one rayon task.
+#[cfg(test)]
 const TASK_POINTS: usize = 1 << 16;
 /// Longest header accepted before concluding it never ends.
 const MAX_HEADER: usize = 1 << 20;
 /// Largest point record accepted (bytes); real files use well under 1 KiB.
 const MAX_POINT_SIZE: usize = 1 << 16;
-/// Pages are released in multiples of this (a multiple of every common page size).
-const RELEASE_ALIGN: usize = 1 << 16;
 /// An LZF back-reference turns 3 input bytes into at most 264 output bytes.
 const LZF_MAX_RATIO: u64 = 88;
 
@@ -332,12 +331,14 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
 /// Where and how x, y, z of point `i` are stored: value `c` sits at
 /// `base[c] + i * stride[c]` in the data slice.
 #[derive(Debug, Clone, Copy)]
+#[cfg_attr(not(test), allow(dead_code))]
 struct Layout {
     kind: [Scalar; 3],
     base: [usize; 3],
     stride: [usize; 3],
 }
 
+#[cfg(test)]
 /// Decodes points `first..first + out.len()` into `out`, writing only finite
 /// points, packed at the front; returns how many were written.
 #[inline(always)]
@@ -374,6 +375,7 @@ fn decode_into<F: Fn(&[u8], usize) -> f64>(
     w
 }
 
+#[cfg(test)]
 fn decode_block(data: &[u8], lay: &Layout, first: usize, out: &mut [Point]) -> usize {
     let f32r = |b: &[u8], o: usize| Scalar::F32.read_at(b, o, false);
     let f64r = |b: &[u8], o: usize| Scalar::F64.read_at(b, o, false);
@@ -387,6 +389,7 @@ fn decode_block(data: &[u8], lay: &Layout, first: usize, out: &mut [Point]) -> u
     }
 }
 
+#[cfg(test)]
 /// Decodes points `first..first + n` in parallel into `buf` (its old contents
 /// are overwritten, not cleared: zero-filling a reused buffer cost an eighth of
 /// a binary read), keeping file order; returns the number of non-finite points
@@ -412,9 +415,8 @@ fn decode_parallel(data: &[u8], lay: &Layout, first: usize, n: usize, buf: &mut 
 }
 
 enum Source {
-    /// binary: the memory-mapped file.
-    Mapped { map: memmap2::Mmap, released: usize },
-    /// binary_compressed: the decompressed column-wise block.
+    /// binary_compressed: the decompressed column-wise block (tests only).
+    #[cfg(test)]
     Columns(Vec<u8>),
     /// ascii: the file, read in blocks parsed in parallel.
     Text(Box<TextState>),
@@ -435,20 +437,95 @@ struct PcdReader {
 
 /// Opens a PCD file for streaming.
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
-    Ok(Box::new(PcdReader::open(path)?))
+    let (file, file_bytes, header) = read_header(path)?;
+    if header.data == DataKind::Binary {
+        let after = file_bytes.saturating_sub(header.data_offset as u64);
+        let need = header.points.checked_mul(header.point_size as u64);
+        if need.is_none_or(|need| need > after) {
+            return Err(Error::format(
+                path,
+                format!(
+                    "truncated binary data: header declares POINTS {} ({} bytes of {}-byte points) but only {} bytes ({} whole points) follow the header",
+                    header.points,
+                    need.map_or("too many".to_string(), |n| n.to_string()),
+                    header.point_size,
+                    after,
+                    after / header.point_size as u64
+                ),
+            ));
+        }
+        let f = |i: usize| &header.fields[header.xyz[i]];
+        let info = CloudInfo {
+            format: Format::Pcd,
+            declared_points: Some(header.points),
+            file_bytes,
+        };
+        let lay = records::Layout {
+            start: header.data_offset as u64,
+            stride: header.point_size,
+            count: header.points,
+            coords: [0, 1, 2].map(|i| records::Coord {
+                kind: f(i).kind,
+                offset: f(i).offset,
+            }),
+            big_endian: false,
+            transform: None,
+        };
+        return Ok(Box::new(records::Records::new(file, path, info, lay)?));
+    }
+    if header.data == DataKind::Compressed {
+        let mut file = file;
+        let after = file_bytes.saturating_sub(header.data_offset as u64);
+        let (comp, raw) = compressed_sizes(path, &mut file, &header, after)?;
+        let f = |i: usize| &header.fields[header.xyz[i]];
+        let info = CloudInfo {
+            format: Format::Pcd,
+            declared_points: Some(header.points),
+            file_bytes,
+        };
+        let cols = [0, 1, 2].map(|i| pcd_lzf::Column {
+            kind: f(i).kind,
+            // Column-wise: each field's values for all points lie together.
+            base: header.points * f(i).offset as u64,
+            stride: (f(i).size * f(i).count) as u64,
+        });
+        let start = header.data_offset as u64 + 8;
+        return Ok(Box::new(pcd_lzf::LzfColumns::open(
+            file,
+            path,
+            info,
+            start,
+            comp,
+            raw,
+            header.points,
+            cols,
+        )?));
+    }
+    Ok(Box::new(PcdReader::open_with(
+        path, file, file_bytes, header,
+    )?))
+}
+
+/// Opens `path` and parses its header; the file position is unspecified.
+fn read_header(path: &Path) -> Result<(File, u64, Header)> {
+    let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let mut head = Vec::new();
+    (&mut file)
+        .take(MAX_HEADER as u64)
+        .read_to_end(&mut head)
+        .map_err(|e| Error::io(path, e))?;
+    let header = parse_header(path, &head)?;
+    Ok((file, file_bytes, header))
 }
 
 impl PcdReader {
-    fn open(path: &Path) -> Result<PcdReader> {
-        let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
-        let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
-        let mut head = Vec::new();
-        (&mut file)
-            .take(MAX_HEADER as u64)
-            .read_to_end(&mut head)
-            .map_err(|e| Error::io(path, e))?;
-        let header = parse_header(path, &head)?;
-        drop(head);
+    fn open_with(
+        path: &Path,
+        mut file: File,
+        file_bytes: u64,
+        header: Header,
+    ) -> Result<PcdReader> {
         let info = CloudInfo {
             format: Format::Pcd,
             declared_points: Some(header.points),
@@ -458,37 +535,18 @@ impl PcdReader {
         let f = |i: usize| &header.fields[header.xyz[i]];
         let (source, layout, data_bytes) = match header.data {
             DataKind::Binary => {
-                let need = header.points.checked_mul(header.point_size as u64);
-                if need.is_none_or(|need| need > after) {
-                    let have = after / header.point_size as u64;
-                    return Err(Error::format(
-                        path,
-                        format!(
-                            "truncated binary data: header declares POINTS {} ({} bytes of {}-byte points) but only {} bytes ({} whole points) follow the header",
-                            header.points,
-                            need.map_or("too many".to_string(), |n| n.to_string()),
-                            header.point_size,
-                            after,
-                            have
-                        ),
-                    ));
-                }
-                // SAFETY: the map is read-only; the file must not be truncated while
-                // mapped (as for every mmap-based reader).
-                let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(path, e))?;
-                #[cfg(unix)]
-                let _ = map.advise(memmap2::Advice::Sequential);
-                let layout = Layout {
-                    kind: [f(0).kind, f(1).kind, f(2).kind],
-                    base: [0, 1, 2].map(|i| header.data_offset + f(i).offset),
-                    stride: [header.point_size; 3],
-                };
-                (
-                    Source::Mapped { map, released: 0 },
-                    layout,
-                    need.unwrap_or(0),
-                )
+                // `open` hands binary data to the `pread` record reader.
+                return Err(Error::format(path, "internal: binary PCD opened as text"));
             }
+            #[cfg(not(test))]
+            DataKind::Compressed => {
+                return Err(Error::format(
+                    path,
+                    "internal: binary_compressed PCD opened as text",
+                ));
+            }
+            // The whole-block path, kept as the tests' reference.
+            #[cfg(test)]
             DataKind::Compressed => {
                 let cols = read_compressed(path, &mut file, &header, after)?;
                 let layout = Layout {
@@ -531,6 +589,7 @@ impl PcdReader {
 
     /// Reads the next block of ascii lines, parses it in parallel pieces and
     /// appends the finite points (at most the declared count) to `buf`.
+    #[allow(irrefutable_let_patterns)]
     fn next_text(&mut self, buf: &mut Vec<Point>) -> Result<()> {
         let Source::Text(st) = &mut self.source else {
             return Ok(());
@@ -711,15 +770,33 @@ fn parse_piece(text: &[u8], cols: [usize; 3]) -> Piece {
     piece
 }
 
-/// Parses an ascii number; PCL writes `nan` for missing points.
-#[inline]
-fn parse_f64(tok: &[u8]) -> Option<f64> {
-    std::str::from_utf8(tok).ok()?.parse::<f64>().ok()
-}
+/// Parses an ascii number (PCL writes `nan` for missing points).
+use super::num::parse_f64;
 
 /// Reads and decompresses a PCL binary_compressed block, checking its sizes
 /// against the header before allocating.
+/// Only the tests use the whole-block path now (as the reference the streamed
+/// reader must equal).
+#[cfg(test)]
 fn read_compressed(path: &Path, file: &mut File, h: &Header, after: u64) -> Result<Vec<u8>> {
+    let (comp, raw) = compressed_sizes(path, file, h, after)?;
+    if raw == 0 {
+        return Ok(Vec::new());
+    }
+    let raw = usize::try_from(raw)
+        .map_err(|_| Error::format(path, "binary_compressed block too large for this machine"))?;
+    let mut packed = Vec::new();
+    file.take(comp)
+        .read_to_end(&mut packed)
+        .map_err(|e| Error::io(path, e))?;
+    let cols = lzf_decompress(&packed, raw)
+        .map_err(|msg| Error::format(path, format!("binary_compressed data is corrupt: {msg}")))?;
+    Ok(cols)
+}
+
+/// Reads the compressed and uncompressed sizes that follow a binary_compressed
+/// header and checks them against the header and the file size.
+fn compressed_sizes(path: &Path, file: &mut File, h: &Header, after: u64) -> Result<(u64, u64)> {
     let expect = h
         .points
         .checked_mul(h.point_size as u64)
@@ -757,9 +834,6 @@ fn read_compressed(path: &Path, file: &mut File, h: &Header, after: u64) -> Resu
             ),
         ));
     }
-    if raw == 0 {
-        return Ok(Vec::new());
-    }
     if raw > comp.saturating_mul(LZF_MAX_RATIO) + 16 {
         return Err(Error::format(
             path,
@@ -768,19 +842,12 @@ fn read_compressed(path: &Path, file: &mut File, h: &Header, after: u64) -> Resu
             ),
         ));
     }
-    let raw = usize::try_from(raw)
-        .map_err(|_| Error::format(path, "binary_compressed block too large for this machine"))?;
-    let mut packed = Vec::new();
-    file.take(comp)
-        .read_to_end(&mut packed)
-        .map_err(|e| Error::io(path, e))?;
-    let cols = lzf_decompress(&packed, raw)
-        .map_err(|msg| Error::format(path, format!("binary_compressed data is corrupt: {msg}")))?;
-    Ok(cols)
+    Ok((comp, raw))
 }
 
 /// LZF decoder writing into an exactly-sized buffer; refuses any stream whose
 /// output would not be exactly `len` bytes.
+#[cfg_attr(not(test), allow(dead_code))]
 pub(crate) fn lzf_decompress(src: &[u8], len: usize) -> std::result::Result<Vec<u8>, String> {
     // Zeroed allocation is lazily backed by the OS; every byte is overwritten
     // (the final length check guarantees it).
@@ -849,6 +916,7 @@ impl PointReader for PcdReader {
         loop {
             if self.next >= self.header.points {
                 buf.clear();
+                #[cfg(test)]
                 if let Source::Columns(c) = &mut self.source {
                     *c = Vec::new(); // free the block as soon as it is consumed
                 }
@@ -859,31 +927,7 @@ impl PointReader for PcdReader {
                     buf.clear();
                     self.next_text(buf)?
                 }
-                Source::Mapped { map, released } => {
-                    let first = self.next as usize;
-                    let n = (self.header.points - self.next).min(CHUNK_POINTS as u64) as usize;
-                    let skipped = decode_parallel(map, &self.layout, first, n, buf);
-                    self.stats.skipped_nonfinite += skipped;
-                    self.next += n as u64;
-                    // Hand the consumed pages back: they are file-backed and never
-                    // read again, so resident memory does not grow with the map.
-                    let end = self.header.data_offset + (first + n) * self.header.point_size;
-                    let end = end / RELEASE_ALIGN * RELEASE_ALIGN;
-                    if end > *released {
-                        #[cfg(unix)]
-                        // SAFETY: no reference into [released, end) outlives this
-                        // point; the map is read-only and file-backed, so a later
-                        // access would re-read the file rather than see zeros.
-                        unsafe {
-                            let _ = map.unchecked_advise_range(
-                                memmap2::UncheckedAdvice::DontNeed,
-                                *released,
-                                end - *released,
-                            );
-                        }
-                        *released = end;
-                    }
-                }
+                #[cfg(test)]
                 Source::Columns(cols) => {
                     let first = self.next as usize;
                     let n = (self.header.points - self.next).min(CHUNK_POINTS as u64) as usize;
@@ -903,6 +947,7 @@ impl PointReader for PcdReader {
         self.stats
     }
 
+    #[allow(unreachable_patterns)]
     fn bytes_read(&self) -> u64 {
         let head = self.header.data_offset as u64;
         match &self.source {

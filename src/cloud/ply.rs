@@ -1,29 +1,23 @@
 //! PLY reader (ascii, binary little and big endian).
 //!
 //! Hand-written: the header is parsed line by line; binary vertex data with a
-//! fixed stride is memory-mapped and decoded in blocks in parallel (order kept,
-//! consumed pages released so resident memory stays bounded); vertex elements
+//! fixed stride goes to the `pread` record reader (`records.rs`); vertex elements
 //! with list properties (variable stride) are walked sequentially; ascii data is
 //! streamed in blocks of lines. Elements before `vertex` are skipped, elements
 //! after it are ignored.
 
 use super::xyz::{LineBlocks, parse_f64};
-use super::{CloudInfo, Format, PointReader, ReadStats};
+use super::{CloudInfo, Format, PointReader, ReadStats, records};
 use crate::{Error, Point, Result};
 use memmap2::Mmap;
-use rayon::prelude::*;
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 /// Points per `next_chunk` call.
 const CHUNK: usize = 1 << 19;
-/// Points per parallel decode task.
-const TASK: usize = 1 << 15;
 /// Headers longer than this are rejected.
 const MAX_HEADER: usize = 1 << 20;
-/// Granularity for releasing consumed pages (a multiple of every common page size).
-const RELEASE: usize = 1 << 16;
 
 use super::scalar::Scalar as Ty;
 
@@ -218,14 +212,6 @@ fn find_xyz(path: &Path, v: &Element) -> Result<Xyz> {
 
 /// How the vertex data is read.
 enum Body {
-    /// Binary, fixed stride, memory-mapped.
-    Fixed {
-        map: Mmap,
-        start: usize,
-        stride: usize,
-        offs: [usize; 3],
-        released: usize,
-    },
     /// Binary with list properties: walked sequentially.
     Variable {
         map: Mmap,
@@ -383,13 +369,24 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
                         })
                         .sum();
                 }
-                Body::Fixed {
-                    map,
-                    start: pos,
+                drop(map);
+                let lay = records::Layout {
+                    start: pos as u64,
                     stride,
-                    offs,
-                    released: 0,
-                }
+                    count: total,
+                    coords: [0, 1, 2].map(|c| records::Coord {
+                        kind: xyz.ty[c],
+                        offset: offs[c],
+                    }),
+                    big_endian: be,
+                    transform: None,
+                };
+                let info = CloudInfo {
+                    format: Format::Ply,
+                    declared_points: Some(total),
+                    file_bytes,
+                };
+                return Ok(Box::new(records::Records::new(file, path, info, lay)?));
             }
             None => Body::Variable { map, pos, props },
         }
@@ -409,60 +406,6 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         stats: ReadStats::default(),
         bytes: header.data_offset as u64,
     }))
-}
-
-/// Decodes `out.len()` fixed-stride vertices from `src`; moves finite points to the
-/// front of `out` and returns how many there are.
-#[inline]
-fn decode_fixed<const BE: bool>(
-    src: &[u8],
-    stride: usize,
-    offs: [usize; 3],
-    ty: [Ty; 3],
-    out: &mut [Point],
-) -> usize {
-    let mut k = 0;
-    let n = out.len();
-    macro_rules! run {
-        ($t:ty, $sz:expr) => {{
-            let get = |b: &[u8]| -> f64 {
-                let mut a = [0u8; $sz];
-                a.copy_from_slice(&b[..$sz]);
-                (if BE {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                }) as f64
-            };
-            for i in 0..n {
-                let r = &src[i * stride..(i + 1) * stride];
-                let p = Point::new(get(&r[offs[0]..]), get(&r[offs[1]..]), get(&r[offs[2]..]));
-                if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
-                    out[k] = p;
-                    k += 1;
-                }
-            }
-        }};
-    }
-    match ty {
-        [Ty::F32, Ty::F32, Ty::F32] => run!(f32, 4),
-        [Ty::F64, Ty::F64, Ty::F64] => run!(f64, 8),
-        _ => {
-            for i in 0..n {
-                let r = &src[i * stride..(i + 1) * stride];
-                let p = Point::new(
-                    ty[0].read(&r[offs[0]..], BE),
-                    ty[1].read(&r[offs[1]..], BE),
-                    ty[2].read(&r[offs[2]..], BE),
-                );
-                if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
-                    out[k] = p;
-                    k += 1;
-                }
-            }
-        }
-    }
-    k
 }
 
 impl PlyReader {
@@ -489,57 +432,6 @@ impl PointReader for PlyReader {
         while buf.is_empty() && self.next < self.total {
             let n = (self.total - self.next).min(CHUNK as u64) as usize;
             match &mut self.body {
-                Body::Fixed {
-                    map,
-                    start,
-                    stride,
-                    offs,
-                    released,
-                } => {
-                    let (stride, offs) = (*stride, *offs);
-                    let from = *start + self.next as usize * stride;
-                    let src = &map[from..from + n * stride];
-                    buf.resize(n, Point::origin());
-                    let kept: Vec<usize> = buf
-                        .par_chunks_mut(TASK)
-                        .zip(src.par_chunks(TASK * stride))
-                        .map(|(out, src)| {
-                            if be {
-                                decode_fixed::<true>(src, stride, offs, xyz.ty, out)
-                            } else {
-                                decode_fixed::<false>(src, stride, offs, xyz.ty, out)
-                            }
-                        })
-                        .collect();
-                    // Compact in order (no-op when every point is finite).
-                    let mut w = 0;
-                    for (t, &k) in kept.iter().enumerate() {
-                        let r = t * TASK;
-                        if w != r {
-                            buf.copy_within(r..r + k, w);
-                        }
-                        w += k;
-                    }
-                    self.stats.skipped_nonfinite += (n - w) as u64;
-                    buf.truncate(w);
-                    self.next += n as u64;
-                    let end = from + n * stride;
-                    self.bytes = end as u64;
-                    // Release consumed pages so resident memory does not grow.
-                    let upto = end / RELEASE * RELEASE;
-                    if upto > *released {
-                        // SAFETY: the map is read-only and file-backed; dropped pages
-                        // are re-read from the file if touched again.
-                        let _ = unsafe {
-                            map.unchecked_advise_range(
-                                memmap2::UncheckedAdvice::DontNeed,
-                                *released,
-                                upto - *released,
-                            )
-                        };
-                        *released = upto;
-                    }
-                }
                 Body::Variable { map, pos, props } => {
                     buf.reserve(n);
                     for _ in 0..n {
@@ -819,7 +711,7 @@ end_header\n3 0 1 2\n3 1 2 0\n2 9 9 1 2 3\n0 4 5 6\n";
 
     #[test]
     fn many_points_keep_order_and_count_nan() {
-        let n = CHUNK + 3 * TASK + 17;
+        let n = CHUNK + 3 * (1 << 15) + 17;
         let mut b = format!(
             "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\n\
              property float y\nproperty float z\nproperty uchar r\nend_header\n"

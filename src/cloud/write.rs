@@ -25,6 +25,7 @@ const COUNT_WIDTH: usize = 20;
 enum Kind {
     Ply,
     Pcd,
+    PcdAscii,
 }
 
 /// The header for `n` points; `pad` trailing spaces go on the comment line.
@@ -35,19 +36,26 @@ fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
             "ply\nformat binary_little_endian 1.0\ncomment written by mapgauge{pad}\n\
              element vertex {n}\nproperty double x\nproperty double y\nproperty double z\nend_header\n"
         ),
-        Kind::Pcd => format!(
-            "# .PCD v0.7 - Point Cloud Data file format{pad}\nVERSION 0.7\nFIELDS x y z\n\
-             SIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
-             VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
-        ),
+        Kind::Pcd | Kind::PcdAscii => {
+            pcd_header(n, &pad, if kind == Kind::Pcd { "binary" } else { "ascii" })
+        }
     };
     s.into_bytes()
+}
+
+/// A PCD header with double x, y, z.
+fn pcd_header(n: u64, pad: &str, data: &str) -> String {
+    format!(
+        "# .PCD v0.7 - Point Cloud Data file format{pad}\nVERSION 0.7\nFIELDS x y z\n\
+         SIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
+         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA {data}\n"
+    )
 }
 
 /// The header for `n` points, padded to the length reserved at creation.
 fn fixed_header(kind: Kind, n: u64) -> Vec<u8> {
     let digits = n.to_string().len();
-    let per_count = if kind == Kind::Pcd { 2 } else { 1 };
+    let per_count = if kind == Kind::Ply { 1 } else { 2 };
     header(kind, n, (COUNT_WIDTH - digits) * per_count)
 }
 
@@ -110,10 +118,16 @@ impl Sink for XyzSink {
         let tmp = self.tmp_path();
         for block in points.chunks(1 << 14) {
             self.scratch.clear();
-            for p in block {
-                self.scratch.extend_from_slice(&p.x.to_le_bytes());
-                self.scratch.extend_from_slice(&p.y.to_le_bytes());
-                self.scratch.extend_from_slice(&p.z.to_le_bytes());
+            if self.kind == Kind::PcdAscii {
+                for p in block {
+                    let _ = writeln!(self.scratch, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
+                }
+            } else {
+                for p in block {
+                    self.scratch.extend_from_slice(&p.x.to_le_bytes());
+                    self.scratch.extend_from_slice(&p.y.to_le_bytes());
+                    self.scratch.extend_from_slice(&p.z.to_le_bytes());
+                }
             }
             let scratch = std::mem::take(&mut self.scratch);
             let res = self.out_mut()?.write_all(&scratch);
@@ -162,13 +176,177 @@ pub(super) fn pcd_sink(path: &Path) -> Result<Box<dyn Sink>> {
     Ok(Box::new(XyzSink::create(path, Kind::Pcd)?))
 }
 
+/// Starts an ascii PCD writer (coordinates to the micrometre).
+pub(super) fn pcd_ascii_sink(path: &Path) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::PcdAscii)?))
+}
+
+/// Uncompressed bytes per LZF block written by the binary_compressed writer.
+const LZF_BLOCK: usize = 1 << 20;
+
+/// A binary_compressed PCD writer. The format stores all x, then all y, then
+/// all z, LZF-compressed as one stream behind the header, so the coordinates
+/// are spooled to three temporary column files while points arrive and
+/// compressed at `finish`, 1 MiB at a time (LZF blocks compressed separately
+/// concatenate into one valid stream): memory stays bounded.
+struct PcdCompressedSink {
+    dest: PathBuf,
+    tmp: PathBuf,
+    cols: Vec<(PathBuf, BufWriter<File>)>,
+    count: u64,
+    finished: bool,
+}
+
+/// Starts a binary_compressed PCD writer.
+pub(super) fn pcd_compressed_sink(path: &Path) -> Result<Box<dyn Sink>> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| Error::Param(format!("{}: output path has no file name", path.display())))?;
+    let seq = TMP_SEQ.fetch_add(1, Ordering::Relaxed);
+    let tmp_name = |what: &str| {
+        path.with_file_name(format!(
+            ".{}.tmp-{}-{seq}{what}",
+            name.to_string_lossy(),
+            std::process::id()
+        ))
+    };
+    let mut sink = PcdCompressedSink {
+        dest: path.to_path_buf(),
+        tmp: tmp_name(""),
+        cols: Vec::new(),
+        count: 0,
+        finished: false,
+    };
+    for c in ["x", "y", "z"] {
+        let p = tmp_name(&format!(".{c}"));
+        let f = File::options()
+            .write(true)
+            .create_new(true)
+            .open(&p)
+            .map_err(|e| Error::io(&p, e))?;
+        sink.cols.push((p, BufWriter::with_capacity(1 << 20, f)));
+    }
+    Ok(Box::new(sink))
+}
+
+impl Sink for PcdCompressedSink {
+    fn write(&mut self, points: &[Point]) -> Result<()> {
+        for (c, (p, w)) in self.cols.iter_mut().enumerate() {
+            for q in points {
+                w.write_all(&q[c].to_le_bytes())
+                    .map_err(|e| Error::io(&*p, e))?;
+            }
+        }
+        self.count += points.len() as u64;
+        Ok(())
+    }
+
+    fn finish(mut self: Box<Self>) -> Result<u64> {
+        let raw = self.count * 24;
+        let Ok(raw32) = u32::try_from(raw) else {
+            return Err(Error::Input(format!(
+                "{}: {} points do not fit in a binary_compressed PCD (its sizes are 32-bit: at most {} double x, y, z points)",
+                self.dest.display(),
+                self.count,
+                u32::MAX / 24
+            )));
+        };
+        let tmp = self.tmp.clone();
+        let file = File::options()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| Error::io(&tmp, e))?;
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        let io = |e| Error::io(&tmp, e);
+        out.write_all(pcd_header(self.count, "", "binary_compressed").as_bytes())
+            .map_err(io)?;
+        out.write_all(&[0u8; 8]).map_err(io)?;
+        let mut comp: u64 = 0;
+        let mut block = vec![0u8; LZF_BLOCK];
+        for (p, w) in std::mem::take(&mut self.cols) {
+            let mut f = w.into_inner().map_err(|e| Error::io(&p, e.into_error()))?;
+            f.seek(SeekFrom::Start(0)).map_err(|e| Error::io(&p, e))?;
+            drop(f);
+            let mut f = File::open(&p).map_err(|e| Error::io(&p, e))?;
+            loop {
+                let n = read_full(&mut f, &mut block).map_err(|e| Error::io(&p, e))?;
+                if n == 0 {
+                    break;
+                }
+                let packed = lzf_block(&block[..n]);
+                out.write_all(&packed).map_err(io)?;
+                comp += packed.len() as u64;
+            }
+            let _ = std::fs::remove_file(&p);
+        }
+        let comp32 = u32::try_from(comp).map_err(|_| {
+            Error::Input(format!(
+                "{}: compressed data exceeds the format's 4 GiB limit",
+                self.dest.display()
+            ))
+        })?;
+        let mut file = out.into_inner().map_err(|e| io(e.into_error()))?;
+        let head = pcd_header(self.count, "", "binary_compressed").len() as u64;
+        file.seek(SeekFrom::Start(head)).map_err(io)?;
+        file.write_all(&comp32.to_le_bytes()).map_err(io)?;
+        file.write_all(&raw32.to_le_bytes()).map_err(io)?;
+        drop(file);
+        std::fs::rename(&tmp, &self.dest).map_err(|e| Error::io(&self.dest, e))?;
+        self.finished = true;
+        Ok(self.count)
+    }
+}
+
+impl Drop for PcdCompressedSink {
+    fn drop(&mut self) {
+        for (p, w) in self.cols.drain(..) {
+            drop(w);
+            let _ = std::fs::remove_file(p);
+        }
+        if !self.finished {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Reads until `buf` is full or the file ends; returns the bytes read.
+fn read_full(f: &mut File, buf: &mut [u8]) -> std::io::Result<usize> {
+    use std::io::Read;
+    let mut n = 0;
+    while n < buf.len() {
+        match f.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
+/// LZF-compresses one block; incompressible data becomes literal runs.
+pub(super) fn lzf_block(data: &[u8]) -> Vec<u8> {
+    match lzf::compress(data) {
+        Ok(v) => v,
+        Err(_) => {
+            let mut v = Vec::with_capacity(data.len() + data.len() / 32 + 1);
+            for run in data.chunks(32) {
+                v.push((run.len() - 1) as u8);
+                v.extend_from_slice(run);
+            }
+            v
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn header_length_is_fixed_for_every_count() {
-        for kind in [Kind::Ply, Kind::Pcd] {
+        for kind in [Kind::Ply, Kind::Pcd, Kind::PcdAscii] {
             let len = fixed_header(kind, 0).len();
             for n in [1, 9, 10, 12345, u64::MAX / 3, u64::MAX] {
                 assert_eq!(fixed_header(kind, n).len(), len, "{kind:?} {n}");

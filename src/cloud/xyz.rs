@@ -164,52 +164,7 @@ fn is_skip(line: &[u8]) -> bool {
     line.is_empty() || line[0] == b'#' || line.starts_with(b"//")
 }
 
-/// Powers of ten exactly representable as f64.
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// Parses one number field. Plain decimals (`-123.456`) take an exact fast path
-/// (Clinger: an integer mantissa below 2^53 divided by an exact power of ten is
-/// correctly rounded); anything else (exponents, long mantissas, nan, inf) goes
-/// through the standard library parser. Both give the same bits.
-#[inline]
-pub(super) fn parse_f64(field: &[u8]) -> Option<f64> {
-    let (neg, digits) = match field.first() {
-        Some(b'-') => (true, &field[1..]),
-        Some(b'+') => (false, &field[1..]),
-        _ => (false, field),
-    };
-    let mut m: u64 = 0;
-    let mut frac: usize = 0;
-    let mut seen_dot = false;
-    let mut nd = 0usize;
-    let mut ok = !digits.is_empty() && digits.len() <= 19;
-    if ok {
-        for &b in digits {
-            match b {
-                b'0'..=b'9' => {
-                    m = m * 10 + u64::from(b - b'0');
-                    nd += 1;
-                    if seen_dot {
-                        frac += 1;
-                    }
-                }
-                b'.' if !seen_dot => seen_dot = true,
-                _ => {
-                    ok = false;
-                    break;
-                }
-            }
-        }
-    }
-    if ok && nd > 0 && m < (1u64 << 53) && frac < POW10.len() {
-        let v = m as f64 / POW10[frac];
-        return Some(if neg { -v } else { v });
-    }
-    std::str::from_utf8(field).ok()?.parse::<f64>().ok()
-}
+pub(super) use super::num::parse_f64;
 
 /// Parses a block of whole lines; `first_line` is the 1-based number of its first
 /// line. Appends finite points to `out`; returns the number of non-finite rows.

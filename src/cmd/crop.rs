@@ -2,7 +2,7 @@
 
 use super::{file_stem_for, parse_triple, progress_bar, refuse_overwrite};
 use mapgauge::cloud::{self, OutFormat};
-use mapgauge::crop::{LooseParams, Shape, loose_crop};
+use mapgauge::crop::{LooseParams, Shape, loose_crop_each};
 use mapgauge::survey::{SurveyOptions, read_survey};
 use mapgauge::{Point, Result};
 use std::path::PathBuf;
@@ -62,8 +62,22 @@ pub fn run(a: Args) -> Result<()> {
         shape = Shape::Cylinder;
     }
     let mut reader = cloud::open(&a.map)?;
+    std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
+    // One streaming writer per target: points go to disk as they are found, so
+    // memory does not grow with the crops (a 200 M-point map has millions of
+    // points within 5 m of its targets).
+    let mut paths = Vec::new();
+    let mut writers = Vec::new();
+    for t in &survey.targets {
+        let path = a
+            .out
+            .join(format!("{}.{}", file_stem_for(&t.id), a.format.extension()));
+        refuse_overwrite(&path, &[&a.map, &a.survey])?;
+        writers.push(cloud::CloudWriter::create(&path, a.format)?);
+        paths.push(path);
+    }
     let pb = progress_bar(reader.info().file_bytes, "reading map");
-    let crop = loose_crop(
+    let (map_points, skipped) = loose_crop_each(
         reader.as_mut(),
         &centres,
         &LooseParams {
@@ -75,21 +89,17 @@ pub fn run(a: Args) -> Result<()> {
                 pb.set_position(b)
             }
         },
+        |i, pts| writers[i].write(pts),
     )?;
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
     println!("{:<12} {:>10}  file", "id", "points");
     let mut empty = 0;
-    for (t, pts) in survey.targets.iter().zip(&crop.points) {
-        let path = a
-            .out
-            .join(format!("{}.{}", file_stem_for(&t.id), a.format.extension()));
-        refuse_overwrite(&path, &[&a.map, &a.survey])?;
-        cloud::write(&path, a.format, pts)?;
-        println!("{:<12} {:>10}  {}", t.id, pts.len(), path.display());
-        if pts.is_empty() {
+    for ((t, w), path) in survey.targets.iter().zip(writers).zip(&paths) {
+        let n = w.finish()?;
+        println!("{:<12} {:>10}  {}", t.id, n, path.display());
+        if n == 0 {
             empty += 1;
             eprintln!(
                 "warning: target {} has no map points within {} m (outside the map, or wrong frame?)",
@@ -99,9 +109,9 @@ pub fn run(a: Args) -> Result<()> {
     }
     eprintln!(
         "{} points read{}; {} of {} targets have points",
-        crop.map_points,
-        if crop.skipped_nonfinite > 0 {
-            format!(", {} non-finite skipped", crop.skipped_nonfinite)
+        map_points,
+        if skipped > 0 {
+            format!(", {skipped} non-finite skipped")
         } else {
             String::new()
         },

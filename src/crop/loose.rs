@@ -7,9 +7,10 @@
 //! hits are appended in block order, so the output is identical for any thread
 //! count.
 
-use crate::cloud::PointReader;
+use crate::cloud::{PointReader, Scratch};
 use crate::{Error, Point, Result};
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// The region kept around each expected target position.
 #[derive(
@@ -64,14 +65,16 @@ pub struct LooseCrop {
 
 /// Upper bound on grid cells; the cell size grows when targets span a huge area.
 const MAX_CELLS: usize = 1 << 22;
-/// Points per parallel work item.
-const PAR_BLOCK: usize = 1 << 16;
 
 struct Grid {
     min: [f64; 2],
-    cell: f64,
+    /// 1 / cell size: a multiplication per axis instead of a division.
+    inv: f64,
     nx: usize,
     ny: usize,
+    /// `nx`, `ny` as f64 (the bounds test is done before the conversion).
+    nxf: f64,
+    nyf: f64,
     /// CSR: cell → range in `ids`.
     starts: Vec<u32>,
     ids: Vec<u32>,
@@ -97,12 +100,21 @@ impl Grid {
             }
             cell *= 2.0;
         }
+        let inv = 1.0 / cell;
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); nx * ny];
+        // A point's cell is computed as `(p - min) * inv`, which is monotone in
+        // p; a region's cells are computed the same way from its extent widened
+        // by far more than the rounding error, so every point that passes the
+        // distance test lies in a cell that lists its target.
+        let idx =
+            |v: f64, lo: f64, n: usize| (((v - lo) * inv).floor().max(0.0) as usize).min(n - 1);
         for (i, c) in centers.iter().enumerate() {
-            let x0 = (((c.x - radius - min[0]) / cell).floor().max(0.0) as usize).min(nx - 1);
-            let x1 = (((c.x + radius - min[0]) / cell).floor().max(0.0) as usize).min(nx - 1);
-            let y0 = (((c.y - radius - min[1]) / cell).floor().max(0.0) as usize).min(ny - 1);
-            let y1 = (((c.y + radius - min[1]) / cell).floor().max(0.0) as usize).min(ny - 1);
+            let ex = 1e-9 * (c.x.abs() + radius + 1.0);
+            let ey = 1e-9 * (c.y.abs() + radius + 1.0);
+            let x0 = idx(c.x - radius - ex, min[0], nx);
+            let x1 = idx(c.x + radius + ex, min[0], nx);
+            let y0 = idx(c.y - radius - ey, min[1], ny);
+            let y1 = idx(c.y + radius + ey, min[1], ny);
             for iy in y0..=y1 {
                 for ix in x0..=x1 {
                     lists[iy * nx + ix].push(i as u32);
@@ -118,9 +130,11 @@ impl Grid {
         }
         Grid {
             min,
-            cell,
+            inv,
             nx,
             ny,
+            nxf: nx as f64,
+            nyf: ny as f64,
             starts,
             ids,
         }
@@ -128,17 +142,17 @@ impl Grid {
 
     #[inline]
     fn candidates(&self, p: &Point) -> &[u32] {
-        let fx = (p.x - self.min[0]) / self.cell;
-        let fy = (p.y - self.min[1]) / self.cell;
-        if !(fx >= 0.0 && fy >= 0.0) {
+        let fx = (p.x - self.min[0]) * self.inv;
+        let fy = (p.y - self.min[1]) * self.inv;
+        // One combined test; NaN fails it too.
+        if !(fx >= 0.0 && fy >= 0.0 && fx < self.nxf && fy < self.nyf) {
             return &[];
         }
-        let (ix, iy) = (fx as usize, fy as usize);
-        if ix >= self.nx || iy >= self.ny {
-            return &[];
+        let c = (fy as usize).min(self.ny - 1) * self.nx + (fx as usize).min(self.nx - 1);
+        match (self.starts.get(c), self.starts.get(c + 1)) {
+            (Some(&a), Some(&b)) if a < b => self.ids.get(a as usize..b as usize).unwrap_or(&[]),
+            _ => &[],
         }
-        let c = iy * self.nx + ix;
-        &self.ids[self.starts[c] as usize..self.starts[c + 1] as usize]
     }
 }
 
@@ -148,21 +162,43 @@ pub fn loose_crop(
     reader: &mut dyn PointReader,
     centers: &[Point],
     params: &LooseParams,
-    mut progress: impl FnMut(u64),
+    progress: impl FnMut(u64),
 ) -> Result<LooseCrop> {
+    let mut points = vec![Vec::new(); centers.len()];
+    let (map_points, skipped_nonfinite) =
+        loose_crop_each(reader, centers, params, progress, |i, p| {
+            points[i].extend_from_slice(p);
+            Ok(())
+        })?;
+    Ok(LooseCrop {
+        points,
+        map_points,
+        skipped_nonfinite,
+    })
+}
+
+/// [`loose_crop`] that hands the points of each crop to `sink(target, points)`
+/// as they are found (in map order per target) instead of keeping them, so a
+/// caller that writes crops to files needs memory independent of the crops'
+/// size. Returns the map's finite and skipped non-finite point counts.
+pub fn loose_crop_each(
+    reader: &mut dyn PointReader,
+    centers: &[Point],
+    params: &LooseParams,
+    mut progress: impl FnMut(u64),
+    mut sink: impl FnMut(usize, &[Point]) -> Result<()>,
+) -> Result<(u64, u64)> {
     if !(params.radius.is_finite() && params.radius > 0.0) {
         return Err(Error::Param(format!(
             "crop radius must be positive, got {}",
             params.radius
         )));
     }
-    let mut out = LooseCrop {
-        points: vec![Vec::new(); centers.len()],
-        ..Default::default()
-    };
+    let mut out = LooseCrop::default();
     if centers.is_empty() {
-        return Ok(out);
+        return Ok((0, 0));
     }
+    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centers.len()];
     let grid = Grid::new(centers, params.radius);
     let r2 = params.radius * params.radius;
     let sphere = params.shape == Shape::Sphere;
@@ -176,32 +212,57 @@ pub fn loose_crop(
         }
         d2 < r2
     };
+    // Pieces are read, decoded and tested by the same thread, so each piece's
+    // points are used while they are in its cache; hits are appended in piece
+    // order, so the result does not depend on the thread count.
+    let pool: Mutex<Vec<Scratch>> = Mutex::new(Vec::new());
     let mut buf = Vec::new();
-    while reader.next_chunk(&mut buf)? {
-        out.map_points += buf.len() as u64;
-        let hits: Vec<Vec<(u32, Point)>> = buf
-            .par_chunks(PAR_BLOCK)
-            .map(|block| {
-                let mut h = Vec::new();
-                for p in block {
-                    for &i in grid.candidates(p) {
-                        if inside(p, &centers[i as usize]) {
-                            h.push((i, *p));
+    loop {
+        let Some(batch) = reader.next_batch(&mut buf)? else {
+            break;
+        };
+        let hits: Vec<Result<(u64, Vec<(u32, Point)>)>> = (0..batch.pieces())
+            .into_par_iter()
+            .map(|i| {
+                let mut scratch = pool
+                    .lock()
+                    .ok()
+                    .and_then(|mut p| p.pop())
+                    .unwrap_or_default();
+                let res = batch.piece(i, &mut scratch).map(|block| {
+                    let mut h = Vec::new();
+                    for p in block {
+                        for &i in grid.candidates(p) {
+                            if inside(p, &centers[i as usize]) {
+                                h.push((i, *p));
+                            }
                         }
                     }
+                    (block.len() as u64, h)
+                });
+                if let Ok(mut p) = pool.lock() {
+                    p.push(scratch);
                 }
-                h
+                res
             })
             .collect();
+        drop(batch);
         for h in hits {
+            let (n, h) = h?;
+            out.map_points += n;
             for (i, p) in h {
-                out.points[i as usize].push(p);
+                per[i as usize].push(p);
+            }
+        }
+        for (i, pts) in per.iter_mut().enumerate() {
+            if !pts.is_empty() {
+                sink(i, pts)?;
+                pts.clear();
             }
         }
         progress(reader.bytes_read());
     }
-    out.skipped_nonfinite = reader.stats().skipped_nonfinite;
-    Ok(out)
+    Ok((out.map_points, reader.stats().skipped_nonfinite))
 }
 
 #[cfg(test)]

@@ -1,0 +1,179 @@
+#!/usr/bin/env bash
+# Side-by-side benchmark of issue 7: mapgauge crop / eval against `cat` (the
+# floor: one copy of the page-cached file), Open3D (PyPI `open3d`: read + numpy
+# mask per target + write) and PCL's command-line tools (Debian `pcl-tools`:
+# pcl_passthrough_filter on x then y per target), on synthetic maps in every
+# format. Wall time, CPU time (user + sys) and peak RSS, median of RUNS rounds;
+# tools alternate inside each round so they all see the same machine load.
+#
+# Usage: bench/run.sh [POINTS...]          (default: 20000000)
+#        bench/run.sh 2000000              quick mode, about a minute
+#        bench/run.sh 20000000 200000000   the issue's sizes (200 M: ~25 GB of disk)
+# Env:   DIR      data directory, outside the repo   (default /tmp/mapgauge-bench)
+#        RUNS     rounds per measurement, odd        (default 3)
+#        FORMATS  subset of: pcd pcd-ascii pcd-compressed ply las laz
+#        TOOLS    subset of: cat crop eval open3d pcl
+#        BASELINE_MAX_POINTS  largest map given to Open3D and PCL (default 50000000:
+#                 they hold the whole map in memory, ~10 GB at 200 M points)
+#        OUT      markdown table file (default DIR/results-<date>.md)
+set -euo pipefail
+
+REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+DIR=${DIR:-/tmp/mapgauge-bench}
+RUNS=${RUNS:-3}
+FORMATS=${FORMATS:-"pcd pcd-ascii pcd-compressed ply las laz"}
+TOOLS=${TOOLS:-"cat crop eval open3d pcl"}
+BASELINE_MAX_POINTS=${BASELINE_MAX_POINTS:-50000000}
+SIZES=("$@")
+[[ ${#SIZES[@]} -eq 0 ]] && SIZES=(20000000)
+mkdir -p "$DIR"
+OUT=${OUT:-$DIR/results-$(date -u +%Y%m%dT%H%M%S).md}
+NOTES=()
+note() { NOTES+=("$1"); echo "note: $1" >&2; }
+
+if [[ ! -x /usr/bin/time ]]; then
+    echo "installing GNU time" >&2
+    apt-get install -y time >/dev/null 2>&1 || { echo "error: /usr/bin/time missing" >&2; exit 1; }
+fi
+echo "building release..." >&2
+(cd "$REPO" && cargo build --release --quiet)
+BIN="$REPO/target/release/mapgauge"
+
+have_open3d=0
+if python3 -c 'import open3d' 2>/dev/null; then have_open3d=1
+elif [[ " $TOOLS " == *" open3d "* ]]; then note "Open3D skipped: python3 cannot import open3d (pip install open3d)"; fi
+have_pcl=0
+if command -v pcl_passthrough_filter >/dev/null; then have_pcl=1
+elif [[ " $TOOLS " == *" pcl "* ]]; then note "PCL skipped: pcl_passthrough_filter missing (apt-get install pcl-tools)"; fi
+
+now_ns() { date +%s%N; }
+median() { printf '%s\n' "$@" | sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+max() { printf '%s\n' "$@" | sort -g | tail -n1; }
+
+# run_one KEY CMD...: one timed run; appends wall, cpu, rss to KEY's lists.
+declare -A WALL CPU RSS
+run_one() {
+    local key=$1; shift
+    local tf; tf=$(mktemp)
+    local t0 t1
+    t0=$(now_ns)
+    if ! /usr/bin/time -f "%U %S %M" -o "$tf" "$@" >/dev/null 2>"$tf.err"; then
+        echo "warning: $key failed: $(tail -n2 "$tf.err" | tr '\n' ' ')" >&2
+        WALL[$key]+="nan "; CPU[$key]+="nan "; RSS[$key]+="0 "
+        rm -f "$tf" "$tf.err"; return
+    fi
+    t1=$(now_ns)
+    read -r u s m < <(tail -n1 "$tf")
+    WALL[$key]+="$(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.3f", (b-a)/1e9}') "
+    CPU[$key]+="$(awk -v u="$u" -v s="$s" 'BEGIN{printf "%.2f", u+s}') "
+    RSS[$key]+="$m "
+    rm -f "$tf" "$tf.err"
+}
+
+# pcl_crop MAP SURVEY OUTDIR: per target, x range then y range (a 2r box).
+pcl_crop() {
+    local map=$1 survey=$2 out=$3 r=5
+    mkdir -p "$out"
+    tail -n +2 "$survey" | while IFS=, read -r id x y _rest; do
+        pcl_passthrough_filter "$map" "$out/$id-x.pcd" -field x -min "$(awk -v a="$x" -v r=$r 'BEGIN{print a-r}')" \
+            -max "$(awk -v a="$x" -v r=$r 'BEGIN{print a+r}')" -keep 0 >/dev/null
+        pcl_passthrough_filter "$out/$id-x.pcd" "$out/$id.pcd" -field y -min "$(awk -v a="$y" -v r=$r 'BEGIN{print a-r}')" \
+            -max "$(awk -v a="$y" -v r=$r 'BEGIN{print a+r}')" -keep 0 >/dev/null
+        rm -f "$out/$id-x.pcd"
+    done
+}
+export -f pcl_crop
+
+{
+echo "# mapgauge benchmark $(date -u +%Y-%m-%dT%H:%MZ)"
+echo
+echo "Machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(awk '/MemTotal/ {printf "%.0f GB", $2/1048576}' /proc/meminfo) RAM, Linux $(uname -r); load before: $(cut -d' ' -f1-3 /proc/loadavg)."
+echo "mapgauge $(git -C "$REPO" rev-parse --short HEAD 2>/dev/null || echo '?'); median of $RUNS runs; files in the page cache; CPU = user + sys."
+echo
+echo "| points | format | MB | tool | wall s | CPU s | peak RSS MB | wall / cat | CPU / cat | Open3D wall / this |"
+echo "|---|---|---|---|---|---|---|---|---|---|"
+} >"$OUT"
+
+for N in "${SIZES[@]}"; do
+    S="$DIR/n$N"
+    mkdir -p "$S"
+    if [[ ! -f "$S/map.pcd" || ! -f "$S/survey.csv" ]]; then
+        echo "synthesising $N points into $S ..." >&2
+        "$BIN" synth --points "$N" --format pcd --out "$S" >/dev/null
+    fi
+    NPTS=$(grep -a -m1 '^POINTS ' "$S/map.pcd" | awk '{print $2}')
+    declare -A FILE=([pcd]="$S/map.pcd" [pcd-ascii]="$S/map-ascii.pcd" [pcd-compressed]="$S/map-compressed.pcd"
+                     [ply]="$S/map.ply" [las]="$S/map.las" [laz]="$S/map.laz")
+    for f in $FORMATS; do
+        [[ -n ${FILE[$f]:-} ]] || { note "unknown format $f"; continue; }
+        if [[ ! -f ${FILE[$f]} ]]; then
+            if [[ $f == pcd-compressed ]] && (( NPTS * 24 > 4294967295 )); then
+                note "$N points: binary_compressed PCD skipped: the format's 32-bit sizes cannot hold $NPTS double points"
+                continue
+            fi
+            echo "converting to $f ..." >&2
+            "$BIN" convert --map "$S/map.pcd" --out "${FILE[$f]}" --format "$f" >/dev/null
+        fi
+    done
+    # PCL's filters read fields as float32: give them float32 copies.
+    declare -A PCLFILE=([pcd]="$S/map-f32.pcd" [pcd-ascii]="$S/map-f32-ascii.pcd" [pcd-compressed]="$S/map-f32-compressed.pcd")
+    if [[ " $TOOLS " == *" pcl "* && $have_pcl == 1 ]] && (( NPTS <= BASELINE_MAX_POINTS )); then
+        [[ -f ${PCLFILE[pcd]} ]] || python3 "$REPO/bench/pcd_f32.py" "$S/map.pcd" "${PCLFILE[pcd]}"
+        [[ -f ${PCLFILE[pcd-ascii]} ]] || pcl_convert_pcd_ascii_binary "${PCLFILE[pcd]}" "${PCLFILE[pcd-ascii]}" 0 >/dev/null
+        [[ -f ${PCLFILE[pcd-compressed]} ]] || pcl_convert_pcd_ascii_binary "${PCLFILE[pcd]}" "${PCLFILE[pcd-compressed]}" 2 >/dev/null
+    fi
+    for f in $FORMATS; do
+        MAP=${FILE[$f]:-}
+        [[ -n $MAP && -f $MAP ]] || continue
+        MB=$(( $(stat -c %s "$MAP") / 1000000 ))
+        cat "$MAP" >/dev/null   # warm the page cache
+        [[ -f ${PCLFILE[$f]:-/nonexistent} ]] && cat "${PCLFILE[$f]}" >/dev/null
+        tools=()
+        for t in $TOOLS; do
+            case $t in
+                open3d) [[ $have_open3d == 1 ]] || continue
+                        [[ $f == las || $f == laz ]] && { note "Open3D cannot read $f"; continue; }
+                        (( NPTS > BASELINE_MAX_POINTS )) && { note "$N points: Open3D skipped (BASELINE_MAX_POINTS)"; continue; } ;;
+                pcl)    [[ $have_pcl == 1 ]] || continue
+                        [[ $f == pcd* ]] || continue
+                        (( NPTS > BASELINE_MAX_POINTS )) && { note "$N points: PCL skipped (BASELINE_MAX_POINTS)"; continue; } ;;
+            esac
+            tools+=("$t")
+        done
+        for i in $(seq 1 "$RUNS"); do
+            for t in "${tools[@]}"; do
+                key="$N|$f|$t"
+                rm -rf "$S/out-$t"
+                echo "  $N $f $t run $i" >&2
+                case $t in
+                    cat)    run_one "$key" sh -c "cat '$MAP' >/dev/null" ;;
+                    crop)   run_one "$key" "$BIN" crop --map "$MAP" --survey "$S/survey.csv" --out "$S/out-$t" ;;
+                    eval)   run_one "$key" "$BIN" eval --map "$MAP" --survey "$S/survey.csv" --out "$S/out-$t" ;;
+                    open3d) run_one "$key" python3 "$REPO/bench/open3d_crop.py" "$MAP" "$S/survey.csv" "$S/out-$t" ;;
+                    pcl)    run_one "$key" bash -c "pcl_crop '${PCLFILE[$f]}' '$S/survey.csv' '$S/out-$t'" ;;
+                esac
+            done
+        done
+        catw=$(median ${WALL["$N|$f|cat"]:-nan})
+        catc=$(median ${CPU["$N|$f|cat"]:-nan})
+        o3w=$(median ${WALL["$N|$f|open3d"]:-nan})
+        for t in "${tools[@]}"; do
+            key="$N|$f|$t"
+            w=$(median ${WALL[$key]}); c=$(median ${CPU[$key]}); r=$(( $(max ${RSS[$key]}) / 1024 ))
+            rw=$(awk -v a="$w" -v b="$catw" 'BEGIN{ if (b+0 > 0 && a != "nan") printf "%.2f", a/b; else print "-" }')
+            rc=$(awk -v a="$c" -v b="$catc" 'BEGIN{ if (b+0 > 0 && a != "nan") printf "%.2f", a/b; else print "-" }')
+            ro=$(awk -v a="$o3w" -v b="$w" 'BEGIN{ if (a != "nan" && b+0 > 0) printf "%.1f", a/b; else print "-" }')
+            mb=$MB; name=$t
+            if [[ $t == pcl ]]; then mb="$(( $(stat -c %s "${PCLFILE[$f]}") / 1000000 ))"; name="pcl (float32 copy)"; fi
+            echo "| $NPTS | $f | $mb | $name | $w | $c | $r | $rw | $rc | $ro |" >>"$OUT"
+            echo "$NPTS $f $t: wall ${WALL[$key]}cpu ${CPU[$key]}rss ${RSS[$key]}" >&2
+        done
+    done
+done
+
+{
+echo
+echo "Load after: $(cut -d' ' -f1-3 /proc/loadavg)."
+for n in "${NOTES[@]}"; do echo "- $n"; done | sort -u
+} >>"$OUT"
+cat "$OUT"

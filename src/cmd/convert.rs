@@ -1,0 +1,61 @@
+//! `mapgauge convert`: rewrite a map in another format (streamed).
+
+use super::refuse_overwrite;
+use mapgauge::cloud::{self, CloudWriter, OutFormat};
+use mapgauge::{Error, Result};
+use std::path::PathBuf;
+
+/// Convert a map to another format, streaming (memory does not grow with the map).
+#[derive(clap::Args)]
+pub struct Args {
+    /// Input map (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    #[arg(long)]
+    map: PathBuf,
+    /// Output file.
+    #[arg(long)]
+    out: PathBuf,
+    /// Output format [default: from the output's extension: .ply, .pcd (binary), .las, .laz].
+    #[arg(long, value_enum)]
+    format: Option<OutFormat>,
+}
+
+/// Runs `convert`.
+pub fn run(a: Args) -> Result<()> {
+    let format = match a.format {
+        Some(f) => f,
+        None => {
+            let ext = a
+                .out
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase)
+                .unwrap_or_default();
+            match ext.as_str() {
+                "ply" => OutFormat::Ply,
+                "pcd" => OutFormat::Pcd,
+                "las" => OutFormat::Las,
+                "laz" => OutFormat::Laz,
+                _ => {
+                    return Err(Error::Param(format!(
+                        "{}: cannot tell the output format from the extension; give --format",
+                        a.out.display()
+                    )));
+                }
+            }
+        }
+    };
+    refuse_overwrite(&a.out, &[&a.map])?;
+    let mut reader = cloud::open(&a.map)?;
+    let mut writer = CloudWriter::create(&a.out, format)?;
+    let mut buf = Vec::new();
+    while reader.next_chunk(&mut buf)? {
+        writer.write(&buf)?;
+    }
+    let n = writer.finish()?;
+    let st = reader.stats();
+    println!("{n} points written to {}", a.out.display());
+    if st.skipped_nonfinite > 0 {
+        eprintln!("{} non-finite points skipped", st.skipped_nonfinite);
+    }
+    Ok(())
+}
