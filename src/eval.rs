@@ -115,6 +115,10 @@ pub struct TargetDetail {
     pub pass: u8,
     /// Points in the loose crop.
     pub loose_points: usize,
+    /// Points the map had inside the loose crop, when more than `crop.max_points`
+    /// and the crop was thinned to `loose_points`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loose_thinned_from: Option<u64>,
     /// Points in the tight crop.
     pub tight_points: usize,
     /// Local ground normal.
@@ -231,7 +235,7 @@ pub fn evaluate_map(
         ..Default::default()
     };
 
-    let loose = read_crops(inp.map, &expected, &crop_params, &mut info, &mut progress)?;
+    let (loose, offered) = read_crops(inp.map, &expected, &crop_params, &mut info, &mut progress)?;
     let mut found: Vec<Located> = survey
         .targets
         .par_iter()
@@ -239,6 +243,9 @@ pub fn evaluate_map(
         .zip(&loose)
         .map(|((t, e), pts)| locate_one(&t.id, e, pts, inp.crops_dir.as_deref(), cfg, 1))
         .collect();
+    for ((f, pts), n) in found.iter_mut().zip(&loose).zip(&offered) {
+        f.detail.loose_thinned_from = (*n > pts.len() as u64).then_some(*n);
+    }
 
     let opts = EvalOptions {
         method: cfg.metrics.align,
@@ -280,15 +287,16 @@ pub fn evaluate_map(
             if !redo.is_empty() {
                 let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
                 let mut again_info = EvalInfo::default();
-                let again = read_crops(
+                let (again, again_offered) = read_crops(
                     inp.map,
                     &centres,
                     &crop_params,
                     &mut again_info,
                     &mut progress,
                 )?;
-                for ((i, c), pts) in redo.into_iter().zip(again) {
-                    let l = locate_one(&survey.targets[i].id, &c, &pts, None, cfg, 2);
+                for (((i, c), pts), n) in redo.into_iter().zip(again).zip(again_offered) {
+                    let mut l = locate_one(&survey.targets[i].id, &c, &pts, None, cfg, 2);
+                    l.detail.loose_thinned_from = (n > pts.len() as u64).then_some(n);
                     if matches!(l.status, EstimateStatus::Found(_)) {
                         found[i] = l;
                         loose[i] = pts;
@@ -387,14 +395,14 @@ fn read_crops(
     params: &LooseParams,
     info: &mut EvalInfo,
     progress: &mut impl FnMut(u64, u64),
-) -> Result<Vec<Vec<Point>>> {
+) -> Result<(Vec<Vec<Point>>, Vec<u64>)> {
     let mut reader = cloud::open(map)?;
     let total = reader.info().file_bytes;
     info.map_bytes = total;
     let crop = crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?;
     info.map_points = crop.map_points;
     info.skipped_nonfinite = crop.skipped_nonfinite;
-    Ok(crop.points)
+    Ok((crop.points, crop.offered))
 }
 
 fn locate_one(

@@ -83,6 +83,7 @@ pub fn run(a: Args) -> Result<()> {
         &LooseParams {
             radius: a.radius,
             shape,
+            ..LooseParams::default()
         },
         |b| {
             if let Some(pb) = &pb {

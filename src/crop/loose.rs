@@ -41,6 +41,12 @@ pub struct LooseParams {
     pub radius: f64,
     /// Crop shape.
     pub shape: Shape,
+    /// Most points [`loose_crop`] keeps per target (0 = all). Beyond it the crop
+    /// is thinned uniformly at random (deterministically, see [`Thinned`]), so a
+    /// dense accumulated map needs memory bounded by the number of targets, not
+    /// by the map's density: 500,000 points of a 5 m crop still put tens of
+    /// thousands on a 0.6 m target.
+    pub max_points: usize,
 }
 
 impl Default for LooseParams {
@@ -48,6 +54,58 @@ impl Default for LooseParams {
         LooseParams {
             radius: 5.0,
             shape: Shape::Cylinder,
+            max_points: 500_000,
+        }
+    }
+}
+
+/// A point list thinned to at most `cap` points by halving: a point is kept
+/// while a hash of its coordinates lies below a threshold, and the threshold
+/// halves whenever the list outgrows `cap`. The kept set depends only on the
+/// points (not on their order or on thread count); each point survives with the
+/// same probability, 2^-`level`, so the thinning is uniform over the crop.
+#[derive(Debug, Clone, Default)]
+pub struct Thinned {
+    /// The kept points, in the order they were pushed.
+    pub points: Vec<Point>,
+    /// Halvings so far: 0 = every point kept.
+    pub level: u32,
+    /// Points offered, kept or not.
+    pub offered: u64,
+    cap: usize,
+}
+
+impl Thinned {
+    /// An empty list that keeps at most `cap` points (0 = no limit).
+    pub fn new(cap: usize) -> Self {
+        Thinned {
+            cap,
+            ..Default::default()
+        }
+    }
+
+    fn hash(p: &Point) -> u64 {
+        // splitmix64 over the coordinates' bit patterns.
+        let mut z = p.x.to_bits() ^ p.y.to_bits().rotate_left(21) ^ p.z.to_bits().rotate_left(42);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    fn keeps(level: u32, p: &Point) -> bool {
+        level == 0 || Self::hash(p) >> (64 - level.min(63)) == 0
+    }
+
+    /// Offers points; keeps those that pass the current threshold.
+    pub fn extend(&mut self, pts: &[Point]) {
+        self.offered += pts.len() as u64;
+        let level = self.level;
+        self.points
+            .extend(pts.iter().filter(|p| Self::keeps(level, p)));
+        while self.cap > 0 && self.points.len() > self.cap && self.level < 63 {
+            self.level += 1;
+            let level = self.level;
+            self.points.retain(|p| Self::keeps(level, p));
         }
     }
 }
@@ -57,6 +115,8 @@ impl Default for LooseParams {
 pub struct LooseCrop {
     /// One point list per requested centre, in the same order.
     pub points: Vec<Vec<Point>>,
+    /// Points inside each crop before thinning (see [`LooseParams::max_points`]).
+    pub offered: Vec<u64>,
     /// Points read from the map (finite ones).
     pub map_points: u64,
     /// Points the reader skipped as NaN/infinite.
@@ -164,14 +224,15 @@ pub fn loose_crop(
     params: &LooseParams,
     progress: impl FnMut(u64),
 ) -> Result<LooseCrop> {
-    let mut points = vec![Vec::new(); centers.len()];
+    let mut kept = vec![Thinned::new(params.max_points); centers.len()];
     let (map_points, skipped_nonfinite) =
         loose_crop_each(reader, centers, params, progress, |i, p| {
-            points[i].extend_from_slice(p);
+            kept[i].extend(p);
             Ok(())
         })?;
     Ok(LooseCrop {
-        points,
+        offered: kept.iter().map(|k| k.offered).collect(),
+        points: kept.into_iter().map(|k| k.points).collect(),
         map_points,
         skipped_nonfinite,
     })
@@ -371,7 +432,11 @@ mod tests {
     fn counts_equal_brute_force_for_both_shapes() {
         let (pts, centers) = scene([0.0; 3], 1);
         for shape in [Shape::Cylinder, Shape::Sphere] {
-            let params = LooseParams { radius: 5.0, shape };
+            let params = LooseParams {
+                radius: 5.0,
+                shape,
+                ..LooseParams::default()
+            };
             let mut r = VecReader::new(pts.clone(), 70_001);
             let crop = loose_crop(&mut r, &centers, &params, |_| {}).unwrap();
             let got: Vec<usize> = crop.points.iter().map(Vec::len).collect();
@@ -423,7 +488,7 @@ mod tests {
     fn bad_radius_is_an_error() {
         let p = LooseParams {
             radius: -1.0,
-            shape: Shape::Cylinder,
+            ..LooseParams::default()
         };
         let e = loose_crop(
             &mut VecReader::new(vec![], 10),
@@ -433,5 +498,49 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("radius"));
+    }
+
+    #[test]
+    fn thinning_is_bounded_uniform_and_order_free() {
+        let pts: Vec<Point> = (0..100_000)
+            .map(|i| {
+                let t = i as f64;
+                Point::new(
+                    (t * 0.618).fract() * 10.0,
+                    (t * 0.377).fract() * 10.0,
+                    t * 1e-5,
+                )
+            })
+            .collect();
+        let mut a = Thinned::new(30_000);
+        for c in pts.chunks(777) {
+            a.extend(c);
+        }
+        assert!(
+            a.points.len() <= 30_000 && a.points.len() > 10_000,
+            "{}",
+            a.points.len()
+        );
+        assert_eq!((a.level, a.offered), (2, 100_000));
+        // Same set whatever the order the points arrive in.
+        let mut b = Thinned::new(30_000);
+        let rev: Vec<Point> = pts.iter().rev().copied().collect();
+        b.extend(&rev);
+        let key = |v: &[Point]| {
+            let mut k: Vec<[u64; 3]> = v
+                .iter()
+                .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                .collect();
+            k.sort();
+            k
+        };
+        assert_eq!(key(&a.points), key(&b.points));
+        // Uniform: each half of the x range keeps about half of the points.
+        let left = a.points.iter().filter(|p| p.x < 5.0).count() as f64;
+        assert!((left / a.points.len() as f64 - 0.5).abs() < 0.02);
+        // No cap: nothing is dropped.
+        let mut c = Thinned::new(0);
+        c.extend(&pts);
+        assert_eq!((c.points.len(), c.level), (pts.len(), 0));
     }
 }
