@@ -473,6 +473,18 @@ impl PcdReader {
                         ),
                     ));
                 }
+                if need.is_some_and(|need| after - need >= header.point_size as u64) {
+                    return Err(Error::format(
+                        path,
+                        format!(
+                            "header declares POINTS {} but the data holds {} points ({} bytes of {}-byte points follow the header)",
+                            header.points,
+                            after / header.point_size as u64,
+                            after,
+                            header.point_size
+                        ),
+                    ));
+                }
                 // SAFETY: the map is read-only; the file must not be truncated while
                 // mapped (as for every mmap-based reader).
                 let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(path, e))?;
@@ -596,7 +608,7 @@ impl PcdReader {
         for piece in &pieces {
             for p in &piece.points {
                 if remaining == 0 {
-                    break;
+                    return Err(more_points_than_declared(path, self.header.points));
                 }
                 remaining -= 1;
                 self.next += 1;
@@ -605,9 +617,6 @@ impl PcdReader {
                 } else {
                     self.stats.skipped_nonfinite += 1;
                 }
-            }
-            if remaining == 0 {
-                break;
             }
             if let Some((line, ref what)) = piece.error {
                 let line = st.lineno + line;
@@ -627,6 +636,32 @@ impl PcdReader {
         st.consumed += end as u64;
         st.block.drain(..end);
         Ok(())
+    }
+}
+
+fn more_points_than_declared(path: &Path, points: u64) -> Error {
+    Error::format(
+        path,
+        format!("header declares POINTS {points} but the ascii data holds more points"),
+    )
+}
+
+/// After the declared points only blank lines may follow; more data means the
+/// header's POINTS is wrong (and part of the map would silently be dropped).
+fn ascii_tail_is_blank(path: &Path, st: &mut TextState, points: u64) -> Result<()> {
+    loop {
+        if !st.block.iter().all(|b| b.is_ascii_whitespace()) {
+            return Err(more_points_than_declared(path, points));
+        }
+        st.block.clear();
+        if st.eof {
+            return Ok(());
+        }
+        (&mut st.file)
+            .take(TEXT_BLOCK as u64)
+            .read_to_end(&mut st.block)
+            .map_err(|e| Error::io(path, e))?;
+        st.eof = st.block.is_empty();
     }
 }
 
@@ -849,6 +884,9 @@ impl PointReader for PcdReader {
         loop {
             if self.next >= self.header.points {
                 buf.clear();
+                if let Source::Text(st) = &mut self.source {
+                    ascii_tail_is_blank(&self.path, st, self.header.points)?;
+                }
                 if let Source::Columns(c) = &mut self.source {
                     *c = Vec::new(); // free the block as soon as it is consumed
                 }

@@ -724,7 +724,15 @@ fn ascii_across_pieces_and_blocks() {
         }
     }
     assert!(text.len() > TEXT_BLOCK + TEXT_PIECE);
-    text.push_str("garbage after the declared points is ignored\n");
+    // Data after the declared points means POINTS lies: an error, not a silent cut.
+    let more = format!("{text}\n1 2 3 {junk}\n");
+    let p = file(&dir, "longmore.pcd", more.as_bytes());
+    assert!(
+        err(&p).contains("POINTS 25000 but the ascii data holds more points"),
+        "{}",
+        err(&p)
+    );
+    text.push_str("\n \r\n");
     let p = file(&dir, "long.pcd", text.as_bytes());
     let (got, stats) = read(&p).unwrap();
     assert_eq!(stats.skipped_nonfinite, 25);
@@ -743,7 +751,7 @@ fn ascii_across_pieces_and_blocks() {
         "{e}"
     );
     // Missing final lines.
-    let cut = &text[..text.len() - 47 - 3 * (junk.len() + 20)];
+    let cut = &text[..text.len() - 3 - 3 * (junk.len() + 20)];
     let p = file(&dir, "longcut.pcd", cut.as_bytes());
     assert!(
         err(&p).contains("header declares POINTS 25000 but the data ends after"),
