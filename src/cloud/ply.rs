@@ -251,6 +251,8 @@ struct PlyReader {
     body: Body,
     stats: ReadStats,
     bytes: u64,
+    /// The vertex element is the last one: nothing but blanks may follow it.
+    vertex_last: bool,
 }
 
 /// Walks one binary element instance with list properties starting at `pos`;
@@ -286,6 +288,8 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let vertex = &header.elements[vi];
     let xyz = find_xyz(path, vertex)?;
     let total = vertex.count;
+    // Only then can data after the vertices be told apart from other elements.
+    let vertex_last = vi + 1 == header.elements.len();
     let be = header.encoding == Encoding::BinBe;
     let props: Vec<Prop> = vertex.props.iter().map(|(_, p)| p.clone()).collect();
     let body = if header.encoding == Encoding::Ascii {
@@ -294,7 +298,9 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         let mut lines = LineBlocks::new(file, path);
         let mut line_no = header.lines + 1;
         // Skip the lines of the elements before the vertex element.
-        let mut skip: u64 = header.elements[..vi].iter().map(|e| e.count).sum();
+        let mut skip: u64 = header.elements[..vi]
+            .iter()
+            .fold(0u64, |a, e| a.saturating_add(e.count));
         let mut pending = Vec::new();
         while skip > 0 {
             let Some(block) = lines.next_block()? else {
@@ -365,6 +371,12 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         match vertex.fixed_size() {
             Some(stride) => {
                 let have = (map.len() - pos) as u64 / stride.max(1) as u64;
+                if vertex_last && have > total {
+                    return Err(Error::format(
+                        path,
+                        format!("PLY header declares {total} vertices but the data holds {have}"),
+                    ));
+                }
                 if stride == 0 || have < total {
                     return Err(Error::format(
                         path,
@@ -408,6 +420,7 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         body,
         stats: ReadStats::default(),
         bytes: header.data_offset as u64,
+        vertex_last,
     }))
 }
 
@@ -475,6 +488,29 @@ impl PlyReader {
             ),
         )
     }
+}
+
+/// After the last vertex of an ascii file whose last element is `vertex`, only
+/// blank lines may follow: more data means the declared count is wrong.
+fn ascii_tail_is_blank(
+    path: &Path,
+    lines: &mut LineBlocks,
+    pending: &mut Vec<u8>,
+    line_no: u64,
+    total: u64,
+) -> Result<()> {
+    let mut blank = pending.iter().all(|b| b.is_ascii_whitespace());
+    pending.clear();
+    while blank {
+        match lines.next_block()? {
+            Some(b) => blank = b.iter().all(|b| b.is_ascii_whitespace()),
+            None => return Ok(()),
+        }
+    }
+    Err(Error::format(
+        path,
+        format!("line {line_no}: PLY header declares {total} vertices but more data follows"),
+    ))
 }
 
 impl PointReader for PlyReader {
@@ -653,6 +689,17 @@ impl PointReader for PlyReader {
                     }
                     self.bytes = lines.bytes;
                 }
+            }
+        }
+        if self.next == self.total && self.vertex_last {
+            if let Body::Ascii {
+                lines,
+                line_no,
+                pending,
+                ..
+            } = &mut self.body
+            {
+                ascii_tail_is_blank(&self.path, lines, pending, *line_no, self.total)?;
             }
         }
         self.stats.points += buf.len() as u64;
