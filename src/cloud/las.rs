@@ -61,15 +61,52 @@ pub(super) struct Producer {
     done: bool,
 }
 
+/// Name of the threads that run third-party decoders.
+const READER_THREAD: &str = "mapgauge-reader";
+
+/// Installs (once) a panic hook that stays silent for reader threads, whose
+/// panics are caught and reported as one-line errors; every other panic is
+/// reported by the previous hook as usual.
+fn quiet_reader_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let prev = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if std::thread::current().name() != Some(READER_THREAD) {
+                prev(info);
+            }
+        }));
+    });
+}
+
 impl Producer {
     /// Runs `body` on a new thread; it must send `Msg::Info` first, then chunks,
     /// then `Msg::Done` (or `Msg::Err`). Waits for the header.
     pub(super) fn spawn(path: &Path, body: impl FnOnce(Tx) + Send + 'static) -> Result<Self> {
         let (tx, rx) = sync_channel(1);
         let (recycle, back) = sync_channel(2);
+        let p = path.to_path_buf();
+        quiet_reader_panics();
         std::thread::Builder::new()
-            .name("mapgauge-reader".into())
-            .spawn(move || body(Tx { tx, recycle: back }))
+            .name(READER_THREAD.into())
+            .spawn(move || {
+                let err = tx.clone();
+                // A decoder crate that panics on a malformed file (the `laz`
+                // crate asserts on some lying headers) must not take the process
+                // down: its panic becomes this file's error.
+                let run = std::panic::AssertUnwindSafe(move || body(Tx { tx, recycle: back }));
+                if let Err(panic) = std::panic::catch_unwind(run) {
+                    let what = panic
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| panic.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "unknown cause".into());
+                    let _ = err.send(Msg::Err(Error::format(
+                        &p,
+                        format!("the decoder failed on malformed data ({what})"),
+                    )));
+                }
+            })
             .map_err(|e| Error::io(path, e))?;
         let mut p = Producer {
             path: path.to_path_buf(),
@@ -170,12 +207,27 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         let compressed = fmt.is_compressed;
         if !compressed {
             // A declared count larger than the data is an error up front.
-            let start = header
-                .clone()
-                .into_raw()
-                .map(|r| r.offset_to_point_data as u64)
-                .unwrap_or(0);
+            let raw = header.clone().into_raw().ok();
+            let start = raw.as_ref().map_or(0, |r| r.offset_to_point_data as u64);
+            // Point data ends where the extended VLRs (LAS 1.4) start, or at the end.
+            let data_end = raw
+                .as_ref()
+                .and_then(|r| r.evlr)
+                .map(|e| e.start_of_first_evlr)
+                .filter(|&e| e > start && e <= file_bytes)
+                .unwrap_or(file_bytes);
             let need = total.checked_mul(rec).and_then(|b| b.checked_add(start));
+            if need.is_some_and(|n| rec > 0 && n <= data_end && data_end - n >= rec) {
+                tx.send(Msg::Err(Error::format(
+                    &p,
+                    format!(
+                        "LAS header declares {total} points but the point data holds {} ({} bytes of {rec}-byte records)",
+                        (data_end - start) / rec,
+                        data_end - start
+                    ),
+                )));
+                return;
+            }
             if need.is_none_or(|n| n > file_bytes) {
                 tx.send(Msg::Err(Error::format(
                     &p,
