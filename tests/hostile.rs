@@ -1016,3 +1016,243 @@ fn every_malformed_file_is_one_line_error() {
         failures.join("\n")
     );
 }
+
+fn os(s: &str) -> &std::ffi::OsStr {
+    s.as_ref()
+}
+
+/// Runs and requires success.
+fn ok(args: &[&std::ffi::OsStr]) -> Output {
+    let o = run(args);
+    assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    o
+}
+
+#[test]
+fn an_output_that_is_an_input_is_refused_under_any_spelling() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let survey = d.join("survey.csv");
+    std::fs::write(&survey, GOOD_SURVEY).unwrap();
+    let out = d.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    // crop writes OUT/1.ply: make the map that very file, spelt three ways.
+    let map_bytes = ply_head("ascii", 3, PLY_XYZ) + "0 0 0\n1 1 1\n10 0 1\n";
+    let map = out.join("1.ply");
+    std::fs::write(&map, &map_bytes).unwrap();
+    let dotted = d.join("out/./../out/1.ply");
+    std::fs::create_dir_all(d.join("elsewhere")).unwrap();
+    let linked = d.join("elsewhere/map.ply");
+    std::fs::hard_link(&map, &linked).unwrap();
+    let alias = d.join("alias");
+    std::os::unix::fs::symlink(&out, &alias).unwrap();
+    for (m, o) in [
+        (&map, &out),
+        (&dotted, &out),
+        (&linked, &out),
+        (&map, &alias),
+    ] {
+        let r = run(&[
+            os("crop"),
+            os("--map"),
+            m.as_os_str(),
+            os("--survey"),
+            survey.as_os_str(),
+            os("--out"),
+            o.as_os_str(),
+        ]);
+        assert_one_line_error(
+            &r,
+            &o.join("1.ply"),
+            &["is the input", "refusing to overwrite"],
+            &format!("crop map {} out {}", m.display(), o.display()),
+        );
+        assert_eq!(std::fs::read_to_string(&map).unwrap(), map_bytes);
+    }
+    // errors --out: the survey is OUT/targets.csv (spelt with ..).
+    let est = d.join("est.csv");
+    std::fs::write(&est, GOOD_ESTIMATES).unwrap();
+    let s2 = out.join("targets.csv");
+    std::fs::write(&s2, GOOD_SURVEY).unwrap();
+    let r = run(&[
+        os("errors"),
+        os("--survey"),
+        d.join("elsewhere/../out/targets.csv").as_os_str(),
+        os("--estimates"),
+        est.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+    ]);
+    assert_one_line_error(
+        &r,
+        &out.join("targets.csv"),
+        &["is the input"],
+        "errors --out",
+    );
+    assert_eq!(std::fs::read_to_string(&s2).unwrap(), GOOD_SURVEY);
+    assert!(!out.join("result.json").exists());
+    // eval --out: the survey is OUT/result.json.
+    let s3 = out.join("result.json");
+    std::fs::write(&s3, GOOD_SURVEY).unwrap();
+    let good_map = d.join("good.pcd");
+    std::fs::write(&good_map, good_pcd()).unwrap();
+    let r = run(&[
+        os("eval"),
+        os("--map"),
+        good_map.as_os_str(),
+        os("--survey"),
+        s3.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+    ]);
+    assert_one_line_error(&r, &s3, &["is the input"], "eval --out");
+    assert_eq!(std::fs::read_to_string(&s3).unwrap(), GOOD_SURVEY);
+    // synth --config: the configuration is one of the files synth writes.
+    let cfg = out.join("truth.json");
+    std::fs::write(&cfg, "seed = 3\n").unwrap();
+    let r = run(&[
+        os("synth"),
+        os("--config"),
+        cfg.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+        os("--points"),
+        os("1000"),
+    ]);
+    assert_eq!(r.status.code(), Some(1), "{}", stderr(&r));
+    assert!(stderr(&r).contains("is the input"), "{}", stderr(&r));
+    assert_eq!(std::fs::read_to_string(&cfg).unwrap(), "seed = 3\n");
+    // An --out that is a file is a one-line error too.
+    let file_out = d.join("plain-file");
+    std::fs::write(&file_out, "x").unwrap();
+    let r = run(&[
+        os("errors"),
+        os("--survey"),
+        survey.as_os_str(),
+        os("--estimates"),
+        est.as_os_str(),
+        os("--out"),
+        file_out.as_os_str(),
+    ]);
+    assert_one_line_error(&r, &file_out, &[], "errors --out FILE");
+}
+
+/// The files of a directory tree, relative, with their contents.
+fn tree(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut m = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(p) = stack.pop() {
+        for e in std::fs::read_dir(&p).unwrap() {
+            let e = e.unwrap().path();
+            if e.is_dir() {
+                stack.push(e);
+            } else {
+                let rel = e.strip_prefix(dir).unwrap().display().to_string();
+                m.insert(rel, std::fs::read(&e).unwrap());
+            }
+        }
+    }
+    m
+}
+
+/// Synthesises a small binary-PCD scene in `dir`; returns (map, survey).
+fn small_scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    ok(&[
+        os("synth"),
+        os("--out"),
+        dir.as_os_str(),
+        os("--points"),
+        os("400000"),
+        os("--seed"),
+        os("5"),
+        os("--format"),
+        os("pcd"),
+    ]);
+    (dir.join("map.pcd"), dir.join("survey.csv"))
+}
+
+#[test]
+fn existing_out_dirs_keep_the_users_files_and_nonfinite_points_are_skipped() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let (map, survey) = small_scene(&d.join("scene"));
+    // The user's files in the output directories, some where mapgauge writes.
+    let out = d.join("out");
+    let mine: [(&str, &[u8]); 4] = [
+        ("notes.txt", b"mine"),
+        (".hidden", b"mine too"),
+        ("crops/loose/my-edit.ply", b"hand-made"),
+        ("crops/tight/old/keep.pcd", b"keep"),
+    ];
+    for (p, b) in mine {
+        let f = out.join(p);
+        std::fs::create_dir_all(f.parent().unwrap()).unwrap();
+        std::fs::write(&f, b).unwrap();
+    }
+    let eval = |map: &Path, out: &Path| {
+        ok(&[
+            os("eval"),
+            os("--map"),
+            map.as_os_str(),
+            os("--survey"),
+            survey.as_os_str(),
+            os("--out"),
+            out.as_os_str(),
+            os("--save-crops"),
+        ])
+    };
+    eval(&map, &out);
+    let after = tree(&out);
+    for (p, b) in mine {
+        assert_eq!(after.get(p).map(|v| &v[..]), Some(b), "{p} lost or changed");
+    }
+    for p in ["result.json", "targets.csv", "pairs.csv"] {
+        assert!(after.contains_key(p), "{p} missing");
+    }
+    // No temporary files are left behind.
+    assert!(
+        after.keys().all(|k| !k.contains(".tmp")),
+        "{:?}",
+        after.keys()
+    );
+    // A second run into the same directory replaces only its own files, with
+    // the same bytes.
+    eval(&map, &out);
+    assert_eq!(tree(&out), after);
+
+    // The same map with non-finite coordinates in 40 points: they are skipped
+    // and counted, and the targets are still found.
+    let mut bytes = std::fs::read(&map).unwrap();
+    let data = bytes
+        .windows(12)
+        .position(|w| w == b"DATA binary\n")
+        .unwrap()
+        + 12;
+    let n = (bytes.len() - data) / 24;
+    for k in 0..40 {
+        let i = data + (k * (n / 40)) * 24 + (k % 3) * 8;
+        let v = if k % 2 == 0 {
+            f64::NAN
+        } else {
+            f64::NEG_INFINITY
+        };
+        bytes[i..i + 8].copy_from_slice(&v.to_le_bytes());
+    }
+    let nan_map = d.join("nan.pcd");
+    std::fs::write(&nan_map, &bytes).unwrap();
+    let out2 = d.join("out-nan");
+    eval(&nan_map, &out2);
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out2.join("result.json")).unwrap()).unwrap();
+    assert_eq!(j["eval"]["skipped_nonfinite"], 40, "{}", j["eval"]);
+    let clean: serde_json::Value = serde_json::from_slice(&after["result.json"]).unwrap();
+    let status = |v: &serde_json::Value| -> Vec<String> {
+        v["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["status"].to_string())
+            .collect()
+    };
+    assert_eq!(status(&j), status(&clean));
+}
