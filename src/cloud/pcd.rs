@@ -95,9 +95,10 @@ fn parse_usize_list(
     vals.iter()
         .map(|v| match v.parse::<usize>() {
             Ok(n) if n >= min => Ok(n),
-            _ => Err(Error::format(
+            _ => Err(Error::table(
                 path,
-                format!("header line {lineno}: {key} value '{v}' is not an integer >= {min}"),
+                lineno,
+                format!("{key} value '{v}' is not an integer >= {min}"),
             )),
         })
         .collect()
@@ -106,17 +107,16 @@ fn parse_usize_list(
 fn parse_u64(path: &Path, key: &str, lineno: u64, vals: &[&str]) -> Result<u64> {
     match vals {
         [v] => v.parse::<u64>().map_err(|_| {
-            Error::format(
+            Error::table(
                 path,
-                format!("header line {lineno}: {key} value '{v}' is not a non-negative integer"),
+                lineno,
+                format!("{key} value '{v}' is not a non-negative integer"),
             )
         }),
-        _ => Err(Error::format(
+        _ => Err(Error::table(
             path,
-            format!(
-                "header line {lineno}: {key} needs exactly one value, found {}",
-                vals.len()
-            ),
+            lineno,
+            format!("{key} needs exactly one value, found {}", vals.len()),
         )),
     }
 }
@@ -153,7 +153,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
         };
         pos = next;
         let line = std::str::from_utf8(raw)
-            .map_err(|_| Error::format(path, format!("header line {lineno} is not UTF-8 text")))?;
+            .map_err(|_| Error::table(path, lineno, "header line is not UTF-8 text"))?;
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
@@ -183,10 +183,11 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
                     Some("binary") => DataKind::Binary,
                     Some("binary_compressed") => DataKind::Compressed,
                     other => {
-                        return Err(Error::format(
+                        return Err(Error::table(
                             path,
+                            lineno,
                             format!(
-                                "header line {lineno}: unknown DATA '{}' (expected ascii, binary or binary_compressed)",
+                                "unknown DATA '{}' (expected ascii, binary or binary_compressed)",
                                 other.unwrap_or("")
                             ),
                         ));
@@ -205,11 +206,10 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     let n = names.len();
     let check_len = |key: &str, line: u64, len: usize| -> Result<()> {
         if len != n {
-            Err(Error::format(
+            Err(Error::table(
                 path,
-                format!(
-                    "header line {line}: {key} has {len} entries but FIELDS (line {names_line}) has {n}"
-                ),
+                line,
+                format!("{key} has {len} entries but FIELDS (line {names_line}) has {n}"),
             ))
         } else {
             Ok(())
@@ -243,11 +243,10 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     for i in 0..n {
         let (name, size, ty, count) = (&names[i], sizes[i], types[i].as_str(), counts[i]);
         if !matches!(ty, "F" | "I" | "U") {
-            return Err(Error::format(
+            return Err(Error::table(
                 path,
-                format!(
-                    "header line {types_line}: unknown TYPE '{ty}' for field '{name}' (expected F, I or U)"
-                ),
+                types_line,
+                format!("unknown TYPE '{ty}' for field '{name}' (expected F, I or U)"),
             ));
         }
         let kind = Scalar::from_type_size(ty, size).ok_or_else(|| {
@@ -287,12 +286,10 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
                     .position(|f| f.name.eq_ignore_ascii_case(want))
             })
             .ok_or_else(|| {
-                Error::format(
+                Error::table(
                     path,
-                    format!(
-                        "header line {names_line}: no field '{want}' in FIELDS {}",
-                        names.join(" ")
-                    ),
+                    names_line,
+                    format!("no field '{want}' in FIELDS {}", names.join(" ")),
                 )
             })
     };
@@ -561,9 +558,10 @@ impl PcdReader {
             } else if st.block[before..].contains(&b'\n') {
                 break;
             } else if st.block.len() > MAX_LINE {
-                return Err(Error::format(
+                return Err(Error::table(
                     path,
-                    format!("line {}: longer than {} bytes", st.lineno + 1, MAX_LINE),
+                    st.lineno + 1,
+                    format!("line longer than {} bytes", MAX_LINE),
                 ));
             }
         }
@@ -622,14 +620,14 @@ impl PcdReader {
                 let line = st.lineno + line;
                 let msg = match what {
                     LineError::Short(found) => {
-                        format!("line {line}: expected {ntok} values, found {found}")
+                        format!("expected {ntok} values, found {found}")
                     }
                     LineError::NotNumber(c, tok) => format!(
-                        "line {line}: field '{}' value '{tok}' is not a number",
+                        "field '{}' value '{tok}' is not a number",
                         self.header.fields[self.header.xyz[*c]].name
                     ),
                 };
-                return Err(Error::format(path, msg));
+                return Err(Error::table(path, line, msg));
             }
             st.lineno += piece.lines;
         }

@@ -464,7 +464,7 @@ fn header_errors_are_one_clear_line() {
     bytes.extend_from_slice(b"DATA ascii\n");
     let p = file(&dir, "utf.pcd", &bytes);
     assert!(
-        err(&p).contains("header line 3 is not UTF-8"),
+        err(&p).contains(".pcd:3: header line is not UTF-8"),
         "{}",
         err(&p)
     );
@@ -477,14 +477,14 @@ fn header_errors_are_one_clear_line() {
     let text = replace_header(&good, "\n0.5 -0.25 1 100\n", "\n0.5 oops 1 100\n");
     let p = file(&dir, "badval.pcd", text.as_bytes());
     assert!(
-        err(&p).contains("line 13: field 'y' value 'oops' is not a number"),
+        err(&p).contains(".pcd:13: field 'y' value 'oops' is not a number"),
         "{}",
         err(&p)
     );
     let text = replace_header(&good, "\n0.5 -0.25 1 100\n", "\n0.5 -0.25\n");
     let p = file(&dir, "short.pcd", text.as_bytes());
     assert!(
-        err(&p).contains("line 13: expected 4 values, found 2"),
+        err(&p).contains(".pcd:13: expected 4 values, found 2"),
         "{}",
         err(&p)
     );
@@ -747,7 +747,7 @@ fn ascii_across_pieces_and_blocks() {
     let e = err(&p);
     // 11 header lines + 20000 data lines before it + 2 blank lines.
     assert!(
-        e.contains("line 20014: field 'y' value 'x' is not a number"),
+        e.contains(".pcd:20014: field 'y' value 'x' is not a number"),
         "{e}"
     );
     // Missing final lines.

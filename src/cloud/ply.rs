@@ -113,7 +113,7 @@ fn parse_header(path: &Path, file: &mut File) -> Result<Header> {
         let raw = &head[pos..pos + nl];
         pos += nl + 1;
         line_no += 1;
-        let bad = |msg: String| Error::format(path, format!("PLY header line {line_no}: {msg}"));
+        let bad = |msg: String| Error::table(path, line_no, format!("PLY header: {msg}"));
         let line = std::str::from_utf8(raw)
             .map_err(|_| bad("not valid UTF-8 text".into()))?
             .trim();
@@ -507,9 +507,10 @@ fn ascii_tail_is_blank(
             None => return Ok(()),
         }
     }
-    Err(Error::format(
+    Err(Error::table(
         path,
-        format!("line {line_no}: PLY header declares {total} vertices but more data follows"),
+        line_no,
+        format!("PLY header declares {total} vertices but more data follows"),
     ))
 }
 
@@ -646,8 +647,7 @@ impl PointReader for PlyReader {
                         let mut it = line
                             .split(|b| b.is_ascii_whitespace())
                             .filter(|t| !t.is_empty());
-                        let bad =
-                            |msg: String| Error::format(&self.path, format!("line {ln}: {msg}"));
+                        let bad = |msg: String| Error::table(&self.path, ln, msg);
                         let need = xyz.idx.iter().copied().max().unwrap_or(0);
                         for (i, prop) in props.iter().enumerate().take(need + 1) {
                             let count = match prop {
@@ -936,24 +936,30 @@ property float z\nend_header\n1 2 3\n",
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
 property float z\nend_header\n1 2\n",
         );
-        assert!(e.contains("line 8") && e.contains("too few values"), "{e}");
+        assert!(
+            e.contains(".ply:8: ") && e.contains("too few values"),
+            "{e}"
+        );
         let e = err(
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
 property float z\nend_header\n1 2 q\n",
         );
         assert!(
-            e.contains("line 8") && e.contains("\"q\" is not a number"),
+            e.contains(".ply:8: ") && e.contains("\"q\" is not a number"),
             "{e}"
         );
         let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float16 x\nend_header\n");
         assert!(
-            e.contains("header line 4") && e.contains("unknown property type \"float16\""),
+            e.contains(".ply:4: PLY header: unknown property type \"float16\""),
             "{e}"
         );
         let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float z\nend_header\n");
         assert!(e.contains("no 'y' property"), "{e}");
         let e = err(b"ply\nformat ascii 1.0\ncomment \xff\xfe\nend_header\n");
-        assert!(e.contains("header line 3") && e.contains("UTF-8"), "{e}");
+        assert!(
+            e.contains(".ply:3: PLY header") && e.contains("UTF-8"),
+            "{e}"
+        );
         let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");
         assert!(e.contains("never ends"), "{e}");
         let e =
