@@ -872,7 +872,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     std::fs::write(&tmp, bytes).map_err(|e| {
         // A disk that filled up must not be left holding a partial temporary.
         let _ = std::fs::remove_file(&tmp);
-        Error::io(&tmp, e)
+        Error::io(path, e)
     })?;
     std::fs::rename(&tmp, path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
