@@ -660,7 +660,7 @@ fn cases(dir: &Path) -> Vec<Case> {
             Map,
             "m.laz",
             laz10[..laz10.len() - 40].to_vec(),
-            &["LAS"],
+            &["LAZ: chunk table offset"],
         ),
         case(
             "laz declares terabytes",
@@ -668,6 +668,13 @@ fn cases(dir: &Path) -> Vec<Case> {
             "m.laz",
             las_with_count(laz10.clone(), u32::MAX),
             &["decoder failed on malformed data"],
+        ),
+        case(
+            "laz fixed chunk size of 1.3 G points in a 400-byte file (fuzz find)",
+            Map,
+            "m.laz",
+            include_bytes!("corpus/fuzz-laz-chunk-bytes.laz").to_vec(),
+            &["LAZ: chunk size 1275118416 points is absurd"],
         ),
         // ---------------------------------------------------------------- E57
         case("e57 empty", Map, "m.e57", "", &["empty file"]),

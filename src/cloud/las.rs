@@ -192,6 +192,16 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
     let p = path.to_path_buf();
     let producer = Producer::spawn(path, move |tx| {
+        let checked = check_laz_chunks(&file, file_bytes).and_then(|()| {
+            (&file)
+                .seek(SeekFrom::Start(0))
+                .map(drop)
+                .map_err(|e| e.to_string())
+        });
+        if let Err(msg) = checked {
+            tx.send(Msg::Err(Error::format(&p, msg)));
+            return;
+        }
         let mut reader = match las::Reader::new(BufReader::with_capacity(1 << 20, file)) {
             Ok(r) => r,
             Err(e) => {
@@ -290,6 +300,99 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         tx.send(Msg::Done(0));
     })?;
     Ok(Box::new(producer))
+}
+
+/// Checks a LAZ file's chunk table against the file size before the `laz`
+/// crate sees it: the crate allocates the table from its declared chunk count
+/// and reads each chunk into a buffer of its declared byte count, so a lying
+/// table would make it allocate gigabytes (found by fuzzing). Not LAZ: Ok.
+fn check_laz_chunks(file: &File, file_bytes: u64) -> std::result::Result<(), String> {
+    use std::io::Read;
+    let mut f = BufReader::new(file);
+    let bad = |m: &str| format!("LAZ: {m}");
+    let io = |e: std::io::Error| format!("LAZ: {e}");
+    let Ok(raw) = las::raw::Header::read_from(&mut f) else {
+        return Ok(()); // not even a LAS header: the las crate reports it
+    };
+    if raw.point_data_record_format & 0x80 == 0 {
+        return Ok(());
+    }
+    f.seek(SeekFrom::Start(u64::from(raw.header_size)))
+        .map_err(io)?;
+    let mut laz_vlr = None;
+    for _ in 0..raw.number_of_variable_length_records {
+        let Ok(v) = las::raw::Vlr::read_from(&mut f, false) else {
+            return Ok(()); // the las crate reports it
+        };
+        let id = v.user_id.split(|&b| b == 0).next().unwrap_or_default();
+        if id == laz::LazVlr::USER_ID.as_bytes() && v.record_id == laz::LazVlr::RECORD_ID {
+            laz_vlr = Some(laz::LazVlr::from_buffer(&v.data).map_err(|e| bad(&e.to_string()))?);
+            break;
+        }
+    }
+    let Some(vlr) = laz_vlr else {
+        return Err(bad("compressed point format but no laszip VLR"));
+    };
+    let start = u64::from(raw.offset_to_point_data);
+    let mut word = [0u8; 8];
+    f.seek(SeekFrom::Start(start)).map_err(io)?;
+    f.read_exact(&mut word)
+        .map_err(|_| bad("point data ends before the chunk table offset"))?;
+    let mut table = i64::from_le_bytes(word);
+    if table == -1 {
+        // Written by a streaming compressor: the offset is the file's last 8 bytes.
+        f.seek(SeekFrom::End(-8)).map_err(io)?;
+        f.read_exact(&mut word).map_err(io)?;
+        table = i64::from_le_bytes(word);
+    }
+    let table = u64::try_from(table).unwrap_or(u64::MAX);
+    if table < start + 8 || table.saturating_add(8) > file_bytes {
+        return Err(bad(&format!(
+            "chunk table offset {table} lies outside the point data ({}..{file_bytes})",
+            start + 8
+        )));
+    }
+    f.seek(SeekFrom::Start(table + 4)).map_err(io)?;
+    f.read_exact(&mut word[..4]).map_err(io)?;
+    let chunks = u64::from(u32::from_le_bytes([word[0], word[1], word[2], word[3]]));
+    // Every chunk holds at least one byte of point data.
+    if chunks > table - start {
+        return Err(bad(&format!(
+            "chunk table declares {chunks} chunks in {} bytes of point data",
+            table - start
+        )));
+    }
+    // The crate sizes a chunk's output buffer by its point count (the VLR's
+    // chunk size when chunks are fixed): no real file packs more than a few
+    // dozen points into a compressed byte, so allow 64 per byte (and the
+    // LASzip default chunk of 50 000 whatever the size).
+    let data = table - start;
+    let max_points = data.saturating_mul(64).max(50_000);
+    if !vlr.uses_variable_size_chunks() && u64::from(vlr.chunk_size()) > max_points {
+        return Err(bad(&format!(
+            "chunk size {} points is absurd for {data} bytes of point data",
+            vlr.chunk_size()
+        )));
+    }
+    f.seek(SeekFrom::Start(start)).map_err(io)?;
+    let entries =
+        laz::laszip::ChunkTable::read_from(&mut f, &vlr).map_err(|e| bad(&e.to_string()))?;
+    let (mut bytes, mut points) = (0u64, 0u64);
+    for e in entries.as_ref() {
+        bytes = bytes.saturating_add(e.byte_count);
+        points = points.saturating_add(e.point_count);
+    }
+    if bytes > data {
+        return Err(bad(&format!(
+            "chunk table declares {bytes} compressed bytes, the point data holds {data}"
+        )));
+    }
+    if vlr.uses_variable_size_chunks() && points > max_points {
+        return Err(bad(&format!(
+            "chunk table declares {points} points in {data} bytes of point data"
+        )));
+    }
+    Ok(())
 }
 
 /// A file that turns into a no-op once aborted, so the `las` writer's drop (which
