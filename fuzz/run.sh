@@ -4,8 +4,8 @@
 #
 #   fuzz/run.sh [SECONDS] [TARGET...]
 #
-# New inputs that reach new code are added to fuzz/corpus/<target>/ (commit
-# only a minimised few: `cargo fuzz cmin --sanitizer none <target>`). Crashes
+# New inputs that reach new code are added to fuzz/corpus/<target>/ (they are
+# git-ignored; commit only a hand-picked or `cargo fuzz cmin`ed few). Crashes
 # land in fuzz/artifacts/<target>/ and make the script exit 1 after every
 # target has run. Each target runs under a 4 GiB address-space cap, so an
 # allocation sized by a lying header is a crash (without a sanitizer,
