@@ -676,6 +676,13 @@ fn cases(dir: &Path) -> Vec<Case> {
             include_bytes!("corpus/fuzz-laz-chunk-bytes.laz").to_vec(),
             &["LAZ: chunk size 1275118416 points is absurd"],
         ),
+        case(
+            "laz chunk table of 1.6 G chunks in a 391-byte file (fuzz find)",
+            Map,
+            "m.laz",
+            include_bytes!("corpus/fuzz-laz-chunk-count.laz").to_vec(),
+            &["LAZ: chunk table declares 1560281089 chunks"],
+        ),
         // ---------------------------------------------------------------- E57
         case("e57 empty", Map, "m.e57", "", &["empty file"]),
         case(

@@ -311,29 +311,35 @@ fn check_laz_chunks(file: &File, file_bytes: u64) -> std::result::Result<(), Str
     let mut f = BufReader::new(file);
     let bad = |m: &str| format!("LAZ: {m}");
     let io = |e: std::io::Error| format!("LAZ: {e}");
-    let Ok(raw) = las::raw::Header::read_from(&mut f) else {
-        return Ok(()); // not even a LAS header: the las crate reports it
-    };
-    if raw.point_data_record_format & 0x80 == 0 {
-        return Ok(());
+    // Read the header fields directly: the las crate is more lenient than a
+    // strict header parser, and every file it would decompress must be checked.
+    let mut head = [0u8; 227];
+    if f.read_exact(&mut head).is_err() || &head[..4] != b"LASF" || head[104] & 0x80 == 0 {
+        return Ok(()); // not a compressed LAS header: the las crate decides
     }
-    f.seek(SeekFrom::Start(u64::from(raw.header_size)))
+    let start = u64::from(u32::from_le_bytes([head[96], head[97], head[98], head[99]]));
+    // The laszip VLR lies between the header and the point data; find it by
+    // its user id rather than by walking VLR lengths the crate may read otherwise.
+    let mut vlrs = Vec::new();
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
+    (&mut f)
+        .take(start.min(file_bytes))
+        .read_to_end(&mut vlrs)
         .map_err(io)?;
-    let mut laz_vlr = None;
-    for _ in 0..raw.number_of_variable_length_records {
-        let Ok(v) = las::raw::Vlr::read_from(&mut f, false) else {
-            return Ok(()); // the las crate reports it
-        };
-        let id = v.user_id.split(|&b| b == 0).next().unwrap_or_default();
-        if id == laz::LazVlr::USER_ID.as_bytes() && v.record_id == laz::LazVlr::RECORD_ID {
-            laz_vlr = Some(laz::LazVlr::from_buffer(&v.data).map_err(|e| bad(&e.to_string()))?);
-            break;
-        }
-    }
-    let Some(vlr) = laz_vlr else {
-        return Err(bad("compressed point format but no laszip VLR"));
+    let id = laz::LazVlr::USER_ID.as_bytes();
+    let vlr = (0..vlrs.len().saturating_sub(id.len()))
+        .filter(|&p| p >= 2 && vlrs[p..].starts_with(id))
+        .find_map(|p| {
+            let rec = u16::from_le_bytes([*vlrs.get(p + 16)?, *vlrs.get(p + 17)?]);
+            let len = u16::from_le_bytes([*vlrs.get(p + 18)?, *vlrs.get(p + 19)?]) as usize;
+            let data = vlrs.get(p + 52..p + 52 + len)?;
+            (rec == laz::LazVlr::RECORD_ID)
+                .then(|| laz::LazVlr::from_buffer(data).ok())
+                .flatten()
+        });
+    let Some(vlr) = vlr else {
+        return Err(bad("compressed point format but no readable laszip VLR"));
     };
-    let start = u64::from(raw.offset_to_point_data);
     let mut word = [0u8; 8];
     f.seek(SeekFrom::Start(start)).map_err(io)?;
     f.read_exact(&mut word)
