@@ -27,7 +27,10 @@ pub fn read_map(data: &[u8], ext: &str, format: mapgauge::cloud::Format) {
         let mut n = 0u64;
         while let Ok(true) = r.next_chunk(&mut buf) {
             n += buf.len() as u64;
-            assert!(buf.iter().all(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite()));
+            assert!(
+                buf.iter()
+                    .all(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite())
+            );
         }
         assert!(n <= r.stats().points);
     }

@@ -10,7 +10,12 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let path = common::scratch(data, "json");
     if let Ok(r) = RunResult::from_json_file(&path) {
         let runs = [("run".to_string(), &r)];
-        for f in [TableFormat::Markdown, TableFormat::Latex, TableFormat::Csv, TableFormat::Text] {
+        for f in [
+            TableFormat::Markdown,
+            TableFormat::Latex,
+            TableFormat::Csv,
+            TableFormat::Text,
+        ] {
             let _ = relative_grid(&runs).render(f);
             let _ = absolute_grid(&runs).render(f);
             let _ = render_report(&r, f);

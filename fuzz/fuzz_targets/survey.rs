@@ -9,6 +9,10 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let path = common::scratch(data, "csv");
     if let Ok(s) = read_survey(&path, &SurveyOptions::default()) {
         assert!(!s.targets.is_empty());
-        assert!(s.targets.iter().all(|t| t.position.iter().all(|v| v.is_finite())));
+        assert!(
+            s.targets
+                .iter()
+                .all(|t| t.position.iter().all(|v| v.is_finite()))
+        );
     }
 });
