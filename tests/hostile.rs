@@ -683,6 +683,13 @@ fn cases(dir: &Path) -> Vec<Case> {
             include_bytes!("corpus/fuzz-laz-chunk-count.laz").to_vec(),
             &["LAZ: chunk table declares 1560281089 chunks"],
         ),
+        case(
+            "laz with 64 KiB records: no 17 GB block buffer (fuzz find)",
+            Map,
+            "m.laz",
+            include_bytes!("corpus/fuzz-laz-record-64k.laz").to_vec(),
+            &["decoder failed on malformed data"],
+        ),
         // ---------------------------------------------------------------- E57
         case("e57 empty", Map, "m.e57", "", &["empty file"]),
         case(
