@@ -25,7 +25,7 @@ pub enum Error {
         msg: String,
     },
     /// A text table (survey, estimates) has a bad row or column.
-    #[error("{}:{line}: {msg}", path.display())]
+    #[error("{}{}: {msg}", path.display(), line_suffix(*line))]
     Table {
         /// File being parsed.
         path: PathBuf,
@@ -64,6 +64,15 @@ impl Error {
             line,
             msg: msg.into(),
         }
+    }
+}
+
+/// `:<line>` after a file name, or nothing when the line is unknown (0).
+fn line_suffix(line: u64) -> String {
+    if line == 0 {
+        String::new()
+    } else {
+        format!(":{line}")
     }
 }
 

@@ -94,8 +94,102 @@ impl Default for FrameConfig {
 impl EvalConfig {
     /// Reads a TOML configuration; unknown keys are errors (a typo must not be ignored).
     pub fn from_toml_file(path: &Path) -> Result<EvalConfig> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        toml::from_str(&text).map_err(|e| Error::format(path, e.to_string().replace('\n', " ")))
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let text = std::str::from_utf8(&bytes).map_err(|e| {
+            let line = bytes[..e.valid_up_to()].split(|&b| b == b'\n').count() as u64;
+            Error::table(path, line, "not UTF-8 text")
+        })?;
+        let cfg: EvalConfig = toml::from_str(text).map_err(|e| {
+            let line = e.span().map_or(0, |s| {
+                text.as_bytes()[..s.start.min(text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count()
+                    + 1
+            });
+            let msg = e.message().trim().replace('\n', " ");
+            Error::table(path, line as u64, msg)
+        })?;
+        cfg.validate().map_err(|e| match e {
+            Error::Param(m) => Error::format(path, m),
+            other => other,
+        })?;
+        Ok(cfg)
+    }
+    /// Checks every value is in a physically sensible range, so a typo cannot
+    /// make a run allocate or loop without bound (flags are checked too).
+    pub fn validate(&self) -> Result<()> {
+        fn range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+            if v >= lo && v <= hi {
+                Ok(())
+            } else {
+                Err(Error::Param(format!(
+                    "{key} = {v}: must be within {lo}..{hi}"
+                )))
+            }
+        }
+        fn count(key: &str, v: usize, lo: usize, hi: usize) -> Result<()> {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::Param(format!(
+                    "{key} = {v}: must be within {lo}..{hi}"
+                )))
+            }
+        }
+        let (c, t, l, m, f) = (
+            &self.crop,
+            &self.tight,
+            &self.locate,
+            &self.metrics,
+            &self.frame,
+        );
+        range("crop.radius", c.radius, 1e-3, 1e4)?;
+        range("tight.plate_width", t.plate_width, 0.05, 10.0)?;
+        range("tight.plate_height", t.plate_height, 0.05, 10.0)?;
+        range("tight.ground_cell", t.ground_cell, 0.05, 100.0)?;
+        range("tight.min_height", t.min_height, -100.0, 100.0)?;
+        range("tight.max_height", t.max_height, t.min_height, 1000.0)?;
+        range("tight.search_radius", t.search_radius, 1e-3, 1e4)?;
+        range("tight.keep_distance", t.keep_distance, 1e-4, 10.0)?;
+        count("tight.min_plate_points", t.min_plate_points, 1, 1 << 24)?;
+        range("tight.max_up_tilt_deg", t.max_up_tilt_deg, 0.0, 90.0)?;
+        count("locate.kmeans_iterations", l.kmeans_iterations, 1, 1 << 16)?;
+        count("locate.kmeans_points", l.kmeans_points, 0, 1 << 24)?;
+        count("locate.ransac_iterations", l.ransac_iterations, 1, 1 << 24)?;
+        count(
+            "locate.ransac_score_points",
+            l.ransac_score_points,
+            0,
+            1 << 24,
+        )?;
+        count("locate.refit_iterations", l.refit_iterations, 0, 1 << 16)?;
+        count("locate.samples", l.samples, 1, 1 << 20)?;
+        count("locate.max_attempts", l.max_attempts, 1, 1 << 24)?;
+        for (k, v) in [
+            ("metrics.survey_sigma_h", m.survey_sigma_h),
+            ("metrics.survey_sigma_v", m.survey_sigma_v),
+        ] {
+            if let Some(v) = v {
+                range(k, v, 0.0, 1e3)?;
+            }
+        }
+        if let Some(i) = f.init {
+            for v in i {
+                range("frame.init", v, -1e8, 1e8)?;
+            }
+        }
+        range(
+            "frame.second_pass_min_shift",
+            f.second_pass_min_shift,
+            0.0,
+            1e4,
+        )?;
+        range("frame.max_tilt_deg", f.max_tilt_deg, 0.0, 90.0)?;
+        range("frame.tilt_redo_deg", f.tilt_redo_deg, 0.0, 90.0)?;
+        // The localisation's own consistency rules (thresholds, margins, angles).
+        l.check()?;
+        Ok(())
     }
     /// The configuration as TOML, every default written out.
     pub fn to_toml(&self) -> String {
@@ -209,6 +303,7 @@ pub fn evaluate_map(
     cfg: &EvalConfig,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<EvalRun> {
+    cfg.validate()?;
     let survey = inp.survey;
     if survey.targets.is_empty() {
         return Err(Error::Input(format!(

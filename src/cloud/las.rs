@@ -18,6 +18,8 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 const CHUNK: u64 = 1 << 18;
 /// Points per block of a LAZ file (about 20 LASzip chunks).
 const LAZ_CHUNK: u64 = 1 << 20;
+/// Most raw record bytes decoded per block.
+const MAX_BLOCK_BYTES: u64 = 16 << 20;
 
 /// A message from a reader thread.
 pub(super) enum Msg {
@@ -63,15 +65,52 @@ pub(super) struct Producer {
     done: bool,
 }
 
+/// Name of the threads that run third-party decoders.
+const READER_THREAD: &str = "mapgauge-reader";
+
+/// Installs (once) a panic hook that stays silent for reader threads, whose
+/// panics are caught and reported as one-line errors; every other panic is
+/// reported by the previous hook as usual.
+fn quiet_reader_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let prev = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if std::thread::current().name() != Some(READER_THREAD) {
+                prev(info);
+            }
+        }));
+    });
+}
+
 impl Producer {
     /// Runs `body` on a new thread; it must send `Msg::Info` first, then chunks,
     /// then `Msg::Done` (or `Msg::Err`). Waits for the header.
     pub(super) fn spawn(path: &Path, body: impl FnOnce(Tx) + Send + 'static) -> Result<Self> {
         let (tx, rx) = sync_channel(1);
         let (recycle, back) = sync_channel(2);
+        let p = path.to_path_buf();
+        quiet_reader_panics();
         std::thread::Builder::new()
-            .name("mapgauge-reader".into())
-            .spawn(move || body(Tx { tx, recycle: back }))
+            .name(READER_THREAD.into())
+            .spawn(move || {
+                let err = tx.clone();
+                // A decoder crate that panics on a malformed file (the `laz`
+                // crate asserts on some lying headers) must not take the process
+                // down: its panic becomes this file's error.
+                let run = std::panic::AssertUnwindSafe(move || body(Tx { tx, recycle: back }));
+                if let Err(panic) = std::panic::catch_unwind(run) {
+                    let what = panic
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| panic.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "unknown cause".into());
+                    let _ = err.send(Msg::Err(Error::format(
+                        &p,
+                        format!("the decoder failed on malformed data ({what})"),
+                    )));
+                }
+            })
             .map_err(|e| Error::io(path, e))?;
         let mut p = Producer {
             path: path.to_path_buf(),
@@ -155,6 +194,15 @@ fn las_err(path: &Path, e: las::Error) -> Error {
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    // Before any `las::Reader`: opening a LAZ file already reads its chunk table.
+    check_laz_chunks(&file, file_bytes)
+        .and_then(|()| {
+            (&file)
+                .seek(SeekFrom::Start(0))
+                .map(drop)
+                .map_err(|e| e.to_string())
+        })
+        .map_err(|msg| Error::format(path, msg))?;
     if let Some(r) = open_records(path, &file, file_bytes)? {
         return Ok(r);
     }
@@ -175,12 +223,27 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         let compressed = fmt.is_compressed;
         if !compressed {
             // A declared count larger than the data is an error up front.
-            let start = header
-                .clone()
-                .into_raw()
-                .map(|r| r.offset_to_point_data as u64)
-                .unwrap_or(0);
+            let raw = header.clone().into_raw().ok();
+            let start = raw.as_ref().map_or(0, |r| r.offset_to_point_data as u64);
+            // Point data ends where the extended VLRs (LAS 1.4) start, or at the end.
+            let data_end = raw
+                .as_ref()
+                .and_then(|r| r.evlr)
+                .map(|e| e.start_of_first_evlr)
+                .filter(|&e| e > start && e <= file_bytes)
+                .unwrap_or(file_bytes);
             let need = total.checked_mul(rec).and_then(|b| b.checked_add(start));
+            if need.is_some_and(|n| rec > 0 && n <= data_end && data_end - n >= rec) {
+                tx.send(Msg::Err(Error::format(
+                    &p,
+                    format!(
+                        "LAS header declares {total} points but the point data holds {} ({} bytes of {rec}-byte records)",
+                        (data_end - start) / rec,
+                        data_end - start
+                    ),
+                )));
+                return;
+            }
             if need.is_none_or(|n| n > file_bytes) {
                 tx.send(Msg::Err(Error::format(
                     &p,
@@ -207,8 +270,12 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         // LAZ is decompressed in parallel one LASzip chunk (typically 50 000
         // points) per task: ask for many chunks at a time so every core has one.
         let block = if compressed { LAZ_CHUNK } else { CHUNK };
+        // The crate's buffer is points x record length, and a header may claim
+        // 64 KiB records: keep a block's raw bytes within 16 MiB (no change
+        // for real records, at most 64 bytes; fuzz find: 17 GB block).
+        let per_fill = block.min((MAX_BLOCK_BYTES / rec.max(1)).max(1));
         loop {
-            let n = match reader.fill_points(block, &mut pd) {
+            let n = match reader.fill_points(per_fill, &mut pd) {
                 Ok(n) => n,
                 Err(e) => {
                     tx.send(Msg::Err(Error::format(
@@ -272,6 +339,25 @@ fn open_records(path: &Path, file: &File, file_bytes: u64) -> Result<Option<Box<
         ));
     }
     let start = u64::from(raw.offset_to_point_data);
+    // Point data ends where the extended VLRs (LAS 1.4) start, or at the end.
+    let data_end = raw
+        .evlr
+        .map(|e| e.start_of_first_evlr)
+        .filter(|&e| e > start && e <= file_bytes)
+        .unwrap_or(file_bytes);
+    let need = count
+        .checked_mul(stride as u64)
+        .and_then(|b| b.checked_add(start));
+    if need.is_some_and(|n| n <= data_end && data_end - n >= stride as u64) {
+        return Err(Error::format(
+            path,
+            format!(
+                "LAS header declares {count} points but the point data holds {} ({} bytes of {stride}-byte records)",
+                (data_end - start) / stride as u64,
+                data_end - start
+            ),
+        ));
+    }
     if count
         .checked_mul(stride as u64)
         .and_then(|b| b.checked_add(start))
@@ -310,6 +396,105 @@ fn open_records(path: &Path, file: &File, file_bytes: u64) -> Result<Option<Box<
     Ok(Some(Box::new(super::records::Records::new(
         file, path, info, lay,
     )?)))
+}
+
+/// Checks a LAZ file's chunk table against the file size before the `laz`
+/// crate sees it: the crate allocates the table from its declared chunk count
+/// and reads each chunk into a buffer of its declared byte count, so a lying
+/// table would make it allocate gigabytes (found by fuzzing). Not LAZ: Ok.
+fn check_laz_chunks(file: &File, file_bytes: u64) -> std::result::Result<(), String> {
+    use std::io::Read;
+    let mut f = BufReader::new(file);
+    let bad = |m: &str| format!("LAZ: {m}");
+    let io = |e: std::io::Error| format!("LAZ: {e}");
+    // Read the header fields directly: the las crate is more lenient than a
+    // strict header parser, and every file it would decompress must be checked.
+    let mut head = [0u8; 227];
+    if f.read_exact(&mut head).is_err() || &head[..4] != b"LASF" || head[104] & 0x80 == 0 {
+        return Ok(()); // not a compressed LAS header: the las crate decides
+    }
+    let start = u64::from(u32::from_le_bytes([head[96], head[97], head[98], head[99]]));
+    // The laszip VLR lies between the header and the point data; find it by
+    // its user id rather than by walking VLR lengths the crate may read otherwise.
+    let mut vlrs = Vec::new();
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
+    (&mut f)
+        .take(start.min(file_bytes))
+        .read_to_end(&mut vlrs)
+        .map_err(io)?;
+    let id = laz::LazVlr::USER_ID.as_bytes();
+    let vlr = (0..vlrs.len().saturating_sub(id.len()))
+        .filter(|&p| p >= 2 && vlrs[p..].starts_with(id))
+        .find_map(|p| {
+            let rec = u16::from_le_bytes([*vlrs.get(p + 16)?, *vlrs.get(p + 17)?]);
+            let len = u16::from_le_bytes([*vlrs.get(p + 18)?, *vlrs.get(p + 19)?]) as usize;
+            let data = vlrs.get(p + 52..p + 52 + len)?;
+            (rec == laz::LazVlr::RECORD_ID)
+                .then(|| laz::LazVlr::from_buffer(data).ok())
+                .flatten()
+        });
+    let Some(vlr) = vlr else {
+        return Err(bad("compressed point format but no readable laszip VLR"));
+    };
+    let mut word = [0u8; 8];
+    f.seek(SeekFrom::Start(start)).map_err(io)?;
+    f.read_exact(&mut word)
+        .map_err(|_| bad("point data ends before the chunk table offset"))?;
+    let mut table = i64::from_le_bytes(word);
+    if table == -1 {
+        // Written by a streaming compressor: the offset is the file's last 8 bytes.
+        f.seek(SeekFrom::End(-8)).map_err(io)?;
+        f.read_exact(&mut word).map_err(io)?;
+        table = i64::from_le_bytes(word);
+    }
+    let table = u64::try_from(table).unwrap_or(u64::MAX);
+    if table < start + 8 || table.saturating_add(8) > file_bytes {
+        return Err(bad(&format!(
+            "chunk table offset {table} lies outside the point data ({}..{file_bytes})",
+            start + 8
+        )));
+    }
+    f.seek(SeekFrom::Start(table + 4)).map_err(io)?;
+    f.read_exact(&mut word[..4]).map_err(io)?;
+    let chunks = u64::from(u32::from_le_bytes([word[0], word[1], word[2], word[3]]));
+    // Every chunk holds at least one byte of point data.
+    if chunks > table - start {
+        return Err(bad(&format!(
+            "chunk table declares {chunks} chunks in {} bytes of point data",
+            table - start
+        )));
+    }
+    // The crate sizes a chunk's output buffer by its point count (the VLR's
+    // chunk size when chunks are fixed): no real file packs more than a few
+    // dozen points into a compressed byte, so allow 64 per byte (and the
+    // LASzip default chunk of 50 000 whatever the size).
+    let data = table - start;
+    let max_points = data.saturating_mul(64).max(50_000);
+    if !vlr.uses_variable_size_chunks() && u64::from(vlr.chunk_size()) > max_points {
+        return Err(bad(&format!(
+            "chunk size {} points is absurd for {data} bytes of point data",
+            vlr.chunk_size()
+        )));
+    }
+    f.seek(SeekFrom::Start(start)).map_err(io)?;
+    let entries =
+        laz::laszip::ChunkTable::read_from(&mut f, &vlr).map_err(|e| bad(&e.to_string()))?;
+    let (mut bytes, mut points) = (0u64, 0u64);
+    for e in entries.as_ref() {
+        bytes = bytes.saturating_add(e.byte_count);
+        points = points.saturating_add(e.point_count);
+    }
+    if bytes > data {
+        return Err(bad(&format!(
+            "chunk table declares {bytes} compressed bytes, the point data holds {data}"
+        )));
+    }
+    if vlr.uses_variable_size_chunks() && points > max_points {
+        return Err(bad(&format!(
+            "chunk table declares {points} points in {data} bytes of point data"
+        )));
+    }
+    Ok(())
 }
 
 /// A file that turns into a no-op once aborted, so the `las` writer's drop (which

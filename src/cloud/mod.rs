@@ -128,7 +128,13 @@ impl Batch for Decoded<'_> {
 
 /// Opens a map of any supported format, recognised from its content.
 pub fn open(path: &Path) -> Result<Box<dyn PointReader>> {
-    match detect(path)? {
+    open_as(path, detect(path)?)
+}
+
+/// Opens a map as `format` whatever its content says (for callers that know
+/// better than the sniffer, and for fuzzing one reader at a time).
+pub fn open_as(path: &Path, format: Format) -> Result<Box<dyn PointReader>> {
+    match format {
         Format::Pcd => pcd::open(path),
         Format::Ply => ply::open(path),
         Format::Las | Format::Laz => las::open(path),

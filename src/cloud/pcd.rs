@@ -94,9 +94,10 @@ fn parse_usize_list(
     vals.iter()
         .map(|v| match v.parse::<usize>() {
             Ok(n) if n >= min => Ok(n),
-            _ => Err(Error::format(
+            _ => Err(Error::table(
                 path,
-                format!("header line {lineno}: {key} value '{v}' is not an integer >= {min}"),
+                lineno,
+                format!("{key} value '{v}' is not an integer >= {min}"),
             )),
         })
         .collect()
@@ -105,17 +106,16 @@ fn parse_usize_list(
 fn parse_u64(path: &Path, key: &str, lineno: u64, vals: &[&str]) -> Result<u64> {
     match vals {
         [v] => v.parse::<u64>().map_err(|_| {
-            Error::format(
+            Error::table(
                 path,
-                format!("header line {lineno}: {key} value '{v}' is not a non-negative integer"),
+                lineno,
+                format!("{key} value '{v}' is not a non-negative integer"),
             )
         }),
-        _ => Err(Error::format(
+        _ => Err(Error::table(
             path,
-            format!(
-                "header line {lineno}: {key} needs exactly one value, found {}",
-                vals.len()
-            ),
+            lineno,
+            format!("{key} needs exactly one value, found {}", vals.len()),
         )),
     }
 }
@@ -152,7 +152,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
         };
         pos = next;
         let line = std::str::from_utf8(raw)
-            .map_err(|_| Error::format(path, format!("header line {lineno} is not UTF-8 text")))?;
+            .map_err(|_| Error::table(path, lineno, "header line is not UTF-8 text"))?;
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
@@ -182,10 +182,11 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
                     Some("binary") => DataKind::Binary,
                     Some("binary_compressed") => DataKind::Compressed,
                     other => {
-                        return Err(Error::format(
+                        return Err(Error::table(
                             path,
+                            lineno,
                             format!(
-                                "header line {lineno}: unknown DATA '{}' (expected ascii, binary or binary_compressed)",
+                                "unknown DATA '{}' (expected ascii, binary or binary_compressed)",
                                 other.unwrap_or("")
                             ),
                         ));
@@ -204,11 +205,10 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     let n = names.len();
     let check_len = |key: &str, line: u64, len: usize| -> Result<()> {
         if len != n {
-            Err(Error::format(
+            Err(Error::table(
                 path,
-                format!(
-                    "header line {line}: {key} has {len} entries but FIELDS (line {names_line}) has {n}"
-                ),
+                line,
+                format!("{key} has {len} entries but FIELDS (line {names_line}) has {n}"),
             ))
         } else {
             Ok(())
@@ -242,11 +242,10 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     for i in 0..n {
         let (name, size, ty, count) = (&names[i], sizes[i], types[i].as_str(), counts[i]);
         if !matches!(ty, "F" | "I" | "U") {
-            return Err(Error::format(
+            return Err(Error::table(
                 path,
-                format!(
-                    "header line {types_line}: unknown TYPE '{ty}' for field '{name}' (expected F, I or U)"
-                ),
+                types_line,
+                format!("unknown TYPE '{ty}' for field '{name}' (expected F, I or U)"),
             ));
         }
         let kind = Scalar::from_type_size(ty, size).ok_or_else(|| {
@@ -286,12 +285,10 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
                     .position(|f| f.name.eq_ignore_ascii_case(want))
             })
             .ok_or_else(|| {
-                Error::format(
+                Error::table(
                     path,
-                    format!(
-                        "header line {names_line}: no field '{want}' in FIELDS {}",
-                        names.join(" ")
-                    ),
+                    names_line,
+                    format!("no field '{want}' in FIELDS {}", names.join(" ")),
                 )
             })
     };
@@ -454,6 +451,18 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
                 ),
             ));
         }
+        if need.is_some_and(|need| after - need >= header.point_size as u64) {
+            return Err(Error::format(
+                path,
+                format!(
+                    "header declares POINTS {} but the data holds {} points ({} bytes of {}-byte points follow the header)",
+                    header.points,
+                    after / header.point_size as u64,
+                    after,
+                    header.point_size
+                ),
+            ));
+        }
         let f = |i: usize| &header.fields[header.xyz[i]];
         let info = CloudInfo {
             format: Format::Pcd,
@@ -608,9 +617,10 @@ impl PcdReader {
             } else if st.block[before..].contains(&b'\n') {
                 break;
             } else if st.block.len() > MAX_LINE {
-                return Err(Error::format(
+                return Err(Error::table(
                     path,
-                    format!("line {}: longer than {} bytes", st.lineno + 1, MAX_LINE),
+                    st.lineno + 1,
+                    format!("line longer than {} bytes", MAX_LINE),
                 ));
             }
         }
@@ -655,7 +665,7 @@ impl PcdReader {
         for piece in &pieces {
             for p in &piece.points {
                 if remaining == 0 {
-                    break;
+                    return Err(more_points_than_declared(path, self.header.points));
                 }
                 remaining -= 1;
                 self.next += 1;
@@ -665,27 +675,50 @@ impl PcdReader {
                     self.stats.skipped_nonfinite += 1;
                 }
             }
-            if remaining == 0 {
-                break;
-            }
             if let Some((line, ref what)) = piece.error {
                 let line = st.lineno + line;
                 let msg = match what {
                     LineError::Short(found) => {
-                        format!("line {line}: expected {ntok} values, found {found}")
+                        format!("expected {ntok} values, found {found}")
                     }
                     LineError::NotNumber(c, tok) => format!(
-                        "line {line}: field '{}' value '{tok}' is not a number",
+                        "field '{}' value '{tok}' is not a number",
                         self.header.fields[self.header.xyz[*c]].name
                     ),
                 };
-                return Err(Error::format(path, msg));
+                return Err(Error::table(path, line, msg));
             }
             st.lineno += piece.lines;
         }
         st.consumed += end as u64;
         st.block.drain(..end);
         Ok(())
+    }
+}
+
+fn more_points_than_declared(path: &Path, points: u64) -> Error {
+    Error::format(
+        path,
+        format!("header declares POINTS {points} but the ascii data holds more points"),
+    )
+}
+
+/// After the declared points only blank lines may follow; more data means the
+/// header's POINTS is wrong (and part of the map would silently be dropped).
+fn ascii_tail_is_blank(path: &Path, st: &mut TextState, points: u64) -> Result<()> {
+    loop {
+        if !st.block.iter().all(|b| b.is_ascii_whitespace()) {
+            return Err(more_points_than_declared(path, points));
+        }
+        st.block.clear();
+        if st.eof {
+            return Ok(());
+        }
+        (&mut st.file)
+            .take(TEXT_BLOCK as u64)
+            .read_to_end(&mut st.block)
+            .map_err(|e| Error::io(path, e))?;
+        st.eof = st.block.is_empty();
     }
 }
 
@@ -916,6 +949,11 @@ impl PointReader for PcdReader {
         loop {
             if self.next >= self.header.points {
                 buf.clear();
+                // Only `Text` outside tests: the whole-block variant is the tests' reference.
+                #[allow(irrefutable_let_patterns)]
+                if let Source::Text(st) = &mut self.source {
+                    ascii_tail_is_blank(&self.path, st, self.header.points)?;
+                }
                 #[cfg(test)]
                 if let Source::Columns(c) = &mut self.source {
                     *c = Vec::new(); // free the block as soon as it is consumed

@@ -464,7 +464,7 @@ fn header_errors_are_one_clear_line() {
     bytes.extend_from_slice(b"DATA ascii\n");
     let p = file(&dir, "utf.pcd", &bytes);
     assert!(
-        err(&p).contains("header line 3 is not UTF-8"),
+        err(&p).contains(".pcd:3: header line is not UTF-8"),
         "{}",
         err(&p)
     );
@@ -477,14 +477,14 @@ fn header_errors_are_one_clear_line() {
     let text = replace_header(&good, "\n0.5 -0.25 1 100\n", "\n0.5 oops 1 100\n");
     let p = file(&dir, "badval.pcd", text.as_bytes());
     assert!(
-        err(&p).contains("line 13: field 'y' value 'oops' is not a number"),
+        err(&p).contains(".pcd:13: field 'y' value 'oops' is not a number"),
         "{}",
         err(&p)
     );
     let text = replace_header(&good, "\n0.5 -0.25 1 100\n", "\n0.5 -0.25\n");
     let p = file(&dir, "short.pcd", text.as_bytes());
     assert!(
-        err(&p).contains("line 13: expected 4 values, found 2"),
+        err(&p).contains(".pcd:13: expected 4 values, found 2"),
         "{}",
         err(&p)
     );
@@ -724,7 +724,15 @@ fn ascii_across_pieces_and_blocks() {
         }
     }
     assert!(text.len() > TEXT_BLOCK + TEXT_PIECE);
-    text.push_str("garbage after the declared points is ignored\n");
+    // Data after the declared points means POINTS lies: an error, not a silent cut.
+    let more = format!("{text}\n1 2 3 {junk}\n");
+    let p = file(&dir, "longmore.pcd", more.as_bytes());
+    assert!(
+        err(&p).contains("POINTS 25000 but the ascii data holds more points"),
+        "{}",
+        err(&p)
+    );
+    text.push_str("\n \r\n");
     let p = file(&dir, "long.pcd", text.as_bytes());
     let (got, stats) = read(&p).unwrap();
     assert_eq!(stats.skipped_nonfinite, 25);
@@ -739,11 +747,11 @@ fn ascii_across_pieces_and_blocks() {
     let e = err(&p);
     // 11 header lines + 20000 data lines before it + 2 blank lines.
     assert!(
-        e.contains("line 20014: field 'y' value 'x' is not a number"),
+        e.contains(".pcd:20014: field 'y' value 'x' is not a number"),
         "{e}"
     );
     // Missing final lines.
-    let cut = &text[..text.len() - 47 - 3 * (junk.len() + 20)];
+    let cut = &text[..text.len() - 3 - 3 * (junk.len() + 20)];
     let p = file(&dir, "longcut.pcd", cut.as_bytes());
     assert!(
         err(&p).contains("header declares POINTS 25000 but the data ends after"),

@@ -107,7 +107,7 @@ fn parse_header(path: &Path, file: &mut File) -> Result<Header> {
         let raw = &head[pos..pos + nl];
         pos += nl + 1;
         line_no += 1;
-        let bad = |msg: String| Error::format(path, format!("PLY header line {line_no}: {msg}"));
+        let bad = |msg: String| Error::table(path, line_no, format!("PLY header: {msg}"));
         let line = std::str::from_utf8(raw)
             .map_err(|_| bad("not valid UTF-8 text".into()))?
             .trim();
@@ -237,6 +237,8 @@ struct PlyReader {
     body: Body,
     stats: ReadStats,
     bytes: u64,
+    /// The vertex element is the last one: nothing but blanks may follow it.
+    vertex_last: bool,
 }
 
 /// Walks one binary element instance with list properties starting at `pos`;
@@ -272,6 +274,8 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let vertex = &header.elements[vi];
     let xyz = find_xyz(path, vertex)?;
     let total = vertex.count;
+    // Only then can data after the vertices be told apart from other elements.
+    let vertex_last = vi + 1 == header.elements.len();
     let be = header.encoding == Encoding::BinBe;
     let props: Vec<Prop> = vertex.props.iter().map(|(_, p)| p.clone()).collect();
     let body = if header.encoding == Encoding::Ascii {
@@ -280,7 +284,9 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         let mut lines = LineBlocks::new(file, path);
         let mut line_no = header.lines + 1;
         // Skip the lines of the elements before the vertex element.
-        let mut skip: u64 = header.elements[..vi].iter().map(|e| e.count).sum();
+        let mut skip: u64 = header.elements[..vi]
+            .iter()
+            .fold(0u64, |a, e| a.saturating_add(e.count));
         let mut pending = Vec::new();
         while skip > 0 {
             let Some(block) = lines.next_block()? else {
@@ -351,6 +357,12 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         match vertex.fixed_size() {
             Some(stride) => {
                 let have = (map.len() - pos) as u64 / stride.max(1) as u64;
+                if vertex_last && have > total {
+                    return Err(Error::format(
+                        path,
+                        format!("PLY header declares {total} vertices but the data holds {have}"),
+                    ));
+                }
                 if stride == 0 || have < total {
                     return Err(Error::format(
                         path,
@@ -405,6 +417,7 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         body,
         stats: ReadStats::default(),
         bytes: header.data_offset as u64,
+        vertex_last,
     }))
 }
 
@@ -418,6 +431,30 @@ impl PlyReader {
             ),
         )
     }
+}
+
+/// After the last vertex of an ascii file whose last element is `vertex`, only
+/// blank lines may follow: more data means the declared count is wrong.
+fn ascii_tail_is_blank(
+    path: &Path,
+    lines: &mut LineBlocks,
+    pending: &mut Vec<u8>,
+    line_no: u64,
+    total: u64,
+) -> Result<()> {
+    let mut blank = pending.iter().all(|b| b.is_ascii_whitespace());
+    pending.clear();
+    while blank {
+        match lines.next_block()? {
+            Some(b) => blank = b.iter().all(|b| b.is_ascii_whitespace()),
+            None => return Ok(()),
+        }
+    }
+    Err(Error::table(
+        path,
+        line_no,
+        format!("PLY header declares {total} vertices but more data follows"),
+    ))
 }
 
 impl PointReader for PlyReader {
@@ -502,8 +539,7 @@ impl PointReader for PlyReader {
                         let mut it = line
                             .split(|b| b.is_ascii_whitespace())
                             .filter(|t| !t.is_empty());
-                        let bad =
-                            |msg: String| Error::format(&self.path, format!("line {ln}: {msg}"));
+                        let bad = |msg: String| Error::table(&self.path, ln, msg);
                         let need = xyz.idx.iter().copied().max().unwrap_or(0);
                         for (i, prop) in props.iter().enumerate().take(need + 1) {
                             let count = match prop {
@@ -545,6 +581,17 @@ impl PointReader for PlyReader {
                     }
                     self.bytes = lines.bytes;
                 }
+            }
+        }
+        if self.next == self.total && self.vertex_last {
+            if let Body::Ascii {
+                lines,
+                line_no,
+                pending,
+                ..
+            } = &mut self.body
+            {
+                ascii_tail_is_blank(&self.path, lines, pending, *line_no, self.total)?;
             }
         }
         self.stats.points += buf.len() as u64;
@@ -781,24 +828,30 @@ property float z\nend_header\n1 2 3\n",
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
 property float z\nend_header\n1 2\n",
         );
-        assert!(e.contains("line 8") && e.contains("too few values"), "{e}");
+        assert!(
+            e.contains(".ply:8: ") && e.contains("too few values"),
+            "{e}"
+        );
         let e = err(
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
 property float z\nend_header\n1 2 q\n",
         );
         assert!(
-            e.contains("line 8") && e.contains("\"q\" is not a number"),
+            e.contains(".ply:8: ") && e.contains("\"q\" is not a number"),
             "{e}"
         );
         let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float16 x\nend_header\n");
         assert!(
-            e.contains("header line 4") && e.contains("unknown property type \"float16\""),
+            e.contains(".ply:4: PLY header: unknown property type \"float16\""),
             "{e}"
         );
         let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float z\nend_header\n");
         assert!(e.contains("no 'y' property"), "{e}");
         let e = err(b"ply\nformat ascii 1.0\ncomment \xff\xfe\nend_header\n");
-        assert!(e.contains("header line 3") && e.contains("UTF-8"), "{e}");
+        assert!(
+            e.contains(".ply:3: PLY header") && e.contains("UTF-8"),
+            "{e}"
+        );
         let e = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");
         assert!(e.contains("never ends"), "{e}");
         let e =

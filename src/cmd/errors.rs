@@ -64,6 +64,9 @@ pub fn run(a: Args) -> Result<()> {
         },
     )?;
     if let Some(dir) = &a.out {
+        for name in ["result.json", "targets.csv", "pairs.csv"] {
+            super::refuse_overwrite(&dir.join(name), &[&a.survey, &a.estimates])?;
+        }
         write_outputs(&result, dir)?;
         eprintln!("wrote {}", dir.join("result.json").display());
     }

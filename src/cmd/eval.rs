@@ -129,6 +129,12 @@ pub fn run(a: Args) -> Result<()> {
         return Err(Error::Param("--map and --survey are required".into()));
     };
     let fmt = result::parse_output_format(&a.format)?;
+    if let Some(out) = &a.out {
+        // Before the work, not after it: a refused output should cost nothing.
+        for name in ["result.json", "targets.csv", "pairs.csv"] {
+            refuse_overwrite(&out.join(name), &[map, survey_path])?;
+        }
+    }
     let run = evaluate(map, survey_path, &a, &cfg)?;
     match fmt {
         Some(result::TableFormat::Html) => print!(

@@ -81,18 +81,36 @@ pub fn file_stem_for(id: &str) -> String {
     }
 }
 
-/// Refuses to write an output onto one of the inputs.
+/// Refuses to write an output onto one of the inputs: the same file under any
+/// spelling (`./`, `..`, symlinks, hard links), recognised by device and inode.
 pub fn refuse_overwrite(out: &std::path::Path, inputs: &[&std::path::Path]) -> Result<()> {
-    let canon = |p: &std::path::Path| std::fs::canonicalize(p).ok();
-    if let Some(o) = canon(out) {
-        for i in inputs {
-            if canon(i).as_ref() == Some(&o) {
-                return Err(Error::Param(format!(
-                    "refusing to overwrite input {}",
-                    i.display()
-                )));
-            }
+    for i in inputs {
+        if same_file(out, i) {
+            return Err(Error::Input(format!(
+                "{}: is the input {}; refusing to overwrite it",
+                out.display(),
+                i.display()
+            )));
         }
     }
     Ok(())
+}
+
+/// True when both paths exist and name the same file.
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (std::fs::metadata(a), std::fs::metadata(b)) {
+            (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+            (Ok(x), Ok(y)) => x == y,
+            _ => false,
+        }
+    }
 }

@@ -134,6 +134,17 @@ pub fn run(a: Args) -> Result<()> {
     let Some(dir) = a.out else {
         return Err(Error::Param("--out DIR is required".into()));
     };
+    if let Some(cfg) = &a.config {
+        let ext = a.format.extension();
+        for name in [
+            &*format!("map.{ext}"),
+            "survey.csv",
+            "survey_llh.csv",
+            "truth.json",
+        ] {
+            super::refuse_overwrite(&dir.join(name), &[cfg])?;
+        }
+    }
     let start = std::time::Instant::now();
     eprintln!(
         "synth: about {} points, {} targets, seed {}",

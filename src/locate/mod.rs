@@ -148,6 +148,11 @@ impl LocateParams {
         }
     }
 
+    /// Checks the parameters' ranges and consistency.
+    pub fn check(&self) -> crate::Result<()> {
+        self.validate().map_err(Into::into)
+    }
+
     fn validate(&self) -> Result<(), LocateError> {
         let bad = |m: &str| Err(LocateError::Param(m.to_string()));
         if !(self.inlier_threshold > 0.0 && self.inlier_threshold.is_finite()) {

@@ -1,0 +1,8 @@
+//! Fuzzes the ply map reader.
+#![no_main]
+
+mod common;
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    common::read_map(data, "ply", mapgauge::cloud::Format::Ply);
+});
