@@ -692,6 +692,15 @@ fn cases(dir: &Path) -> Vec<Case> {
             include_bytes!("corpus/fuzz-laz-record-64k.laz").to_vec(),
             &[], // as above: the message depends on the laz crate's build
         ),
+        case(
+            "las header whose size arithmetic overflows in the las crate (fuzz find)",
+            Map,
+            "m.las",
+            include_bytes!("corpus/fuzz-las-header-overflow.las").to_vec(),
+            // With overflow checks the crate panics (caught: "the decoder failed");
+            // without them its arithmetic wraps and the sizes are refused.
+            &[],
+        ),
         // ---------------------------------------------------------------- E57
         case("e57 empty", Map, "m.e57", "", &["empty file"]),
         case(

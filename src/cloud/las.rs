@@ -68,6 +68,36 @@ pub(super) struct Producer {
 /// Name of the threads that run third-party decoders.
 const READER_THREAD: &str = "mapgauge-reader";
 
+/// Runs `f` on a reader thread and waits for it: a panic inside a third-party
+/// parser becomes `path`'s one-line error instead of ending the process.
+fn on_reader_thread<T: Send>(path: &Path, f: impl FnOnce() -> Result<T> + Send) -> Result<T> {
+    quiet_reader_panics();
+    std::thread::scope(|s| {
+        let handle = std::thread::Builder::new()
+            .name(READER_THREAD.into())
+            .spawn_scoped(s, f)
+            .map_err(|e| Error::io(path, e))?;
+        handle.join().unwrap_or_else(|panic| {
+            Err(Error::format(
+                path,
+                format!(
+                    "the decoder failed on malformed data ({})",
+                    panic_text(&*panic)
+                ),
+            ))
+        })
+    })
+}
+
+/// The message of a caught panic.
+fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown cause".into())
+}
+
 /// Installs (once) a panic hook that stays silent for reader threads, whose
 /// panics are caught and reported as one-line errors; every other panic is
 /// reported by the previous hook as usual.
@@ -100,14 +130,12 @@ impl Producer {
                 // down: its panic becomes this file's error.
                 let run = std::panic::AssertUnwindSafe(move || body(Tx { tx, recycle: back }));
                 if let Err(panic) = std::panic::catch_unwind(run) {
-                    let what = panic
-                        .downcast_ref::<&str>()
-                        .map(|s| s.to_string())
-                        .or_else(|| panic.downcast_ref::<String>().cloned())
-                        .unwrap_or_else(|| "unknown cause".into());
                     let _ = err.send(Msg::Err(Error::format(
                         &p,
-                        format!("the decoder failed on malformed data ({what})"),
+                        format!(
+                            "the decoder failed on malformed data ({})",
+                            panic_text(&*panic)
+                        ),
                     )));
                 }
             })
@@ -321,16 +349,24 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
 /// for LAZ.
 fn open_records(path: &Path, file: &File, file_bytes: u64) -> Result<Option<Box<dyn PointReader>>> {
     let own = || File::open(path).map_err(|e| Error::io(path, e));
-    let reader = las::Reader::new(BufReader::new(own()?)).map_err(|e| las_err(path, e))?;
-    let header = reader.header();
-    if header.point_format().is_compressed {
+    // The `las` crate can panic on a malformed header (an overflow in its size
+    // arithmetic: fuzz find), so it parses on a reader thread, like the decoders.
+    let parsed = on_reader_thread(path, || {
+        let reader = las::Reader::new(BufReader::new(own()?)).map_err(|e| las_err(path, e))?;
+        let header = reader.header();
+        if header.point_format().is_compressed {
+            return Ok(None);
+        }
+        let count = header.number_of_points();
+        let t = *header.transforms();
+        drop(reader);
+        let mut head = BufReader::new(own()?);
+        let raw = las::raw::Header::read_from(&mut head).map_err(|e| las_err(path, e))?;
+        Ok(Some((count, t, raw)))
+    })?;
+    let Some((count, t, raw)) = parsed else {
         return Ok(None);
-    }
-    let count = header.number_of_points();
-    let t = *header.transforms();
-    drop(reader);
-    let mut head = BufReader::new(own()?);
-    let raw = las::raw::Header::read_from(&mut head).map_err(|e| las_err(path, e))?;
+    };
     let stride = raw.point_data_record_length as usize;
     if stride < 12 {
         return Err(Error::format(
