@@ -22,6 +22,7 @@
 //! cloud. The price is a second decode of the coordinate columns (pass 1 is
 //! sequential, pass 2 parallel).
 
+use super::records::read_exact_at;
 use super::scalar::Scalar;
 use super::{Batch, CloudInfo, PointReader, ReadStats, Scratch};
 use crate::{Error, Point, Result};
@@ -356,27 +357,6 @@ fn read_err(path: &Path, e: std::io::Error) -> Error {
     } else {
         Error::io(path, e)
     }
-}
-
-#[cfg(unix)]
-fn read_exact_at(file: &File, buf: &mut [u8], off: u64) -> std::io::Result<()> {
-    std::os::unix::fs::FileExt::read_exact_at(file, buf, off)
-}
-
-#[cfg(windows)]
-fn read_exact_at(file: &File, mut buf: &mut [u8], mut off: u64) -> std::io::Result<()> {
-    while !buf.is_empty() {
-        match std::os::windows::fs::FileExt::seek_read(file, buf, off) {
-            Ok(0) => return Err(std::io::ErrorKind::UnexpectedEof.into()),
-            Ok(k) => {
-                buf = &mut buf[k..];
-                off += k as u64;
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(())
 }
 
 struct LzfBatch<'a> {

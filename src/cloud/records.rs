@@ -150,13 +150,13 @@ impl Records {
 
 /// Positioned read of exactly `buf.len()` bytes.
 #[cfg(unix)]
-fn read_exact_at(file: &File, buf: &mut [u8], off: u64) -> std::io::Result<()> {
+pub(super) fn read_exact_at(file: &File, buf: &mut [u8], off: u64) -> std::io::Result<()> {
     std::os::unix::fs::FileExt::read_exact_at(file, buf, off)
 }
 
 /// Positioned read of exactly `buf.len()` bytes.
 #[cfg(windows)]
-fn read_exact_at(file: &File, mut buf: &mut [u8], mut off: u64) -> std::io::Result<()> {
+pub(super) fn read_exact_at(file: &File, mut buf: &mut [u8], mut off: u64) -> std::io::Result<()> {
     while !buf.is_empty() {
         match std::os::windows::fs::FileExt::seek_read(file, buf, off) {
             Ok(0) => return Err(std::io::ErrorKind::UnexpectedEof.into()),
