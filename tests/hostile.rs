@@ -703,6 +703,13 @@ fn cases(dir: &Path) -> Vec<Case> {
             // without them its arithmetic wraps and the sizes are refused.
             &[],
         ),
+        case(
+            "laz chunk table that sends the laz crate out of bounds (fuzz find)",
+            Map,
+            "m.las",
+            include_bytes!("../fuzz/upstream/laz-decoders-index-out-of-bounds.las").to_vec(),
+            &["the decoder failed on malformed data"],
+        ),
         // ---------------------------------------------------------------- E57
         case("e57 empty", Map, "m.e57", "", &["empty file"]),
         case(

@@ -223,14 +223,18 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
     // Before any `las::Reader`: opening a LAZ file already reads its chunk table.
-    check_laz_chunks(&file, file_bytes)
-        .and_then(|()| {
-            (&file)
-                .seek(SeekFrom::Start(0))
-                .map(drop)
-                .map_err(|e| e.to_string())
-        })
-        .map_err(|msg| Error::format(path, msg))?;
+    // On a reader thread: the laz crate's chunk-table decoder can panic on
+    // malformed data (index out of bounds: fuzz find).
+    on_reader_thread(path, || {
+        check_laz_chunks(&file, file_bytes)
+            .and_then(|()| {
+                (&file)
+                    .seek(SeekFrom::Start(0))
+                    .map(drop)
+                    .map_err(|e| e.to_string())
+            })
+            .map_err(|msg| Error::format(path, msg))
+    })?;
     if let Some(r) = open_records(path, &file, file_bytes)? {
         return Ok(r);
     }
