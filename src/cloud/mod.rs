@@ -7,6 +7,7 @@
 //! bounded whatever the map's size. Non-finite points are skipped and counted.
 
 use crate::{Error, Point, Result};
+pub use region::Region;
 use std::io::Read;
 use std::path::Path;
 
@@ -17,6 +18,7 @@ mod pcd;
 mod pcd_lzf;
 mod ply;
 mod records;
+mod region;
 mod scalar;
 mod write;
 mod xyz;
@@ -95,6 +97,20 @@ pub trait Batch: Sync {
     /// where the reader needs storage. Counters in [`PointReader::stats`]
     /// include a piece once it has been decoded.
     fn piece<'s>(&'s self, i: usize, scratch: &'s mut Scratch) -> Result<&'s [Point]>;
+    /// [`Batch::piece`] for a consumer that wants only points inside `region`:
+    /// readers that can test raw coordinates drop the others before building
+    /// them (the default returns every point). The result may still hold points
+    /// outside the region; the counters in [`PointReader::stats`] count every
+    /// finite point decoded, kept or not.
+    fn piece_within<'s>(
+        &'s self,
+        i: usize,
+        scratch: &'s mut Scratch,
+        region: &Region,
+    ) -> Result<&'s [Point]> {
+        let _ = region;
+        self.piece(i, scratch)
+    }
 }
 
 /// Per-thread buffers a [`Batch`] decodes into; reuse one across pieces so its
