@@ -115,7 +115,6 @@ impl XyzSink {
 
 impl Sink for XyzSink {
     fn write(&mut self, points: &[Point]) -> Result<()> {
-        let tmp = self.tmp_path();
         for block in points.chunks(1 << 14) {
             self.scratch.clear();
             if self.kind == Kind::PcdAscii {
@@ -123,16 +122,19 @@ impl Sink for XyzSink {
                     let _ = writeln!(self.scratch, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
                 }
             } else {
-                for p in block {
-                    self.scratch.extend_from_slice(&p.x.to_le_bytes());
-                    self.scratch.extend_from_slice(&p.y.to_le_bytes());
-                    self.scratch.extend_from_slice(&p.z.to_le_bytes());
+                // Sized once and filled record by record: the crop writer's
+                // inner loop (a push per coordinate cost a capacity check each).
+                self.scratch.resize(24 * block.len(), 0);
+                for (r, p) in self.scratch.chunks_exact_mut(24).zip(block) {
+                    r[..8].copy_from_slice(&p.x.to_le_bytes());
+                    r[8..16].copy_from_slice(&p.y.to_le_bytes());
+                    r[16..].copy_from_slice(&p.z.to_le_bytes());
                 }
             }
             let scratch = std::mem::take(&mut self.scratch);
             let res = self.out_mut()?.write_all(&scratch);
             self.scratch = scratch;
-            res.map_err(|e| Error::io(&tmp, e))?;
+            res.map_err(|e| Error::io(self.tmp_path(), e))?;
         }
         self.count += points.len() as u64;
         Ok(())

@@ -258,7 +258,6 @@ pub fn loose_crop_each(
     if centers.is_empty() {
         return Ok((0, 0));
     }
-    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centers.len()];
     let grid = Grid::new(centers, params.radius);
     // Handed to the reader so that it drops most of the map before building
     // points; the exact test below still decides.
@@ -292,16 +291,15 @@ pub fn loose_crop_each(
     let mut cur: Vec<(Vec<u32>, Vec<Point>)> = Vec::new();
     let mut prev: Vec<(Vec<u32>, Vec<Point>)> = Vec::new();
     let mut prev_n = 0;
+    // Runs of one target are handed over as they lie in the hit lists (in
+    // file order for each target), without a copy.
     let mut drain = |hits: &[(Vec<u32>, Vec<Point>)]| -> Result<()> {
         for (ids, pts) in hits {
-            for (&i, &p) in ids.iter().zip(pts) {
-                per[i as usize].push(p);
-            }
-        }
-        for (i, pts) in per.iter_mut().enumerate() {
-            if !pts.is_empty() {
-                sink(i, pts)?;
-                pts.clear();
+            let mut from = 0;
+            while let Some(&t) = ids.get(from) {
+                let len = ids[from..].iter().take_while(|&&i| i == t).count();
+                sink(t as usize, &pts[from..from + len])?;
+                from += len;
             }
         }
         Ok(())
