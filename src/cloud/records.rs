@@ -229,7 +229,9 @@ pub(super) fn decode(
             let read = |r: &[u8], i: usize| {
                 t[i].0 * f64::from(i32::from_le_bytes(get::<4>(r, o[i]))) + t[i].1
             };
-            let clean = t.iter().all(|(s, o)| (s.abs() * 2_147_483_648.0 + o.abs()).is_finite());
+            let clean = t
+                .iter()
+                .all(|(s, o)| (s.abs() * 2_147_483_648.0 + o.abs()).is_finite());
             pack(out, bytes, stride, keep, clean, read)
         }
         (t, be, _) => pack(out, bytes, stride, keep, false, |r, i| {

@@ -7,7 +7,8 @@ use mapgauge::result::{TableFormat, render_report};
 use mapgauge::survey::{SurveyOptions, read_survey};
 use mapgauge::synth::{SynthParams, write_scene};
 use mapgauge::{Point, Result};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 
 /// Synthesise a scene with known truth, evaluate it, print the results.
 #[derive(clap::Args)]
@@ -62,10 +63,13 @@ pub fn run(a: Args) -> Result<()> {
     let out = a.out.join("eval");
     super::eval::write_outputs(&run, &out, true, &[&files.map, &files.survey])?;
     let t3 = std::time::Instant::now();
+    let inputs: [(&str, &Path); 2] = [("map", &files.map), ("survey", &files.survey)];
+    let hashed = super::eval::hash_inputs(&inputs, &AtomicBool::new(false))?;
     super::eval::write_report(
         &run,
         &cfg,
-        &[("map", &files.map), ("survey", &files.survey)],
+        hashed,
+        &[&files.map, &files.survey],
         Some(&out.join("report.html")),
         None,
     )?;

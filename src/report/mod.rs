@@ -46,11 +46,26 @@ impl InputFile {
     /// Reads `path` once, streaming (1 MiB at a time: a map need not fit in
     /// memory), and returns its size and SHA-256.
     pub fn hash(role: &str, path: &Path) -> Result<InputFile> {
+        let never = std::sync::atomic::AtomicBool::new(false);
+        InputFile::hash_unless(role, path, &never)?
+            .ok_or_else(|| Error::Input(format!("{}: hashing stopped", path.display())))
+    }
+
+    /// [`InputFile::hash`] that gives up (`Ok(None)`) as soon as `stop` is
+    /// set: for hashing on a thread of its own alongside a run that may fail.
+    pub fn hash_unless(
+        role: &str,
+        path: &Path,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<Option<InputFile>> {
         let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         let mut h = Sha256::new();
         let mut buf = vec![0u8; 1 << 20];
         let mut bytes = 0u64;
         loop {
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return Ok(None);
+            }
             let n = f.read(&mut buf).map_err(|e| Error::io(path, e))?;
             if n == 0 {
                 break;
@@ -59,12 +74,12 @@ impl InputFile {
             bytes += n as u64;
         }
         let sha256 = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
-        Ok(InputFile {
+        Ok(Some(InputFile {
             role: role.into(),
             path: path.display().to_string(),
             bytes,
             sha256,
-        })
+        }))
     }
 }
 
