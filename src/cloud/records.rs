@@ -223,6 +223,16 @@ pub(super) fn decode(
             let clean = all_finite(bytes, stride, read);
             pack(out, bytes, stride, keep, clean, read)
         }
+        (Some(t), false, [Scalar::I32, Scalar::I32, Scalar::I32]) if o == [0, 4, 8] => {
+            // LAS: X, Y, Z lead every point format, so constant offsets.
+            let read = |r: &[u8], i: usize| {
+                t[i].0 * f64::from(i32::from_le_bytes(get::<4>(r, 4 * i))) + t[i].1
+            };
+            let clean = t
+                .iter()
+                .all(|(s, o)| (s.abs() * 2_147_483_648.0 + o.abs()).is_finite());
+            pack(out, bytes, stride, keep, clean, read)
+        }
         (Some(t), false, [Scalar::I32, Scalar::I32, Scalar::I32]) => {
             // Integers scaled by finite factors are finite, whatever the
             // record holds, unless the header's scale or offset is huge.
