@@ -18,9 +18,9 @@ const CELLS_PER_RADIUS: f64 = 8.0;
 /// A set of cells of a regular grid in the horizontal (x, y) plane.
 #[derive(Debug, Clone)]
 pub struct Region {
-    /// Corner of cell (0, 0) plus half a cell; the grid has one empty cell
-    /// of border all round.
-    half: [f64; 2],
+    /// Centre of cell (0, 0); the grid has one empty cell of border all
+    /// round.
+    min: [f64; 2],
     /// 1 / cell size.
     inv: f64,
     nx: u32,
@@ -31,53 +31,78 @@ pub struct Region {
 impl Region {
     /// The cells that touch any disc of `radius` around a centre `[x, y]`.
     /// Every point within `radius` of a centre (horizontally) is contained.
-    pub fn discs(centers: &[[f64; 2]], radius: f64) -> Region {
-        // A point's cell is `floor((p - min) * inv)`, monotone in p but
-        // rounded; the box and each cell are treated as if widened by far more
-        // than that rounding, so no point inside a disc lands outside.
-        let slack_of = |c: &[f64; 2]| 1e-9 * (c[0].abs() + c[1].abs() + radius + 1.0);
+    /// `None` when the discs span more than a grid can cover (centres near
+    /// ±1e300, say): the caller then reads every point.
+    pub fn discs(centers: &[[f64; 2]], radius: f64) -> Option<Region> {
+        if !(radius.is_finite() && radius > 0.0) {
+            return None;
+        }
+        if centers.is_empty() {
+            return Some(Region::empty());
+        }
+        // Cell k (per axis) holds the values whose `(v - min) * inv` rounds
+        // to k: computed in floating point, so with an error of a few ulps of
+        // the largest coordinate involved. `slack` bounds that error by far,
+        // in metres; the box and every cell are widened by it, so no point
+        // inside a disc lands in an unset cell.
+        let big = centers
+            .iter()
+            .map(|c| c[0].abs() + c[1].abs())
+            .fold(0.0, f64::max)
+            + radius
+            + 1.0;
+        let slack0 = 4e-9 * big;
         let mut min = [f64::INFINITY; 2];
         let mut max = [f64::NEG_INFINITY; 2];
         for c in centers {
-            let reach = radius + 2.0 * slack_of(c);
             for k in 0..2 {
-                min[k] = min[k].min(c[k] - reach);
-                max[k] = max[k].max(c[k] + reach);
+                min[k] = min[k].min(c[k] - radius - 2.0 * slack0);
+                max[k] = max[k].max(c[k] + radius + 2.0 * slack0);
             }
-        }
-        if !(radius.is_finite() && radius > 0.0 && min[0] <= max[0] && min[1] <= max[1]) {
-            return Region::empty();
         }
         let mut cell = radius / CELLS_PER_RADIUS;
-        let (mut nx, mut ny);
-        loop {
-            // Two more for the border.
-            nx = (((max[0] - min[0]) / cell).ceil() as usize).max(1) + 2;
-            ny = (((max[1] - min[1]) / cell).ceil() as usize).max(1) + 2;
-            if nx.saturating_mul(ny) <= MAX_CELLS {
-                break;
+        let (nx, ny) = loop {
+            if !cell.is_finite() {
+                return None;
+            }
+            // Counted in f64 (a huge span must not saturate or wrap). Three
+            // more than the box needs: a border cell below it, one above it,
+            // and the half cell each side that rounding to the nearest cell
+            // centre takes.
+            let fx = ((max[0] - min[0]) / cell).ceil() + 3.0;
+            let fy = ((max[1] - min[1]) / cell).ceil() + 3.0;
+            if fx * fy <= MAX_CELLS as f64 {
+                break (fx as usize, fy as usize);
             }
             cell *= 2.0;
-        }
+        };
+        // Cell 0's centre one cell below the box: box values map to [1, n - 2].
         let min = [min[0] - cell, min[1] - cell];
+        if !min.iter().chain(&max).all(|v| v.is_finite()) {
+            return None;
+        }
         let inv = 1.0 / cell;
+        let slack = slack0 + 1e-6 * cell;
+        let reach = radius + slack;
         let mut bits = vec![0u64; (nx * ny).div_ceil(64)];
         for c in centers {
-            let slack = slack_of(c) + 1e-6 * cell;
-            let reach = radius + slack;
-            // Never the border: the discs (widened) lie inside it, and cell 0
-            // also takes NaN and the strip just outside.
+            // Never a border cell: the box lies between them with half a
+            // cell to spare, and cell 0 also takes NaN.
             let range = |v: f64, lo: f64, n: usize| {
-                let a = (((v - reach - lo) * inv).floor().max(1.0) as usize).min(n - 2);
-                let b = (((v + reach - lo) * inv).floor().max(1.0) as usize).min(n - 2);
+                let a = (((v - reach - lo) * inv).round().max(1.0) as usize).min(n - 2);
+                let b = (((v + reach - lo) * inv).round().max(1.0) as usize).min(n - 2);
                 a..=b
             };
+            // Distance from `v` to cell k's extent, widened by the slack.
+            let gap = |v: f64, lo: f64, k: usize| {
+                let a = lo + (k as f64 - 0.5) * cell - slack;
+                let b = lo + (k as f64 + 0.5) * cell + slack;
+                (a - v).max(v - b).max(0.0)
+            };
             for iy in range(c[1], min[1], ny) {
-                let y0 = min[1] + iy as f64 * cell - slack;
-                let dy = (y0 - c[1]).max(c[1] - (y0 + cell + 2.0 * slack)).max(0.0);
+                let dy = gap(c[1], min[1], iy);
                 for ix in range(c[0], min[0], nx) {
-                    let x0 = min[0] + ix as f64 * cell - slack;
-                    let dx = (x0 - c[0]).max(c[0] - (x0 + cell + 2.0 * slack)).max(0.0);
+                    let dx = gap(c[0], min[0], ix);
                     if dx * dx + dy * dy <= reach * reach {
                         let i = iy * nx + ix;
                         bits[i / 64] |= 1 << (i % 64);
@@ -85,19 +110,19 @@ impl Region {
                 }
             }
         }
-        Region {
-            half: [min[0] + 0.5 * cell, min[1] + 0.5 * cell],
+        Some(Region {
+            min,
             inv,
             nx: nx as u32,
             ny: ny as u32,
             bits,
-        }
+        })
     }
 
     /// A region containing nothing.
     fn empty() -> Region {
         Region {
-            half: [0.0; 2],
+            min: [0.0; 2],
             inv: 1.0,
             nx: 0,
             ny: 0,
@@ -110,16 +135,15 @@ impl Region {
     /// tests finiteness itself.
     #[inline(always)]
     pub fn contains(&self, x: f64, y: f64) -> bool {
-        // Adding 1.5 * 2^52 rounds to an integer that lands in the low bits
-        // (exact for |v| < 2^51), a cheaper float-to-int than `as`, which must
-        // saturate. With the origin moved half a cell, that rounding is a
-        // floor except at exact cell borders, which the marking's slack
-        // covers. Negatives wrap to huge values and fail the compare, (-1, 0)
-        // lands in the empty border, and anything beyond 2^31 cells may alias
-        // a cell: a superset is all a region promises.
+        // Adding 1.5 * 2^52 rounds to the nearest integer, which lands in the
+        // low bits (exact for |v| < 2^51): a cheaper float-to-int than `as`,
+        // which must saturate. Negatives wrap to huge values and fail the
+        // compare, the canonical NaN gives 0 (a border cell), and anything
+        // beyond 2^31 cells may alias a cell: a superset is all a region
+        // promises.
         const ROUND: f64 = 6_755_399_441_055_744.0;
-        let ix = ((x - self.half[0]) * self.inv + ROUND).to_bits() as u32;
-        let iy = ((y - self.half[1]) * self.inv + ROUND).to_bits() as u32;
+        let ix = ((x - self.min[0]) * self.inv + ROUND).to_bits() as u32;
+        let iy = ((y - self.min[1]) * self.inv + ROUND).to_bits() as u32;
         if ix >= self.nx || iy >= self.ny {
             return false;
         }
@@ -153,7 +177,7 @@ mod tests {
         for (cx, cy) in [(0.0, 0.0), (512_345.678, 5_412_345.123), (-17.5, 3.25)] {
             let centers = [[cx, cy], [cx + 13.0, cy - 4.0], [cx + 400.0, cy + 250.0]];
             let r = 5.0;
-            let reg = Region::discs(&centers, r);
+            let reg = Region::discs(&centers, r).unwrap();
             let mut s = 7u64;
             for _ in 0..200_000 {
                 let c = centers[(lcg(&mut s) * 3.0) as usize % 3];
@@ -180,7 +204,7 @@ mod tests {
     fn exact_rim_points_on_cell_borders_are_contained() {
         // Centres and radius on the cell grid, so rim points fall exactly on
         // cell borders.
-        let reg = Region::discs(&[[0.0, 0.0]], 8.0);
+        let reg = Region::discs(&[[0.0, 0.0]], 8.0).unwrap();
         for (x, y) in [(8.0, 0.0), (-8.0, 0.0), (0.0, 8.0), (0.0, -8.0)] {
             assert!(reg.contains(x, y), "({x}, {y})");
         }
@@ -193,12 +217,21 @@ mod tests {
 
     #[test]
     fn huge_spans_stay_within_the_cell_cap() {
-        let reg = Region::discs(&[[0.0, 0.0], [1e6, 1e6]], 5.0);
+        let reg = Region::discs(&[[0.0, 0.0], [1e6, 1e6]], 5.0).unwrap();
         assert!(reg.bits.len() * 64 <= MAX_CELLS + 64);
         assert!(reg.contains(1e6 + 4.9, 1e6));
         assert!(reg.contains(0.0, -4.9));
         assert!(!reg.contains(5e5, 5e5));
-        let none = Region::discs(&[], 5.0);
+        let none = Region::discs(&[], 5.0).unwrap();
         assert!(!none.contains(0.0, 0.0));
+        // Spans no grid can cover give no region (the caller reads
+        // everything) instead of a wrapped cell count.
+        if let Some(r) = Region::discs(&[[0.0, 0.0], [1e300, 1e300]], 5.0) {
+            assert!(r.contains(0.0, 4.9) && r.contains(0.0, 0.0) && r.contains(1e300, 1e300));
+        }
+        assert!(Region::discs(&[[-1.7e308, 0.0], [1.7e308, 0.0]], 5.0).is_none());
+        assert!(Region::discs(&[[0.0, 0.0]], f64::NAN).is_none());
+        let far = Region::discs(&[[0.0, 0.0], [1e15, -1e15]], 5.0).unwrap();
+        assert!(far.contains(0.0, 4.9) && far.contains(1e15, -1e15 + 4.9));
     }
 }
