@@ -188,49 +188,57 @@ fn pcd_output_holds_the_same_points_as_ply_output() {
     }
 }
 
+/// Also for positions so far off (a typo in the survey) that the crop's
+/// grids must coarsen: a target at 1e300 once wrapped a cell count and
+/// panicked.
 #[test]
 fn target_outside_the_map_warns_and_still_succeeds() {
     let dir = tempfile::tempdir().unwrap();
     let (map, survey) = synth(dir.path(), "pcd", 1);
-    let mut text = std::fs::read_to_string(&survey).unwrap();
-    text.push_str("far away,5000.0,-3000.0,1.0,0.42\n");
-    let survey2 = dir.path().join("survey2.csv");
-    std::fs::write(&survey2, text).unwrap();
-    let out = dir.path().join("crops");
-    let o = run(
-        &["crop"],
-        &[("--map", &map), ("--survey", &survey2), ("--out", &out)],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let err = stderr(&o);
-    let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning:")).collect();
-    assert_eq!(warn.len(), 1, "{err}");
-    assert!(
-        warn[0].contains("far away") && warn[0].contains("no map points"),
-        "{err}"
-    );
-    let stdout = String::from_utf8(o.stdout).unwrap();
-    let row = stdout
-        .lines()
-        .find(|l| l.starts_with("far away"))
-        .expect(&stdout);
-    assert_eq!(row.split_whitespace().nth(2), Some("0"), "{row}");
-    // The id is made file-safe; the file exists and holds no points.
-    let f = out.join("far_away.ply");
-    assert!(row.ends_with(&f.display().to_string()), "{row}");
-    assert_eq!(mapgauge::cloud::read_all(&f).unwrap().len(), 0);
-    // The other targets are unaffected.
-    let table = crop(&map, &survey, &dir.path().join("ref"), &[]);
-    for (id, (n, _)) in table {
-        let r = stdout
-            .lines()
-            .find(|l| l.split_whitespace().next() == Some(&id))
-            .unwrap();
-        assert_eq!(
-            r.split_whitespace().nth(1),
-            Some(n.to_string().as_str()),
-            "{r}"
+    let reference = crop(&map, &survey, &dir.path().join("ref"), &[]);
+    for (k, far) in ["5000.0,-3000.0", "1e300,1e300", "1e15,-1e15"]
+        .iter()
+        .enumerate()
+    {
+        let mut text = std::fs::read_to_string(&survey).unwrap();
+        text.push_str(&format!("far away,{far},1.0,0.42\n"));
+        let survey2 = dir.path().join(format!("survey{k}.csv"));
+        std::fs::write(&survey2, text).unwrap();
+        let out = dir.path().join(format!("crops{k}"));
+        let o = run(
+            &["crop"],
+            &[("--map", &map), ("--survey", &survey2), ("--out", &out)],
         );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let err = stderr(&o);
+        let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning:")).collect();
+        assert_eq!(warn.len(), 1, "{err}");
+        assert!(
+            warn[0].contains("far away") && warn[0].contains("no map points"),
+            "{err}"
+        );
+        let stdout = String::from_utf8(o.stdout).unwrap();
+        let row = stdout
+            .lines()
+            .find(|l| l.starts_with("far away"))
+            .expect(&stdout);
+        assert_eq!(row.split_whitespace().nth(2), Some("0"), "{row}");
+        // The id is made file-safe; the file exists and holds no points.
+        let f = out.join("far_away.ply");
+        assert!(row.ends_with(&f.display().to_string()), "{row}");
+        assert_eq!(mapgauge::cloud::read_all(&f).unwrap().len(), 0);
+        // The other targets are unaffected.
+        for (id, (n, _)) in &reference {
+            let r = stdout
+                .lines()
+                .find(|l| l.split_whitespace().next() == Some(id))
+                .unwrap();
+            assert_eq!(
+                r.split_whitespace().nth(1),
+                Some(n.to_string().as_str()),
+                "{far}: {r}"
+            );
+        }
     }
 }
 
