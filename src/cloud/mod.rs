@@ -55,7 +55,8 @@ pub struct CloudInfo {
 /// Counters a reader keeps while streaming.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ReadStats {
-    /// Points handed to the caller.
+    /// Finite points read (handed to the caller, or dropped by a reader as
+    /// outside the [`Region`] the caller gave).
     pub points: u64,
     /// Points skipped because a coordinate was NaN or infinite.
     pub skipped_nonfinite: u64,

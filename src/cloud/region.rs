@@ -31,8 +31,9 @@ pub struct Region {
 impl Region {
     /// The cells that touch any disc of `radius` around a centre `[x, y]`.
     /// Every point within `radius` of a centre (horizontally) is contained.
-    /// `None` when the discs span more than a grid can cover (centres near
-    /// ±1e300, say): the caller then reads every point.
+    /// `None` when the radius is not a positive finite number or the discs
+    /// span more than a grid can cover (centres near ±1e300, say): the caller
+    /// then reads every point. No centres give an empty region.
     pub fn discs(centers: &[[f64; 2]], radius: f64) -> Option<Region> {
         if !(radius.is_finite() && radius > 0.0) {
             return None;
@@ -51,7 +52,9 @@ impl Region {
             .fold(0.0, f64::max)
             + radius
             + 1.0;
-        let slack0 = 4e-9 * big;
+        // The rounding errors are a few ulps of `big` (~1e-15 of it); a
+        // thousand times that.
+        let slack0 = 1e-12 * big;
         let mut min = [f64::INFINITY; 2];
         let mut max = [f64::NEG_INFINITY; 2];
         for c in centers {
@@ -62,7 +65,9 @@ impl Region {
         }
         let mut cell = radius / CELLS_PER_RADIUS;
         let (nx, ny) = loop {
-            if !cell.is_finite() {
+            // (A subnormal radius gives a cell of 0, which doubling never
+            // leaves.)
+            if !(cell.is_finite() && cell > 0.0) {
                 return None;
             }
             // Counted in f64 (a huge span must not saturate or wrap). Three
@@ -138,8 +143,8 @@ impl Region {
         // Adding 1.5 * 2^52 rounds to the nearest integer, which lands in the
         // low bits (exact for |v| < 2^51): a cheaper float-to-int than `as`,
         // which must saturate. Negatives wrap to huge values and fail the
-        // compare, the canonical NaN gives 0 (a border cell), and anything
-        // beyond 2^31 cells may alias a cell: a superset is all a region
+        // compare, the canonical NaN gives 0 (a border cell), and values about
+        // 2^32 cells away may alias a cell: a superset is all a region
         // promises.
         const ROUND: f64 = 6_755_399_441_055_744.0;
         let ix = ((x - self.min[0]) * self.inv + ROUND).to_bits() as u32;
@@ -231,6 +236,11 @@ mod tests {
         }
         assert!(Region::discs(&[[-1.7e308, 0.0], [1.7e308, 0.0]], 5.0).is_none());
         assert!(Region::discs(&[[0.0, 0.0]], f64::NAN).is_none());
+        for k in 1..=8 {
+            // Subnormal radii round the cell to 0; this once looped forever.
+            let r = f64::from_bits(k);
+            assert!(Region::discs(&[[0.0, 0.0]], r).is_none_or(|g| g.contains(0.0, 0.0)));
+        }
         let far = Region::discs(&[[0.0, 0.0], [1e15, -1e15]], 5.0).unwrap();
         assert!(far.contains(0.0, 4.9) && far.contains(1e15, -1e15 + 4.9));
     }

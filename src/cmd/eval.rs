@@ -153,6 +153,9 @@ pub fn run(a: Args) -> Result<()> {
             let (inputs, stop) = (&inputs, &stop);
             s.spawn(move || hash_inputs(inputs, stop))
         });
+        // Set on every way out, a panic's unwinding included, so the scope
+        // never waits for a whole map to be hashed for nothing.
+        let _stop_if_failed = StopOnDrop(&stop);
         let run = evaluate(map, survey_path, &a, &cfg);
         if run.is_err() {
             stop.store(true, Ordering::Relaxed);
@@ -164,7 +167,12 @@ pub fn run(a: Args) -> Result<()> {
         (run, hashed)
     });
     let run = run?;
-    let hashed = hashed.transpose()?.flatten();
+    // A failed hash costs the report, not the results: they are printed and
+    // written first, and the error comes last.
+    let (hashed, hash_error) = match hashed.transpose() {
+        Ok(h) => (h.flatten(), None),
+        Err(e) => (None, Some(e)),
+    };
     match fmt {
         Some(result::TableFormat::Html) => print!(
             "{}",
@@ -182,6 +190,9 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("results written to {}", out.display());
     }
     let in_paths: Vec<&Path> = inputs.iter().map(|i| i.1).collect();
+    if let Some(e) = hash_error {
+        return Err(e);
+    }
     write_report(
         &run,
         &cfg,
@@ -191,6 +202,15 @@ pub fn run(a: Args) -> Result<()> {
         a.plots.as_deref(),
     )?;
     Ok(())
+}
+
+/// Sets its flag when dropped.
+struct StopOnDrop<'a>(&'a AtomicBool);
+
+impl Drop for StopOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
 }
 
 /// The inputs' sizes and SHA-256 with the seconds it took, or `None` once

@@ -291,15 +291,28 @@ pub fn loose_crop_each(
     let mut cur: Vec<(Vec<u32>, Vec<Point>)> = Vec::new();
     let mut prev: Vec<(Vec<u32>, Vec<Point>)> = Vec::new();
     let mut prev_n = 0;
-    // Runs of one target are handed over as they lie in the hit lists (in
-    // file order for each target), without a copy.
+    // A piece's hits usually belong to one target and go to `sink` as they
+    // lie, without a copy; a piece that mixes targets (crops overlapping, or
+    // two targets near one piece) is sorted out per target first, in order,
+    // so that `sink` is never called point by point.
+    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centers.len()];
     let mut drain = |hits: &[(Vec<u32>, Vec<Point>)]| -> Result<()> {
         for (ids, pts) in hits {
-            let mut from = 0;
-            while let Some(&t) = ids.get(from) {
-                let len = ids[from..].iter().take_while(|&&i| i == t).count();
-                sink(t as usize, &pts[from..from + len])?;
-                from += len;
+            let Some(&first) = ids.first() else {
+                continue;
+            };
+            if ids.iter().all(|&i| i == first) {
+                sink(first as usize, pts)?;
+                continue;
+            }
+            for (&i, &p) in ids.iter().zip(pts) {
+                per[i as usize].push(p);
+            }
+            for (i, v) in per.iter_mut().enumerate() {
+                if !v.is_empty() {
+                    sink(i, v)?;
+                    v.clear();
+                }
             }
         }
         Ok(())
