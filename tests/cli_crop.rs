@@ -328,3 +328,25 @@ fn pcd_ply_and_las_maps_give_the_same_crops() {
         );
     }
 }
+
+#[test]
+fn radius_out_of_range_is_a_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let (map, survey) = synth(dir.path(), "pcd", 2);
+    for r in ["0", "5e-324", "-1", "1e9", "NaN"] {
+        let out = dir.path().join(format!("crops-{r}"));
+        let arg = format!("--radius={r}");
+        let o = run(
+            &["crop", &arg],
+            &[("--map", &map), ("--survey", &survey), ("--out", &out)],
+        );
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{r}: {err}");
+        assert_eq!(err.lines().count(), 1, "{r}: {err}");
+        assert!(
+            err.starts_with("error: ") && err.contains("--radius"),
+            "{r}: {err}"
+        );
+        assert!(!out.exists(), "{r}: output directory created");
+    }
+}

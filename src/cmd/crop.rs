@@ -19,7 +19,7 @@ pub struct Args {
     /// Output directory; one file per target id.
     #[arg(long)]
     out: PathBuf,
-    /// Crop radius in metres.
+    /// Crop radius in metres (0.001 to 10000, as `crop.radius` for eval).
     #[arg(long, default_value_t = 5.0)]
     radius: f64,
     /// Crop shape: vertical cylinder (horizontal distance) or sphere.
@@ -38,6 +38,12 @@ pub struct Args {
 
 /// Runs `crop`.
 pub fn run(a: Args) -> Result<()> {
+    if !(1e-3..=1e4).contains(&a.radius) {
+        return Err(mapgauge::Error::Param(format!(
+            "--radius {}: must be within 0.001..10000 m",
+            a.radius
+        )));
+    }
     let origin = a.origin.as_deref().map(super::parse_origin).transpose()?;
     let survey = read_survey(&a.survey, &SurveyOptions { origin })?;
     let init = a
