@@ -255,7 +255,7 @@ pub fn write_report(
         refuse_overwrite(h, in_paths)?;
         report.write_html(h)?;
         eprintln!(
-            "report written to {} in {:.2} s (SHA-256 of the inputs: {:.2} s, alongside the run)",
+            "report written to {} in {:.2} s (SHA-256 of the inputs took {:.2} s)",
             h.display(),
             t0.elapsed().as_secs_f64(),
             t_hash
