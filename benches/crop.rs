@@ -3,26 +3,15 @@
 //! size (default 4 M points of a synthetic scene, binary PCD, in a temp dir).
 //! Compare the two in one run: the ratio is what issue 7's goal is about.
 
+mod common;
+
+use common::cat;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use mapgauge::Point;
 use mapgauge::cloud::{self, CloudWriter, OutFormat};
 use mapgauge::crop::{LooseParams, loose_crop_each};
 use mapgauge::synth::{SynthParams, generate};
 use std::path::Path;
-
-fn cat(path: &Path) -> u64 {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path).unwrap();
-    let mut block = vec![0u8; 128 << 10];
-    let mut n = 0u64;
-    loop {
-        let k = f.read(&mut block).unwrap();
-        if k == 0 {
-            return n;
-        }
-        n += k as u64;
-    }
-}
 
 fn crop(path: &Path, centres: &[Point]) -> u64 {
     let mut r = cloud::open(path).unwrap();

@@ -4,6 +4,9 @@
 //! Run: `cargo bench --bench read_pcd` (files are generated in a temp dir;
 //! set `READ_PCD_POINTS` to change the binary cloud size, default 4 M).
 
+mod common;
+
+use common::cat;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use mapgauge::cloud;
 use std::io::Write;
@@ -63,20 +66,6 @@ fn read(path: &Path) -> u64 {
         n += buf.len() as u64;
     }
     n
-}
-
-fn cat(path: &Path) -> u64 {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path).unwrap();
-    let mut block = vec![0u8; 1 << 20];
-    let mut n = 0u64;
-    loop {
-        let k = f.read(&mut block).unwrap();
-        if k == 0 {
-            return n;
-        }
-        n += k as u64;
-    }
 }
 
 fn bench(c: &mut Criterion) {
