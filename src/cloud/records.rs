@@ -302,7 +302,7 @@ fn pack(
         return (k, bytes.len() / stride);
     }
     let mut finite = 0;
-    for r in bytes.chunks_exact(stride).take(out.len()) {
+    for r in bytes.chunks_exact(stride) {
         let (x, y, z) = (read(r, 0), read(r, 1), read(r, 2));
         // One sum is finite for almost every point; the three tests are only
         // needed when it is not (it can overflow).

@@ -158,8 +158,9 @@ impl Region {
             .is_some_and(|w| (w >> (i % 64)) & 1 == 1)
     }
 
-    /// Share of the bounding box's cells that are set (for diagnostics).
-    pub fn fill(&self) -> f64 {
+    /// Share of the bounding box's cells that are set.
+    #[cfg(test)]
+    fn fill(&self) -> f64 {
         let set: u64 = self.bits.iter().map(|w| u64::from(w.count_ones())).sum();
         let cells = f64::from(self.nx) * f64::from(self.ny);
         if cells > 0.0 { set as f64 / cells } else { 0.0 }
