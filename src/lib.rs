@@ -12,9 +12,11 @@
 //! | crop | [`crop`] | loose crop (one pass for all targets), automatic tight crop |
 //! | locate | [`locate`] | the paper's k-means → RANSAC → SVD corner, 100 samples |
 //! | align | [`align`] | rigid / similarity / robust (Eq. 1) map → survey fits |
-//! | metrics | [`metrics`], [`result`] | absolute, relative, leave-one-out, ASPRS; result.json |
-//! | all of it | [`eval`] | the pipeline, as `mapgauge eval` runs it |
-//! | report | [`report`] | report.html, SVG and PNG figures of an `eval` run |
+//! | accuracy | [`accuracy`] | absolute, relative, leave-one-out, ASPRS: typed numbers |
+//! | all of it | [`pipeline`] | the stages composed, as `mapgauge eval` runs them: [`pipeline::run`] |
+//! | record | [`record`] | `result.json`: its schema, built from the typed values, read and written |
+//! | render | [`render`] | the paper's tables and others as text, Markdown, LaTeX, CSV, HTML, JSON |
+//! | report | [`report`] | report.html, SVG and PNG figures of an evaluation |
 //! | test data | [`synth`] | LiDAR-like synthetic scenes with known truth |
 //!
 //! Locating a target in a tight crop:
@@ -39,7 +41,7 @@
 //! Scoring positions against a survey, as `mapgauge errors` does:
 //!
 //! ```
-//! use mapgauge::metrics::{evaluate, EvalOptions};
+//! use mapgauge::accuracy::{score, ScoreOptions};
 //! use mapgauge::survey::{Estimate, Survey, SurveyFrame, SurveyTarget};
 //! use mapgauge::Point;
 //!
@@ -67,21 +69,22 @@
 //!     .enumerate()
 //!     .map(|(i, &(x, y))| Estimate::found((i + 1).to_string(), Point::new(x, y, 0.0)))
 //!     .collect();
-//! let r = evaluate(&survey, &estimates, &EvalOptions::default()).unwrap();
+//! let r = score(&survey, &estimates, &ScoreOptions::default()).unwrap();
 //! assert!((r.relative.pairs[2].error - 0.01).abs() < 1e-9); // t2 & t3
 //! assert!(r.absolute.mean < 0.01); // the shift is aligned away
 //! ```
 #![deny(missing_docs)]
 
+pub mod accuracy;
 pub mod align;
 pub mod cloud;
 pub mod crop;
 mod error;
-pub mod eval;
 pub mod locate;
-pub mod metrics;
+pub mod pipeline;
+pub mod record;
+pub mod render;
 pub mod report;
-pub mod result;
 pub mod survey;
 pub mod synth;
 

@@ -8,6 +8,7 @@
 
 use crate::{Error, Point, Result};
 pub use region::Region;
+pub use source::{MapSource, MemoryReader};
 use std::io::Read;
 use std::path::Path;
 
@@ -20,6 +21,7 @@ mod ply;
 mod records;
 mod region;
 mod scalar;
+mod source;
 mod write;
 mod xyz;
 
@@ -39,6 +41,8 @@ pub enum Format {
     E57,
     /// Whitespace- or comma-separated x y z text.
     Xyz,
+    /// Points handed over in memory ([`MapSource::Points`]): no file.
+    Memory,
 }
 
 /// What a reader knows about a cloud before reading its points.
@@ -157,6 +161,10 @@ pub fn open_as(path: &Path, format: Format) -> Result<Box<dyn PointReader>> {
         Format::Las | Format::Laz => las::open(path),
         Format::E57 => e57::open(path),
         Format::Xyz => xyz::open(path),
+        Format::Memory => Err(Error::Param(format!(
+            "{}: `memory` is not a file format",
+            path.display()
+        ))),
     }
 }
 

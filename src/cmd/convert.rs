@@ -1,6 +1,6 @@
 //! `mapgauge convert`: rewrite a map in another format (streamed).
 
-use super::refuse_overwrite;
+use mapgauge::record::refuse_overwrite;
 use mapgauge::cloud::{self, CloudWriter, OutFormat};
 use mapgauge::{Error, Result};
 use std::path::PathBuf;

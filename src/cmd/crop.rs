@@ -1,9 +1,11 @@
 //! `mapgauge crop`: loose crops around every surveyed target, for hand editing.
 
-use super::{file_stem_for, parse_triple, progress_bar, refuse_overwrite};
+use super::progress_bar;
 use mapgauge::cloud::{self, OutFormat};
 use mapgauge::crop::{LooseParams, Shape, loose_crop_each};
-use mapgauge::survey::{SurveyOptions, read_survey};
+use mapgauge::pipeline::expected_in_map;
+use mapgauge::record::refuse_overwrite;
+use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey};
 use mapgauge::{Point, Result};
 use std::path::PathBuf;
 
@@ -28,12 +30,13 @@ pub struct Args {
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutFormat::Ply)]
     format: OutFormat,
-    /// ENU origin `lat,lon,alt` for WGS84 surveys [default: the first target].
-    #[arg(long)]
-    origin: Option<String>,
-    /// Approximate map → survey transform `x,y,yaw_deg` when the map is not in the survey frame.
-    #[arg(long)]
-    init: Option<String>,
+    /// ENU origin `lat,lon[,alt]` for WGS84 surveys [default: the first target].
+    #[arg(long, value_name = "LAT,LON[,ALT]", value_parser = super::origin, allow_hyphen_values = true)]
+    origin: Option<Geodetic>,
+    /// Approximate map → survey transform `x,y,yaw_deg` (survey = R(yaw)·map + (x, y))
+    /// when the map is not in the survey frame.
+    #[arg(long, value_name = "X,Y,YAW_DEG", value_parser = super::triple, allow_hyphen_values = true)]
+    init: Option<[f64; 3]>,
 }
 
 /// Runs `crop`.
@@ -44,23 +47,12 @@ pub fn run(a: Args) -> Result<()> {
             a.radius
         )));
     }
-    let origin = a.origin.as_deref().map(super::parse_origin).transpose()?;
-    let survey = read_survey(&a.survey, &SurveyOptions { origin })?;
-    let init = a
-        .init
-        .as_deref()
-        .map(|s| parse_triple(s, "init"))
-        .transpose()?
-        .unwrap_or([0.0; 3]);
-    let (s, c) = init[2].to_radians().sin_cos();
+    let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
+    let init = a.init.unwrap_or([0.0; 3]);
     let centres: Vec<Point> = survey
         .targets
         .iter()
-        .map(|t| {
-            let p = t.reference();
-            let (dx, dy) = (p.x - init[0], p.y - init[1]);
-            Point::new(c * dx + s * dy, -s * dx + c * dy, p.z)
-        })
+        .map(|t| expected_in_map(&init, &t.reference()))
         .collect();
     let mut shape = a.shape;
     if shape == Shape::Sphere && !survey.has_z() {
@@ -77,7 +69,7 @@ pub fn run(a: Args) -> Result<()> {
     for t in &survey.targets {
         let path = a
             .out
-            .join(format!("{}.{}", file_stem_for(&t.id), a.format.extension()));
+            .join(format!("{}.{}", file_stem(&t.id), a.format.extension()));
         refuse_overwrite(&path, &[&a.map, &a.survey])?;
         writers.push(cloud::CloudWriter::create(&path, a.format)?);
         paths.push(path);

@@ -1,9 +1,10 @@
 //! `mapgauge demo`: synthesise the default scene, evaluate it, print the tables
 //! and how the measurement compares with the known truth.
 
-use mapgauge::cloud::OutFormat;
-use mapgauge::eval::{EvalConfig, EvalInputs, evaluate_map};
-use mapgauge::result::{TableFormat, render_report};
+use mapgauge::cloud::{MapSource, OutFormat};
+use mapgauge::pipeline::{self, Config};
+use mapgauge::render::{TableFormat, render_report};
+use mapgauge::report;
 use mapgauge::survey::{SurveyOptions, read_survey};
 use mapgauge::synth::{SynthParams, write_scene};
 use mapgauge::{Point, Result};
@@ -50,53 +51,50 @@ pub fn run(a: Args) -> Result<()> {
     );
 
     let survey = read_survey(&files.survey, &SurveyOptions::default())?;
-    let mut cfg = EvalConfig::default();
+    let mut cfg = Config::default();
     cfg.locate.seed = a.seed;
-    let inputs = EvalInputs {
-        map: &files.map,
-        survey: &survey,
-        survey_path: &files.survey,
-        crops_dir: None,
-    };
-    let run = evaluate_map(&inputs, &cfg, |_, _| {})?;
+    let ev = pipeline::run(MapSource::File(&files.map), &survey, &cfg, |_, _| {})?;
+    let result = super::eval::result_file(&ev, &survey, &files.survey);
     let t2 = std::time::Instant::now();
     let out = a.out.join("eval");
-    super::eval::write_outputs(&run, &out, true, &[&files.map, &files.survey])?;
+    let in_paths: [&Path; 2] = [&files.map, &files.survey];
+    super::eval::write_outputs(&ev, &result, &out, true, &in_paths)?;
     let t3 = std::time::Instant::now();
     let inputs: [(&str, &Path); 2] = [("map", &files.map), ("survey", &files.survey)];
-    let hashed = super::eval::hash_inputs(&inputs, &AtomicBool::new(false))?;
+    let hashed = report::hash_inputs(&inputs, &AtomicBool::new(false))?;
     super::eval::write_report(
-        &run,
+        &ev,
+        &result,
         &cfg,
         hashed,
-        &[&files.map, &files.survey],
+        &in_paths,
         Some(&out.join("report.html")),
         None,
     )?;
     let t_report = t3.elapsed().as_secs_f64();
 
-    print!("{}", render_report(&run.result, TableFormat::Text));
+    print!("{}", render_report(&result, TableFormat::Text));
     println!();
     println!("Against the known truth (the scene's true target positions in the map):");
     println!("  {:<6} {:>12} {:>12}", "", "measured", "truth");
     println!(
         "  {:<6} {:>12.4} {:>12.4}",
-        "E_abs", run.result.absolute.mean, expected.absolute.mean
+        "E_abs", result.absolute.mean, expected.absolute.mean
     );
     println!(
         "  {:<6} {:>12.4} {:>12.4}",
-        "σ_abs", run.result.absolute.std, expected.absolute.std
+        "σ_abs", result.absolute.std, expected.absolute.std
     );
     println!(
         "  {:<6} {:>12.4} {:>12.4}",
-        "E_rel", run.result.relative.mean, expected.relative.mean
+        "E_rel", result.relative.mean, expected.relative.mean
     );
     println!(
         "  {:<6} {:>12.4} {:>12.4}",
-        "σ_rel", run.result.relative.std, expected.relative.std
+        "σ_rel", result.relative.std, expected.relative.std
     );
     println!("  localisation error per target (horizontal, mm):");
-    for (t, tt) in run.result.targets.iter().zip(&truth.targets) {
+    for (t, tt) in result.targets.iter().zip(&truth.targets) {
         match &t.map {
             Some(m) => {
                 let e = (Point::new(m.x, m.y, 0.0) - Point::new(tt.map[0], tt.map[1], 0.0)).norm();

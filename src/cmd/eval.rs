@@ -1,14 +1,15 @@
 //! `mapgauge eval`: the whole pipeline, map to accuracy.
 
-use super::{file_stem_for, parse_triple, progress_bar, refuse_overwrite};
+use super::progress_bar;
+use mapgauge::accuracy::Dim;
 use mapgauge::align::AlignMethod;
-use mapgauge::cloud::{self, OutFormat};
+use mapgauge::cloud::{self, MapSource, OutFormat};
 use mapgauge::crop::Shape;
-use mapgauge::eval::{EvalConfig, EvalInputs, EvalRun, evaluate_map};
-use mapgauge::metrics::Dim;
-use mapgauge::report::{InputFile, Provenance, Report};
-use mapgauge::result;
-use mapgauge::survey::{SurveyOptions, read_survey};
+use mapgauge::pipeline::{self, Config, Evaluation};
+use mapgauge::record::{EvalInfo, ResultFile, refuse_overwrite};
+use mapgauge::render::{self, OutputFormat, TableFormat};
+use mapgauge::report::{self, HashedInputs};
+use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey};
 use mapgauge::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -44,8 +45,8 @@ pub struct Args {
     #[arg(long)]
     pub dim: Option<Dim>,
     /// Survey's own 1-σ error `H[,V]` in metres, folded into the ASPRS statistics.
-    #[arg(long)]
-    pub survey_sigma: Option<String>,
+    #[arg(long, value_name = "H[,V]", value_parser = super::one_or_two, allow_hyphen_values = true)]
+    pub survey_sigma: Option<(f64, Option<f64>)>,
     /// Seed of the localisation's random draws [default: 0].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -56,17 +57,18 @@ pub struct Args {
     #[arg(long, value_enum)]
     pub shape: Option<Shape>,
     /// Plate width and height `W[,H]` in metres [default: 0.6,0.6].
-    #[arg(long)]
-    pub plate_size: Option<String>,
-    /// Approximate map → survey transform `x,y,yaw_deg` when the map is not in the survey frame.
-    #[arg(long)]
-    pub init: Option<String>,
-    /// ENU origin `lat,lon,alt` for WGS84 surveys [default: the first target].
-    #[arg(long)]
-    pub origin: Option<String>,
+    #[arg(long, value_name = "W[,H]", value_parser = super::one_or_two, allow_hyphen_values = true)]
+    pub plate_size: Option<(f64, Option<f64>)>,
+    /// Approximate map → survey transform `x,y,yaw_deg` (survey = R(yaw)·map + (x, y))
+    /// when the map is not in the survey frame.
+    #[arg(long, value_name = "X,Y,YAW_DEG", value_parser = super::triple, allow_hyphen_values = true)]
+    pub init: Option<[f64; 3]>,
+    /// ENU origin `lat,lon[,alt]` for WGS84 surveys [default: the first target].
+    #[arg(long, value_name = "LAT,LON[,ALT]", value_parser = super::origin, allow_hyphen_values = true)]
+    pub origin: Option<Geodetic>,
     /// What to print on stdout: table, json, markdown, latex, csv, html.
     #[arg(long, default_value = "table")]
-    pub format: String,
+    pub format: OutputFormat,
     /// Do not write OUT/report.html (written by default with --out; it reads the
     /// map once more for its SHA-256, about 1 s per GB).
     #[arg(long)]
@@ -77,10 +79,10 @@ pub struct Args {
 }
 
 /// Builds the configuration: defaults, then the TOML file, then flags.
-pub fn config(a: &Args) -> Result<EvalConfig> {
+pub fn config(a: &Args) -> Result<Config> {
     let mut cfg = match &a.config {
-        Some(p) => EvalConfig::from_toml_file(p)?,
-        None => EvalConfig::default(),
+        Some(p) => Config::from_toml_file(p)?,
+        None => Config::default(),
     };
     if let Some(m) = a.align {
         cfg.metrics.align = m;
@@ -88,10 +90,9 @@ pub fn config(a: &Args) -> Result<EvalConfig> {
     if let Some(d) = a.dim {
         cfg.metrics.dim = d;
     }
-    if let Some(s) = &a.survey_sigma {
-        let v = super::numbers("survey-sigma", s, 1, 2)?;
-        cfg.metrics.survey_sigma_h = v.first().copied();
-        cfg.metrics.survey_sigma_v = v.get(1).copied();
+    if let Some((h, v)) = a.survey_sigma {
+        cfg.metrics.survey_sigma_h = Some(h);
+        cfg.metrics.survey_sigma_v = v;
     }
     if let Some(s) = a.seed {
         cfg.locate.seed = s;
@@ -103,19 +104,20 @@ pub fn config(a: &Args) -> Result<EvalConfig> {
     if let Some(s) = a.shape {
         cfg.crop.shape = s;
     }
-    if let Some(s) = &a.plate_size {
-        let v = super::numbers("plate-size", s, 1, 2)?;
-        if v.iter().any(|&x| x <= 0.0) {
+    if let Some((w, h)) = a.plate_size {
+        let h = h.unwrap_or(w);
+        if w <= 0.0 || h <= 0.0 {
             return Err(Error::Param(format!(
-                "--plate-size `{s}`: sizes must be positive"
+                "--plate-size `{w},{h}`: sizes must be positive"
             )));
         }
-        cfg.tight.plate_width = v[0];
-        cfg.tight.plate_height = v.get(1).copied().unwrap_or(v[0]);
+        cfg.tight.plate_width = w;
+        cfg.tight.plate_height = h;
     }
-    if let Some(s) = &a.init {
-        cfg.frame.init = Some(parse_triple(s, "init")?);
+    if let Some(i) = a.init {
+        cfg.frame.init = Some(i);
     }
+    cfg.validate()?;
     Ok(cfg)
 }
 
@@ -129,7 +131,6 @@ pub fn run(a: Args) -> Result<()> {
     let (Some(map), Some(survey_path)) = (a.map.as_deref(), a.survey.as_deref()) else {
         return Err(Error::Param("--map and --survey are required".into()));
     };
-    let fmt = result::parse_output_format(&a.format)?;
     if let Some(out) = &a.out {
         // Before the work, not after it: a refused output should cost nothing.
         for name in ["result.json", "targets.csv", "pairs.csv"] {
@@ -151,7 +152,7 @@ pub fn run(a: Args) -> Result<()> {
     let (run, hashed) = std::thread::scope(|s| {
         let hasher = html.is_some().then(|| {
             let (inputs, stop) = (&inputs, &stop);
-            s.spawn(move || hash_inputs(inputs, stop))
+            s.spawn(move || report::hash_inputs(inputs, stop))
         });
         // Set on every way out, a panic's unwinding included, so the scope
         // never waits for a whole map to be hashed for nothing.
@@ -166,42 +167,39 @@ pub fn run(a: Args) -> Result<()> {
         });
         (run, hashed)
     });
-    let run = run?;
+    let (ev, result) = run?;
     // A failed hash costs the report, not the results: they are printed and
     // written first, and the error comes last.
     let (hashed, hash_error) = match hashed.transpose() {
         Ok(h) => (h.flatten(), None),
         Err(e) => (None, Some(e)),
     };
-    match fmt {
-        Some(result::TableFormat::Html) => print!(
-            "{}",
-            mapgauge::report::html::page(
-                "mapgauge result",
-                &result::render_report(&run.result, result::TableFormat::Html),
-                &[]
-            )
-        ),
-        Some(f) => print!("{}", result::render_report(&run.result, f)),
-        None => print!("{}", run.result.to_json()),
-    }
+    print_result(&result, a.format);
     if let Some(out) = &a.out {
-        write_outputs(&run, out, a.save_crops, &[map, survey_path])?;
+        write_outputs(&ev, &result, out, a.save_crops, &[map, survey_path])?;
         eprintln!("results written to {}", out.display());
     }
     let in_paths: Vec<&Path> = inputs.iter().map(|i| i.1).collect();
     if let Some(e) = hash_error {
         return Err(e);
     }
-    write_report(
-        &run,
-        &cfg,
-        hashed,
-        &in_paths,
-        html.as_deref(),
-        a.plots.as_deref(),
-    )?;
-    Ok(())
+    write_report(&ev, &result, &cfg, hashed, &in_paths, html.as_deref(), a.plots.as_deref())
+}
+
+/// Prints a result on stdout in `format`.
+pub fn print_result(result: &ResultFile, format: OutputFormat) {
+    match format {
+        OutputFormat::Table(TableFormat::Html) => print!(
+            "{}",
+            report::html::page(
+                "mapgauge result",
+                &render::render_report(result, TableFormat::Html),
+                &[]
+            )
+        ),
+        OutputFormat::Table(f) => print!("{}", render::render_report(result, f)),
+        OutputFormat::Json => print!("{}", result.to_json()),
+    }
 }
 
 /// Sets its flag when dropped.
@@ -213,112 +211,108 @@ impl Drop for StopOnDrop<'_> {
     }
 }
 
-/// The inputs' sizes and SHA-256 with the seconds it took, or `None` once
-/// `stop` is set.
-pub fn hash_inputs(
-    inputs: &[(&str, &Path)],
-    stop: &AtomicBool,
-) -> Result<Option<(Vec<InputFile>, f64)>> {
-    let t0 = std::time::Instant::now();
-    let mut files = Vec::new();
-    for (role, p) in inputs {
-        match InputFile::hash_unless(role, p, stop)? {
-            Some(f) => files.push(f),
-            None => return Ok(None),
-        }
-    }
-    Ok(Some((files, t0.elapsed().as_secs_f64())))
-}
-
-/// Writes report.html (when `html` is given; `hashed` holds the inputs' sizes
-/// and SHA-256 for it, from [`hash_inputs`]) and the figures as SVG and PNG
-/// under `plots`; logs what it cost on stderr.
+/// Writes report.html and the figure files, and says what it cost on stderr.
 pub fn write_report(
-    run: &EvalRun,
-    cfg: &EvalConfig,
-    hashed: Option<(Vec<InputFile>, f64)>,
+    ev: &Evaluation,
+    result: &ResultFile,
+    cfg: &Config,
+    hashed: Option<HashedInputs>,
     in_paths: &[&Path],
     html: Option<&Path>,
     plots: Option<&Path>,
 ) -> Result<()> {
-    if html.is_none() && plots.is_none() {
-        return Ok(());
-    }
-    let t0 = std::time::Instant::now();
-    let mut prov = Provenance::new(Some(cfg.locate.seed), Some(cfg.to_toml()));
-    let t_hash = hashed.as_ref().map_or(0.0, |h| h.1);
-    if html.is_some() {
-        prov.inputs = hashed.map(|h| h.0).unwrap_or_default();
-    }
-    let report = Report::from_run(run, prov);
-    if let Some(h) = html {
-        refuse_overwrite(h, in_paths)?;
-        report.write_html(h)?;
+    let t_hash = hashed.as_ref().map_or(0.0, |h| h.seconds);
+    let w = report::write_report(ev, result, cfg, hashed, in_paths, html, plots)?;
+    if let (Some(h), Some(secs)) = (html, w.html_seconds) {
         eprintln!(
-            "report written to {} in {:.2} s (SHA-256 of the inputs took {:.2} s)",
+            "report written to {} in {secs:.2} s (SHA-256 of the inputs took {t_hash:.2} s)",
             h.display(),
-            t0.elapsed().as_secs_f64(),
-            t_hash
         );
     }
-    if let Some(dir) = plots {
-        let t1 = std::time::Instant::now();
-        let files = report.write_plots(dir)?;
+    if let (Some(dir), Some((files, secs))) = (plots, w.plots) {
         eprintln!(
-            "{} figure files written to {} in {:.2} s",
+            "{} figure files written to {} in {secs:.2} s",
             files.len(),
             dir.display(),
-            t1.elapsed().as_secs_f64()
         );
     }
     Ok(())
 }
 
-/// Reads the survey and runs the pipeline with a progress bar.
-pub fn evaluate(map: &Path, survey_path: &Path, a: &Args, cfg: &EvalConfig) -> Result<EvalRun> {
-    let origin = a.origin.as_deref().map(super::parse_origin).transpose()?;
-    let survey = read_survey(survey_path, &SurveyOptions { origin })?;
+/// Reads the survey and runs the pipeline with a progress bar; prints its
+/// warnings and every target not found on stderr.
+pub fn evaluate(
+    map: &Path,
+    survey_path: &Path,
+    a: &Args,
+    cfg: &Config,
+) -> Result<(Evaluation, ResultFile)> {
+    let survey = read_survey(survey_path, &SurveyOptions { origin: a.origin })?;
     let pb = progress_bar(
         std::fs::metadata(map).map(|m| m.len()).unwrap_or(0),
         "reading map",
     );
-    let inputs = EvalInputs {
-        map,
-        survey: &survey,
-        survey_path,
-        crops_dir: a.crops.clone(),
-    };
-    let run = evaluate_map(&inputs, cfg, |b, _| {
+    let progress = |b, _| {
         if let Some(pb) = &pb {
             pb.set_position(b)
         }
-    })?;
+    };
+    let source = MapSource::File(map);
+    let ev = match &a.crops {
+        Some(dir) => pipeline::run_with_crops(source, &survey, dir, cfg, progress)?,
+        None => pipeline::run(source, &survey, cfg, progress)?,
+    };
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    for t in &run.result.targets {
+    let result = result_file(&ev, &survey, survey_path);
+    for w in &ev.warnings {
+        eprintln!("warning: {w}");
+    }
+    for t in &result.targets {
         if let Some(r) = &t.reason {
             eprintln!("warning: target {} {}: {r}", t.id, t.status);
         }
     }
-    Ok(run)
+    Ok((ev, result))
+}
+
+/// The result file of an evaluation, with its `eval` section.
+pub fn result_file(
+    ev: &Evaluation,
+    survey: &mapgauge::survey::Survey,
+    survey_path: &Path,
+) -> ResultFile {
+    let mut result = ResultFile::from_accuracy(&ev.accuracy, survey);
+    result.eval = Some(EvalInfo::from_evaluation(
+        ev,
+        &survey_path.display().to_string(),
+    ));
+    result
 }
 
 /// Writes result files (and crops) into `out`.
-pub fn write_outputs(run: &EvalRun, out: &Path, save_crops: bool, inputs: &[&Path]) -> Result<()> {
+pub fn write_outputs(
+    ev: &Evaluation,
+    result: &ResultFile,
+    out: &Path,
+    save_crops: bool,
+    inputs: &[&Path],
+) -> Result<()> {
     for name in ["result.json", "targets.csv", "pairs.csv"] {
         refuse_overwrite(&out.join(name), inputs)?;
     }
-    result::write_outputs(&run.result, out)?;
+    render::write_outputs(result, out)?;
     if save_crops {
-        for (kind, crops) in [("loose", &run.loose), ("tight", &run.tight)] {
+        for kind in ["loose", "tight"] {
             let dir = out.join("crops").join(kind);
             std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-            for (t, pts) in run.result.targets.iter().zip(crops.iter()) {
+            for t in &ev.targets {
+                let pts = if kind == "loose" { &t.loose } else { &t.tight };
                 if pts.is_empty() {
                     continue;
                 }
-                let p = dir.join(format!("{}.ply", file_stem_for(&t.id)));
+                let p = dir.join(format!("{}.ply", file_stem(&t.id)));
                 refuse_overwrite(&p, inputs)?;
                 cloud::write(&p, OutFormat::Ply, pts)?;
             }

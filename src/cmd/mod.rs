@@ -10,7 +10,6 @@ pub mod synth;
 pub mod table;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use mapgauge::{Error, Result};
 use std::io::IsTerminal;
 
 /// A byte progress bar on stderr, or `None` when stderr is not a terminal.
@@ -30,87 +29,47 @@ pub fn progress_bar(total: u64, what: &str) -> Option<ProgressBar> {
     Some(pb)
 }
 
-/// Parses a comma-separated list of `min..=max` finite numbers given to `--flag`.
-pub fn numbers(flag: &str, s: &str, min: usize, max: usize) -> Result<Vec<f64>> {
+/// Parses `n_min..=n_max` comma-separated finite numbers: the one parser of
+/// every list flag (`--init`, `--origin`, `--plate-size`, `--survey-sigma`).
+/// Flags using it set `allow_hyphen_values`, so `--init -26.7,96,30` works
+/// without `=`; a wrong count is a usage error (exit 2), never a default.
+pub fn numbers(s: &str, n_min: usize, n_max: usize) -> std::result::Result<Vec<f64>, String> {
     let v: Vec<f64> = s
         .split(',')
         .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
         .collect::<Option<_>>()
-        .ok_or_else(|| Error::Param(format!("--{flag} `{s}`: not a list of numbers")))?;
-    if v.len() < min || v.len() > max {
-        return Err(Error::Param(format!(
-            "--{flag} `{s}`: expected {min} to {max} comma-separated numbers"
-        )));
+        .ok_or_else(|| format!("`{s}` is not a list of numbers"))?;
+    if v.len() < n_min || v.len() > n_max {
+        return Err(if n_min == n_max {
+            format!("expected {n_min} comma-separated numbers, got {}", v.len())
+        } else {
+            format!(
+                "expected {n_min} to {n_max} comma-separated numbers, got {}",
+                v.len()
+            )
+        });
     }
     Ok(v)
 }
 
-/// Parses `a,b[,c]` (c = 0 when absent), e.g. `--init x,y,yaw`.
-pub fn parse_triple(s: &str, flag: &str) -> Result<[f64; 3]> {
-    let v = numbers(flag, s, 2, 3)?;
-    Ok([v[0], v[1], v.get(2).copied().unwrap_or(0.0)])
+/// `x,y,yaw_deg` (exactly three numbers).
+pub fn triple(s: &str) -> std::result::Result<[f64; 3], String> {
+    let v = numbers(s, 3, 3)?;
+    Ok([v[0], v[1], v[2]])
 }
 
-/// Parses `--origin lat,lon[,alt]` in WGS84 degrees and metres.
-pub fn parse_origin(s: &str) -> Result<mapgauge::survey::Geodetic> {
-    let [lat, lon, alt] = parse_triple(s, "origin")?;
+/// `a[,b]`: one or two numbers, `b` absent when not given.
+pub fn one_or_two(s: &str) -> std::result::Result<(f64, Option<f64>), String> {
+    let v = numbers(s, 1, 2)?;
+    Ok((v[0], v.get(1).copied()))
+}
+
+/// `--origin lat,lon[,alt]` in WGS84 degrees and metres.
+pub fn origin(s: &str) -> std::result::Result<mapgauge::survey::Geodetic, String> {
+    let v = numbers(s, 2, 3)?;
+    let (lat, lon, alt) = (v[0], v[1], v.get(2).copied().unwrap_or(0.0));
     if !(-90.0..=90.0).contains(&lat) || !(-180.0..=360.0).contains(&lon) {
-        return Err(Error::Param(format!(
-            "--origin `{s}`: latitude must be within ±90° and longitude within ±180°"
-        )));
+        return Err("latitude must be within ±90° and longitude within ±180°".into());
     }
     Ok(mapgauge::survey::Geodetic { lat, lon, alt })
-}
-
-/// A target id made safe as a file name (ids are free text in the survey).
-pub fn file_stem_for(id: &str) -> String {
-    let s: String = id
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || "._-".contains(c) {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if s.is_empty() || s.chars().all(|c| c == '.') {
-        format!("_{s}")
-    } else {
-        s
-    }
-}
-
-/// Refuses to write an output onto one of the inputs: the same file under any
-/// spelling (`./`, `..`, symlinks, hard links), recognised by device and inode.
-pub fn refuse_overwrite(out: &std::path::Path, inputs: &[&std::path::Path]) -> Result<()> {
-    for i in inputs {
-        if same_file(out, i) {
-            return Err(Error::Input(format!(
-                "{}: is the input {}; refusing to overwrite it",
-                out.display(),
-                i.display()
-            )));
-        }
-    }
-    Ok(())
-}
-
-/// True when both paths exist and name the same file.
-fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        match (std::fs::metadata(a), std::fs::metadata(b)) {
-            (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
-            _ => false,
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-            (Ok(x), Ok(y)) => x == y,
-            _ => false,
-        }
-    }
 }

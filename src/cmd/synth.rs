@@ -142,7 +142,7 @@ pub fn run(a: Args) -> Result<()> {
             "survey_llh.csv",
             "truth.json",
         ] {
-            super::refuse_overwrite(&dir.join(name), &[cfg])?;
+            mapgauge::record::refuse_overwrite(&dir.join(name), &[cfg])?;
         }
     }
     let start = std::time::Instant::now();

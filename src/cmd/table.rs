@@ -1,7 +1,8 @@
 //! `mapgauge table`: the paper's Tables I and II, one row per result file.
 
+use mapgauge::record::ResultFile;
+use mapgauge::render::{Grid, OutputFormat, TableFormat, absolute_grid, relative_grid};
 use mapgauge::report::html;
-use mapgauge::result::{Grid, RunResult, TableFormat, absolute_grid, relative_grid};
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
 
@@ -16,42 +17,22 @@ pub struct Args {
     names: Option<String>,
     /// Output: markdown, latex, csv, html (a standalone page), json or text.
     #[arg(long, default_value = "markdown")]
-    format: String,
+    format: OutputFormat,
     /// Which table: relative (Table I), absolute (Table II) or both.
     #[arg(long, default_value = "both")]
     which: String,
 }
 
-/// A grid as JSON rows keyed by column: numbers as numbers, blank cells as null.
-fn grid_json(g: &Grid) -> serde_json::Value {
-    let rows = g
-        .rows
-        .iter()
-        .map(|r| {
-            let mut m = serde_json::Map::new();
-            for (h, c) in g.header.iter().zip(r) {
-                let v = match c.parse::<f64>() {
-                    Ok(x) if x.is_finite() && !h.eq_ignore_ascii_case("run") => {
-                        serde_json::json!(x)
-                    }
-                    _ if c.is_empty() || c == "–" => serde_json::Value::Null,
-                    _ => serde_json::Value::String(c.clone()),
-                };
-                m.insert(h.clone(), v);
-            }
-            serde_json::Value::Object(m)
-        })
-        .collect();
-    serde_json::Value::Array(rows)
-}
-
 /// Runs `table`.
 pub fn run(a: Args) -> Result<()> {
-    let fmt = mapgauge::result::parse_output_format(&a.format)?;
-    let results: Vec<RunResult> = a
+    let fmt = match a.format {
+        OutputFormat::Table(f) => Some(f),
+        OutputFormat::Json => None,
+    };
+    let results: Vec<ResultFile> = a
         .results
         .iter()
-        .map(|p| RunResult::from_json_file(p))
+        .map(|p| ResultFile::from_json_file(p))
         .collect::<Result<_>>()?;
     let names: Vec<String> = match &a.names {
         Some(n) => {
@@ -76,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
             })
             .collect(),
     };
-    let runs: Vec<(String, &RunResult)> = names.into_iter().zip(results.iter()).collect();
+    let runs: Vec<(String, &ResultFile)> = names.into_iter().zip(results.iter()).collect();
     let (rel, abs) = match a.which.as_str() {
         "both" => (true, true),
         "relative" => (true, false),
@@ -97,10 +78,10 @@ pub fn run(a: Args) -> Result<()> {
     let Some(fmt) = fmt else {
         let mut o = serde_json::Map::new();
         if rel {
-            o.insert("relative".into(), grid_json(&relative_grid(&runs)));
+            o.insert("relative".into(), relative_grid(&runs).to_json());
         }
         if abs {
-            o.insert("absolute".into(), grid_json(&absolute_grid(&runs)));
+            o.insert("absolute".into(), absolute_grid(&runs).to_json());
         }
         let text = serde_json::to_string_pretty(&serde_json::Value::Object(o)).unwrap_or_default();
         println!("{text}");

@@ -5,27 +5,13 @@
 use super::figure::Figure;
 use super::plots::{fmt_len, survey_in_map};
 use super::{Report, svg};
-use crate::metrics::Dim;
-use crate::result::{
+use crate::accuracy::Dim;
+use crate::render::{
     TableFormat, absolute_grid, extra_grid, relative_grid, target_label, targets_grid,
 };
 use std::fmt::Write as _;
 
-/// Escapes text for HTML/XML content and attribute values.
-pub fn escape(s: &str) -> String {
-    let mut o = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => o.push_str("&amp;"),
-            '<' => o.push_str("&lt;"),
-            '>' => o.push_str("&gt;"),
-            '"' => o.push_str("&quot;"),
-            '\'' => o.push_str("&#39;"),
-            _ => o.push(c),
-        }
-    }
-    o
-}
+pub use crate::render::escape;
 
 /// The stylesheet shared by every page mapgauge writes.
 pub const CSS: &str = "
@@ -272,7 +258,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
             }
         }
         if let (Some(m), true) = (t.map, ok) {
-            let s = survey_in_map(r, t);
+            let s = survey_in_map(&rep.alignment, t);
             facts.push(format!(
                 "survey − estimate (map frame) = ({:.1}, {:.1}) mm",
                 (s.x - m.x) * 1000.0,
@@ -399,11 +385,11 @@ pub(crate) mod tests {
     use super::super::{Provenance, Report};
     use super::*;
     use crate::Point;
-    use crate::metrics::{EvalOptions, evaluate};
+    use crate::accuracy::{ScoreOptions, score};
     use crate::survey::{Estimate, EstimateStatus, Survey, SurveyFrame, SurveyTarget};
 
     /// A result with 4 targets at tens of metres, the fourth not found.
-    pub(crate) fn result(ids: &[&str]) -> crate::result::RunResult {
+    pub(crate) fn result(ids: &[&str]) -> crate::record::ResultFile {
         let pos = [(0.0, 0.0), (30.0, 1.0), (12.0, 25.0), (-14.0, 18.0)];
         let targets: Vec<SurveyTarget> = ids
             .iter()
@@ -441,12 +427,12 @@ pub(crate) mod tests {
                 has_z: false,
             })
             .collect();
-        let opts = EvalOptions {
+        let opts = ScoreOptions {
             method: Default::default(),
             dim: Dim::D2,
             survey_sigma: None,
         };
-        evaluate(&survey, &est, &opts).unwrap()
+        crate::record::ResultFile::from_accuracy(&score(&survey, &est, &opts).unwrap(), &survey)
     }
 
     #[test]

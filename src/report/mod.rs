@@ -1,16 +1,17 @@
 //! Reports people read: `report.html` (one self-contained page: inline SVG and
 //! CSS, no script, no network) and the same figures as SVG and PNG files.
 //!
-//! Data flows one way: a [`Report`] borrows what [`crate::eval::evaluate_map`]
-//! produced (the result, the crops and the per-target diagnostics) and only
+//! Data flows one way: a [`Report`] borrows what [`crate::pipeline::run`]
+//! produced (the result file, the crops and the per-target fits) and only
 //! draws it; it never runs localisation again.
 //!
 //! ```no_run
 //! # fn main() -> mapgauge::Result<()> {
 //! use mapgauge::report::{Provenance, Report};
-//! # let run: mapgauge::eval::EvalRun = unimplemented!();
+//! # let ev: mapgauge::pipeline::Evaluation = unimplemented!();
+//! # let result: mapgauge::record::ResultFile = unimplemented!();
 //! let prov = Provenance::new(Some(0), None);
-//! let report = Report::from_run(&run, prov);
+//! let report = Report::from_evaluation(&ev, &result, prov);
 //! report.write_html(std::path::Path::new("out/report.html"))?;
 //! report.write_plots(std::path::Path::new("out/plots"))?;
 //! # Ok(()) }
@@ -22,8 +23,14 @@ pub mod plots;
 pub mod png;
 pub mod svg;
 
-use crate::eval::{EvalRun, TargetDiagnostics};
-use crate::result::{RunResult, write_atomic};
+mod files;
+
+pub use files::{HashedInputs, Written, hash_inputs, write_report};
+
+use crate::align::Alignment;
+use crate::locate::Label;
+use crate::pipeline::Evaluation;
+use crate::record::{ResultFile, write_atomic};
 use crate::{Error, Point, Result};
 use sha2::{Digest, Sha256};
 use std::io::Read;
@@ -148,22 +155,38 @@ pub fn utc_string(secs: i64) -> String {
     )
 }
 
-/// The crops and diagnostics of one target, borrowed from an [`EvalRun`].
+/// What localisation kept for plotting one located target.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Diagnostics<'a> {
+    /// Role of each tight-crop point in the reference sample (plate 1, plate
+    /// 2, outlier), in the order of the tight crop.
+    pub labels: &'a [Label],
+    /// Unit normals of the two fitted plate planes (map frame).
+    pub plate_normals: Option<[[f64; 3]; 2]>,
+    /// The estimated corner (map frame).
+    pub corner: Option<Point>,
+    /// Every accepted sample corner (map frame): the spread behind `corner`.
+    pub samples: &'a [Point],
+}
+
+/// The crops and fits of one target, borrowed from an [`Evaluation`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TargetView<'a> {
     /// Loose crop (map frame).
     pub loose: &'a [Point],
     /// Tight crop (map frame), empty when none was made.
     pub tight: &'a [Point],
-    /// What localisation kept for plotting, when it ran.
-    pub diag: Option<&'a TargetDiagnostics>,
+    /// What localisation kept for plotting, when it located the target.
+    pub diag: Option<Diagnostics<'a>>,
 }
 
 /// Everything a report shows.
 #[derive(Debug, Clone)]
 pub struct Report<'a> {
     /// The result (result.json).
-    pub result: &'a RunResult,
+    pub result: &'a ResultFile,
+    /// The map → survey transform, to draw survey positions in the map frame.
+    pub alignment: Alignment,
     /// Per target, in the order of `result.targets`.
     pub targets: Vec<TargetView<'a>>,
     /// Inputs, seed, date, parameters.
@@ -171,25 +194,38 @@ pub struct Report<'a> {
 }
 
 impl<'a> Report<'a> {
-    /// A report of an `eval` run.
-    pub fn from_run(run: &'a EvalRun, provenance: Provenance) -> Report<'a> {
-        let targets = (0..run.result.targets.len())
-            .map(|i| TargetView {
-                loose: run.loose.get(i).map(|v| v.as_slice()).unwrap_or(&[]),
-                tight: run.tight.get(i).map(|v| v.as_slice()).unwrap_or(&[]),
-                diag: run.diagnostics.get(i),
+    /// A report of an evaluation; `result` is its result file.
+    pub fn from_evaluation(
+        ev: &'a Evaluation,
+        result: &'a ResultFile,
+        provenance: Provenance,
+    ) -> Report<'a> {
+        let targets = ev
+            .targets
+            .iter()
+            .map(|t| TargetView {
+                loose: &t.loose,
+                tight: &t.tight,
+                diag: t.outcome.as_ref().ok().map(|f| Diagnostics {
+                    labels: &f.located.labels,
+                    plate_normals: Some([f.located.plates[0].normal, f.located.plates[1].normal]),
+                    corner: Some(f.located.corner),
+                    samples: &f.located.samples,
+                }),
             })
             .collect();
         Report {
-            result: &run.result,
+            result,
+            alignment: ev.accuracy.fit.alignment.clone(),
             targets,
             provenance,
         }
     }
-    /// A report of a result alone (no crops: target panels say so).
-    pub fn from_result(result: &'a RunResult, provenance: Provenance) -> Report<'a> {
+    /// A report of a result file alone (no crops: target panels say so).
+    pub fn from_result(result: &'a ResultFile, provenance: Provenance) -> Report<'a> {
         Report {
             result,
+            alignment: alignment_of(result),
             targets: Vec::new(),
             provenance,
         }
@@ -222,6 +258,20 @@ impl<'a> Report<'a> {
             out.push(png_path);
         }
         Ok(out)
+    }
+}
+
+/// The transform a result file records (its full rotation matrix).
+pub(crate) fn alignment_of(r: &ResultFile) -> Alignment {
+    let m = r.alignment.rotation_matrix;
+    Alignment {
+        method: r.alignment.method.parse().unwrap_or_default(),
+        rotation: nalgebra::Matrix3::new(
+            m[0][0], m[0][1], m[0][2], m[1][0], m[1][1], m[1][2], m[2][0], m[2][1], m[2][2],
+        ),
+        translation: nalgebra::Vector3::from(r.alignment.translation),
+        scale: r.alignment.scale,
+        iterations: r.alignment.iterations,
     }
 }
 

@@ -8,33 +8,20 @@ use super::figure::{
 use super::{Report, TargetView};
 use crate::Point;
 use crate::locate::Label;
-use crate::result::{RunResult, TargetOut, target_label};
+use crate::align::Alignment;
+use crate::record::{ResultFile, TargetOut};
+use crate::render::target_label;
 use nalgebra::{Vector2, Vector3};
 
 /// Most crop points drawn per view: keeps report.html small (a few hundred kB).
 pub const MAX_POINTS_PER_VIEW: usize = 3000;
-
-/// A target id as a file-name-safe stem.
-pub fn file_stem(id: &str) -> String {
-    let s: String = id
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if s.is_empty() { "_".into() } else { s }
-}
 
 /// Every figure of a report, in page order.
 pub fn figures(rep: &Report) -> Vec<Figure> {
     let mut v = vec![overview(rep.result), relative(rep.result)];
     let mut stems: Vec<String> = Vec::new();
     for (i, t) in rep.result.targets.iter().enumerate() {
-        let mut stem = format!("target-{}", file_stem(&t.id));
+        let mut stem = format!("target-{}", crate::survey::file_stem(&t.id));
         // Ids that differ only in unsafe characters must not share a file.
         if stems.contains(&stem) {
             stem = format!("{stem}-{i}");
@@ -46,9 +33,9 @@ pub fn figures(rep: &Report) -> Vec<Figure> {
 }
 
 /// The survey point of `t` in the map frame (through the inverse alignment).
-pub fn survey_in_map(r: &RunResult, t: &TargetOut) -> Point {
+pub fn survey_in_map(alignment: &Alignment, t: &TargetOut) -> Point {
     let s = Point::new(t.survey.x, t.survey.y, t.survey.z.unwrap_or(0.0));
-    r.alignment.to_alignment().inverse().apply(&s)
+    alignment.inverse().apply(&s)
 }
 
 fn legend_dot(f: &mut Figure, at: (f64, f64), color: Color, text: &str) {
@@ -66,7 +53,7 @@ fn legend_marker(f: &mut Figure, at: (f64, f64), kind: MarkerKind, color: Color,
 }
 
 /// Surveyed positions and the aligned estimates, error vectors magnified.
-pub fn overview(r: &RunResult) -> Figure {
+pub fn overview(r: &ResultFile) -> Figure {
     let mut f = Figure::new(
         "overview",
         "Surveyed target positions and aligned map estimates (error vectors magnified)",
@@ -297,7 +284,7 @@ pub fn fit_line(xy: &[(f64, f64)]) -> Option<(f64, f64)> {
 
 /// Relative error of every pair against the pairs' surveyed distance, with a
 /// least-squares line (the paper observes that the error grows with distance).
-pub fn relative(r: &RunResult) -> Figure {
+pub fn relative(r: &ResultFile) -> Figure {
     let mut f = Figure::new(
         "relative",
         "Relative error against pair distance, with a least-squares line",
@@ -487,14 +474,14 @@ fn target_figure(rep: &Report, i: usize, t: &TargetOut, stem: &str) -> Figure {
     );
     let mut f = Figure::new(stem, &title, 950.0, 350.0);
     if located {
-        located_panels(&mut f, rep.result, t, view);
+        located_panels(&mut f, rep, t, view);
     } else {
         failed_panels(&mut f, rep, i, t, view);
     }
     f
 }
 
-fn located_panels(f: &mut Figure, r: &RunResult, t: &TargetOut, view: &TargetView) {
+fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView) {
     let Some(d) = view.diag else { return };
     let Some(c) = d.corner else { return };
     let tight = view.tight;
@@ -508,7 +495,7 @@ fn located_panels(f: &mut Figure, r: &RunResult, t: &TargetOut, view: &TargetVie
     };
     let colour = |i: usize| label_color(label(i));
     let order = [palette::OUTLIER, palette::PLATE1, palette::PLATE2];
-    let s = survey_in_map(r, t);
+    let s = survey_in_map(&rep.alignment, t);
     let ds = (s.x - c.x, s.y - c.y);
 
     // Top view, metres from the corner.
@@ -743,7 +730,7 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         .as_ref()
         .and_then(|e| e.targets.iter().find(|d| d.id == t.id).or(e.targets.get(i)))
         .map(|d| Point::new(d.expected[0], d.expected[1], d.expected[2]));
-    let c = expected.unwrap_or_else(|| survey_in_map(rep.result, t));
+    let c = expected.unwrap_or_else(|| survey_in_map(&rep.alignment, t));
     let loose = view.loose;
     let order = [palette::OUTLIER, palette::TIGHT];
     let top_of = |p: &Point| (p.x - c.x, p.y - c.y);
@@ -778,7 +765,7 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         MAX_POINTS_PER_VIEW / 3,
     );
     f.marker(top.map(0.0, 0.0), MarkerKind::Ring, 6.0, palette::ESTIMATE);
-    let s = survey_in_map(rep.result, t);
+    let s = survey_in_map(&rep.alignment, t);
     if top.contains(s.x - c.x, s.y - c.y) {
         f.marker(
             top.map(s.x - c.x, s.y - c.y),
@@ -889,12 +876,11 @@ mod tests {
         assert!(fit_line(&[(1.0, 1.0), (1.0, 2.0)]).is_none());
         assert!(fit_line(&[(1.0, 1.0)]).is_none());
         assert_eq!(wrap("aa bb cc dd", 5), vec!["aa bb", "cc dd"]);
-        assert_eq!(file_stem("<t&1>"), "_t_1_");
     }
 
     #[test]
     fn crop_views_are_thinned() {
-        use crate::eval::TargetDiagnostics;
+        use crate::report::Diagnostics;
         let r = crate::report::html::tests::result(&["1", "2", "3", "4"]);
         // 20 000 points on two plates around target 1's corner, and a big loose crop.
         let c = r.targets[0].map.map(|m| Point::new(m.x, m.y, 0.0)).unwrap();
@@ -918,17 +904,18 @@ mod tests {
                 }
             })
             .collect();
-        let diag = TargetDiagnostics {
-            labels,
+        let samples = vec![c; 100];
+        let diag = Diagnostics {
+            labels: &labels,
             plate_normals: Some([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
             corner: Some(c),
-            samples: vec![c; 100],
+            samples: &samples,
         };
         let mut views = vec![TargetView::default(); 4];
         views[0] = TargetView {
             loose: &pts,
             tight: &pts,
-            diag: Some(&diag),
+            diag: Some(diag),
         };
         views[3] = TargetView {
             loose: &pts,
@@ -937,6 +924,7 @@ mod tests {
         };
         let rep = Report {
             result: &r,
+            alignment: crate::report::alignment_of(&r),
             targets: views,
             provenance: Default::default(),
         };

@@ -555,3 +555,25 @@ mod tests {
         assert!(m.contains(":2:") && m.contains("`y`"), "{m}");
     }
 }
+
+/// A target id made safe as a file name: the one rule for crops saved by
+/// `eval --save-crops` and `crop`, hand-made crops read by `--crops`, and the
+/// report's figure files. ASCII letters, digits, `.`, `_` and `-` stay; any
+/// other character becomes `_`; an empty or all-dot stem gets a leading `_`.
+pub fn file_stem(id: &str) -> String {
+    let s: String = id
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() || s.chars().all(|c| c == '.') {
+        format!("_{s}")
+    } else {
+        s
+    }
+}

@@ -3,8 +3,8 @@
 
 use super::{SynthParams, Truth, generate};
 use crate::cloud::{CloudWriter, OutFormat};
-use crate::metrics::{self, EvalOptions};
-use crate::result::{RunResult, write_atomic};
+use crate::accuracy::{self, ScoreOptions};
+use crate::record::{ResultFile, write_atomic};
 use crate::survey::{Estimate, Geodetic, SurveyOptions, read_survey};
 use crate::{Error, Point, Result};
 use std::fmt::Write as _;
@@ -31,7 +31,7 @@ pub struct TruthFile<'a> {
     #[serde(flatten)]
     pub truth: &'a Truth,
     /// Result of aligning the true map positions to the survey (rigid2d, 2D).
-    pub expected: &'a RunResult,
+    pub expected: &'a ResultFile,
 }
 
 /// Generates the scene into `dir` (created if missing). Returns the files and
@@ -40,7 +40,7 @@ pub fn write_scene(
     dir: &Path,
     params: &SynthParams,
     format: OutFormat,
-) -> Result<(SceneFiles, Truth, RunResult)> {
+) -> Result<(SceneFiles, Truth, ResultFile)> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let files = SceneFiles {
         map: dir.join(format!("map.{}", format.extension())),
@@ -79,7 +79,10 @@ pub fn write_scene(
         .iter()
         .map(|t| Estimate::found(t.id.clone(), Point::from(t.map)))
         .collect();
-    let expected = metrics::evaluate(&survey, &estimates, &EvalOptions::default())?;
+    let expected = ResultFile::from_accuracy(
+        &accuracy::score(&survey, &estimates, &ScoreOptions::default())?,
+        &survey,
+    );
     let json = serde_json::to_string_pretty(&TruthFile {
         truth: &truth,
         expected: &expected,

@@ -1,17 +1,23 @@
 //! Absolute and relative errors, honest (held-out) errors and survey-standard
-//! statistics: steps 6–7 of the pipeline in one call, [`evaluate`].
+//! statistics: steps 6–7 of the pipeline in one call, [`score`].
+//!
+//! The result, [`Accuracy`], is plain typed numbers: no file schema, no
+//! sentences. `record` turns it into `result.json`, `render` into tables.
+
+mod asprs;
+mod stats;
+
+pub use asprs::{Asprs, AsprsCaveat};
+pub use stats::{AxisStats, PairError, Summary, dist, leave_one_out, relative_errors, summarize};
 
 use crate::align::{self, AlignMethod, Alignment};
-use crate::result::{
-    AlignmentOut, Asprs, AxisStats, ControlCheck, HeldOut, HeldOutTarget, Pair, RelativeStats,
-    RunResult, SigmaHat, TargetOut, Unmatched, Xyz,
-};
 use crate::survey::{Estimate, EstimateStatus, Role, Survey};
 use crate::{Error, Point, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
-/// Whether errors are measured in the horizontal plane or in space.
+/// Whether errors are measured in the horizontal plane or in space. (Serde
+/// only for the configuration file, where it is a setting.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum Dim {
     /// x, y only (the paper's tables).
@@ -34,9 +40,9 @@ impl std::str::FromStr for Dim {
     }
 }
 
-/// Knobs of [`evaluate`].
+/// Knobs of [`score`].
 #[derive(Debug, Clone, Default)]
-pub struct EvalOptions {
+pub struct ScoreOptions {
     /// Alignment of the map onto the survey.
     pub method: AlignMethod,
     /// Error dimension.
@@ -46,238 +52,158 @@ pub struct EvalOptions {
     pub survey_sigma: Option<(f64, Option<f64>)>,
 }
 
-/// Summary statistics of a list of errors: the numbers of the paper's tables.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Summary {
-    /// Count.
-    pub n: usize,
-    /// Mean.
-    pub mean: f64,
-    /// Population standard deviation (divide by n), as the paper.
-    pub std: f64,
-    /// Root mean square.
-    pub rmse: f64,
-    /// Median.
-    pub median: f64,
-    /// Maximum.
-    pub max: f64,
+/// How one surveyed target fared.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Status {
+    /// Located and scored.
+    Ok,
+    /// No estimate carries this id.
+    NoEstimate,
+    /// The estimate says it was not found, and why.
+    NotFound(String),
+    /// The estimate says it was left out, and why.
+    Excluded(String),
 }
 
-/// Mean, population std, RMSE, median and max of `v` (all 0 for an empty list).
-pub fn summarize(v: &[f64]) -> Summary {
-    let n = v.len();
-    if n == 0 {
-        return Summary {
-            n,
-            mean: 0.0,
-            std: 0.0,
-            rmse: 0.0,
-            median: 0.0,
-            max: 0.0,
-        };
-    }
-    let nf = n as f64;
-    let mean = v.iter().sum::<f64>() / nf;
-    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / nf;
-    let rmse = (v.iter().map(|x| x * x).sum::<f64>() / nf).sqrt();
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let median = if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    };
-    Summary {
-        n,
-        mean,
-        std: var.sqrt(),
-        rmse,
-        median,
-        max: s[n - 1],
-    }
+/// One surveyed target's numbers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetScore {
+    /// Target id.
+    pub id: String,
+    /// Located and scored, or why not.
+    pub status: Status,
+    /// Surveyed reference point (survey frame, antenna height removed).
+    pub survey: Point,
+    /// Whether the survey gave a height.
+    pub survey_has_z: bool,
+    /// Estimated position (map frame), when located.
+    pub map: Option<Point>,
+    /// Whether the estimate has a meaningful height.
+    pub map_has_z: bool,
+    /// The estimate mapped into the survey frame, when scored.
+    pub aligned: Option<Point>,
+    /// Whether `aligned` has a meaningful height.
+    pub aligned_has_z: bool,
+    /// Absolute error (m) in the chosen dimension.
+    pub abs_error: Option<f64>,
+    /// Error under an alignment fitted without this target.
+    pub loo_error: Option<f64>,
+    /// Control or check, when the survey says.
+    pub role: Option<Role>,
 }
 
-/// Distance between two points in the chosen dimension.
-pub fn dist(a: &Point, b: &Point, dim: Dim) -> f64 {
-    match dim {
-        Dim::D2 => (a - b).xy().norm(),
-        Dim::D3 => (a - b).norm(),
-    }
+/// The fitted map → survey transform and how many targets it used.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fit {
+    /// The transform.
+    pub alignment: Alignment,
+    /// Targets the fit used.
+    pub n_used: usize,
 }
 
-/// Relative error of every pair: | ‖xᵢ − xⱼ‖ − ‖x̂ᵢ − x̂ⱼ‖ |, in input order
-/// (i < j). Needs no alignment, so it is unaffected by how the map is placed.
-pub fn relative_errors(ids: &[String], map: &[Point], survey: &[Point], dim: Dim) -> Vec<Pair> {
-    let mut out = Vec::new();
-    for i in 0..map.len() {
-        for j in i + 1..map.len() {
-            let sd = dist(&survey[i], &survey[j], dim);
-            let md = dist(&map[i], &map[j], dim);
-            let error = (md - sd).abs();
-            out.push(Pair {
-                a: ids[i].clone(),
-                b: ids[j].clone(),
-                survey_distance: sd,
-                map_distance: md,
-                error,
-                error_per_100m: (sd > 0.0).then(|| error / sd * 100.0),
-            });
-        }
-    }
-    out
+/// Relative errors: their statistics and every pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Relative {
+    /// Statistics of the pair errors (E_rel = mean, σ_rel = std).
+    pub summary: Summary,
+    /// Every pair, i < j in survey order.
+    pub pairs: Vec<PairError>,
 }
 
-/// Leave-one-out errors: each target scored with the alignment fitted on all the
-/// others. `None` when too few targets remain to fit.
-pub fn leave_one_out(
-    method: AlignMethod,
-    map: &[Point],
-    survey: &[Point],
-    dim: Dim,
-) -> Option<Vec<f64>> {
-    let n = map.len();
-    if n < 3 || n - 1 < method.min_points() {
-        return None;
-    }
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        let src: Vec<Point> = map
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != i)
-            .map(|(_, p)| *p)
-            .collect();
-        let dst: Vec<Point> = survey
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != i)
-            .map(|(_, p)| *p)
-            .collect();
-        let a = align::fit(method, &src, &dst).ok()?;
-        out.push(dist(&a.apply(&map[i]), &survey[i], dim));
-    }
-    Some(out)
+/// Errors of targets that the fit scoring them did not use (honest errors).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldOut {
+    /// Statistics of the held-out errors.
+    pub summary: Summary,
+    /// (id, error) per target.
+    pub targets: Vec<(String, f64)>,
 }
 
-fn xyz(p: &Point, has_z: bool) -> Xyz {
-    Xyz {
-        x: p.x,
-        y: p.y,
-        z: if has_z { Some(p.z) } else { None },
-    }
+/// Fit on control targets, score on check targets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControlCheck {
+    /// Control target ids (used in the fit).
+    pub control: Vec<String>,
+    /// The control-only fit.
+    pub fit: Fit,
+    /// Errors of the check targets.
+    pub check: HeldOut,
 }
 
-fn alignment_out(a: &Alignment, n_used: usize) -> AlignmentOut {
-    AlignmentOut {
-        method: a.method.name().to_string(),
-        rotation_deg: a.rotation_deg(),
-        translation: [a.translation.x, a.translation.y, a.translation.z],
-        scale: a.scale,
-        scale_ppm: a.scale_ppm(),
-        rotation_matrix: [
-            [a.rotation[(0, 0)], a.rotation[(0, 1)], a.rotation[(0, 2)]],
-            [a.rotation[(1, 0)], a.rotation[(1, 1)], a.rotation[(1, 2)]],
-            [a.rotation[(2, 0)], a.rotation[(2, 1)], a.rotation[(2, 2)]],
-        ],
-        n_used,
-        iterations: a.iterations,
-    }
+/// σ̂ = √(SSE / dof): the residual scale corrected for fitted parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SigmaHat {
+    /// σ̂ (m).
+    pub value: f64,
+    /// Sum of squared residuals (m²).
+    pub sse: f64,
+    /// Degrees of freedom (e.g. 2n − 3 for rigid2d).
+    pub dof: usize,
 }
 
-fn axis(v: &[f64]) -> AxisStats {
-    let n = v.len();
-    let nf = n as f64;
-    let mean = if n > 0 {
-        v.iter().sum::<f64>() / nf
-    } else {
-        0.0
-    };
-    let std = if n > 1 {
-        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (nf - 1.0)).sqrt()
-    } else {
-        0.0
-    };
-    let rmse = if n > 0 {
-        (v.iter().map(|x| x * x).sum::<f64>() / nf).sqrt()
-    } else {
-        0.0
-    };
-    AxisStats {
-        bias: mean,
-        std,
-        rmse,
-    }
+/// Something the reader of the numbers should know.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Warning {
+    /// Survey targets without an estimate.
+    SurveyOnly(Vec<String>),
+    /// Estimates whose id is not in the survey (ignored).
+    EstimatesOnly(Vec<String>),
+    /// 3D errors with an alignment that does not fit heights.
+    HeightDatumNotCorrected(AlignMethod),
+    /// Too few targets for leave-one-out errors.
+    LeaveOneOutTooFew {
+        /// The alignment.
+        method: AlignMethod,
+        /// Targets scored.
+        n: usize,
+    },
+    /// The survey has roles but no check target was located.
+    NoCheckTargets,
+    /// Too few control targets to fit on them alone.
+    TooFewControls {
+        /// Located control targets.
+        n: usize,
+        /// The alignment.
+        method: AlignMethod,
+    },
+    /// Heights were given but the alignment does not fit them.
+    VerticalNotReported,
 }
 
-/// ASPRS (2023, Ed. 2) figures from aligned − survey residuals.
-fn asprs(
-    res: &[nalgebra::Vector3<f64>],
-    vertical: bool,
-    sigma: Option<(f64, Option<f64>)>,
-    independent: bool,
-) -> Asprs {
-    let n = res.len();
-    let x = axis(&res.iter().map(|r| r.x).collect::<Vec<_>>());
-    let y = axis(&res.iter().map(|r| r.y).collect::<Vec<_>>());
-    let z = vertical.then(|| axis(&res.iter().map(|r| r.z).collect::<Vec<_>>()));
-    let rmse_h_measured = x.rmse.hypot(y.rmse);
-    let rmse_v_measured = z.map(|z| z.rmse);
-    let (sh, sv) = sigma.unwrap_or((0.0, None));
-    let rmse_h = rmse_h_measured.hypot(sh);
-    let rmse_v = rmse_v_measured.map(|v| v.hypot(sv.unwrap_or(0.0)));
-    let rmse_3d = rmse_v.map(|v| rmse_h.hypot(v));
-    let mut warnings = Vec::new();
-    if !independent {
-        warnings.push(
-            "checkpoints were also used to fit the alignment: accuracy is optimistic (add role=check targets)"
-                .to_string(),
-        );
-    }
-    if n < 20 {
-        warnings.push(format!("only {n} checkpoints: NSSDA requires at least 20"));
-    }
-    if n < 30 {
-        warnings.push(format!(
-            "only {n} checkpoints: ASPRS (2023) requires at least 30"
-        ));
-    }
-    let nssda_h = 1.7308 * rmse_h;
-    let nssda_v = rmse_v.map(|v| 1.96 * v);
-    let mut lines = vec![format!(
-        "Tested {nssda_h:.3} m horizontal accuracy at 95% confidence level"
-    )];
-    if let Some(v) = nssda_v {
-        lines.push(format!(
-            "Tested {v:.3} m vertical accuracy at 95% confidence level"
-        ));
-    }
-    Asprs {
-        n_checkpoints: n,
-        independent,
-        x,
-        y,
-        z,
-        rmse_x: x.rmse,
-        rmse_y: y.rmse,
-        rmse_h,
-        rmse_v,
-        rmse_3d,
-        rmse_h_measured,
-        rmse_v_measured,
-        survey_sigma_h: sigma.map(|s| s.0),
-        survey_sigma_v: sigma.and_then(|s| s.1),
-        nssda_horizontal_95: nssda_h,
-        nssda_vertical_95: nssda_v,
-        nssda_lines: lines,
-        warnings,
-    }
+/// Everything [`score`] computes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Accuracy {
+    /// Error dimension.
+    pub dim: Dim,
+    /// The map → survey fit on every scored target.
+    pub fit: Fit,
+    /// Every survey target, in survey order.
+    pub targets: Vec<TargetScore>,
+    /// Absolute error statistics (E_abs = mean, σ_abs = std).
+    pub absolute: Summary,
+    /// Relative errors.
+    pub relative: Relative,
+    /// Leave-one-out absolute errors (≥ 3 targets).
+    pub leave_one_out: Option<HeldOut>,
+    /// Control/check split, when the survey has roles.
+    pub control_check: Option<ControlCheck>,
+    /// σ̂ of the fit.
+    pub sigma_hat: Option<SigmaHat>,
+    /// Survey-standard statistics.
+    pub asprs: Asprs,
+    /// In the survey, not in the estimates.
+    pub survey_only: Vec<String>,
+    /// In the estimates, not in the survey.
+    pub estimates_only: Vec<String>,
+    /// Caveats for the reader.
+    pub warnings: Vec<Warning>,
 }
 
 /// Aligns the estimates to the survey and computes every error statistic.
 ///
 /// Targets are matched by id; estimates that are not found or excluded are
 /// listed in the result with their reason but never scored.
-pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> Result<RunResult> {
+pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Result<Accuracy> {
     let dim = opts.dim;
     let mut warnings = Vec::new();
     let by_id: HashMap<&str, &Estimate> = estimates.iter().map(|e| (e.id.as_str(), e)).collect();
@@ -288,13 +214,15 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
     let mut survey_only = Vec::new();
     for (k, st) in survey.targets.iter().enumerate() {
         let sp = st.reference();
-        let base = TargetOut {
+        let base = TargetScore {
             id: st.id.clone(),
-            status: "ok".into(),
-            reason: None,
-            survey: xyz(&sp, st.has_z),
+            status: Status::Ok,
+            survey: sp,
+            survey_has_z: st.has_z,
             map: None,
+            map_has_z: false,
             aligned: None,
+            aligned_has_z: false,
             abs_error: None,
             loo_error: None,
             role: st.role,
@@ -302,9 +230,8 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
         match by_id.get(st.id.as_str()) {
             None => {
                 survey_only.push(st.id.clone());
-                targets.push(TargetOut {
-                    status: "not_found".into(),
-                    reason: Some("no estimate with this id".into()),
+                targets.push(TargetScore {
+                    status: Status::NoEstimate,
                     ..base
                 });
             }
@@ -319,19 +246,18 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
                     used.push(k);
                     map_pts.push(*p);
                     sur_pts.push(sp);
-                    targets.push(TargetOut {
-                        map: Some(xyz(p, e.has_z)),
+                    targets.push(TargetScore {
+                        map: Some(*p),
+                        map_has_z: e.has_z,
                         ..base
                     });
                 }
-                EstimateStatus::NotFound { reason } => targets.push(TargetOut {
-                    status: "not_found".into(),
-                    reason: Some(reason.clone()),
+                EstimateStatus::NotFound { reason } => targets.push(TargetScore {
+                    status: Status::NotFound(reason.clone()),
                     ..base
                 }),
-                EstimateStatus::Excluded { reason } => targets.push(TargetOut {
-                    status: "excluded".into(),
-                    reason: Some(reason.clone()),
+                EstimateStatus::Excluded { reason } => targets.push(TargetScore {
+                    status: Status::Excluded(reason.clone()),
                     ..base
                 }),
             },
@@ -343,16 +269,10 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
         .map(|e| e.id.clone())
         .collect();
     if !survey_only.is_empty() {
-        warnings.push(format!(
-            "survey targets without an estimate: {}",
-            survey_only.join(", ")
-        ));
+        warnings.push(Warning::SurveyOnly(survey_only.clone()));
     }
     if !estimates_only.is_empty() {
-        warnings.push(format!(
-            "estimates not in the survey (ignored): {}",
-            estimates_only.join(", ")
-        ));
+        warnings.push(Warning::EstimatesOnly(estimates_only.clone()));
     }
     let n = used.len();
     let need = opts.method.min_points().max(2);
@@ -375,10 +295,7 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
         )));
     }
     if dim == Dim::D3 && !opts.method.uses_z() && opts.method != AlignMethod::None {
-        warnings.push(format!(
-            "3D errors with {} alignment: the map's height datum is not corrected (consider rigid2d+z)",
-            opts.method
-        ));
+        warnings.push(Warning::HeightDatumNotCorrected(opts.method));
     }
 
     let al = align::fit(opts.method, &map_pts, &sur_pts)?;
@@ -395,10 +312,10 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
     // Honest errors.
     let loo = leave_one_out(opts.method, &map_pts, &sur_pts, dim);
     if loo.is_none() {
-        warnings.push(format!(
-            "leave-one-out needs at least 3 targets for {} (have {n})",
-            opts.method
-        ));
+        warnings.push(Warning::LeaveOneOutTooFew {
+            method: opts.method,
+            n,
+        });
     }
     let sigma_hat = {
         let (d, sse) = if opts.method.uses_z() {
@@ -430,7 +347,8 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
 
     for (j, &k) in used.iter().enumerate() {
         let t = &mut targets[k];
-        t.aligned = Some(xyz(&aligned[j], all_z || opts.method.uses_z()));
+        t.aligned = Some(aligned[j]);
+        t.aligned_has_z = all_z || opts.method.uses_z();
         t.abs_error = Some(abs[j]);
         t.loo_error = loo.as_ref().map(|l| l[j]);
     }
@@ -444,25 +362,26 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
         let ctrl: Vec<usize> = (0..n).filter(|&j| !is_check(used[j])).collect();
         let chk: Vec<usize> = (0..n).filter(|&j| is_check(used[j])).collect();
         if chk.is_empty() {
-            warnings.push("survey has roles but no located check targets".into());
+            warnings.push(Warning::NoCheckTargets);
         } else if ctrl.len() < need {
-            warnings.push(format!(
-                "only {} located control target(s): cannot fit {} on control targets alone",
-                ctrl.len(),
-                opts.method
-            ));
+            warnings.push(Warning::TooFewControls {
+                n: ctrl.len(),
+                method: opts.method,
+            });
         } else {
             let src: Vec<Point> = ctrl.iter().map(|&j| map_pts[j]).collect();
             let dst: Vec<Point> = ctrl.iter().map(|&j| sur_pts[j]).collect();
             let a = align::fit(opts.method, &src, &dst)?;
-            let per: Vec<HeldOutTarget> = chk
+            let per: Vec<(String, f64)> = chk
                 .iter()
-                .map(|&j| HeldOutTarget {
-                    id: ids[j].clone(),
-                    error: dist(&a.apply(&map_pts[j]), &sur_pts[j], dim),
+                .map(|&j| {
+                    (
+                        ids[j].clone(),
+                        dist(&a.apply(&map_pts[j]), &sur_pts[j], dim),
+                    )
                 })
                 .collect();
-            let errs: Vec<f64> = per.iter().map(|t| t.error).collect();
+            let errs: Vec<f64> = per.iter().map(|t| t.1).collect();
             check_residuals = Some(
                 chk.iter()
                     .map(|&j| a.apply(&map_pts[j]) - sur_pts[j])
@@ -470,7 +389,10 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
             );
             control_check = Some(ControlCheck {
                 control: ctrl.iter().map(|&j| ids[j].clone()).collect(),
-                alignment: alignment_out(&a, ctrl.len()),
+                fit: Fit {
+                    alignment: a,
+                    n_used: ctrl.len(),
+                },
                 check: HeldOut {
                     summary: summarize(&errs),
                     targets: per,
@@ -481,59 +403,38 @@ pub fn evaluate(survey: &Survey, estimates: &[Estimate], opts: &EvalOptions) -> 
     // Heights are comparable when the fit corrected them or the map is already in the survey frame.
     let vertical = all_z && (opts.method.uses_z() || opts.method == AlignMethod::None);
     let asprs = match check_residuals {
-        Some(r) => asprs(&r, vertical, opts.survey_sigma, true),
+        Some(r) => asprs::asprs(&r, vertical, opts.survey_sigma, true),
         None => {
             let r: Vec<_> = aligned.iter().zip(&sur_pts).map(|(a, s)| a - s).collect();
-            asprs(&r, vertical, opts.survey_sigma, false)
+            asprs::asprs(&r, vertical, opts.survey_sigma, false)
         }
     };
     if all_z && !vertical {
-        warnings.push(
-            "vertical accuracy not reported: choose an alignment that fits z (rigid2d+z, rigid3d)"
-                .into(),
-        );
+        warnings.push(Warning::VerticalNotReported);
     }
 
-    let absolute_summary = summarize(&abs);
-    let relative_summary = summarize(&rel);
-    Ok(RunResult {
-        schema: crate::result::SCHEMA.into(),
-        mapgauge_version: env!("CARGO_PKG_VERSION").into(),
+    Ok(Accuracy {
         dim,
-        survey_frame: survey.frame,
-        origin: survey.origin,
-        alignment: alignment_out(&al, n),
+        fit: Fit {
+            alignment: al,
+            n_used: n,
+        },
         targets,
-        absolute: absolute_summary,
-        relative: RelativeStats {
-            n: relative_summary.n,
-            mean: relative_summary.mean,
-            std: relative_summary.std,
-            rmse: relative_summary.rmse,
-            median: relative_summary.median,
-            max: relative_summary.max,
+        absolute: summarize(&abs),
+        relative: Relative {
+            summary: summarize(&rel),
             pairs,
         },
         leave_one_out: loo.map(|l| HeldOut {
             summary: summarize(&l),
-            targets: ids
-                .iter()
-                .zip(&l)
-                .map(|(id, e)| HeldOutTarget {
-                    id: id.clone(),
-                    error: *e,
-                })
-                .collect(),
+            targets: ids.iter().cloned().zip(l).collect(),
         }),
         control_check,
         sigma_hat,
         asprs,
-        unmatched: Unmatched {
-            survey_only,
-            estimates_only,
-        },
+        survey_only,
+        estimates_only,
         warnings,
-        eval: None,
     })
 }
 
@@ -626,19 +527,18 @@ mod tests {
             },
             Estimate::found("zz", Point::origin()),
         ];
-        let r = evaluate(&s, &est, &EvalOptions::default()).unwrap();
+        let r = score(&s, &est, &ScoreOptions::default()).unwrap();
         assert_eq!(r.absolute.n, 3);
-        assert_eq!(r.relative.n, 3);
-        assert_eq!(r.targets[3].status, "not_found");
-        assert_eq!(r.targets[3].reason.as_deref(), Some("no points"));
+        assert_eq!(r.relative.summary.n, 3);
+        assert_eq!(r.targets[3].status, Status::NotFound("no points".into()));
         assert!(r.targets[3].abs_error.is_none());
-        assert_eq!(r.unmatched.estimates_only, vec!["zz".to_string()]);
+        assert_eq!(r.estimates_only, vec!["zz".to_string()]);
         assert!(r.leave_one_out.is_some());
         let two = &est[..2];
-        let r2 = evaluate(&s, two, &EvalOptions::default()).unwrap();
+        let r2 = score(&s, two, &ScoreOptions::default()).unwrap();
         assert!(r2.leave_one_out.is_none());
-        assert!(r2.unmatched.survey_only.len() == 2);
-        let e = evaluate(&s, &est[..1], &EvalOptions::default())
+        assert!(r2.survey_only.len() == 2);
+        let e = score(&s, &est[..1], &ScoreOptions::default())
             .unwrap_err()
             .to_string();
         assert!(e.contains("at least 2"), "{e}");
@@ -670,10 +570,10 @@ mod tests {
                 Estimate::found(t.id.clone(), p)
             })
             .collect();
-        let res = evaluate(
+        let res = score(
             &s,
             &est,
-            &EvalOptions {
+            &ScoreOptions {
                 survey_sigma: Some((0.02, None)),
                 ..Default::default()
             },
@@ -681,12 +581,12 @@ mod tests {
         .unwrap();
         let cc = res.control_check.as_ref().unwrap();
         assert_eq!(cc.check.targets.len(), 1);
-        assert!((cc.check.targets[0].error - 0.1).abs() < 1e-9);
+        assert!((cc.check.targets[0].1 - 0.1).abs() < 1e-9);
         assert!(res.asprs.independent);
         assert!((res.asprs.rmse_h_measured - 0.1).abs() < 1e-9);
         assert!((res.asprs.rmse_h - 0.1f64.hypot(0.02)).abs() < 1e-12);
         assert!((res.asprs.nssda_horizontal_95 - 1.7308 * res.asprs.rmse_h).abs() < 1e-12);
-        assert!(res.asprs.warnings.iter().any(|w| w.contains("NSSDA")));
+        assert!(res.asprs.caveats.contains(&AsprsCaveat::FewerThanNssda(1)));
         // σ̂ = sqrt(SSE / (2n − 3)).
         let sh = res.sigma_hat.unwrap();
         assert_eq!(sh.dof, 7);
@@ -720,30 +620,30 @@ mod tests {
                 )
             })
             .collect();
-        let opts = EvalOptions {
+        let opts = ScoreOptions {
             method: AlignMethod::Rigid2dZ,
             dim: Dim::D3,
             survey_sigma: None,
         };
-        let r = evaluate(&s, &est, &opts).unwrap();
+        let r = score(&s, &est, &opts).unwrap();
         assert!((r.absolute.mean - 0.01).abs() < 1e-9, "{:?}", r.absolute);
         assert!(r.asprs.rmse_v.is_some() && r.asprs.rmse_3d.is_some());
         // The antenna height is taken off the survey z before comparing.
         let mut raised = s.clone();
         raised.targets[1].position.z += 1.8;
         raised.targets[1].antenna_height = 1.8;
-        let r2 = evaluate(&raised, &est, &opts).unwrap();
+        let r2 = score(&raised, &est, &opts).unwrap();
         assert!((r2.absolute.mean - r.absolute.mean).abs() < 1e-12);
         // With no alignment heights are compared as they are.
-        let none = EvalOptions {
+        let none = ScoreOptions {
             method: AlignMethod::None,
             dim: Dim::D3,
             survey_sigma: None,
         };
-        let r3 = evaluate(&s, &est, &none).unwrap();
+        let r3 = score(&s, &est, &none).unwrap();
         assert!(r3.asprs.rmse_v.unwrap() > 99.0);
         let mut no_z = est.clone();
         no_z[0].has_z = false;
-        assert!(evaluate(&s, &no_z, &opts).is_err());
+        assert!(score(&s, &no_z, &opts).is_err());
     }
 }

@@ -1,0 +1,219 @@
+//! Every parameter of a map evaluation, as the TOML configuration file and
+//! `--print-config` show them, and the range checks that keep a typo from
+//! making a run allocate or loop without bound.
+
+use crate::accuracy::Dim;
+use crate::align::AlignMethod;
+use crate::crop::{LooseParams, TightParams};
+use crate::locate::LocateParams;
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Every parameter of `mapgauge eval`; also the TOML configuration file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Loose crop around each expected position.
+    pub crop: LooseParams,
+    /// Automatic tight crop (ground removal, target detection).
+    pub tight: TightParams,
+    /// Target localisation (the paper's algorithm).
+    pub locate: LocateParams,
+    /// Alignment and metrics.
+    pub metrics: MetricsConfig,
+    /// Frames: where to look for the targets in the map.
+    pub frame: FrameConfig,
+}
+
+impl Default for Config {
+    /// The locator's defaults (one refit in a noise-scaled band); the paper's
+    /// plain draws are the fallback (see `locate_with`).
+    fn default() -> Self {
+        Config {
+            crop: LooseParams::default(),
+            tight: TightParams::default(),
+            locate: LocateParams::default(),
+            metrics: MetricsConfig::default(),
+            frame: FrameConfig::default(),
+        }
+    }
+}
+
+/// Alignment and metric settings.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MetricsConfig {
+    /// Map → survey alignment method.
+    pub align: AlignMethod,
+    /// Error dimension, "2d" (the paper) or "3d".
+    pub dim: Dim,
+    /// The survey's own horizontal 1-σ error (m), folded into the ASPRS figures.
+    pub survey_sigma_h: Option<f64>,
+    /// The survey's own vertical 1-σ error (m).
+    pub survey_sigma_v: Option<f64>,
+}
+
+/// Where targets are expected in the map.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FrameConfig {
+    /// Approximate map → survey transform `[x, y, yaw_deg]` (survey = R·map + t);
+    /// `None` = the map is in the survey frame to within a few metres.
+    pub init: Option<[f64; 3]>,
+    /// Search again for targets not found, around the positions predicted by
+    /// the alignment of the ones that were.
+    pub second_pass: bool,
+    /// Only search again when the prediction moved more than this (m).
+    pub second_pass_min_shift: f64,
+    /// The targets' common plumb line is trusted as the map's vertical up to this
+    /// tilt from +z (degrees).
+    pub max_tilt_deg: f64,
+    /// Targets located with an "up" further than this from the common plumb line
+    /// are located again with it (degrees).
+    pub tilt_redo_deg: f64,
+}
+
+impl Default for FrameConfig {
+    fn default() -> Self {
+        FrameConfig {
+            init: None,
+            second_pass: true,
+            second_pass_min_shift: 0.5,
+            max_tilt_deg: 3.0,
+            tilt_redo_deg: 0.25,
+        }
+    }
+}
+
+impl Config {
+    /// Reads a TOML configuration; unknown keys are errors (a typo must not be ignored).
+    pub fn from_toml_file(path: &Path) -> Result<Config> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let text = std::str::from_utf8(&bytes).map_err(|e| {
+            let line = bytes[..e.valid_up_to()].split(|&b| b == b'\n').count() as u64;
+            Error::table(path, line, "not UTF-8 text")
+        })?;
+        let cfg: Config = toml::from_str(text).map_err(|e| {
+            let line = e.span().map_or(0, |s| {
+                text.as_bytes()[..s.start.min(text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count()
+                    + 1
+            });
+            let msg = e.message().trim().replace('\n', " ");
+            Error::table(path, line as u64, msg)
+        })?;
+        cfg.validate().map_err(|e| match e {
+            Error::Param(m) => Error::format(path, m),
+            other => other,
+        })?;
+        Ok(cfg)
+    }
+    /// Checks every value is in a physically sensible range, so a typo cannot
+    /// make a run allocate or loop without bound (flags are checked too). Each
+    /// group checks its own.
+    pub fn validate(&self) -> Result<()> {
+        validate_loose(&self.crop)?;
+        validate_tight(&self.tight)?;
+        validate_locate(&self.locate)?;
+        self.metrics.validate()?;
+        self.frame.validate()
+    }
+    /// The configuration as TOML, every default written out.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self)
+            .unwrap_or_else(|e| format!("# cannot print configuration: {e}\n"))
+    }
+}
+
+
+/// `v` within `lo..=hi`, or an error naming the key.
+fn range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+    if v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(Error::Param(format!(
+            "{key} = {v}: must be within {lo}..{hi}"
+        )))
+    }
+}
+
+/// A count within `lo..=hi`, or an error naming the key.
+fn count(key: &str, v: usize, lo: usize, hi: usize) -> Result<()> {
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(Error::Param(format!(
+            "{key} = {v}: must be within {lo}..{hi}"
+        )))
+    }
+}
+
+fn validate_loose(c: &LooseParams) -> Result<()> {
+    range("crop.radius", c.radius, 1e-3, 1e4)
+}
+
+fn validate_tight(t: &TightParams) -> Result<()> {
+    range("tight.plate_width", t.plate_width, 0.05, 10.0)?;
+    range("tight.plate_height", t.plate_height, 0.05, 10.0)?;
+    range("tight.ground_cell", t.ground_cell, 0.05, 100.0)?;
+    range("tight.min_height", t.min_height, -100.0, 100.0)?;
+    range("tight.max_height", t.max_height, t.min_height, 1000.0)?;
+    range("tight.search_radius", t.search_radius, 1e-3, 1e4)?;
+    range("tight.keep_distance", t.keep_distance, 1e-4, 10.0)?;
+    count("tight.min_plate_points", t.min_plate_points, 1, 1 << 24)?;
+    range("tight.max_up_tilt_deg", t.max_up_tilt_deg, 0.0, 90.0)
+}
+
+fn validate_locate(l: &LocateParams) -> Result<()> {
+    count("locate.kmeans_iterations", l.kmeans_iterations, 1, 1 << 16)?;
+    count("locate.kmeans_points", l.kmeans_points, 0, 1 << 24)?;
+    count("locate.ransac_iterations", l.ransac_iterations, 1, 1 << 24)?;
+    count(
+        "locate.ransac_score_points",
+        l.ransac_score_points,
+        0,
+        1 << 24,
+    )?;
+    count("locate.refit_iterations", l.refit_iterations, 0, 1 << 16)?;
+    count("locate.samples", l.samples, 1, 1 << 20)?;
+    count("locate.max_attempts", l.max_attempts, 1, 1 << 24)?;
+    // The localisation's own consistency rules (thresholds, margins, angles).
+    l.check()
+}
+
+impl MetricsConfig {
+    /// Checks the survey sigmas.
+    pub fn validate(&self) -> Result<()> {
+        for (k, v) in [
+            ("metrics.survey_sigma_h", self.survey_sigma_h),
+            ("metrics.survey_sigma_v", self.survey_sigma_v),
+        ] {
+            if let Some(v) = v {
+                range(k, v, 0.0, 1e3)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl FrameConfig {
+    /// Checks the initial transform, shift and tilt limits.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(i) = self.init {
+            for v in i {
+                range("frame.init", v, -1e8, 1e8)?;
+            }
+        }
+        range(
+            "frame.second_pass_min_shift",
+            self.second_pass_min_shift,
+            0.0,
+            1e4,
+        )?;
+        range("frame.max_tilt_deg", self.max_tilt_deg, 0.0, 90.0)?;
+        range("frame.tilt_redo_deg", self.tilt_redo_deg, 0.0, 90.0)
+    }
+}

@@ -1,0 +1,238 @@
+//! The whole evaluation, map to accuracy: loose crop → tight crop → locate →
+//! align → accuracy. Each stage is a plain function of the previous stage's
+//! output; this module only composes them, searches again where the first
+//! pass missed, and records what happened — it writes no file and prints
+//! nothing.
+//!
+//! ```no_run
+//! use mapgauge::cloud::MapSource;
+//! use mapgauge::pipeline::{self, Config};
+//! use mapgauge::survey::{SurveyOptions, read_survey};
+//! # fn main() -> mapgauge::Result<()> {
+//! let survey = read_survey("survey.csv".as_ref(), &SurveyOptions::default())?;
+//! let map = MapSource::File("map.pcd".as_ref());
+//! let ev = pipeline::run(map, &survey, &Config::default(), |_, _| {})?;
+//! println!("E_abs = {:.4} m", ev.accuracy.absolute.mean);
+//! # Ok(()) }
+//! ```
+
+mod config;
+mod passes;
+mod target;
+
+pub use config::{Config, FrameConfig, MetricsConfig};
+pub use target::{Failure, Found, Pass, TargetRun};
+
+use crate::accuracy::{self, Accuracy, ScoreOptions};
+use crate::cloud::MapSource;
+use crate::crop::{self, LooseParams, Shape};
+use crate::survey::{Estimate, EstimateStatus, Survey};
+use crate::{Error, Point, Result};
+use rayon::prelude::*;
+use std::path::Path;
+
+/// What the map gave.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct MapStats {
+    /// The map as named in results (path as given, or `<memory>`).
+    pub name: String,
+    /// Size in bytes (0 in memory).
+    pub bytes: u64,
+    /// Finite points read.
+    pub points: u64,
+    /// Points skipped as NaN or infinite.
+    pub skipped_nonfinite: u64,
+}
+
+/// Something the caller should tell the user.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Warning {
+    /// A sphere crop was asked for but the survey has no heights: a vertical
+    /// cylinder was used.
+    SphereWithoutHeights,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Warning::SphereWithoutHeights => f.write_str(
+                "the survey has no heights; cropping with a vertical cylinder instead of a sphere",
+            ),
+        }
+    }
+}
+
+/// Everything an evaluation produces.
+#[derive(Debug)]
+pub struct Evaluation {
+    /// The errors.
+    pub accuracy: Accuracy,
+    /// Per survey target, in survey order: crops, located corner or failure.
+    pub targets: Vec<TargetRun>,
+    /// What the map gave.
+    pub map: MapStats,
+    /// Caveats for the user.
+    pub warnings: Vec<Warning>,
+}
+
+/// Evaluates a map against a survey. `progress` gets (bytes read, total
+/// bytes) while a map file streams.
+pub fn run(
+    source: MapSource,
+    survey: &Survey,
+    cfg: &Config,
+    progress: impl FnMut(u64, u64),
+) -> Result<Evaluation> {
+    evaluate(source, survey, None, cfg, progress)
+}
+
+/// [`run`] with hand-made tight crops `crops_dir/<id>.ply|pcd|…` (the paper's
+/// manual workflow) instead of the automatic tight crop. The map is still read
+/// for the loose crops the report shows.
+pub fn run_with_crops(
+    source: MapSource,
+    survey: &Survey,
+    crops_dir: &Path,
+    cfg: &Config,
+    progress: impl FnMut(u64, u64),
+) -> Result<Evaluation> {
+    evaluate(source, survey, Some(crops_dir), cfg, progress)
+}
+
+fn evaluate(
+    source: MapSource,
+    survey: &Survey,
+    crops_dir: Option<&Path>,
+    cfg: &Config,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<Evaluation> {
+    cfg.validate()?;
+    if survey.targets.is_empty() {
+        return Err(Error::Input("the survey has no targets".into()));
+    }
+    let init = cfg.frame.init.unwrap_or([0.0, 0.0, 0.0]);
+    let expected: Vec<Point> = survey
+        .targets
+        .iter()
+        .map(|t| expected_in_map(&init, &t.reference()))
+        .collect();
+    let mut warnings = Vec::new();
+    let mut crop_params = cfg.crop;
+    if crop_params.shape == Shape::Sphere && !survey.has_z() {
+        warnings.push(Warning::SphereWithoutHeights);
+        crop_params.shape = Shape::Cylinder;
+    }
+    let mut map = MapStats {
+        name: source.name(),
+        ..Default::default()
+    };
+
+    let crops = read_crops(source, &expected, &crop_params, &mut map, &mut progress)?;
+    let mut found: Vec<TargetRun> = survey
+        .targets
+        .par_iter()
+        .zip(&expected)
+        .zip(crops)
+        .map(|((t, e), (pts, offered))| {
+            let thinned = (offered > pts.len() as u64).then_some(offered);
+            let mut r = target::locate_target(&t.id, *e, pts, crops_dir, cfg, Pass::First);
+            r.loose_thinned_from = thinned;
+            r
+        })
+        .collect();
+
+    let opts = ScoreOptions {
+        method: cfg.metrics.align,
+        dim: cfg.metrics.dim,
+        survey_sigma: cfg
+            .metrics
+            .survey_sigma_h
+            .map(|h| (h, cfg.metrics.survey_sigma_v)),
+    };
+    if cfg.frame.second_pass && crops_dir.is_none() {
+        passes::second_pass(
+            source,
+            survey,
+            &expected,
+            &crop_params,
+            cfg,
+            &opts,
+            &mut found,
+            &mut progress,
+        )?;
+    }
+    passes::common_vertical(&mut found, cfg);
+
+    let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
+    if n_found < cfg.metrics.align.min_points() {
+        let why: Vec<String> = found
+            .iter()
+            .filter_map(|r| r.outcome.as_ref().err().map(|e| format!("{}: {e}", r.id)))
+            .take(5)
+            .collect();
+        return Err(Error::Input(format!(
+            "{}: only {n_found} of {} targets found in the map (need {} for {}); {}{}. Is the map in the survey frame? If not, give --init x,y,yaw_deg",
+            map.name,
+            survey.targets.len(),
+            cfg.metrics.align.min_points(),
+            cfg.metrics.align.name(),
+            why.join("; "),
+            if survey.targets.len() - n_found > why.len() {
+                "; ..."
+            } else {
+                ""
+            },
+        )));
+    }
+    let accuracy = accuracy::score(survey, &estimates(&found), &opts)?;
+    Ok(Evaluation {
+        accuracy,
+        targets: found,
+        map,
+        warnings,
+    })
+}
+
+/// The located corners as estimates for [`accuracy::score`].
+fn estimates(found: &[TargetRun]) -> Vec<Estimate> {
+    found
+        .iter()
+        .map(|r| Estimate {
+            id: r.id.clone(),
+            status: match &r.outcome {
+                Ok(f) => EstimateStatus::Found(f.located.corner),
+                Err(e) => EstimateStatus::NotFound {
+                    reason: e.to_string(),
+                },
+            },
+            has_z: true,
+        })
+        .collect()
+}
+
+/// Where a surveyed point `p` is expected in the map: the inverse of the
+/// approximate map → survey transform `init` (`[x, y, yaw_deg]`, survey =
+/// R(yaw)·map + (x, y)).
+pub fn expected_in_map(init: &[f64; 3], p: &Point) -> Point {
+    let (s, c) = init[2].to_radians().sin_cos();
+    let (dx, dy) = (p.x - init[0], p.y - init[1]);
+    Point::new(c * dx + s * dy, -s * dx + c * dy, p.z)
+}
+
+/// The loose crops around `centres` in one pass over the map, each with the
+/// number of points the map had there before thinning.
+fn read_crops(
+    source: MapSource,
+    centres: &[Point],
+    params: &LooseParams,
+    map: &mut MapStats,
+    progress: &mut impl FnMut(u64, u64),
+) -> Result<Vec<(Vec<Point>, u64)>> {
+    let mut reader = source.open()?;
+    let total = reader.info().file_bytes;
+    map.bytes = total;
+    let crop = crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?;
+    map.points = crop.map_points;
+    map.skipped_nonfinite = crop.skipped_nonfinite;
+    Ok(crop.points.into_iter().zip(crop.offered).collect())
+}

@@ -1,0 +1,107 @@
+//! The passes after the first: searching again where the alignment of the
+//! found targets predicts a missing one, and locating again with the map's
+//! common vertical.
+
+use super::target::{self, Pass, TargetRun};
+use super::{Config, read_crops};
+use crate::accuracy::{self, ScoreOptions};
+use crate::cloud::MapSource;
+use crate::crop::LooseParams;
+use crate::survey::Survey;
+use crate::{Point, Result};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+/// Second pass: look again where the alignment of the found targets says the
+/// missing ones should be (when that is far enough from where they were
+/// looked for).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn second_pass(
+    source: MapSource,
+    survey: &Survey,
+    expected: &[Point],
+    crop_params: &LooseParams,
+    cfg: &Config,
+    opts: &ScoreOptions,
+    found: &mut [TargetRun],
+    progress: &mut impl FnMut(u64, u64),
+) -> Result<()> {
+    let missing: Vec<usize> = (0..found.len())
+        .filter(|&i| found[i].outcome.is_err())
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let Ok(first) = accuracy::score(survey, &super::estimates(found), opts) else {
+        return Ok(());
+    };
+    let inverse = first.fit.alignment.inverse();
+    let mut redo = Vec::new();
+    for &i in &missing {
+        let predicted = inverse.apply(&survey.targets[i].reference());
+        if (predicted - expected[i]).xy().norm() > cfg.frame.second_pass_min_shift {
+            redo.push((i, predicted));
+        }
+    }
+    if redo.is_empty() {
+        return Ok(());
+    }
+    let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
+    // The map's statistics stay those of the first pass.
+    let mut again_stats = super::MapStats::default();
+    let again = read_crops(source, &centres, crop_params, &mut again_stats, progress)?;
+    for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
+        let thinned = (offered > pts.len() as u64).then_some(offered);
+        let mut r = target::locate_target(&survey.targets[i].id, c, pts, None, cfg, Pass::Second);
+        r.loose_thinned_from = thinned;
+        if r.outcome.is_ok() {
+            found[i] = r;
+        }
+    }
+    Ok(())
+}
+
+/// Map tilt: when the targets agree on a vertical that differs from the one a
+/// target was located with, locate it again with the common one.
+pub(super) fn common_vertical(found: &mut [TargetRun], cfg: &Config) {
+    let Some(axis) = consensus_up(found) else {
+        return;
+    };
+    if axis.angle(&Vector3::z()).to_degrees() > cfg.frame.max_tilt_deg {
+        return;
+    }
+    let redo: Vec<usize> = (0..found.len())
+        .filter(|&i| {
+            let used = found[i].outcome.as_ref().ok().map(|f| f.up);
+            !found[i].tight.is_empty()
+                && used.is_none_or(|u| u.angle(&axis).to_degrees() > cfg.frame.tilt_redo_deg)
+        })
+        .collect();
+    let again: Vec<(usize, target::Found)> = redo
+        .into_par_iter()
+        .filter_map(|i| {
+            target::locate_with(&found[i].tight, &[axis], cfg)
+                .ok()
+                .map(|f| (i, f))
+        })
+        .collect();
+    for (i, f) in again {
+        found[i].outcome = Ok(f);
+    }
+}
+
+/// The map's vertical from the targets themselves: each target's plates meet
+/// along a plumb line, so the mean of those axes is the map's "up" (a tilted
+/// map tilts them all alike, while ground slopes differ from place to place).
+/// Needs three located targets.
+fn consensus_up(found: &[TargetRun]) -> Option<Vector3<f64>> {
+    let axes: Vec<Vector3<f64>> = found
+        .iter()
+        .filter_map(|r| r.outcome.as_ref().ok().map(|f| f.axis))
+        .collect();
+    if axes.len() < 3 {
+        return None;
+    }
+    let sum = axes.iter().fold(Vector3::zeros(), |s, a| s + a);
+    Some(sum.normalize())
+}

@@ -1,0 +1,211 @@
+//! One target through steps 4–5: its tight crop (automatic or hand-made) and
+//! the paper's localisation, with the fallbacks that make it robust.
+
+use super::Config;
+use crate::crop::{self, TightError};
+use crate::locate::{self, LocateError, LocateParams, Located};
+use crate::{Error, Point, Result};
+use nalgebra::Vector3;
+use std::path::Path;
+
+/// Which search found a target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pass {
+    /// Around the expected position.
+    First = 1,
+    /// Around the position the alignment of the other targets predicts.
+    Second = 2,
+}
+
+/// A located target.
+#[derive(Debug, Clone)]
+pub struct Found {
+    /// The paper's estimate: corner, spread, plates, samples.
+    pub located: Located,
+    /// The direction the gates used as vertical.
+    pub up: Vector3<f64>,
+    /// The plates' intersection line, pointing up: the target's plumb line in the map.
+    pub axis: Vector3<f64>,
+}
+
+/// Why a target was not located, by stage.
+#[derive(Debug)]
+pub enum Failure {
+    /// The loose crop was empty.
+    NoLoosePoints,
+    /// The hand-made tight crop is missing or unreadable.
+    HandCrop(Error),
+    /// The automatic tight crop found no target.
+    Tight(TightError),
+    /// The localisation failed on the tight crop (the last variant's error).
+    Locate(LocateError),
+}
+
+impl Failure {
+    /// The stage that failed, as result.json names it.
+    pub fn stage(&self) -> &'static str {
+        match self {
+            Failure::NoLoosePoints => "loose",
+            Failure::HandCrop(_) | Failure::Tight(_) => "tight",
+            Failure::Locate(_) => "locate",
+        }
+    }
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Failure::NoLoosePoints => {
+                f.write_str("no map points within the crop radius of the expected position")
+            }
+            Failure::HandCrop(e) => write!(f, "{e}"),
+            Failure::Tight(e) => write!(f, "{e}"),
+            Failure::Locate(e) => write!(f, "localisation failed: {e}"),
+        }
+    }
+}
+
+/// Everything the pipeline did for one target.
+#[derive(Debug)]
+pub struct TargetRun {
+    /// Target id.
+    pub id: String,
+    /// Where it was looked for (map frame).
+    pub expected: Point,
+    /// Which search this is.
+    pub pass: Pass,
+    /// The loose crop (thinned beyond `crop.max_points`).
+    pub loose: Vec<Point>,
+    /// Points the map had in the loose crop, when it was thinned.
+    pub loose_thinned_from: Option<u64>,
+    /// The tight crop (empty when none was made).
+    pub tight: Vec<Point>,
+    /// Local ground normal from the automatic tight crop.
+    pub ground_normal: Option<Vector3<f64>>,
+    /// The located target, or why not.
+    pub outcome: std::result::Result<Found, Failure>,
+}
+
+impl TargetRun {
+    /// The located corner (map frame).
+    pub fn corner(&self) -> Option<Point> {
+        self.outcome.as_ref().ok().map(|f| f.located.corner)
+    }
+}
+
+/// Steps 4–5 for one target: tight crop (hand-made from `crops_dir`, else
+/// automatic from `loose`), then localisation.
+pub(crate) fn locate_target(
+    id: &str,
+    expected: Point,
+    loose: Vec<Point>,
+    crops_dir: Option<&Path>,
+    cfg: &Config,
+    pass: Pass,
+) -> TargetRun {
+    let mut run = TargetRun {
+        id: id.to_string(),
+        expected,
+        pass,
+        loose,
+        loose_thinned_from: None,
+        tight: Vec::new(),
+        ground_normal: None,
+        outcome: Err(Failure::NoLoosePoints),
+    };
+    // Hand-made tight crops (the paper's workflow) or the automatic one.
+    let ups: Vec<Vector3<f64>> = match crops_dir {
+        Some(dir) => match hand_crop(dir, id) {
+            Ok(p) => {
+                run.tight = p;
+                vec![Vector3::z()]
+            }
+            Err(e) => {
+                run.outcome = Err(Failure::HandCrop(e));
+                return run;
+            }
+        },
+        None => {
+            if run.loose.is_empty() {
+                return run;
+            }
+            match crop::tight_crop(&run.loose, &expected, &cfg.tight) {
+                Ok(t) => {
+                    run.ground_normal = Some(Vector3::from(t.ground_normal));
+                    let up = Vector3::from(t.up);
+                    run.tight = t.points;
+                    // A fallback "up" in case the ground normal misleads the gates.
+                    let mut ups = vec![up];
+                    if up != Vector3::z() {
+                        ups.push(Vector3::z());
+                    }
+                    ups
+                }
+                Err(e) => {
+                    run.outcome = Err(Failure::Tight(e));
+                    return run;
+                }
+            }
+        }
+    };
+    run.outcome = locate_with(&run.tight, &ups, cfg).map_err(Failure::Locate);
+    run
+}
+
+/// Step 5 on a tight crop, trying each "up" in turn.
+pub(crate) fn locate_with(
+    points: &[Point],
+    ups: &[Vector3<f64>],
+    cfg: &Config,
+) -> std::result::Result<Found, LocateError> {
+    // Paper-style draws and the refit fail on different crops: with the refit
+    // every attempt converges to the same planes, so when that one answer misses
+    // a gate every attempt does, while plain draws may rarely pass a sparse,
+    // noisy crop. Whichever is configured goes first, the other is the fallback;
+    // both use the same gates.
+    let other = LocateParams {
+        refit_iterations: if cfg.locate.refit_iterations > 0 {
+            0
+        } else {
+            1
+        },
+        ..cfg.locate.clone()
+    };
+    let variants = [cfg.locate.clone(), other];
+    let mut last_err = LocateError::BadUp;
+    for (up, params) in ups
+        .iter()
+        .flat_map(|u| variants.iter().map(move |v| (*u, v)))
+    {
+        match locate::locate(points, Some(up), params) {
+            Ok(l) => {
+                let axis =
+                    Vector3::from(l.plates[0].normal).cross(&Vector3::from(l.plates[1].normal));
+                let axis = if axis.z < 0.0 { -axis } else { axis };
+                return Ok(Found {
+                    located: l,
+                    up,
+                    axis: axis.normalize(),
+                });
+            }
+            Err(e) => last_err = e,
+        }
+    }
+    Err(last_err)
+}
+
+/// Finds `DIR/<stem>.<ext>` for any readable cloud extension and reads it,
+/// where the stem is the id made safe as a file name.
+fn hand_crop(dir: &Path, id: &str) -> Result<Vec<Point>> {
+    let stem = crate::survey::file_stem(id);
+    for ext in ["ply", "pcd", "las", "laz", "xyz", "txt", "csv", "e57"] {
+        let p = dir.join(format!("{stem}.{ext}"));
+        if p.is_file() {
+            return crate::cloud::read_all(&p);
+        }
+    }
+    Err(Error::Input(format!(
+        "no tight crop {}/{stem}.ply|pcd|las|laz|xyz|e57",
+        dir.display()
+    )))
+}

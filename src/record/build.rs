@@ -1,0 +1,218 @@
+//! [`ResultFile`] from the typed [`Accuracy`]: where numbers get their JSON
+//! names and caveats become the sentences a reader sees.
+
+use super::{
+    AlignmentOut, Asprs, AxisStats, ControlCheck, HeldOut, HeldOutTarget, Pair, RelativeStats,
+    ResultFile, SCHEMA, SigmaHat, Stats, TargetOut, Unmatched, Xyz,
+};
+use crate::Point;
+use crate::accuracy::{self, Accuracy, AsprsCaveat, Fit, Status, Summary, Warning};
+use crate::survey::Survey;
+
+impl ResultFile {
+    /// The result file of `acc`, scored against `survey` (its frame and origin
+    /// are recorded). The `eval` section is left empty: a map evaluation adds it.
+    pub fn from_accuracy(acc: &Accuracy, survey: &Survey) -> ResultFile {
+        ResultFile {
+            schema: SCHEMA.into(),
+            mapgauge_version: env!("CARGO_PKG_VERSION").into(),
+            dim: acc.dim,
+            survey_frame: survey.frame,
+            origin: survey.origin,
+            alignment: alignment_out(&acc.fit),
+            targets: acc.targets.iter().map(target_out).collect(),
+            absolute: stats(&acc.absolute),
+            relative: relative(acc),
+            leave_one_out: acc.leave_one_out.as_ref().map(held_out),
+            control_check: acc.control_check.as_ref().map(|c| ControlCheck {
+                control: c.control.clone(),
+                alignment: alignment_out(&c.fit),
+                check: held_out(&c.check),
+            }),
+            sigma_hat: acc.sigma_hat.map(|s| SigmaHat {
+                value: s.value,
+                sse: s.sse,
+                dof: s.dof,
+            }),
+            asprs: asprs(&acc.asprs),
+            unmatched: Unmatched {
+                survey_only: acc.survey_only.clone(),
+                estimates_only: acc.estimates_only.clone(),
+            },
+            warnings: acc.warnings.iter().map(warning_text).collect(),
+            eval: None,
+        }
+    }
+}
+
+/// The sentence a reader sees for a warning.
+pub fn warning_text(w: &Warning) -> String {
+    match w {
+        Warning::SurveyOnly(ids) => {
+            format!("survey targets without an estimate: {}", ids.join(", "))
+        }
+        Warning::EstimatesOnly(ids) => {
+            format!("estimates not in the survey (ignored): {}", ids.join(", "))
+        }
+        Warning::HeightDatumNotCorrected(m) => format!(
+            "3D errors with {m} alignment: the map's height datum is not corrected (consider rigid2d+z)"
+        ),
+        Warning::LeaveOneOutTooFew { method, n } => {
+            format!("leave-one-out needs at least 3 targets for {method} (have {n})")
+        }
+        Warning::NoCheckTargets => "survey has roles but no located check targets".into(),
+        Warning::TooFewControls { n, method } => format!(
+            "only {n} located control target(s): cannot fit {method} on control targets alone"
+        ),
+        Warning::VerticalNotReported => {
+            "vertical accuracy not reported: choose an alignment that fits z (rigid2d+z, rigid3d)"
+                .into()
+        }
+    }
+}
+
+fn caveat_text(c: &AsprsCaveat) -> String {
+    match c {
+        AsprsCaveat::NotIndependent => "checkpoints were also used to fit the alignment: accuracy is optimistic (add role=check targets)".into(),
+        AsprsCaveat::FewerThanNssda(n) => format!("only {n} checkpoints: NSSDA requires at least 20"),
+        AsprsCaveat::FewerThanAsprs(n) => {
+            format!("only {n} checkpoints: ASPRS (2023) requires at least 30")
+        }
+    }
+}
+
+fn xyz(p: &Point, has_z: bool) -> Xyz {
+    Xyz {
+        x: p.x,
+        y: p.y,
+        z: if has_z { Some(p.z) } else { None },
+    }
+}
+
+fn stats(s: &Summary) -> Stats {
+    Stats {
+        n: s.n,
+        mean: s.mean,
+        std: s.std,
+        rmse: s.rmse,
+        median: s.median,
+        max: s.max,
+    }
+}
+
+fn alignment_out(f: &Fit) -> AlignmentOut {
+    let a = &f.alignment;
+    AlignmentOut {
+        method: a.method.name().to_string(),
+        rotation_deg: a.rotation_deg(),
+        translation: [a.translation.x, a.translation.y, a.translation.z],
+        scale: a.scale,
+        scale_ppm: a.scale_ppm(),
+        rotation_matrix: [
+            [a.rotation[(0, 0)], a.rotation[(0, 1)], a.rotation[(0, 2)]],
+            [a.rotation[(1, 0)], a.rotation[(1, 1)], a.rotation[(1, 2)]],
+            [a.rotation[(2, 0)], a.rotation[(2, 1)], a.rotation[(2, 2)]],
+        ],
+        n_used: f.n_used,
+        iterations: a.iterations,
+    }
+}
+
+fn target_out(t: &accuracy::TargetScore) -> TargetOut {
+    let (status, reason) = match &t.status {
+        Status::Ok => ("ok", None),
+        Status::NoEstimate => ("not_found", Some("no estimate with this id".to_string())),
+        Status::NotFound(r) => ("not_found", Some(r.clone())),
+        Status::Excluded(r) => ("excluded", Some(r.clone())),
+    };
+    TargetOut {
+        id: t.id.clone(),
+        status: status.into(),
+        reason,
+        survey: xyz(&t.survey, t.survey_has_z),
+        map: t.map.map(|p| xyz(&p, t.map_has_z)),
+        aligned: t.aligned.map(|p| xyz(&p, t.aligned_has_z)),
+        abs_error: t.abs_error,
+        loo_error: t.loo_error,
+        role: t.role,
+    }
+}
+
+fn relative(acc: &Accuracy) -> RelativeStats {
+    let s = &acc.relative.summary;
+    RelativeStats {
+        n: s.n,
+        mean: s.mean,
+        std: s.std,
+        rmse: s.rmse,
+        median: s.median,
+        max: s.max,
+        pairs: acc
+            .relative
+            .pairs
+            .iter()
+            .map(|p| Pair {
+                a: p.a.clone(),
+                b: p.b.clone(),
+                survey_distance: p.survey_distance,
+                map_distance: p.map_distance,
+                error: p.error,
+                error_per_100m: p.error_per_100m,
+            })
+            .collect(),
+    }
+}
+
+fn held_out(h: &accuracy::HeldOut) -> HeldOut {
+    HeldOut {
+        summary: stats(&h.summary),
+        targets: h
+            .targets
+            .iter()
+            .map(|(id, e)| HeldOutTarget {
+                id: id.clone(),
+                error: *e,
+            })
+            .collect(),
+    }
+}
+
+fn axis(a: &accuracy::AxisStats) -> AxisStats {
+    AxisStats {
+        bias: a.bias,
+        std: a.std,
+        rmse: a.rmse,
+    }
+}
+
+fn asprs(a: &accuracy::Asprs) -> Asprs {
+    let mut lines = vec![format!(
+        "Tested {:.3} m horizontal accuracy at 95% confidence level",
+        a.nssda_horizontal_95
+    )];
+    if let Some(v) = a.nssda_vertical_95 {
+        lines.push(format!(
+            "Tested {v:.3} m vertical accuracy at 95% confidence level"
+        ));
+    }
+    Asprs {
+        n_checkpoints: a.n_checkpoints,
+        independent: a.independent,
+        x: axis(&a.x),
+        y: axis(&a.y),
+        z: a.z.as_ref().map(axis),
+        rmse_x: a.x.rmse,
+        rmse_y: a.y.rmse,
+        rmse_h: a.rmse_h,
+        rmse_v: a.rmse_v,
+        rmse_3d: a.rmse_3d,
+        rmse_h_measured: a.rmse_h_measured,
+        rmse_v_measured: a.rmse_v_measured,
+        survey_sigma_h: a.survey_sigma_h,
+        survey_sigma_v: a.survey_sigma_v,
+        nssda_horizontal_95: a.nssda_horizontal_95,
+        nssda_vertical_95: a.nssda_vertical_95,
+        nssda_lines: lines,
+        warnings: a.caveats.iter().map(caveat_text).collect(),
+    }
+}

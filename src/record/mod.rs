@@ -1,0 +1,318 @@
+//! The result file, `result.json` (schema `mapgauge.result/1`): its types,
+//! built from the typed [`crate::accuracy::Accuracy`] and
+//! [`crate::pipeline::Evaluation`], read back, and written atomically.
+//!
+//! The JSON keys are a contract read by scripts and by `mapgauge table`; keys may be
+//! added, never renamed.
+
+mod atomic;
+mod build;
+mod eval_info;
+
+pub use atomic::{refuse_overwrite, write_atomic};
+pub use eval_info::{EvalInfo, TargetDetail};
+
+use crate::accuracy::Dim;
+use crate::survey::{Geodetic, Role, SurveyFrame};
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Schema identifier written into every result file.
+pub const SCHEMA: &str = "mapgauge.result/1";
+
+/// A position in a result file (z absent when unknown).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Xyz {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// z (m), `null` when the source had no height.
+    pub z: Option<f64>,
+}
+
+/// The fitted map → survey transform as written to the result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AlignmentOut {
+    /// Method name (`rigid2d`, ...).
+    pub method: String,
+    /// Yaw of the map → survey rotation, degrees.
+    pub rotation_deg: f64,
+    /// Translation (m).
+    pub translation: [f64; 3],
+    /// Scale factor.
+    pub scale: f64,
+    /// Scale deviation, parts per million.
+    #[serde(default)]
+    pub scale_ppm: f64,
+    /// Full rotation matrix, row-major.
+    #[serde(default)]
+    pub rotation_matrix: [[f64; 3]; 3],
+    /// Number of targets the fit used.
+    #[serde(default)]
+    pub n_used: usize,
+    /// Iterations (robust2d), 0 for closed forms.
+    #[serde(default)]
+    pub iterations: usize,
+}
+
+/// One target's line in the result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetOut {
+    /// Target id.
+    pub id: String,
+    /// `ok`, `not_found` or `excluded`.
+    pub status: String,
+    /// Why, when not ok.
+    pub reason: Option<String>,
+    /// Surveyed reference point (survey frame, antenna height removed).
+    pub survey: Xyz,
+    /// Estimated position, map frame.
+    pub map: Option<Xyz>,
+    /// Estimate mapped into the survey frame.
+    pub aligned: Option<Xyz>,
+    /// Absolute error (m) in the chosen dimension.
+    pub abs_error: Option<f64>,
+    /// Error when this target is left out of the alignment fit.
+    #[serde(default)]
+    pub loo_error: Option<f64>,
+    /// Control or check, when the survey says.
+    #[serde(default)]
+    pub role: Option<Role>,
+}
+
+/// Summary statistics of a list of errors (the paper's Table II numbers and more).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// Count.
+    pub n: usize,
+    /// Mean.
+    pub mean: f64,
+    /// Population standard deviation (divide by n), as the paper.
+    pub std: f64,
+    /// Root mean square.
+    pub rmse: f64,
+    /// Median.
+    pub median: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+/// One pair's relative error (the paper's Table I).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Pair {
+    /// First target id.
+    pub a: String,
+    /// Second target id.
+    pub b: String,
+    /// Distance between the surveyed points (m).
+    pub survey_distance: f64,
+    /// Distance between the map estimates (m).
+    pub map_distance: f64,
+    /// | map_distance − survey_distance | (m).
+    pub error: f64,
+    /// The error per 100 m of survey distance (m), for comparing short and long
+    /// pairs; `null` for coincident survey points.
+    #[serde(default)]
+    pub error_per_100m: Option<f64>,
+}
+
+/// Relative error statistics and every pair.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RelativeStats {
+    /// Number of pairs.
+    pub n: usize,
+    /// Mean (E_rel).
+    pub mean: f64,
+    /// Population standard deviation (σ_rel).
+    pub std: f64,
+    /// RMS of pair errors.
+    #[serde(default)]
+    pub rmse: f64,
+    /// Median pair error.
+    #[serde(default)]
+    pub median: f64,
+    /// Largest pair error.
+    #[serde(default)]
+    pub max: f64,
+    /// Every pair, i < j in survey order.
+    pub pairs: Vec<Pair>,
+}
+
+/// One held-out target's error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutTarget {
+    /// Target id.
+    pub id: String,
+    /// Error (m) under an alignment that did not see this target.
+    pub error: f64,
+}
+
+/// Errors of targets not used in the fit that scores them (honest errors).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOut {
+    /// Statistics of the held-out errors.
+    #[serde(flatten)]
+    pub summary: Stats,
+    /// Per target.
+    pub targets: Vec<HeldOutTarget>,
+}
+
+/// Fit on control targets, score on check targets.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ControlCheck {
+    /// Control target ids (used in the fit).
+    pub control: Vec<String>,
+    /// The control-only alignment.
+    pub alignment: AlignmentOut,
+    /// Errors of the check targets.
+    pub check: HeldOut,
+}
+
+/// σ̂ = √(SSE / dof): the residual scale corrected for fitted parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SigmaHat {
+    /// σ̂ (m).
+    pub value: f64,
+    /// Sum of squared residuals (m²).
+    pub sse: f64,
+    /// Degrees of freedom (e.g. 2n − 3 for rigid2d).
+    pub dof: usize,
+}
+
+/// Bias, sample std and RMSE of one axis.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AxisStats {
+    /// Mean residual (aligned − survey).
+    pub bias: f64,
+    /// Sample standard deviation (n − 1).
+    pub std: f64,
+    /// Root mean square residual.
+    pub rmse: f64,
+}
+
+/// ASPRS Positional Accuracy Standards (Ed. 2, 2023) figures and NSSDA lines.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Asprs {
+    /// Checkpoints used.
+    pub n_checkpoints: usize,
+    /// True when the checkpoints were not used to fit the alignment.
+    pub independent: bool,
+    /// x axis.
+    pub x: AxisStats,
+    /// y axis.
+    pub y: AxisStats,
+    /// z axis, when heights were fitted.
+    pub z: Option<AxisStats>,
+    /// RMSE_x (m).
+    pub rmse_x: f64,
+    /// RMSE_y (m).
+    pub rmse_y: f64,
+    /// RMSE_H = √(RMSE_x² + RMSE_y²), survey error folded in when given (m).
+    pub rmse_h: f64,
+    /// RMSE_V, survey error folded in when given (m).
+    pub rmse_v: Option<f64>,
+    /// RMSE_3D = √(RMSE_H² + RMSE_V²) (m).
+    pub rmse_3d: Option<f64>,
+    /// RMSE_H of the data alone (m).
+    pub rmse_h_measured: f64,
+    /// RMSE_V of the data alone (m).
+    pub rmse_v_measured: Option<f64>,
+    /// Survey horizontal σ folded in (m).
+    pub survey_sigma_h: Option<f64>,
+    /// Survey vertical σ folded in (m).
+    pub survey_sigma_v: Option<f64>,
+    /// 1.7308 · RMSE_H (m).
+    pub nssda_horizontal_95: f64,
+    /// 1.96 · RMSE_V (m).
+    pub nssda_vertical_95: Option<f64>,
+    /// The NSSDA statements, ready to paste into a report.
+    pub nssda_lines: Vec<String>,
+    /// Caveats (too few checkpoints, not independent).
+    pub warnings: Vec<String>,
+}
+
+/// Ids present on one side only.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Unmatched {
+    /// In the survey, not in the estimates.
+    pub survey_only: Vec<String>,
+    /// In the estimates, not in the survey.
+    pub estimates_only: Vec<String>,
+}
+
+/// Everything one evaluation produced: the content of `result.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResultFile {
+    /// Always [`SCHEMA`].
+    pub schema: String,
+    /// Version of mapgauge that wrote the file.
+    pub mapgauge_version: String,
+    /// Error dimension.
+    #[serde(default)]
+    pub dim: Dim,
+    /// Frame of the survey coordinates.
+    #[serde(default = "local")]
+    pub survey_frame: SurveyFrame,
+    /// ENU origin for lat/lon surveys.
+    #[serde(default)]
+    pub origin: Option<Geodetic>,
+    /// The map → survey alignment.
+    pub alignment: AlignmentOut,
+    /// Every survey target, located or not.
+    pub targets: Vec<TargetOut>,
+    /// Absolute error statistics.
+    pub absolute: Stats,
+    /// Relative error statistics.
+    pub relative: RelativeStats,
+    /// Leave-one-out absolute errors (≥ 3 targets).
+    #[serde(default)]
+    pub leave_one_out: Option<HeldOut>,
+    /// Control/check split, when the survey has roles.
+    #[serde(default)]
+    pub control_check: Option<ControlCheck>,
+    /// σ̂ of the fit.
+    #[serde(default)]
+    pub sigma_hat: Option<SigmaHat>,
+    /// Survey-standard statistics.
+    pub asprs: Asprs,
+    /// Ids on one side only.
+    #[serde(default)]
+    pub unmatched: Unmatched,
+    /// Caveats for the reader.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+    /// Provenance and per-target details of a map evaluation (`eval` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eval: Option<EvalInfo>,
+}
+
+fn local() -> SurveyFrame {
+    SurveyFrame::Local
+}
+
+impl ResultFile {
+    /// Reads a result file, checking its schema.
+    pub fn from_json_file(path: &Path) -> Result<ResultFile> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let r: ResultFile = serde_json::from_str(&text).map_err(|e| {
+            Error::table(path, e.line() as u64, format!("not a mapgauge result: {e}"))
+        })?;
+        if r.schema != SCHEMA {
+            return Err(Error::format(
+                path,
+                format!("schema `{}`, expected `{SCHEMA}`", r.schema),
+            ));
+        }
+        Ok(r)
+    }
+    /// Pretty JSON, ending in a newline.
+    pub fn to_json(&self) -> String {
+        // Serialising plain data cannot fail; NaN becomes null.
+        let mut s = serde_json::to_string_pretty(self).unwrap_or_default();
+        s.push('\n');
+        s
+    }
+}
+

@@ -1,0 +1,269 @@
+//! Renderings of result files: grids of cells (the paper's Tables I and II,
+//! per-target and per-pair tables, statistics) and their encoders to plain
+//! text, Markdown, LaTeX, CSV, HTML and JSON.
+
+mod summary;
+mod tables;
+
+pub use summary::{render_csv, render_report, write_outputs};
+pub use tables::{
+    absolute_grid, extra_grid, merged_ids, pairs_grid, relative_grid, target_label, targets_grid,
+};
+
+use crate::{Error, Result};
+use std::fmt::Write as _;
+
+/// Output flavours of the tables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TableFormat {
+    /// Aligned plain text for the terminal.
+    Text,
+    /// GitHub Markdown.
+    Markdown,
+    /// LaTeX with booktabs.
+    Latex,
+    /// CSV.
+    Csv,
+    /// An HTML `<table>` (a fragment; `mapgauge table` wraps it in a page).
+    Html,
+}
+
+/// What a command prints on stdout: a table flavour or the JSON result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// Tables in this flavour.
+    Table(TableFormat),
+    /// JSON.
+    Json,
+}
+
+impl std::str::FromStr for OutputFormat {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "table" | "text" => OutputFormat::Table(TableFormat::Text),
+            "markdown" | "md" => OutputFormat::Table(TableFormat::Markdown),
+            "latex" | "tex" => OutputFormat::Table(TableFormat::Latex),
+            "csv" => OutputFormat::Table(TableFormat::Csv),
+            "html" => OutputFormat::Table(TableFormat::Html),
+            "json" => OutputFormat::Json,
+            other => {
+                return Err(Error::Param(format!(
+                    "unknown --format `{other}` (table, json, csv, markdown, latex, html)"
+                )));
+            }
+        })
+    }
+}
+
+/// Escapes text for HTML/XML content and attribute values.
+pub fn escape(s: &str) -> String {
+    let mut o = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => o.push_str("&amp;"),
+            '<' => o.push_str("&lt;"),
+            '>' => o.push_str("&gt;"),
+            '"' => o.push_str("&quot;"),
+            '\'' => o.push_str("&#39;"),
+            _ => o.push(c),
+        }
+    }
+    o
+}
+
+/// A header and rows of cells, rendered in any [`TableFormat`].
+#[derive(Debug, Clone, Default)]
+pub struct Grid {
+    /// Column names.
+    pub header: Vec<String>,
+    /// Rows of cells, each as long as the header.
+    pub rows: Vec<Vec<String>>,
+    /// Columns shown bold in Markdown/LaTeX (the paper's E and σ).
+    pub bold: Vec<usize>,
+    /// The numbers behind the cells, where a cell shows one (same shape as
+    /// `rows`, or empty): what JSON writes, so nothing is parsed back out of
+    /// rounded text.
+    pub values: Vec<Vec<Option<f64>>>,
+}
+
+fn csv_cell(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn latex_escape(s: &str) -> String {
+    let mut o = String::new();
+    for c in s.chars() {
+        match c {
+            '&' | '%' | '$' | '#' | '_' | '{' | '}' => {
+                o.push('\\');
+                o.push(c);
+            }
+            'σ' => o.push_str("$\\sigma$"),
+            '→' => o.push_str("$\\to$"),
+            '\\' => o.push_str("\\textbackslash{}"),
+            '<' => o.push_str("\\textless{}"),
+            '>' => o.push_str("\\textgreater{}"),
+            '^' => o.push_str("\\^{}"),
+            '~' => o.push_str("\\~{}"),
+            _ => o.push(c),
+        }
+    }
+    o
+}
+
+impl Grid {
+    /// Renders the grid.
+    pub fn render(&self, fmt: TableFormat) -> String {
+        let mut o = String::new();
+        match fmt {
+            TableFormat::Text => {
+                let ncol = self.header.len();
+                let mut w = vec![0; ncol];
+                for r in std::iter::once(&self.header).chain(&self.rows) {
+                    for (i, c) in r.iter().enumerate().take(ncol) {
+                        w[i] = w[i].max(c.chars().count());
+                    }
+                }
+                for r in std::iter::once(&self.header).chain(&self.rows) {
+                    let cells: Vec<String> = r
+                        .iter()
+                        .enumerate()
+                        .map(|(i, c)| {
+                            if i == 0 {
+                                format!("{c:<width$}", width = w[i])
+                            } else {
+                                format!("{c:>width$}", width = w[i])
+                            }
+                        })
+                        .collect();
+                    let _ = writeln!(o, "{}", cells.join("  ").trim_end());
+                }
+            }
+            TableFormat::Markdown => {
+                let h: Vec<String> = self.header.iter().map(|c| c.replace('|', "\\|")).collect();
+                let _ = writeln!(o, "| {} |", h.join(" | "));
+                let seps: Vec<&str> = (0..self.header.len())
+                    .map(|i| if i == 0 { ":--" } else { "--:" })
+                    .collect();
+                let _ = writeln!(o, "| {} |", seps.join(" | "));
+                for r in &self.rows {
+                    let cells: Vec<String> = r
+                        .iter()
+                        .enumerate()
+                        .map(|(i, c)| {
+                            let c = c.replace('|', "\\|");
+                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                                format!("**{c}**")
+                            } else {
+                                c
+                            }
+                        })
+                        .collect();
+                    let _ = writeln!(o, "| {} |", cells.join(" | "));
+                }
+            }
+            TableFormat::Latex => {
+                let cols: String = (0..self.header.len())
+                    .map(|i| if i == 0 { 'l' } else { 'r' })
+                    .collect();
+                let _ = writeln!(o, "\\begin{{tabular}}{{{cols}}}");
+                let _ = writeln!(o, "\\toprule");
+                let h: Vec<String> = self.header.iter().map(|c| latex_header(c)).collect();
+                let _ = writeln!(o, "{} \\\\", h.join(" & "));
+                let _ = writeln!(o, "\\midrule");
+                for r in &self.rows {
+                    let cells: Vec<String> = r
+                        .iter()
+                        .enumerate()
+                        .map(|(i, c)| {
+                            let e = latex_escape(c);
+                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                                format!("\\textbf{{{e}}}")
+                            } else {
+                                e
+                            }
+                        })
+                        .collect();
+                    let _ = writeln!(o, "{} \\\\", cells.join(" & "));
+                }
+                let _ = writeln!(o, "\\bottomrule");
+                let _ = writeln!(o, "\\end{{tabular}}");
+            }
+            TableFormat::Csv => {
+                for r in std::iter::once(&self.header).chain(&self.rows) {
+                    let cells: Vec<String> = r.iter().map(|c| csv_cell(c)).collect();
+                    let _ = writeln!(o, "{}", cells.join(","));
+                }
+            }
+            TableFormat::Html => {
+                                o.push_str("<table class=\"grid\">\n<thead><tr>");
+                for h in &self.header {
+                    let _ = write!(o, "<th>{}</th>", escape(h));
+                }
+                o.push_str("</tr></thead>\n<tbody>\n");
+                for r in &self.rows {
+                    o.push_str("<tr>");
+                    for (i, c) in r.iter().enumerate() {
+                        let e = escape(c);
+                        // Numbers align right (the stylesheet's default), words left.
+                        let num = c.is_empty()
+                            || c == "–"
+                            || c.chars()
+                                .all(|ch| ch.is_ascii_digit() || "+-.eE".contains(ch));
+                        let class = if num || i == 0 { "" } else { " class=\"t\"" };
+                        if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                            let _ = write!(o, "<td{class}><strong>{e}</strong></td>");
+                        } else {
+                            let _ = write!(o, "<td{class}>{e}</td>");
+                        }
+                    }
+                    o.push_str("</tr>\n");
+                }
+                o.push_str("</tbody>\n</table>\n");
+            }
+        }
+        o
+    }
+}
+
+fn latex_header(c: &str) -> String {
+    match c {
+        "E_rel" => "$E_{rel}$".into(),
+        "σ_rel" => "$\\sigma_{rel}$".into(),
+        "E_abs" => "$E_{abs}$".into(),
+        "σ_abs" => "$\\sigma_{abs}$".into(),
+        _ => latex_escape(c),
+    }
+}
+
+
+impl Grid {
+    /// The grid as JSON rows keyed by column: numbers as numbers (full
+    /// precision, from `values`), blank and "–" cells as null, words as strings.
+    pub fn to_json(&self) -> serde_json::Value {
+        let rows = self
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(r, row)| {
+                let mut m = serde_json::Map::new();
+                for (c, (h, cell)) in self.header.iter().zip(row).enumerate() {
+                    let number = self.values.get(r).and_then(|v| v.get(c)).copied().flatten();
+                    let v = match number {
+                        Some(x) if x.is_finite() => serde_json::json!(x),
+                        _ if cell.is_empty() || cell == "–" => serde_json::Value::Null,
+                        _ => serde_json::Value::String(cell.clone()),
+                    };
+                    m.insert(h.clone(), v);
+                }
+                serde_json::Value::Object(m)
+            })
+            .collect();
+        serde_json::Value::Array(rows)
+    }
+}

@@ -1,0 +1,144 @@
+//! One run's whole report as text, Markdown, LaTeX, HTML or CSV, and the
+//! table files `eval` and `errors` write beside `result.json`.
+
+use super::tables::{absolute_grid, extra_grid, pairs_grid, relative_grid, targets_grid};
+use super::{Grid, TableFormat};
+use crate::accuracy::Dim;
+use crate::record::{ResultFile, write_atomic};
+use crate::{Error, Result};
+use std::fmt::Write as _;
+use std::path::Path;
+
+fn with_caption(o: &mut String, fmt: TableFormat, caption: &str, g: &Grid) {
+    match fmt {
+        TableFormat::Text => {
+            let _ = writeln!(o, "{caption}");
+        }
+        TableFormat::Markdown => {
+            let _ = writeln!(o, "**{caption}**\n");
+        }
+        TableFormat::Latex => {
+            let _ = writeln!(o, "% {caption}");
+        }
+        TableFormat::Html => {
+            let _ = writeln!(o, "<h3>{}</h3>", super::escape(caption));
+        }
+        TableFormat::Csv => {}
+    }
+    o.push_str(&g.render(fmt));
+    o.push('\n');
+}
+
+/// A complete human-readable report of one run in Text, Markdown or LaTeX.
+pub fn render_report(r: &ResultFile, fmt: TableFormat) -> String {
+    if fmt == TableFormat::Csv {
+        return render_csv(r);
+    }
+    let runs = [("result".to_string(), r)];
+    let dim = match r.dim {
+        Dim::D2 => "2D",
+        Dim::D3 => "3D",
+    };
+    let mut o = String::new();
+    with_caption(
+        &mut o,
+        fmt,
+        &format!("Relative error (m, {dim}) — paper Table I layout"),
+        &relative_grid(&runs),
+    );
+    with_caption(
+        &mut o,
+        fmt,
+        &format!("Absolute error (m, {dim}) — paper Table II layout"),
+        &absolute_grid(&runs),
+    );
+    with_caption(&mut o, fmt, "Statistics", &extra_grid(r));
+    if fmt == TableFormat::Text {
+        with_caption(&mut o, fmt, "Pairs", &pairs_grid(r));
+    }
+    let mut notes: Vec<String> = r.asprs.nssda_lines.clone();
+    notes.extend(r.asprs.warnings.iter().map(|w| format!("warning: {w}")));
+    notes.extend(r.warnings.iter().map(|w| format!("warning: {w}")));
+    for t in r.targets.iter().filter(|t| t.status != "ok") {
+        notes.push(format!(
+            "target {} {}: {}",
+            t.id,
+            t.status,
+            t.reason.as_deref().unwrap_or("")
+        ));
+    }
+    for n in notes {
+        let _ = match fmt {
+            TableFormat::Latex => writeln!(o, "% {n}"),
+            TableFormat::Markdown => writeln!(o, "- {n}"),
+            TableFormat::Html => writeln!(o, "<p>{}</p>", super::escape(&n)),
+            _ => writeln!(o, "{n}"),
+        };
+    }
+    o
+}
+
+/// One machine-readable CSV of one run: `table,item,value` rows (absolute,
+/// relative, alignment and ASPRS figures).
+pub fn render_csv(r: &ResultFile) -> String {
+    let mut g = Grid {
+        header: vec!["table".into(), "item".into(), "value".into()],
+        ..Default::default()
+    };
+    let mut add = |t: &str, k: &str, v: f64| g.rows.push(vec![t.into(), k.into(), format!("{v}")]);
+    add("absolute", "mean", r.absolute.mean);
+    add("absolute", "std", r.absolute.std);
+    add("absolute", "rmse", r.absolute.rmse);
+    add("absolute", "median", r.absolute.median);
+    add("absolute", "max", r.absolute.max);
+    for t in &r.targets {
+        if let Some(e) = t.abs_error {
+            add("absolute", &t.id, e);
+        }
+    }
+    add("relative", "mean", r.relative.mean);
+    add("relative", "std", r.relative.std);
+    for p in &r.relative.pairs {
+        add("relative", &format!("{}&{}", p.a, p.b), p.error);
+    }
+    add("alignment", "rotation_deg", r.alignment.rotation_deg);
+    add("alignment", "tx", r.alignment.translation[0]);
+    add("alignment", "ty", r.alignment.translation[1]);
+    add("alignment", "tz", r.alignment.translation[2]);
+    add("alignment", "scale", r.alignment.scale);
+    if let Some(l) = &r.leave_one_out {
+        add("leave_one_out", "mean", l.summary.mean);
+        add("leave_one_out", "rmse", l.summary.rmse);
+    }
+    if let Some(s) = &r.sigma_hat {
+        add("sigma_hat", "value", s.value);
+    }
+    add("asprs", "rmse_x", r.asprs.rmse_x);
+    add("asprs", "rmse_y", r.asprs.rmse_y);
+    add("asprs", "rmse_h", r.asprs.rmse_h);
+    if let Some(v) = r.asprs.rmse_v {
+        add("asprs", "rmse_v", v);
+    }
+    if let Some(v) = r.asprs.rmse_3d {
+        add("asprs", "rmse_3d", v);
+    }
+    add("asprs", "nssda_horizontal_95", r.asprs.nssda_horizontal_95);
+    g.render(TableFormat::Csv)
+}
+
+/// Writes `result.json`, `targets.csv` and `pairs.csv` into `dir` (created if
+/// needed), each atomically (temporary file + rename).
+pub fn write_outputs(r: &ResultFile, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    write_atomic(&dir.join("result.json"), r.to_json().as_bytes())?;
+    write_atomic(
+        &dir.join("targets.csv"),
+        targets_grid(r).render(TableFormat::Csv).as_bytes(),
+    )?;
+    write_atomic(
+        &dir.join("pairs.csv"),
+        pairs_grid(r).render(TableFormat::Csv).as_bytes(),
+    )?;
+    Ok(())
+}
+
