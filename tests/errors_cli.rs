@@ -2,8 +2,14 @@
 
 use mapgauge::Point;
 use mapgauge::align::AlignMethod;
-use mapgauge::metrics::{EvalOptions, evaluate};
-use mapgauge::result::RunResult;
+use mapgauge::accuracy::{ScoreOptions as EvalOptions, score};
+use mapgauge::record::ResultFile as RunResult;
+use mapgauge::survey::{Estimate, Survey};
+
+/// Scores estimates and builds the result file, as `mapgauge errors` does.
+fn evaluate(s: &Survey, e: &[Estimate], o: &EvalOptions) -> mapgauge::Result<RunResult> {
+    Ok(RunResult::from_accuracy(&score(s, e, o)?, s))
+}
 use mapgauge::survey::{Geodetic, SurveyOptions, read_estimates, read_survey};
 use std::path::{Path, PathBuf};
 use std::process::Command;

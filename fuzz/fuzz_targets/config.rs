@@ -4,7 +4,7 @@
 
 mod common;
 
-use mapgauge::eval::EvalConfig;
+use mapgauge::pipeline::Config as EvalConfig;
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let path = common::scratch(data, "toml");

@@ -4,7 +4,8 @@
 
 mod common;
 
-use mapgauge::result::{RunResult, TableFormat, absolute_grid, relative_grid, render_report};
+use mapgauge::record::ResultFile as RunResult;
+use mapgauge::render::{TableFormat, absolute_grid, relative_grid, render_report};
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let path = common::scratch(data, "json");
