@@ -1,8 +1,8 @@
 //! `mapgauge errors` end to end, and the paper's golden numbers (sequence 5).
 
 use mapgauge::Point;
-use mapgauge::align::AlignMethod;
 use mapgauge::accuracy::{ScoreOptions as EvalOptions, score};
+use mapgauge::align::AlignMethod;
 use mapgauge::record::ResultFile as RunResult;
 use mapgauge::survey::{Estimate, Survey};
 

@@ -2,8 +2,8 @@
 //! figures built on them: plain numbers, no alignment policy.
 
 use super::Dim;
-use crate::align::{self, AlignMethod};
 use crate::Point;
+use crate::align::{self, AlignMethod};
 
 /// Summary statistics of a list of errors: the numbers of the paper's tables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,7 +66,12 @@ pub fn dist(a: &Point, b: &Point, dim: Dim) -> f64 {
 
 /// Relative error of every pair: | ‖xᵢ − xⱼ‖ − ‖x̂ᵢ − x̂ⱼ‖ |, in input order
 /// (i < j). Needs no alignment, so it is unaffected by how the map is placed.
-pub fn relative_errors(ids: &[String], map: &[Point], survey: &[Point], dim: Dim) -> Vec<PairError> {
+pub fn relative_errors(
+    ids: &[String],
+    map: &[Point],
+    survey: &[Point],
+    dim: Dim,
+) -> Vec<PairError> {
     let mut out = Vec::new();
     for i in 0..map.len() {
         for j in i + 1..map.len() {
@@ -171,4 +176,3 @@ pub(crate) fn axis(v: &[f64]) -> AxisStats {
         rmse,
     }
 }
-

@@ -97,7 +97,9 @@ mod tests {
 
     #[test]
     fn memory_reader_skips_and_counts_non_finite() {
-        let mut pts: Vec<Point> = (0..200_000).map(|i| Point::new(i as f64, 0.0, 1.0)).collect();
+        let mut pts: Vec<Point> = (0..200_000)
+            .map(|i| Point::new(i as f64, 0.0, 1.0))
+            .collect();
         pts[7].y = f64::NAN;
         pts[150_000].z = f64::INFINITY;
         let mut r = MapSource::Points(&pts).open().unwrap();

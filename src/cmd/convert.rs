@@ -1,7 +1,7 @@
 //! `mapgauge convert`: rewrite a map in another format (streamed).
 
-use mapgauge::record::refuse_overwrite;
 use mapgauge::cloud::{self, CloudWriter, OutFormat};
+use mapgauge::record::refuse_overwrite;
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
 

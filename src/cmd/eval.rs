@@ -183,7 +183,15 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(e) = hash_error {
         return Err(e);
     }
-    write_report(&ev, &result, &cfg, hashed, &in_paths, html.as_deref(), a.plots.as_deref())
+    write_report(
+        &ev,
+        &result,
+        &cfg,
+        hashed,
+        &in_paths,
+        html.as_deref(),
+        a.plots.as_deref(),
+    )
 }
 
 /// Prints a result on stdout in `format`.

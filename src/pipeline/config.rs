@@ -128,7 +128,6 @@ impl Config {
     }
 }
 
-
 /// `v` within `lo..=hi`, or an error naming the key.
 fn range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
     if v >= lo && v <= hi {

@@ -21,7 +21,6 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })
 }
 
-
 /// Refuses to write an output onto one of the inputs: the same file under any
 /// spelling (`./`, `..`, symlinks, hard links), recognised by device and inode.
 pub fn refuse_overwrite(out: &Path, inputs: &[&Path]) -> Result<()> {

@@ -57,7 +57,6 @@ pub struct EvalInfo {
     pub targets: Vec<TargetDetail>,
 }
 
-
 impl EvalInfo {
     /// The `eval` section of an evaluation: what was read and what happened to
     /// each target. `survey` names the survey as the user gave it.

@@ -201,7 +201,7 @@ impl Grid {
                 }
             }
             TableFormat::Html => {
-                                o.push_str("<table class=\"grid\">\n<thead><tr>");
+                o.push_str("<table class=\"grid\">\n<thead><tr>");
                 for h in &self.header {
                     let _ = write!(o, "<th>{}</th>", escape(h));
                 }
@@ -240,7 +240,6 @@ fn latex_header(c: &str) -> String {
         _ => latex_escape(c),
     }
 }
-
 
 impl Grid {
     /// The grid as JSON rows keyed by column: numbers as numbers (full

@@ -141,4 +141,3 @@ pub fn write_outputs(r: &ResultFile, dir: &Path) -> Result<()> {
     )?;
     Ok(())
 }
-

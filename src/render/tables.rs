@@ -306,7 +306,6 @@ pub fn extra_grid(r: &ResultFile) -> Grid {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

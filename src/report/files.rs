@@ -3,9 +3,9 @@
 //! figure files.
 
 use super::{InputFile, Provenance, Report};
+use crate::Result;
 use crate::pipeline::{Config, Evaluation};
 use crate::record::{ResultFile, refuse_overwrite};
-use crate::Result;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 

@@ -7,8 +7,8 @@ use super::figure::{
 };
 use super::{Report, TargetView};
 use crate::Point;
-use crate::locate::Label;
 use crate::align::Alignment;
+use crate::locate::Label;
 use crate::record::{ResultFile, TargetOut};
 use crate::render::target_label;
 use nalgebra::{Vector2, Vector3};

@@ -2,10 +2,12 @@
 //! truth, including the errors a perfect locator would report.
 
 use super::{SynthParams, Truth, generate};
-use crate::cloud::{CloudWriter, OutFormat};
 use crate::accuracy::{self, ScoreOptions};
+use crate::cloud::{CloudWriter, OutFormat};
 use crate::record::{ResultFile, write_atomic};
-use crate::survey::{Estimate, Geodetic, SurveyOptions, read_survey};
+use crate::survey::{
+    Estimate, Geodetic, Survey, SurveyFrame, SurveyOptions, SurveyTarget, read_survey,
+};
 use crate::{Error, Point, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -90,4 +92,28 @@ pub fn write_scene(
     .map_err(|e| Error::Input(e.to_string()))?;
     write_atomic(&files.truth, (json + "\n").as_bytes())?;
     Ok((files, truth, expected))
+}
+
+impl Truth {
+    /// The scene's survey, exactly (the CSV that [`write_scene`] writes rounds
+    /// to 0.1 mm): for evaluating a scene held in memory.
+    pub fn survey(&self) -> Survey {
+        Survey {
+            targets: self
+                .targets
+                .iter()
+                .enumerate()
+                .map(|(i, t)| SurveyTarget {
+                    id: t.id.clone(),
+                    position: Point::new(t.survey.x, t.survey.y, t.survey.z),
+                    has_z: true,
+                    role: None,
+                    antenna_height: t.survey.antenna_height,
+                    line: i as u64 + 2,
+                })
+                .collect(),
+            frame: SurveyFrame::Local,
+            origin: None,
+        }
+    }
 }
