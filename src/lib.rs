@@ -74,6 +74,7 @@
 //! assert!(r.absolute.mean < 0.01); // the shift is aligned away
 //! ```
 #![deny(missing_docs)]
+#![deny(unreachable_pub)]
 
 pub mod accuracy;
 pub mod align;

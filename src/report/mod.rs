@@ -281,7 +281,7 @@ pub(crate) mod tests {
 
     /// A small XML well-formedness check: tags balance, attributes are quoted,
     /// no raw `<` or `&` in text. Enough to catch a broken builder.
-    pub fn check_xmlish(s: &str) {
+    pub(crate) fn check_xmlish(s: &str) {
         let mut stack: Vec<String> = Vec::new();
         let mut i = 0;
         let b = s.as_bytes();
