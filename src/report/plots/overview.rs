@@ -1,0 +1,344 @@
+//! The run-wide figures: survey and aligned positions with magnified error
+//! vectors, and relative error against pair distance.
+
+use super::{legend_dot, legend_marker};
+use crate::record::ResultFile;
+use crate::render::target_label;
+use crate::report::figure::{
+    Anchor, Figure, Item, MarkerKind, Panel, nice_floor, nice_step, palette,
+};
+
+/// Surveyed positions and the aligned estimates, error vectors magnified.
+pub fn overview(r: &ResultFile) -> Figure {
+    let mut f = Figure::new(
+        "overview",
+        "Surveyed target positions and aligned map estimates (error vectors magnified)",
+        780.0,
+        540.0,
+    );
+    let pts: Vec<(f64, f64)> = r.targets.iter().map(|t| (t.survey.x, t.survey.y)).collect();
+    let big = pts.iter().any(|p| p.0.abs() > 1e4 || p.1.abs() > 1e4);
+    let (ox, oy) = if big {
+        let mx = pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+        let my = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        ((mx / 100.0).floor() * 100.0, (my / 100.0).floor() * 100.0)
+    } else {
+        (0.0, 0.0)
+    };
+    let rel: Vec<(f64, f64)> = pts.iter().map(|p| (p.0 - ox, p.1 - oy)).collect();
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for p in &rel {
+        x0 = x0.min(p.0);
+        x1 = x1.max(p.0);
+        y0 = y0.min(p.1);
+        y1 = y1.max(p.1);
+    }
+    if !x0.is_finite() {
+        (x0, x1, y0, y1) = (-1.0, 1.0, -1.0, 1.0);
+    }
+    let span = (x1 - x0).max(y1 - y0).max(1.0);
+    let pad = 0.12 * span;
+    let panel = Panel::new(
+        (70.0, 40.0, 500.0, 440.0),
+        (x0 - pad, x1 + pad),
+        (y0 - pad, y1 + pad),
+        true,
+    );
+    let lab = |a: &str| {
+        if big {
+            format!(
+                "{a} − {:.0} (m, survey frame)",
+                if a == "x" { ox } else { oy }
+            )
+        } else {
+            format!("{a} (m, survey frame)")
+        }
+    };
+    panel.axes(&mut f, "", &lab("x"), &lab("y"));
+
+    let errs: Vec<Option<(f64, f64)>> = r
+        .targets
+        .iter()
+        .map(|t| {
+            t.aligned
+                .filter(|_| t.status == "ok")
+                .map(|a| (a.x - t.survey.x, a.y - t.survey.y))
+        })
+        .collect();
+    let max_err = errs
+        .iter()
+        .flatten()
+        .map(|e| e.0.hypot(e.1))
+        .fold(0.0, f64::max);
+    // The longest vector gets about 15 % of the plot's span.
+    let k = if max_err > 0.0 {
+        nice_floor(0.15 * span / max_err).max(1.0)
+    } else {
+        1.0
+    };
+    for ((t, p), e) in r.targets.iter().zip(&rel).zip(&errs) {
+        let s = panel.map(p.0, p.1);
+        match e {
+            Some(e) => {
+                let tip = panel.map(p.0 + k * e.0, p.1 + k * e.1);
+                if (tip.0 - s.0).hypot(tip.1 - s.1) > 1.0 {
+                    f.items.push(Item::Arrow {
+                        a: s,
+                        b: tip,
+                        color: palette::PLATE1,
+                        width: 2.0,
+                    });
+                }
+                f.marker(s, MarkerKind::Ring, 5.0, palette::SURVEY);
+                f.text(
+                    (s.0 + 8.0, s.1 - 10.0),
+                    &target_label(&t.id),
+                    12.0,
+                    palette::INK,
+                    Anchor::Start,
+                );
+            }
+            None => {
+                f.marker(s, MarkerKind::Cross, 6.0, palette::ERROR);
+                f.text(
+                    (s.0 + 8.0, s.1 - 10.0),
+                    &format!("{} ({})", target_label(&t.id), t.status.replace('_', " ")),
+                    12.0,
+                    palette::ERROR,
+                    Anchor::Start,
+                );
+            }
+        }
+    }
+    // Legend with an error scale bar.
+    let lx = 592.0;
+    f.bold((lx, 50.0), "Legend", 12.0, Anchor::Start);
+    legend_marker(
+        &mut f,
+        (lx + 6.0, 74.0),
+        MarkerKind::Ring,
+        palette::SURVEY,
+        "surveyed position",
+    );
+    f.items.push(Item::Arrow {
+        a: (lx, 98.0),
+        b: (lx + 24.0, 98.0),
+        color: palette::PLATE1,
+        width: 2.0,
+    });
+    f.text(
+        (lx + 30.0, 98.0),
+        "aligned estimate",
+        11.0,
+        palette::INK,
+        Anchor::Start,
+    );
+    f.text(
+        (lx + 30.0, 112.0),
+        "− survey (error)",
+        11.0,
+        palette::INK,
+        Anchor::Start,
+    );
+    legend_marker(
+        &mut f,
+        (lx + 6.0, 136.0),
+        MarkerKind::Cross,
+        palette::ERROR,
+        "not found",
+    );
+    f.bold(
+        (lx, 170.0),
+        &format!("errors magnified ×{}", fmt_k(k)),
+        12.0,
+        Anchor::Start,
+    );
+    if max_err > 0.0 {
+        let unit = nice_step(max_err / 2.0);
+        let len = unit * k * panel.scale();
+        f.items.push(Item::Arrow {
+            a: (lx, 192.0),
+            b: (lx + len.min(170.0), 192.0),
+            color: palette::PLATE1,
+            width: 2.0,
+        });
+        f.text(
+            (lx, 208.0),
+            &format!(
+                "= {} error{}",
+                fmt_len(unit),
+                if len > 170.0 { " (clipped)" } else { "" }
+            ),
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+        f.text(
+            (lx, 230.0),
+            &format!("largest: {}", fmt_len(max_err)),
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+    }
+    let n_ok = r.targets.iter().filter(|t| t.status == "ok").count();
+    f.text(
+        (lx, 252.0),
+        &format!("{n_ok} of {} targets found", r.targets.len()),
+        11.0,
+        palette::INK,
+        Anchor::Start,
+    );
+    f.text(
+        (lx, 274.0),
+        &format!("alignment: {}", r.alignment.method),
+        11.0,
+        palette::INK,
+        Anchor::Start,
+    );
+    f
+}
+
+fn fmt_k(k: f64) -> String {
+    if k >= 1.0 {
+        format!("{k:.0}")
+    } else {
+        format!("{k}")
+    }
+}
+
+/// A length in mm below 1 m, in m above.
+pub fn fmt_len(m: f64) -> String {
+    if m.abs() < 1.0 {
+        format!("{:.1} mm", m * 1000.0)
+    } else {
+        format!("{m:.3} m")
+    }
+}
+
+/// Least-squares line `y = a + b x`; `None` with fewer than 2 points or no spread in x.
+pub fn fit_line(xy: &[(f64, f64)]) -> Option<(f64, f64)> {
+    if xy.len() < 2 {
+        return None;
+    }
+    let n = xy.len() as f64;
+    let mx = xy.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = xy.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = xy.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = xy.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    if !(sxx > 1e-12 * n) {
+        return None;
+    }
+    let b = sxy / sxx;
+    Some((my - b * mx, b))
+}
+
+/// Relative error of every pair against the pairs' surveyed distance, with a
+/// least-squares line (the paper observes that the error grows with distance).
+pub fn relative(r: &ResultFile) -> Figure {
+    let mut f = Figure::new(
+        "relative",
+        "Relative error against pair distance, with a least-squares line",
+        780.0,
+        420.0,
+    );
+    let xy: Vec<(f64, f64)> = r
+        .relative
+        .pairs
+        .iter()
+        .map(|p| (p.survey_distance, p.error * 1000.0))
+        .collect();
+    let xmax = xy.iter().map(|p| p.0).fold(0.0, f64::max).max(1.0);
+    let ymax = xy.iter().map(|p| p.1).fold(0.0, f64::max).max(1.0);
+    let panel = Panel::new(
+        (70.0, 40.0, 500.0, 320.0),
+        (0.0, xmax * 1.08),
+        (0.0, ymax * 1.15),
+        false,
+    );
+    panel.axes(
+        &mut f,
+        "",
+        "surveyed distance between the two targets (m)",
+        "relative error (mm)",
+    );
+    let fit = fit_line(&xy);
+    if let Some((a, b)) = fit {
+        let (xa, xb) = (panel.x.0, panel.x.1);
+        if let Some((p, q)) = panel.clip((xa, a + b * xa), (xb, a + b * xb)) {
+            f.line(p, q, palette::SAMPLE, 2.0, false);
+        }
+    }
+    if r.relative.n > 0 && r.relative.mean.is_finite() {
+        let m = r.relative.mean * 1000.0;
+        f.line(
+            panel.map(panel.x.0, m),
+            panel.map(panel.x.1, m),
+            palette::OUTLIER,
+            1.0,
+            true,
+        );
+    }
+    f.items.push(Item::Dots {
+        xy: xy.iter().map(|p| panel.map(p.0, p.1)).collect(),
+        r: 4.5,
+        color: palette::PLATE1,
+    });
+    if xy.len() <= 15 {
+        for (p, pair) in xy.iter().zip(&r.relative.pairs) {
+            let s = panel.map(p.0, p.1);
+            f.text(
+                (s.0 + 7.0, s.1 - 8.0),
+                &format!("{}&{}", target_label(&pair.a), target_label(&pair.b)),
+                9.0,
+                palette::INK,
+                Anchor::Start,
+            );
+        }
+    }
+    let lx = 592.0;
+    f.bold((lx, 50.0), "Legend", 12.0, Anchor::Start);
+    legend_dot(&mut f, (lx + 6.0, 74.0), palette::PLATE1, "one target pair");
+    f.line((lx, 96.0), (lx + 22.0, 96.0), palette::SAMPLE, 2.0, false);
+    f.text(
+        (lx + 30.0, 96.0),
+        "least-squares line",
+        11.0,
+        palette::INK,
+        Anchor::Start,
+    );
+    f.line((lx, 118.0), (lx + 22.0, 118.0), palette::OUTLIER, 1.0, true);
+    f.text(
+        (lx + 30.0, 118.0),
+        "E_rel (mean)",
+        11.0,
+        palette::INK,
+        Anchor::Start,
+    );
+    let mut y = 150.0;
+    let mut line = |f: &mut Figure, s: String| {
+        f.text((lx, y), &s, 11.0, palette::INK, Anchor::Start);
+        y += 18.0;
+    };
+    line(&mut f, format!("{} pairs", xy.len()));
+    match fit {
+        Some((a, b)) => {
+            line(&mut f, format!("slope {:.2} mm per 100 m", b * 100.0));
+            line(&mut f, format!("intercept {a:.2} mm"));
+            let n = xy.len() as f64;
+            let my = xy.iter().map(|p| p.1).sum::<f64>() / n;
+            let ss: f64 = xy.iter().map(|p| (p.1 - my).powi(2)).sum();
+            let res: f64 = xy.iter().map(|p| (p.1 - a - b * p.0).powi(2)).sum();
+            if ss > 0.0 {
+                line(&mut f, format!("R² {:.2}", 1.0 - res / ss));
+            }
+        }
+        None => line(&mut f, "too few pairs for a line".into()),
+    }
+    f
+}
