@@ -81,6 +81,8 @@ pub fn wrap(s: &str, width: usize) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::locate::Label;
+    use crate::report::TargetView;
 
     #[test]
     fn line_fit_and_wrap() {
