@@ -164,25 +164,9 @@ fn evaluate(
     passes::common_vertical(&mut found, cfg);
 
     let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
-    if n_found < cfg.metrics.align.min_points() {
-        let why: Vec<String> = found
-            .iter()
-            .filter_map(|r| r.outcome.as_ref().err().map(|e| format!("{}: {e}", r.id)))
-            .take(5)
-            .collect();
-        return Err(Error::Input(format!(
-            "{}: only {n_found} of {} targets found in the map (need {} for {}); {}{}. Is the map in the survey frame? If not, give --init x,y,yaw_deg",
-            map.name,
-            survey.targets.len(),
-            cfg.metrics.align.min_points(),
-            cfg.metrics.align.name(),
-            why.join("; "),
-            if survey.targets.len() - n_found > why.len() {
-                "; ..."
-            } else {
-                ""
-            },
-        )));
+    let need = cfg.metrics.align.min_points().max(2);
+    if n_found < need {
+        return Err(too_few_found(&found, survey, n_found, need, cfg, &map.name));
     }
     let accuracy = accuracy::score(survey, &estimates(&found), &opts)?;
     Ok(Evaluation {
@@ -191,6 +175,49 @@ fn evaluate(
         map,
         warnings,
     })
+}
+
+/// The error when too few targets were located to align: which were not and
+/// why, and the remedy that fits the survey's frame.
+fn too_few_found(
+    found: &[TargetRun],
+    survey: &Survey,
+    n_found: usize,
+    need: usize,
+    cfg: &Config,
+    map: &str,
+) -> Error {
+    let why: Vec<String> = found
+        .iter()
+        .filter_map(|r| r.outcome.as_ref().err().map(|e| format!("{}: {e}", r.id)))
+        .collect();
+    let mut msg = format!(
+        "{map}: only {n_found} of {} targets found in the map (need {need} for {})",
+        survey.targets.len(),
+        cfg.metrics.align.name(),
+    );
+    if !why.is_empty() {
+        msg += "; ";
+        msg += &why[..why.len().min(5)].join("; ");
+        if why.len() > 5 {
+            msg += "; ...";
+        }
+    }
+    if survey.targets.len() < need {
+        msg += &format!(
+            ". The survey has {} target(s): {need} are needed to align",
+            survey.targets.len()
+        );
+    } else if n_found < survey.targets.len() {
+        msg += &match (survey.frame, survey.origin) {
+            (crate::survey::SurveyFrame::Wgs84Enu, Some(o)) => format!(
+                ". The survey is WGS84, placed in a local east-north-up frame about {:.7}, {:.7}; if the map's origin is elsewhere, give --origin LAT,LON[,ALT] of the map's origin (and --init x,y,yaw_deg if its axes are not east and north)",
+                o.lat, o.lon
+            ),
+            _ => ". Is the map in the survey frame? If not, give --init x,y,yaw_deg".into(),
+        };
+    }
+    Error::Input(msg)
 }
 
 /// The located corners as estimates for [`accuracy::score`].

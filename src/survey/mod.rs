@@ -136,6 +136,26 @@ struct Table {
     rows: Vec<(u64, csv::StringRecord)>,
 }
 
+/// The field separator of a survey or estimates table, from its first line
+/// that is neither blank nor a comment: `;` or a tab when that line has no
+/// comma but has those (spreadsheet exports in many locales), else `,`.
+fn sniff_delimiter(bytes: &[u8]) -> u8 {
+    let first = bytes
+        .split(|b| *b == b'\n')
+        .map(|l| l.trim_ascii())
+        .find(|l| !l.is_empty() && *l != b",")
+        .unwrap_or(b"");
+    if first.contains(&b',') {
+        b','
+    } else if first.contains(&b';') {
+        b';'
+    } else if first.contains(&b'\t') {
+        b'\t'
+    } else {
+        b','
+    }
+}
+
 impl Table {
     fn read(path: &Path) -> Result<Table> {
         let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -151,9 +171,19 @@ impl Table {
                 bytes.extend_from_slice(l);
             }
         }
+        let delimiter = sniff_delimiter(&bytes);
+        // A blanked comment line is a lone separator: keep it one for `;`/tab files.
+        if delimiter != b',' {
+            for l in bytes.split_mut(|b| *b == b'\n') {
+                if l == b"," {
+                    l[0] = delimiter;
+                }
+            }
+        }
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
+            .delimiter(delimiter)
             .trim(csv::Trim::All)
             .from_reader(bytes.as_slice());
         let mut headers = None;
@@ -168,6 +198,18 @@ impl Table {
                 continue;
             }
             if headers.is_none() {
+                // A first row of numbers is data, not names: say so rather than
+                // guess which columns they are.
+                if rec.len() >= 3 && rec.iter().skip(1).all(|f| f.parse::<f64>().is_ok()) {
+                    return Err(Error::table(
+                        path,
+                        line,
+                        format!(
+                            "no header line (this row holds numbers: `{}`); the first line must name the columns, e.g. `id,x,y,z` (local metres) or `id,lat,lon,alt` (WGS84)",
+                            rec.iter().collect::<Vec<_>>().join(",")
+                        ),
+                    ));
+                }
                 let h: Vec<String> = rec.iter().map(|f| f.to_ascii_lowercase()).collect();
                 let mut seen = HashSet::new();
                 for name in &h {
