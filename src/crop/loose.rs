@@ -141,10 +141,10 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(centers: &[Point], radius: f64) -> Grid {
+    fn new(centres: &[Point], radius: f64) -> Grid {
         let mut min = [f64::INFINITY; 2];
         let mut max = [f64::NEG_INFINITY; 2];
-        for c in centers {
+        for c in centres {
             for k in 0..2 {
                 min[k] = min[k].min(c[k] - radius);
                 max[k] = max[k].max(c[k] + radius);
@@ -168,7 +168,7 @@ impl Grid {
         // distance test lies in a cell that lists its target.
         let idx =
             |v: f64, lo: f64, n: usize| (((v - lo) * inv).floor().max(0.0) as usize).min(n - 1);
-        for (i, c) in centers.iter().enumerate() {
+        for (i, c) in centres.iter().enumerate() {
             let ex = 1e-9 * (c.x.abs() + radius + 1.0);
             let ey = 1e-9 * (c.y.abs() + radius + 1.0);
             let x0 = idx(c.x - radius - ex, min[0], nx);
@@ -220,13 +220,13 @@ impl Grid {
 /// inside its crop region. `progress` is called with the bytes consumed so far.
 pub fn loose_crop(
     reader: &mut dyn PointReader,
-    centers: &[Point],
+    centres: &[Point],
     params: &LooseParams,
     progress: impl FnMut(u64),
 ) -> Result<LooseCrop> {
-    let mut kept = vec![Thinned::new(params.max_points); centers.len()];
+    let mut kept = vec![Thinned::new(params.max_points); centres.len()];
     let (map_points, skipped_nonfinite) =
-        loose_crop_each(reader, centers, params, progress, |i, p| {
+        loose_crop_each(reader, centres, params, progress, |i, p| {
             kept[i].extend(p);
             Ok(())
         })?;
@@ -244,7 +244,7 @@ pub fn loose_crop(
 /// size. Returns the map's finite and skipped non-finite point counts.
 pub fn loose_crop_each(
     reader: &mut dyn PointReader,
-    centers: &[Point],
+    centres: &[Point],
     params: &LooseParams,
     mut progress: impl FnMut(u64),
     mut sink: impl FnMut(usize, &[Point]) -> Result<()>,
@@ -255,14 +255,14 @@ pub fn loose_crop_each(
             params.radius
         )));
     }
-    if centers.is_empty() {
+    if centres.is_empty() {
         return Ok((0, 0));
     }
-    let grid = Grid::new(centers, params.radius);
+    let grid = Grid::new(centres, params.radius);
     // Handed to the reader so that it drops most of the map before building
     // points; the exact test below still decides.
     let region = Region::discs(
-        &centers.iter().map(|c| [c.x, c.y]).collect::<Vec<_>>(),
+        &centres.iter().map(|c| [c.x, c.y]).collect::<Vec<_>>(),
         params.radius,
     );
     let r2 = params.radius * params.radius;
@@ -295,7 +295,7 @@ pub fn loose_crop_each(
     // lie, without a copy; a piece that mixes targets (crops overlapping, or
     // two targets near one piece) is sorted out per target first, in order,
     // so that `sink` is never called point by point.
-    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centers.len()];
+    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centres.len()];
     let mut drain = |hits: &[(Vec<u32>, Vec<Point>)]| -> Result<()> {
         for (ids, pts) in hits {
             let Some(&first) = ids.first() else {
@@ -348,7 +348,7 @@ pub fn loose_crop_each(
                         let res = block.map(|block| {
                             for p in block {
                                 for &i in grid.candidates(p) {
-                                    if inside(p, &centers[i as usize]) {
+                                    if inside(p, &centres[i as usize]) {
                                         ids.push(i);
                                         pts.push(*p);
                                     }
@@ -442,7 +442,7 @@ mod tests {
                 )
             })
             .collect();
-        let centers: Vec<Point> = (0..25)
+        let centres: Vec<Point> = (0..25)
             .map(|i| {
                 let a = i as f64 * 0.7;
                 Point::new(
@@ -456,11 +456,11 @@ mod tests {
                 Point::new(origin[0] + 3.0, origin[1] + 2.0, origin[2]),
             ])
             .collect();
-        (pts, centers)
+        (pts, centres)
     }
 
-    fn brute(pts: &[Point], centers: &[Point], p: &LooseParams) -> Vec<usize> {
-        centers
+    fn brute(pts: &[Point], centres: &[Point], p: &LooseParams) -> Vec<usize> {
+        centres
             .iter()
             .map(|c| {
                 pts.iter()
@@ -480,7 +480,7 @@ mod tests {
 
     #[test]
     fn counts_equal_brute_force_for_both_shapes() {
-        let (pts, centers) = scene([0.0; 3], 1);
+        let (pts, centres) = scene([0.0; 3], 1);
         for shape in [Shape::Cylinder, Shape::Sphere] {
             let params = LooseParams {
                 radius: 5.0,
@@ -488,9 +488,9 @@ mod tests {
                 ..LooseParams::default()
             };
             let mut r = VecReader::new(pts.clone(), 70_001);
-            let crop = loose_crop(&mut r, &centers, &params, |_| {}).unwrap();
+            let crop = loose_crop(&mut r, &centres, &params, |_| {}).unwrap();
             let got: Vec<usize> = crop.points.iter().map(Vec::len).collect();
-            assert_eq!(got, brute(&pts, &centers, &params));
+            assert_eq!(got, brute(&pts, &centres, &params));
             assert_eq!(crop.map_points, pts.len() as u64);
             assert!(got.iter().all(|&n| n > 0));
         }
@@ -530,22 +530,22 @@ mod tests {
             .iter()
             .enumerate()
         {
-            let (mut pts, mut centers) = scene(*origin, 11 + k as u64);
+            let (mut pts, mut centres) = scene(*origin, 11 + k as u64);
             if k == 2 {
                 // A survey typo far away coarsens the region's grid, which
                 // must still hold every point of the other targets.
-                centers.push(Point::new(1e300, -1e15, 0.0));
+                centres.push(Point::new(1e300, -1e15, 0.0));
             }
             let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
-            for c in &centers {
+            for c in &centres {
                 for j in 0..400 {
                     let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
                     let d = 5.0 * (1.0 + (j as f64 - 200.0) * 1e-15);
                     pts.push(Point::new(c.x + d * a.cos(), c.y + d * a.sin(), c.z));
                 }
             }
-            pts.push(Point::new(f64::NAN, centers[0].y, 0.0));
-            pts.push(Point::new(centers[0].x, centers[0].y, f64::INFINITY));
+            pts.push(Point::new(f64::NAN, centres[0].y, 0.0));
+            pts.push(Point::new(centres[0].x, centres[0].y, f64::INFINITY));
             let path = dir.path().join(format!("m{k}.pcd"));
             let mut w =
                 crate::cloud::CloudWriter::create(&path, crate::cloud::OutFormat::Pcd).unwrap();
@@ -563,15 +563,15 @@ mod tests {
                     ..LooseParams::default()
                 };
                 let mut r = crate::cloud::open(&path).unwrap();
-                let crop = loose_crop(&mut *r, &centers, &params, |_| {}).unwrap();
+                let crop = loose_crop(&mut *r, &centres, &params, |_| {}).unwrap();
                 let got: Vec<usize> = crop.points.iter().map(Vec::len).collect();
-                assert_eq!(got, brute(&finite, &centers, &params), "case {k}");
+                assert_eq!(got, brute(&finite, &centres, &params), "case {k}");
                 assert!(got.iter().filter(|&&n| n > 0).count() >= 25, "case {k}");
                 assert_eq!(crop.map_points, finite.len() as u64);
                 assert_eq!(crop.skipped_nonfinite, 2);
                 let all = loose_crop(
                     &mut VecReader::new(finite.clone(), 4096),
-                    &centers,
+                    &centres,
                     &params,
                     |_| {},
                 )
@@ -583,16 +583,16 @@ mod tests {
 
     #[test]
     fn order_is_independent_of_block_size() {
-        let (pts, centers) = scene([0.0; 3], 3);
+        let (pts, centres) = scene([0.0; 3], 3);
         let p = LooseParams::default();
         let a = loose_crop(
             &mut VecReader::new(pts.clone(), 1_000),
-            &centers,
+            &centres,
             &p,
             |_| {},
         )
         .unwrap();
-        let b = loose_crop(&mut VecReader::new(pts, 1 << 20), &centers, &p, |_| {}).unwrap();
+        let b = loose_crop(&mut VecReader::new(pts, 1 << 20), &centres, &p, |_| {}).unwrap();
         assert_eq!(a.points, b.points);
     }
 
