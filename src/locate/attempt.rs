@@ -144,17 +144,22 @@ impl<'a> Ctx<'a> {
             resid,
         } = s;
         let mut rng = attempt_rng(self.params.seed, index);
+        // 1. k-means (K = 2): the crop → clusters P1, P2.
         self.kmeans_split(&mut rng, cl)?;
         clusters(cl, idx);
+        // 2.–3. Per plate: RANSAC's inliers P_k^R, then their SVD plane P_k^op.
         self.ransac(&idx[0], &mut rng, sub, &mut inl[0])?;
         let p1 = svd_plane(self.pts, &inl[0])?;
         self.ransac(&idx[1], &mut rng, sub, &mut inl[1])?;
         let p2 = svd_plane(self.pts, &inl[1])?;
         let mut planes = [p1, p2];
         two_planes(&planes)?;
+        // Beyond the paper: refit each plate in a noise-wide band.
         self.refit(&mut planes, inl, next, resid)?;
+        // 4. Gates: perpendicular to each other, each perpendicular to the ground.
         self.perpendicular(&planes)?;
         self.vertical(&planes)?;
+        // 5. Corner: the planes' intersection line at the inliers' mean height.
         let height = self.mean_height(inl);
         let corner = self.corner(&planes, height)?;
         if let Some(labels) = labels {

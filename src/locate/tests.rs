@@ -237,10 +237,7 @@ mod behaviour {
         let b = run(3, &p);
         assert_eq!(a, b);
         assert_eq!(a.labels.len(), t.points.len());
-        assert!(
-            a.labels.iter().any(|l| *l == Label::Plate1)
-                && a.labels.iter().any(|l| *l == Label::Plate2)
-        );
+        assert!(a.labels.contains(&Label::Plate1) && a.labels.contains(&Label::Plate2));
         let c = run(2, &LocateParams { seed: 99, ..p });
         assert_ne!(a.corner, c.corner);
         for k in 0..3 {
