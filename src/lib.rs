@@ -7,6 +7,7 @@
 //!
 //! | stage | module | what |
 //! |---|---|---|
+//! | geometry | `geom` (crate-internal) | planes, least-squares (SVD) plane fit, plane RANSAC: shared by crop and locate |
 //! | map | [`cloud`] | streaming readers (PCD, PLY, LAS/LAZ, E57, XYZ) and crop writers |
 //! | survey | [`survey`] | survey CSV, WGS84 → local ENU |
 //! | crop | [`crop`] | loose crop (one pass for all targets), automatic tight crop |
@@ -81,6 +82,7 @@ pub mod align;
 pub mod cloud;
 pub mod crop;
 mod error;
+pub(crate) mod geom;
 pub mod locate;
 pub mod pipeline;
 pub mod record;

@@ -42,10 +42,10 @@ pub struct LooseParams {
     /// Crop shape.
     pub shape: Shape,
     /// Most points [`loose_crop`] keeps per target (0 = all). Beyond it the crop
-    /// is thinned uniformly at random (deterministically, see [`Thinned`]), so a
-    /// dense accumulated map needs memory bounded by the number of targets, not
-    /// by the map's density: 500,000 points of a 5 m crop still put tens of
-    /// thousands on a 0.6 m target.
+    /// is thinned uniformly at random (deterministically: a hash of each point
+    /// decides), so a dense accumulated map needs memory bounded by the number
+    /// of targets, not by the map's density: 500,000 points of a 5 m crop still
+    /// put tens of thousands on a 0.6 m target.
     pub max_points: usize,
 }
 
@@ -65,19 +65,19 @@ impl Default for LooseParams {
 /// points (not on their order or on thread count); each point survives with the
 /// same probability, 2^-`level`, so the thinning is uniform over the crop.
 #[derive(Debug, Clone, Default)]
-pub struct Thinned {
+pub(crate) struct Thinned {
     /// The kept points, in the order they were pushed.
-    pub points: Vec<Point>,
+    pub(crate) points: Vec<Point>,
     /// Halvings so far: 0 = every point kept.
-    pub level: u32,
+    pub(crate) level: u32,
     /// Points offered, kept or not.
-    pub offered: u64,
+    pub(crate) offered: u64,
     cap: usize,
 }
 
 impl Thinned {
     /// An empty list that keeps at most `cap` points (0 = no limit).
-    pub fn new(cap: usize) -> Self {
+    pub(crate) fn new(cap: usize) -> Self {
         Thinned {
             cap,
             ..Default::default()
@@ -97,7 +97,7 @@ impl Thinned {
     }
 
     /// Offers points; keeps those that pass the current threshold.
-    pub fn extend(&mut self, pts: &[Point]) {
+    pub(crate) fn extend(&mut self, pts: &[Point]) {
         self.offered += pts.len() as u64;
         let level = self.level;
         self.points
@@ -141,10 +141,10 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(centers: &[Point], radius: f64) -> Grid {
+    fn new(centres: &[Point], radius: f64) -> Grid {
         let mut min = [f64::INFINITY; 2];
         let mut max = [f64::NEG_INFINITY; 2];
-        for c in centers {
+        for c in centres {
             for k in 0..2 {
                 min[k] = min[k].min(c[k] - radius);
                 max[k] = max[k].max(c[k] + radius);
@@ -168,7 +168,7 @@ impl Grid {
         // distance test lies in a cell that lists its target.
         let idx =
             |v: f64, lo: f64, n: usize| (((v - lo) * inv).floor().max(0.0) as usize).min(n - 1);
-        for (i, c) in centers.iter().enumerate() {
+        for (i, c) in centres.iter().enumerate() {
             let ex = 1e-9 * (c.x.abs() + radius + 1.0);
             let ey = 1e-9 * (c.y.abs() + radius + 1.0);
             let x0 = idx(c.x - radius - ex, min[0], nx);
@@ -220,13 +220,13 @@ impl Grid {
 /// inside its crop region. `progress` is called with the bytes consumed so far.
 pub fn loose_crop(
     reader: &mut dyn PointReader,
-    centers: &[Point],
+    centres: &[Point],
     params: &LooseParams,
     progress: impl FnMut(u64),
 ) -> Result<LooseCrop> {
-    let mut kept = vec![Thinned::new(params.max_points); centers.len()];
+    let mut kept = vec![Thinned::new(params.max_points); centres.len()];
     let (map_points, skipped_nonfinite) =
-        loose_crop_each(reader, centers, params, progress, |i, p| {
+        loose_crop_each(reader, centres, params, progress, |i, p| {
             kept[i].extend(p);
             Ok(())
         })?;
@@ -244,7 +244,7 @@ pub fn loose_crop(
 /// size. Returns the map's finite and skipped non-finite point counts.
 pub fn loose_crop_each(
     reader: &mut dyn PointReader,
-    centers: &[Point],
+    centres: &[Point],
     params: &LooseParams,
     mut progress: impl FnMut(u64),
     mut sink: impl FnMut(usize, &[Point]) -> Result<()>,
@@ -255,14 +255,14 @@ pub fn loose_crop_each(
             params.radius
         )));
     }
-    if centers.is_empty() {
+    if centres.is_empty() {
         return Ok((0, 0));
     }
-    let grid = Grid::new(centers, params.radius);
+    let grid = Grid::new(centres, params.radius);
     // Handed to the reader so that it drops most of the map before building
     // points; the exact test below still decides.
     let region = Region::discs(
-        &centers.iter().map(|c| [c.x, c.y]).collect::<Vec<_>>(),
+        &centres.iter().map(|c| [c.x, c.y]).collect::<Vec<_>>(),
         params.radius,
     );
     let r2 = params.radius * params.radius;
@@ -295,7 +295,7 @@ pub fn loose_crop_each(
     // lie, without a copy; a piece that mixes targets (crops overlapping, or
     // two targets near one piece) is sorted out per target first, in order,
     // so that `sink` is never called point by point.
-    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centers.len()];
+    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centres.len()];
     let mut drain = |hits: &[(Vec<u32>, Vec<Point>)]| -> Result<()> {
         for (ids, pts) in hits {
             let Some(&first) = ids.first() else {
@@ -348,7 +348,7 @@ pub fn loose_crop_each(
                         let res = block.map(|block| {
                             for p in block {
                                 for &i in grid.candidates(p) {
-                                    if inside(p, &centers[i as usize]) {
+                                    if inside(p, &centres[i as usize]) {
                                         ids.push(i);
                                         pts.push(*p);
                                     }
@@ -377,282 +377,5 @@ pub fn loose_crop_each(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::cloud::{CloudInfo, Format, ReadStats};
-    use rand::{Rng, SeedableRng};
-
-    /// An in-memory reader handing out fixed-size blocks.
-    pub(crate) struct VecReader {
-        pts: Vec<Point>,
-        pos: usize,
-        block: usize,
-        info: CloudInfo,
-    }
-
-    impl VecReader {
-        pub(crate) fn new(pts: Vec<Point>, block: usize) -> Self {
-            let info = CloudInfo {
-                format: Format::Xyz,
-                declared_points: Some(pts.len() as u64),
-                file_bytes: 0,
-            };
-            VecReader {
-                pts,
-                pos: 0,
-                block,
-                info,
-            }
-        }
-    }
-
-    impl PointReader for VecReader {
-        fn info(&self) -> &CloudInfo {
-            &self.info
-        }
-        fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
-            buf.clear();
-            if self.pos >= self.pts.len() {
-                return Ok(false);
-            }
-            let end = (self.pos + self.block).min(self.pts.len());
-            buf.extend_from_slice(&self.pts[self.pos..end]);
-            self.pos = end;
-            Ok(true)
-        }
-        fn stats(&self) -> ReadStats {
-            ReadStats {
-                points: self.pos as u64,
-                skipped_nonfinite: 0,
-            }
-        }
-        fn bytes_read(&self) -> u64 {
-            self.pos as u64 * 24
-        }
-    }
-
-    fn scene(origin: [f64; 3], seed: u64) -> (Vec<Point>, Vec<Point>) {
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
-        let pts: Vec<Point> = (0..200_000)
-            .map(|_| {
-                Point::new(
-                    origin[0] + rng.random_range(-100.0..100.0),
-                    origin[1] + rng.random_range(-100.0..100.0),
-                    origin[2] + rng.random_range(-5.0..5.0),
-                )
-            })
-            .collect();
-        let centers: Vec<Point> = (0..25)
-            .map(|i| {
-                let a = i as f64 * 0.7;
-                Point::new(
-                    origin[0] + 60.0 * a.cos(),
-                    origin[1] + 60.0 * a.sin(),
-                    origin[2],
-                )
-            })
-            .chain([
-                Point::new(origin[0] + 1.0, origin[1] + 2.0, origin[2]),
-                Point::new(origin[0] + 3.0, origin[1] + 2.0, origin[2]),
-            ])
-            .collect();
-        (pts, centers)
-    }
-
-    fn brute(pts: &[Point], centers: &[Point], p: &LooseParams) -> Vec<usize> {
-        centers
-            .iter()
-            .map(|c| {
-                pts.iter()
-                    .filter(|q| {
-                        let h = (q.x - c.x).powi(2) + (q.y - c.y).powi(2);
-                        let d = if p.shape == Shape::Sphere {
-                            h + (q.z - c.z).powi(2)
-                        } else {
-                            h
-                        };
-                        d < p.radius * p.radius
-                    })
-                    .count()
-            })
-            .collect()
-    }
-
-    #[test]
-    fn counts_equal_brute_force_for_both_shapes() {
-        let (pts, centers) = scene([0.0; 3], 1);
-        for shape in [Shape::Cylinder, Shape::Sphere] {
-            let params = LooseParams {
-                radius: 5.0,
-                shape,
-                ..LooseParams::default()
-            };
-            let mut r = VecReader::new(pts.clone(), 70_001);
-            let crop = loose_crop(&mut r, &centers, &params, |_| {}).unwrap();
-            let got: Vec<usize> = crop.points.iter().map(Vec::len).collect();
-            assert_eq!(got, brute(&pts, &centers, &params));
-            assert_eq!(crop.map_points, pts.len() as u64);
-            assert!(got.iter().all(|&n| n > 0));
-        }
-    }
-
-    #[test]
-    fn utm_sized_coordinates_give_the_same_crops_as_the_origin() {
-        let offset = [350_000.0, 4_150_000.0, 50.0];
-        let (pts0, c0) = scene([0.0; 3], 7);
-        let shift = |v: &[Point]| {
-            v.iter()
-                .map(|p| Point::new(p.x + offset[0], p.y + offset[1], p.z + offset[2]))
-                .collect::<Vec<_>>()
-        };
-        let (pts1, c1) = (shift(&pts0), shift(&c0));
-        let params = LooseParams::default();
-        let a = loose_crop(&mut VecReader::new(pts0, 50_000), &c0, &params, |_| {}).unwrap();
-        let b = loose_crop(&mut VecReader::new(pts1, 50_000), &c1, &params, |_| {}).unwrap();
-        for (pa, pb) in a.points.iter().zip(&b.points) {
-            assert_eq!(pa.len(), pb.len());
-            for (p, q) in pa.iter().zip(pb) {
-                assert!(
-                    (q.x - offset[0] - p.x).abs() < 1e-9 && (q.y - offset[1] - p.y).abs() < 1e-9
-                );
-            }
-        }
-    }
-
-    /// Through a file reader that drops points outside the crop region before
-    /// building them: the same crops as brute force, also for points a hair
-    /// inside and outside the rim and at UTM-sized coordinates, and the same
-    /// map and NaN counts as a plain read.
-    #[test]
-    fn region_filtered_file_reads_equal_brute_force() {
-        let dir = tempfile::tempdir().unwrap();
-        for (k, origin) in [[0.0; 3], [512_345.5, 5_412_345.25, 120.0], [0.0; 3]]
-            .iter()
-            .enumerate()
-        {
-            let (mut pts, mut centers) = scene(*origin, 11 + k as u64);
-            if k == 2 {
-                // A survey typo far away coarsens the region's grid, which
-                // must still hold every point of the other targets.
-                centers.push(Point::new(1e300, -1e15, 0.0));
-            }
-            let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
-            for c in &centers {
-                for j in 0..400 {
-                    let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-                    let d = 5.0 * (1.0 + (j as f64 - 200.0) * 1e-15);
-                    pts.push(Point::new(c.x + d * a.cos(), c.y + d * a.sin(), c.z));
-                }
-            }
-            pts.push(Point::new(f64::NAN, centers[0].y, 0.0));
-            pts.push(Point::new(centers[0].x, centers[0].y, f64::INFINITY));
-            let path = dir.path().join(format!("m{k}.pcd"));
-            let mut w =
-                crate::cloud::CloudWriter::create(&path, crate::cloud::OutFormat::Pcd).unwrap();
-            w.write(&pts).unwrap();
-            w.finish().unwrap();
-            let finite: Vec<Point> = pts
-                .iter()
-                .copied()
-                .filter(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite())
-                .collect();
-            for shape in [Shape::Cylinder, Shape::Sphere] {
-                let params = LooseParams {
-                    shape,
-                    max_points: 0,
-                    ..LooseParams::default()
-                };
-                let mut r = crate::cloud::open(&path).unwrap();
-                let crop = loose_crop(&mut *r, &centers, &params, |_| {}).unwrap();
-                let got: Vec<usize> = crop.points.iter().map(Vec::len).collect();
-                assert_eq!(got, brute(&finite, &centers, &params), "case {k}");
-                assert!(got.iter().filter(|&&n| n > 0).count() >= 25, "case {k}");
-                assert_eq!(crop.map_points, finite.len() as u64);
-                assert_eq!(crop.skipped_nonfinite, 2);
-                let all = loose_crop(
-                    &mut VecReader::new(finite.clone(), 4096),
-                    &centers,
-                    &params,
-                    |_| {},
-                )
-                .unwrap();
-                assert_eq!(crop.points, all.points);
-            }
-        }
-    }
-
-    #[test]
-    fn order_is_independent_of_block_size() {
-        let (pts, centers) = scene([0.0; 3], 3);
-        let p = LooseParams::default();
-        let a = loose_crop(
-            &mut VecReader::new(pts.clone(), 1_000),
-            &centers,
-            &p,
-            |_| {},
-        )
-        .unwrap();
-        let b = loose_crop(&mut VecReader::new(pts, 1 << 20), &centers, &p, |_| {}).unwrap();
-        assert_eq!(a.points, b.points);
-    }
-
-    #[test]
-    fn bad_radius_is_an_error() {
-        let p = LooseParams {
-            radius: -1.0,
-            ..LooseParams::default()
-        };
-        let e = loose_crop(
-            &mut VecReader::new(vec![], 10),
-            &[Point::origin()],
-            &p,
-            |_| {},
-        )
-        .unwrap_err();
-        assert!(e.to_string().contains("radius"));
-    }
-
-    #[test]
-    fn thinning_is_bounded_uniform_and_order_free() {
-        let pts: Vec<Point> = (0..100_000)
-            .map(|i| {
-                let t = i as f64;
-                Point::new(
-                    (t * 0.618).fract() * 10.0,
-                    (t * 0.377).fract() * 10.0,
-                    t * 1e-5,
-                )
-            })
-            .collect();
-        let mut a = Thinned::new(30_000);
-        for c in pts.chunks(777) {
-            a.extend(c);
-        }
-        assert!(
-            a.points.len() <= 30_000 && a.points.len() > 10_000,
-            "{}",
-            a.points.len()
-        );
-        assert_eq!((a.level, a.offered), (2, 100_000));
-        // Same set whatever the order the points arrive in.
-        let mut b = Thinned::new(30_000);
-        let rev: Vec<Point> = pts.iter().rev().copied().collect();
-        b.extend(&rev);
-        let key = |v: &[Point]| {
-            let mut k: Vec<[u64; 3]> = v
-                .iter()
-                .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-                .collect();
-            k.sort();
-            k
-        };
-        assert_eq!(key(&a.points), key(&b.points));
-        // Uniform: each half of the x range keeps about half of the points.
-        let left = a.points.iter().filter(|p| p.x < 5.0).count() as f64;
-        assert!((left / a.points.len() as f64 - 0.5).abs() < 0.02);
-        // No cap: nothing is dropped.
-        let mut c = Thinned::new(0);
-        c.extend(&pts);
-        assert_eq!((c.points.len(), c.level), (pts.len(), 0));
-    }
-}
+#[path = "loose_tests.rs"]
+mod tests;

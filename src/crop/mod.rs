@@ -5,5 +5,5 @@
 mod loose;
 mod tight;
 
-pub use loose::{LooseCrop, LooseParams, Shape, Thinned, loose_crop, loose_crop_each};
+pub use loose::{LooseCrop, LooseParams, Shape, loose_crop, loose_crop_each};
 pub use tight::{TightCrop, TightError, TightParams, tight_crop};

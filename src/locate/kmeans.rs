@@ -34,7 +34,8 @@ pub enum Init {
 /// Splits `pts` into two clusters; `labels[i]` becomes 0 or 1.
 ///
 /// Returns `false` when a cluster ends up empty (the split is unusable).
-pub fn split2<R: Rng>(
+#[cfg(test)]
+pub(crate) fn split2<R: Rng>(
     pts: &[Vector3<f64>],
     up: &Vector3<f64>,
     space: Space,
@@ -55,7 +56,7 @@ pub fn split2<R: Rng>(
 /// The points' horizontal coordinates in a basis perpendicular to `up` (a unit
 /// vector): distances between them are those of the projections along `up`,
 /// at two thirds of the cost.
-pub fn horizontal(pts: &[Vector3<f64>], up: &Vector3<f64>) -> Vec<Vector2<f64>> {
+pub(crate) fn horizontal(pts: &[Vector3<f64>], up: &Vector3<f64>) -> Vec<Vector2<f64>> {
     let helper = if up.x.abs() < 0.9 {
         Vector3::x()
     } else {
@@ -74,7 +75,7 @@ pub fn horizontal(pts: &[Vector3<f64>], up: &Vector3<f64>) -> Vec<Vector2<f64>> 
 /// `sample` points drawn at random (with replacement) and every point then
 /// goes to the nearer one: the split of a two-plate crop hardly changes, the
 /// cost drops to one pass over all points.
-pub fn split2_points<const D: usize, R: Rng>(
+pub(crate) fn split2_points<const D: usize, R: Rng>(
     pts: &[SVector<f64, D>],
     init: Init,
     iterations: usize,

@@ -1,0 +1,191 @@
+//! Tight crop on synthetic scenes: slopes, clutter, a car, a bush, failures.
+
+use super::*;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+struct Scene {
+    pts: Vec<Point>,
+    corner: Point,
+}
+
+/// Ground with slope and bumps, an L target (perforated plates on a post,
+/// antenna on top), and optional clutter, sampled uniformly with noise.
+fn scene(seed: u64, slope_deg: f64, heading: f64, clutter: &[&str]) -> Scene {
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let noise = Normal::new(0.0, 0.01).unwrap();
+    let origin = Vector3::new(352_000.0, 4_150_000.0, 40.0);
+    let slope = slope_deg.to_radians().tan();
+    let ground = |x: f64, y: f64| slope * x + 0.05 * (x * 0.8).sin() * (y * 0.6).cos();
+    let mut pts = Vec::new();
+    let mut push = |v: Vector3<f64>, rng: &mut rand_pcg::Pcg64Mcg| {
+        let n = Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng));
+        pts.push(Point::from(origin + v + n));
+    };
+    for _ in 0..20_000 {
+        let (x, y) = (rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0));
+        push(Vector3::new(x, y, ground(x, y)), &mut rng);
+    }
+    let (c, base) = (Vector3::new(0.7, -0.4, 0.0), ground(0.7, -0.4));
+    let bottom = base + 0.8;
+    let d = [
+        Vector3::new(heading.cos(), heading.sin(), 0.0),
+        Vector3::new(-heading.sin(), heading.cos(), 0.0),
+    ];
+    for k in 0..2 {
+        let mut n = 0;
+        while n < 400 {
+            let (s, h) = (rng.random_range(0.0..0.6), rng.random_range(0.0..0.6));
+            // Grill: bars every 5 cm, half open.
+            if ((s / 0.025) as i64 + (h / 0.025) as i64) % 2 == 1 {
+                continue;
+            }
+            push(c + d[k] * s + Vector3::new(0.0, 0.0, bottom + h), &mut rng);
+            n += 1;
+        }
+    }
+    for _ in 0..80 {
+        let h = rng.random_range(base..bottom);
+        push(c + Vector3::new(0.0, 0.0, h), &mut rng); // post
+    }
+    for _ in 0..40 {
+        let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        push(
+            c + Vector3::new(0.08 * a.cos(), 0.08 * a.sin(), bottom + 0.7),
+            &mut rng,
+        ); // antenna
+    }
+    for what in clutter {
+        match *what {
+            "wall" => {
+                for _ in 0..4000 {
+                    let (s, h) = (rng.random_range(-4.0..4.0), rng.random_range(0.0..3.0));
+                    push(Vector3::new(-2.5, s, ground(-2.5, s) + h), &mut rng);
+                }
+            }
+            "pole" => {
+                for _ in 0..500 {
+                    let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+                    let h = rng.random_range(0.0..4.0);
+                    push(
+                        Vector3::new(
+                            2.2 + 0.1 * a.cos(),
+                            0.3 + 0.1 * a.sin(),
+                            ground(2.2, 0.3) + h,
+                        ),
+                        &mut rng,
+                    );
+                }
+            }
+            "bush" => {
+                // A blob touching the back of the target.
+                let b = c - (d[0] + d[1]) * 0.45 + Vector3::new(0.0, 0.0, base + 0.6);
+                for _ in 0..1500 {
+                    let v = Vector3::new(
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                    );
+                    if v.norm() < 1.0 {
+                        push(b + v * 0.5, &mut rng);
+                    }
+                }
+            }
+            "car" => {
+                // A car body 0.8 m tall (as tall as an L of plates), its
+                // corner nearer the expected position than the target.
+                for _ in 0..8000 {
+                    let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.3..1.1));
+                    let v = match rng.random_range(0..4) {
+                        0 => Vector3::new(-4.0 + s, -2.0, 0.0),
+                        1 => Vector3::new(-4.0 + s, -3.8, 0.0),
+                        2 => Vector3::new(-4.0, -2.0 - s * 0.4, 0.0),
+                        _ => Vector3::new(0.5, -2.0 - s * 0.4, 0.0),
+                    };
+                    push(v + Vector3::new(0.0, 0.0, ground(v.x, v.y) + h), &mut rng);
+                }
+            }
+            "box" => {
+                for _ in 0..6000 {
+                    let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.0..1.5));
+                    let side = rng.random_range(0..2);
+                    let v = if side == 0 {
+                        Vector3::new(-1.0 + s, 2.6, 0.0)
+                    } else {
+                        Vector3::new(-1.0, 2.6 + s * 0.4, 0.0)
+                    };
+                    push(v + Vector3::new(0.0, 0.0, ground(v.x, v.y) + h), &mut rng);
+                }
+            }
+            _ => unreachable!(),
+        }
+    }
+    let corner = Point::from(origin + c + Vector3::new(0.0, 0.0, bottom + 0.3));
+    Scene { pts, corner }
+}
+
+fn check(sc: &Scene, expected_offset: Vector3<f64>) -> TightCrop {
+    let expected = sc.corner + expected_offset;
+    let t = tight_crop(&sc.pts, &expected, &TightParams::default()).unwrap();
+    let e = ((t.corner_guess - sc.corner).xy()).norm();
+    assert!(e < 0.06, "corner guess off by {e:.3} m");
+    assert!(t.points.len() > 500, "only {} points kept", t.points.len());
+    // Nothing far from the plates survives.
+    for p in &t.points {
+        assert!((p - sc.corner).xy().norm() < 0.75);
+    }
+    t
+}
+
+#[test]
+fn finds_target_on_level_ground() {
+    let sc = scene(1, 0.0, 0.3, &[]);
+    let t = check(&sc, Vector3::new(1.5, -1.0, 0.0));
+    assert!(t.ground_tilt_deg < 1.0);
+}
+
+#[test]
+fn finds_target_on_sloped_ground_with_clutter() {
+    for (seed, clutter) in [
+        (2, vec!["wall"]),
+        (3, vec!["pole", "box"]),
+        (4, vec!["wall", "pole"]),
+    ] {
+        let sc = scene(seed, 4.0, 1.1 + seed as f64, &clutter);
+        let t = check(&sc, Vector3::new(-1.0, 2.0, 0.0));
+        // 4° of ground slope is a slope, not a tilted map.
+        assert_eq!(t.up, [0.0, 0.0, 1.0]);
+    }
+}
+
+#[test]
+fn a_car_corner_is_not_a_target() {
+    let sc = scene(8, 1.0, 0.4, &["car"]);
+    // Expected position 1.6 m from the car's corner, 2.2 m from the target.
+    check(&sc, Vector3::new(-2.0, -0.8, 0.0));
+}
+
+#[test]
+fn finds_target_with_a_bush_touching_it() {
+    let sc = scene(5, 1.0, 2.0, &["bush"]);
+    check(&sc, Vector3::new(0.5, 0.5, 0.0));
+}
+
+#[test]
+fn reports_why_nothing_was_found() {
+    assert_eq!(
+        tight_crop(&[], &Point::origin(), &TightParams::default()).unwrap_err(),
+        TightError::NoPoints
+    );
+    let mut sc = scene(6, 2.0, 0.0, &["wall"]);
+    // Remove the target: everything within 1 m of it.
+    let c = sc.corner;
+    sc.pts.retain(|p| (p - c).xy().norm() > 1.0);
+    let e = tight_crop(&sc.pts, &c, &TightParams::default()).unwrap_err();
+    assert!(matches!(e, TightError::NoTargetShape { .. }), "{e}");
+    let flat: Vec<Point> = (0..1000)
+        .map(|i| Point::new((i % 40) as f64 * 0.2, (i / 40) as f64 * 0.2, 0.0))
+        .collect();
+    let e = tight_crop(&flat, &Point::new(4.0, 2.0, 0.0), &TightParams::default()).unwrap_err();
+    assert!(matches!(e, TightError::NothingAboveGround { .. }), "{e}");
+}

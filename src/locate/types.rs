@@ -1,0 +1,148 @@
+//! What the locator returns: the located corner with its spread and
+//! diagnostics, or a typed reason why the crop could not be located.
+
+use super::MIN_POINTS;
+use crate::Point;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+/// Why attempts were rejected: tells a bad crop from a strict gate.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Rejects {
+    /// k-means left a cluster empty, or a plate had too few inliers to fit.
+    pub degenerate: usize,
+    /// Both clusters gave (nearly) the same plane (< 45° apart): one plate seen twice.
+    pub same_plane: usize,
+    /// Planes 45°–(90° − tolerance) apart.
+    pub not_perpendicular: usize,
+    /// Planes perpendicular, but a plate tilted from vertical by more than the tolerance.
+    pub tilted: usize,
+}
+
+impl Rejects {
+    pub(crate) fn total(&self) -> usize {
+        self.degenerate + self.same_plane + self.not_perpendicular + self.tilted
+    }
+}
+
+/// One point's role in the reference sample, for plots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Label {
+    /// Inlier of plate 1's plane.
+    Plate1,
+    /// Inlier of plate 2's plane.
+    Plate2,
+    /// Neither (pole, antenna, noise).
+    Outlier,
+}
+
+/// One plate of the reference sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PlateFit {
+    /// Unit normal of the fitted plane.
+    pub normal: [f64; 3],
+    /// Points within the inlier threshold used in the final fit.
+    pub inliers: usize,
+    /// Angle between the plate and the vertical (`up`), degrees.
+    pub tilt_deg: f64,
+}
+
+/// A located target.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Located {
+    /// The corner: mean of the accepted samples, in the crop's frame.
+    #[serde(serialize_with = "ser_point")]
+    pub corner: Point,
+    /// Population standard deviation of the accepted samples per axis, metres.
+    pub std: [f64; 3],
+    /// Accepted samples averaged into `corner`.
+    pub accepted: usize,
+    /// Attempts needed to collect them (accepted + rejected).
+    pub attempts: usize,
+    /// Why the rejected attempts failed.
+    pub rejects: Rejects,
+    /// The plates of the reference sample (the last accepted one).
+    pub plates: [PlateFit; 2],
+    /// Angle between the plates in the reference sample, degrees.
+    pub plate_angle_deg: f64,
+    /// Per-point role in the reference sample (same order as the input).
+    #[serde(skip)]
+    pub labels: Vec<Label>,
+    /// Every accepted sample corner, in the crop's frame (their scatter is the
+    /// spread a report plots).
+    #[serde(skip)]
+    pub samples: Vec<Point>,
+}
+
+impl Located {
+    /// One number for the spread: the norm of `std`, metres.
+    pub fn spread(&self) -> f64 {
+        Vector3::from(self.std).norm()
+    }
+    /// Fraction of attempts accepted.
+    pub fn acceptance(&self) -> f64 {
+        self.accepted as f64 / self.attempts.max(1) as f64
+    }
+}
+
+fn ser_point<S: serde::Serializer>(p: &Point, s: S) -> Result<S::Ok, S::Error> {
+    [p.x, p.y, p.z].serialize(s)
+}
+
+/// Why a crop could not be located.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LocateError {
+    /// Not enough points to fit two planes.
+    #[error("too few points: {n} (need at least {MIN_POINTS})")]
+    TooFewPoints {
+        /// Points in the crop.
+        n: usize,
+    },
+    /// A coordinate is NaN or infinite.
+    #[error("point {index} has a non-finite coordinate")]
+    NonFinite {
+        /// Index of the offending point.
+        index: usize,
+    },
+    /// Every split found the same plane twice: the crop shows one plate.
+    #[error(
+        "only one plate visible: in {same_plane} of {attempts} attempts both clusters fit the same plane"
+    )]
+    OnePlate {
+        /// Attempts made.
+        attempts: usize,
+        /// Attempts whose two planes were < 45° apart.
+        same_plane: usize,
+    },
+    /// The gates rejected (almost) everything within the attempt limit.
+    #[error(
+        "only {accepted} of {attempts} attempts passed the perpendicularity gates (need {needed}); rejected: {} degenerate, {} same plane, {} not perpendicular, {} tilted",
+        rejects.degenerate, rejects.same_plane, rejects.not_perpendicular, rejects.tilted
+    )]
+    TooFewAccepted {
+        /// Accepted samples.
+        accepted: usize,
+        /// `min_samples`.
+        needed: usize,
+        /// Attempts made (`max_attempts`).
+        attempts: usize,
+        /// Why the others failed.
+        rejects: Rejects,
+    },
+    /// The `up` vector is zero or not finite.
+    #[error("up vector must be finite and non-zero")]
+    BadUp,
+    /// A parameter is out of range.
+    #[error("invalid locate parameter: {0}")]
+    Param(String),
+}
+
+impl From<LocateError> for crate::Error {
+    fn from(e: LocateError) -> Self {
+        match e {
+            LocateError::Param(m) => crate::Error::Param(m),
+            other => crate::Error::Input(other.to_string()),
+        }
+    }
+}
