@@ -277,10 +277,23 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
     let n = used.len();
     let need = opts.method.min_points().max(2);
     if n < need {
-        return Err(Error::Input(format!(
+        let mut msg = format!(
             "only {n} target(s) are both surveyed and located; at least {need} are needed for {} alignment",
             opts.method
-        )));
+        );
+        let shared = estimates.iter().any(|e| survey.get(&e.id).is_some());
+        if !shared && !estimates.is_empty() {
+            let list = |ids: Vec<&str>| {
+                let more = if ids.len() > 5 { ", ..." } else { "" };
+                ids[..ids.len().min(5)].join(", ") + more
+            };
+            msg += &format!(
+                ": the ids differ (survey: {}; estimates: {})",
+                list(survey.targets.iter().map(|t| t.id.as_str()).collect()),
+                list(estimates.iter().map(|e| e.id.as_str()).collect())
+            );
+        }
+        return Err(Error::Input(msg));
     }
     let all_z = used.iter().all(|&k| survey.targets[k].has_z)
         && used.iter().all(|&k| {

@@ -47,7 +47,9 @@ pub fn run(a: Args) -> Result<()> {
             a.radius
         )));
     }
+    super::check_out_dir(&a.out)?;
     let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
+    super::check_origin_used(&survey, a.origin, &a.survey)?;
     let init = a.init.unwrap_or([0.0; 3]);
     let centres: Vec<Point> = survey
         .targets

@@ -37,6 +37,7 @@ pub fn run(a: Args) -> Result<()> {
         ..SynthParams::default()
     };
     params.validate()?;
+    super::check_out_dir(&a.out)?;
     let t0 = std::time::Instant::now();
     eprintln!(
         "demo: synthesising a {}-target scene of about {} points...",

@@ -44,7 +44,11 @@ pub fn run(a: Args) -> Result<()> {
             return Err(Error::Param("--survey-sigma must be ≥ 0".into()));
         }
     }
+    if let Some(out) = &a.out {
+        super::check_out_dir(out)?;
+    }
     let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
+    super::check_origin_used(&survey, a.origin, &a.survey)?;
     let estimates = read_estimates(&a.estimates)?;
     let acc = score(
         &survey,

@@ -117,6 +117,9 @@ pub fn config(a: &Args) -> Result<Config> {
     if let Some(i) = a.init {
         cfg.frame.init = Some(i);
     }
+    if let Some(o) = a.origin {
+        cfg.frame.origin = Some([o.lat, o.lon, o.alt]);
+    }
     cfg.validate()?;
     Ok(cfg)
 }
@@ -133,6 +136,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     if let Some(out) = &a.out {
         // Before the work, not after it: a refused output should cost nothing.
+        super::check_out_dir(out)?;
         for name in ["result.json", "targets.csv", "pairs.csv"] {
             refuse_overwrite(&out.join(name), &[map, survey_path])?;
         }
@@ -255,7 +259,12 @@ pub fn evaluate(
     a: &Args,
     cfg: &Config,
 ) -> Result<(Evaluation, ResultFile)> {
-    let survey = read_survey(survey_path, &SurveyOptions { origin: a.origin })?;
+    let origin = cfg
+        .frame
+        .origin
+        .map(|[lat, lon, alt]| Geodetic { lat, lon, alt });
+    let survey = read_survey(survey_path, &SurveyOptions { origin })?;
+    super::check_origin_used(&survey, origin, survey_path)?;
     let pb = progress_bar(
         std::fs::metadata(map).map(|m| m.len()).unwrap_or(0),
         "reading map",

@@ -73,3 +73,31 @@ pub fn origin(s: &str) -> std::result::Result<mapgauge::survey::Geodetic, String
     }
     Ok(mapgauge::survey::Geodetic { lat, lon, alt })
 }
+
+/// Refuses an output directory that names an existing file, before any work
+/// is done (a refused output should cost nothing).
+pub fn check_out_dir(out: &std::path::Path) -> mapgauge::Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(mapgauge::Error::Param(format!(
+            "--out {}: exists and is not a directory",
+            out.display()
+        )));
+    }
+    Ok(())
+}
+
+/// `--origin` only means something for a lat/lon survey: refuse it with a
+/// local one rather than ignore it.
+pub fn check_origin_used(
+    survey: &mapgauge::survey::Survey,
+    origin: Option<mapgauge::survey::Geodetic>,
+    path: &std::path::Path,
+) -> mapgauge::Result<()> {
+    if origin.is_some() && survey.frame == mapgauge::survey::SurveyFrame::Local {
+        return Err(mapgauge::Error::Param(format!(
+            "--origin applies to WGS84 (lat,lon) surveys, but {} is in local x,y coordinates",
+            path.display()
+        )));
+    }
+    Ok(())
+}

@@ -134,6 +134,7 @@ pub fn run(a: Args) -> Result<()> {
     let Some(dir) = a.out else {
         return Err(Error::Param("--out DIR is required".into()));
     };
+    super::check_out_dir(&dir)?;
     if let Some(cfg) = &a.config {
         let ext = a.format.extension();
         for name in [

@@ -61,6 +61,9 @@ pub struct FrameConfig {
     /// Approximate map → survey transform `[x, y, yaw_deg]` (survey = R·map + t);
     /// `None` = the map is in the survey frame to within a few metres.
     pub init: Option<[f64; 3]>,
+    /// ENU origin `[lat, lon, alt]` of a WGS84 survey (degrees, metres);
+    /// `None` = the survey's first target. Used where the survey is read.
+    pub origin: Option<[f64; 3]>,
     /// Search again for targets not found, around the positions predicted by
     /// the alignment of the ones that were.
     pub second_pass: bool,
@@ -78,6 +81,7 @@ impl Default for FrameConfig {
     fn default() -> Self {
         FrameConfig {
             init: None,
+            origin: None,
             second_pass: true,
             second_pass_min_shift: 0.5,
             max_tilt_deg: 3.0,
@@ -106,7 +110,10 @@ impl Config {
             Error::table(path, line as u64, msg)
         })?;
         cfg.validate().map_err(|e| match e {
-            Error::Param(m) => Error::format(path, m),
+            Error::Param(m) => {
+                let key = m.split(" = ").next().unwrap_or("");
+                Error::table(path, key_line(text, key), m)
+            }
             other => other,
         })?;
         Ok(cfg)
@@ -122,10 +129,58 @@ impl Config {
         self.frame.validate()
     }
     /// The configuration as TOML, every default written out.
+    /// Settings left unset (TOML has no null) appear as comments that say
+    /// what unset means.
     pub fn to_toml(&self) -> String {
-        toml::to_string_pretty(self)
-            .unwrap_or_else(|e| format!("# cannot print configuration: {e}\n"))
+        let text = toml::to_string_pretty(self)
+            .unwrap_or_else(|e| format!("# cannot print configuration: {e}\n"));
+        let mut unset: Vec<(&str, &str)> = Vec::new();
+        if self.metrics.survey_sigma_h.is_none() {
+            unset.push(("metrics", "# survey_sigma_h = 0.02   # unset: the survey's own error is not folded in"));
+        }
+        if self.metrics.survey_sigma_v.is_none() {
+            unset.push(("metrics", "# survey_sigma_v = 0.03   # unset: the survey's own error is not folded in"));
+        }
+        if self.frame.init.is_none() {
+            unset.push(("frame", "# init = [x, y, yaw_deg]   # unset: the map is in the survey frame (survey = R(yaw)·map + (x, y))"));
+        }
+        if self.frame.origin.is_none() {
+            unset.push(("frame", "# origin = [lat, lon, alt]   # unset: a WGS84 survey's first target"));
+        }
+        let mut out = String::new();
+        for line in text.lines() {
+            out.push_str(line);
+            out.push('\n');
+            if let Some(section) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+                for (_, c) in unset.iter().filter(|(s, _)| *s == section) {
+                    out.push_str(c);
+                    out.push('\n');
+                }
+            }
+        }
+        out
     }
+}
+
+/// The line of `section.key` in a TOML text (0 when not found): so a value
+/// out of range is reported where it was written.
+fn key_line(text: &str, dotted: &str) -> u64 {
+    let Some((section, key)) = dotted.split_once('.') else {
+        return 0;
+    };
+    let mut current = "";
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if let Some(s) = l.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            current = s.trim();
+        } else if current == section
+            && l.split('=').next().is_some_and(|k| k.trim() == key)
+            && l.contains('=')
+        {
+            return i as u64 + 1;
+        }
+    }
+    0
 }
 
 /// `v` within `lo..=hi`, or an error naming the key.
@@ -205,6 +260,11 @@ impl FrameConfig {
             for v in i {
                 range("frame.init", v, -1e8, 1e8)?;
             }
+        }
+        if let Some([lat, lon, alt]) = self.origin {
+            range("frame.origin", lat, -90.0, 90.0)?;
+            range("frame.origin", lon, -180.0, 360.0)?;
+            range("frame.origin", alt, -1e5, 1e5)?;
         }
         range(
             "frame.second_pass_min_shift",
