@@ -1,21 +1,17 @@
 //! `mapgauge errors` end to end, and the paper's golden numbers (sequence 5).
 
+use crate::util::{bin, tempdir};
 use mapgauge::Point;
 use mapgauge::align::AlignMethod;
 use mapgauge::metrics::{EvalOptions, evaluate};
 use mapgauge::result::RunResult;
 use mapgauge::survey::{Geodetic, SurveyOptions, read_estimates, read_survey};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data")
         .join(name)
-}
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
 }
 
 fn paper() -> RunResult {
@@ -153,7 +149,7 @@ fn every_method_runs_on_the_paper_data() {
 
 #[test]
 fn cli_table_json_and_out_dir() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let out = bin()
         .args(["errors", "--survey"])
         .arg(data("paper_seq5_survey.csv"))
@@ -264,7 +260,7 @@ fn cli_other_formats() {
 
 #[test]
 fn cli_errors_are_one_line_and_name_the_file() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let bad = dir.path().join("bad.csv");
     std::fs::write(&bad, "id,x,y\n1,0,0\n2,zero,0\n").unwrap();
     let out = bin()
@@ -315,7 +311,7 @@ fn cli_geodetic_survey_matches_local_survey() {
         lon: 127.3604,
         alt: 68.2,
     };
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let s = read_survey(&data("paper_seq5_survey.csv"), &SurveyOptions::default()).unwrap();
     let mut csv = String::from("id,lat,lon,alt,role\n");
     for (i, t) in s.targets.iter().enumerate() {

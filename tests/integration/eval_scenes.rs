@@ -2,11 +2,9 @@
 //! `mapgauge synth` writes a LiDAR-like map, `mapgauge eval` measures it, and
 //! the result is compared with the scene's true target positions.
 
+use crate::util::{bin, tempdir};
 use serde_json::Value;
 use std::path::Path;
-use std::process::Command;
-
-const BIN: &str = env!("CARGO_BIN_EXE_mapgauge");
 
 struct Outcome {
     found: usize,
@@ -18,7 +16,7 @@ struct Outcome {
 
 /// Runs `mapgauge synth --out SCENE ARGS...`, which must succeed.
 fn synth_into(scene: &Path, args: &[&str]) {
-    let out = Command::new(BIN)
+    let out = bin()
         .arg("synth")
         .arg("--out")
         .arg(scene)
@@ -35,7 +33,7 @@ fn synth_into(scene: &Path, args: &[&str]) {
 /// Runs `mapgauge eval` on a scene's map and survey into `res` with `threads`
 /// rayon threads (None: the default); must succeed.
 fn eval_into(map: &Path, survey: &Path, res: &Path, threads: Option<&str>) {
-    let mut cmd = Command::new(BIN);
+    let mut cmd = bin();
     if let Some(t) = threads {
         cmd.env("RAYON_NUM_THREADS", t);
     }
@@ -126,7 +124,7 @@ fn run(dir: &Path, synth: &[&str]) -> Outcome {
 /// The acceptance: every target found, median localisation error
 /// ≤ 1 cm, E_abs and E_rel within `tol_mm` of the truth.
 fn accept(synth: &[&str], tol_abs_mm: f64, tol_rel_mm: f64) {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let o = run(dir.path(), synth);
     assert_eq!(o.found, o.total, "{synth:?}: not every target found");
     let median = o.errors_mm[o.errors_mm.len() / 2];
@@ -212,12 +210,12 @@ fn twelve_targets() {
 }
 
 fn eval(args: &[&std::ffi::OsStr]) -> std::process::Output {
-    Command::new(BIN).arg("eval").args(args).output().unwrap()
+    bin().arg("eval").args(args).output().unwrap()
 }
 
 #[test]
 fn init_transform_hand_crops_and_failures() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let d = dir.path();
     let scene = d.join("scene");
     // A map 30° and ~50 m away from the survey frame.
@@ -343,7 +341,7 @@ fn init_transform_hand_crops_and_failures() {
     assert!(err.contains("bad.csv:3"), "{err}");
 
     // Paper-style table across two runs.
-    let out = Command::new(BIN)
+    let out = bin()
         .args(["table", "--format", "latex", "--names", "a,b"])
         .arg(res.join("result.json"))
         .arg(res.join("result.json"))
@@ -360,7 +358,7 @@ fn init_transform_hand_crops_and_failures() {
 
 #[test]
 fn same_input_same_bytes() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let d = dir.path();
     let scene = d.join("scene");
     synth_into(&scene, &["--seed", "12", "--points", "600000"]);
