@@ -6,11 +6,13 @@
 //! cargo test --release --test integration golden::
 //! ```
 
+mod truth;
 mod util;
 
 mod cli_crop;
 mod cli_formats;
 mod cli_locate;
+mod demo_truth;
 mod errors_cli;
 mod eval_scenes;
 mod golden;
