@@ -363,3 +363,44 @@ fn cli_geodetic_survey_matches_local_survey() {
     assert!(r.asprs.independent && r.asprs.n_checkpoints == 1);
     assert_eq!(r.asprs.survey_sigma_h, Some(0.02));
 }
+
+/// A lat/lon/alt survey read with an origin lands where PROJ puts it (values from
+/// PROJ 9.5.1 topocentric, tests/data/geodesy_proj.py): east is east, south is
+/// negative north, through the survey reader and not just the geodesy functions.
+#[test]
+fn geodetic_survey_reads_to_projs_east_north_up() {
+    let dir = tempdir();
+    let llh = dir.path().join("survey_llh.csv");
+    std::fs::write(
+        &llh,
+        "id,lat,lon,alt\nne,36.3735,127.365,75.5\nsw,36.371,127.3612,64.0\n",
+    )
+    .unwrap();
+    let opts = SurveyOptions {
+        origin: Some(Geodetic {
+            lat: 36.3725,
+            lon: 127.3631,
+            alt: 70.0,
+        }),
+    };
+    let s = read_survey(&llh, &opts).unwrap();
+    let want = [
+        (
+            "ne",
+            [170.50158107887387, 110.96892422451668, 5.496755368499592],
+        ),
+        (
+            "sw",
+            [-170.50672960566288, -166.44885900860953, -6.004455160600983],
+        ),
+    ];
+    for (t, (id, [e, n, u])) in s.targets.iter().zip(want) {
+        assert_eq!(t.id, id);
+        let d = t.position - Point::new(e, n, u);
+        assert!(
+            d.norm() < 1e-4,
+            "{id}: {} vs PROJ ({e}, {n}, {u})",
+            t.position
+        );
+    }
+}
