@@ -17,5 +17,6 @@ mod errors_cli;
 mod eval_scenes;
 mod golden;
 mod hostile;
+mod locate_acceptance;
 mod report_cli;
 mod synth_cli;
