@@ -15,7 +15,9 @@
 #        TOOLS    subset of: cat crop eval open3d pcl
 #        BASELINE_MAX_POINTS  largest map given to Open3D and PCL (default 50000000:
 #                 they hold the whole map in memory, ~10 GB at 200 M points)
-#        OUT      markdown table file (default DIR/results-<date>.md)
+#        OUT      markdown table file (default DIR/results-<date>.md), headed by
+#                 the build's commit (-dirty: uncommitted changes built in) and the
+#                 machine (cores, CPU model, memory, load average before and after)
 set -euo pipefail
 
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -84,11 +86,24 @@ pcl_crop() {
 }
 export -f pcl_crop
 
+# What was measured and on what: the table is only comparable with tables of
+# the same build and machine, so both head it.
+COMMIT=$(git -C "$REPO" rev-parse --short HEAD 2>/dev/null || echo unknown)
+# Uncommitted changes (tracked or not) went into the build too.
+if [[ $COMMIT != unknown && -n $(git -C "$REPO" status --porcelain 2>/dev/null) ]]; then
+    COMMIT="$COMMIT-dirty"
+fi
+CPU_MODEL=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//' || true)
+CPU_MODEL=${CPU_MODEL:-$(grep -m1 vendor_id /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//' || true)}
+CPU_MODEL=${CPU_MODEL:-unknown CPU}
+HYPERVISOR=$(lscpu 2>/dev/null | sed -n 's/^Hypervisor vendor: *//p' || true)
 {
 echo "# mapgauge benchmark $(date -u +%Y-%m-%dT%H:%MZ)"
 echo
-echo "Machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(awk '/MemTotal/ {printf "%.0f GB", $2/1048576}' /proc/meminfo) RAM, Linux $(uname -r); load before: $(cut -d' ' -f1-3 /proc/loadavg)."
-echo "mapgauge $(git -C "$REPO" rev-parse --short HEAD 2>/dev/null || echo '?'); median of $RUNS runs; files in the page cache; CPU = user + sys."
+echo "- Build: mapgauge $("$BIN" --version 2>/dev/null | awk '{print $2}') at commit $COMMIT, \`cargo build --release\`, $(rustc --version 2>/dev/null || echo 'rustc ?')."
+echo "- Machine: $(nproc) cores ($CPU_MODEL${HYPERVISOR:+, $HYPERVISOR guest}), $(awk '/MemTotal/ {printf "%.1f GB", $2/1048576}' /proc/meminfo) RAM, Linux $(uname -r)."
+echo "- Load average (1, 5, 15 min) before: $(cut -d' ' -f1-3 /proc/loadavg)."
+echo "- Median of $RUNS runs; files in the page cache; CPU = user + sys; peak RSS from GNU time."
 echo
 echo "| points | format | MB | tool | wall s | CPU s | peak RSS MB | wall / cat | CPU / cat | Open3D wall / this |"
 echo "|---|---|---|---|---|---|---|---|---|---|"
@@ -173,7 +188,7 @@ done
 
 {
 echo
-echo "Load after: $(cut -d' ' -f1-3 /proc/loadavg)."
+echo "Load average after: $(cut -d' ' -f1-3 /proc/loadavg)."
 for n in "${NOTES[@]}"; do echo "- $n"; done | sort -u
 } >>"$OUT"
 cat "$OUT"

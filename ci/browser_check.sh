@@ -1,21 +1,67 @@
 #!/usr/bin/env bash
-# Renders a report.html in headless Chromium and fails on a console error, a
-# blank page or a missing figure. Usage: ci/browser_check.sh REPORT.html [SCREENSHOT.png]
-# Installs Debian's chromium when it is missing (CI runs as root).
+# Renders a report.html in headless Chromium and fails on a console message, a
+# resource that fails to load or comes from outside the page (the report is one
+# self-contained file), a blank page, or a figure count other than the one
+# result.json implies (overview + relative + one per target, found or not).
+# Usage: ci/browser_check.sh REPORT.html [SCREENSHOT.png] [RESULT.json]
+# (RESULT.json defaults to the one beside the report). ci/browser_check_test.sh
+# runs it against deliberately broken pages.
+# Installs Debian's chromium (and python3) when missing (CI runs as root).
 set -euo pipefail
 report=$(realpath "$1")
 shot=${2:-$(dirname "$report")/report.png}
 shot=$(realpath -m "$shot")
+result=$(realpath -m "${3:-$(dirname "$report")/result.json}")
+[ -s "$result" ] || { echo "browser check: no result.json at $result" >&2; exit 1; }
 
-if [ ! -x /usr/bin/chromium ]; then
-    echo "browser check: installing chromium" >&2
+missing=()
+[ -x /usr/bin/chromium ] || missing+=(chromium)
+command -v python3 >/dev/null || missing+=(python3)
+if [ ${#missing[@]} -gt 0 ]; then
+    echo "browser check: installing ${missing[*]}" >&2
     export DEBIAN_FRONTEND=noninteractive
     apt-get update -qq >/dev/null
-    apt-get install -y -qq chromium >/dev/null
+    apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+# A copy of the page beside it (so relative references resolve alike) with a
+# probe first in <head>: it records every resource that fails to load (error
+# events, captured at the window) or loads but is not an image it can decode,
+# and every resource fetched at all, into the DOM once the page has loaded.
+# The report itself has no script.
+probe="$(dirname "$report")/.browser-check-$$.html"
+trap 'rm -rf "$work" "$probe"' EXIT
+python3 - "$report" "$probe" <<'PY'
+import sys
+src = open(sys.argv[1], encoding="utf-8").read()
+js = """<script>(function () {
+  var failed = [];
+  function what(t) {
+    var u = t.currentSrc || t.src || t.href || t.data || "";
+    if (u && typeof u === "object") u = u.baseVal || "";
+    return (t.tagName || "?").toLowerCase() + " " + u;
+  }
+  window.addEventListener("error", function (e) {
+    if (e.target && e.target !== window) failed.push(what(e.target));
+  }, true);
+  window.addEventListener("load", function () {
+    for (var i = 0; i < document.images.length; i++) {
+      var im = document.images[i];
+      if (!(im.complete && im.naturalWidth > 0)) failed.push(what(im));
+    }
+    var loaded = performance.getEntriesByType("resource").map(function (r) { return r.name; });
+    var pre = document.createElement("pre");
+    pre.id = "mapgauge-load-check";
+    pre.textContent = JSON.stringify({failed: failed, loaded: loaded});
+    document.body.appendChild(pre);
+  });
+})();</script>"""
+at = src.find("<head>")
+at = at + len("<head>") if at >= 0 else 0
+open(sys.argv[2], "w", encoding="utf-8").write(src[:at] + js + src[at:])
+PY
+
 # No network here: without these flags Chromium stalls on connection attempts.
 flags=(--headless --no-sandbox --disable-gpu --disable-quic --no-first-run
     --disable-background-networking --disable-component-update --disable-sync
@@ -30,20 +76,23 @@ timeout 90 /usr/bin/chromium "${flags[@]}" --user-data-dir="$work/profile-shot" 
     echo "browser check: chromium failed to take a screenshot" >&2
     exit 1
 }
+# The probe's copy; the virtual-time budget lets every load finish (or fail)
+# before the DOM is written.
 timeout 90 /usr/bin/chromium "${flags[@]}" --user-data-dir="$work/profile-dom" \
-    --dump-dom "file://$report" >"$work/dom.html" 2>"$work/dom.err" || {
+    --virtual-time-budget=10000 --dump-dom "file://$probe" \
+    >"$work/dom.html" 2>"$work/dom.err" || {
     cat "$work/dom.err" >&2
     echo "browser check: chromium failed to dump the DOM" >&2
     exit 1
 }
 
-python3 - "$report" "$shot" "$work/dom.html" "$work/shot.err" "$work/dom.err" <<'EOF'
-import re, struct, sys, zlib
+python3 - "$report" "$result" "$shot" "$work/dom.html" "$work/shot.err" "$work/dom.err" <<'EOF'
+import html, json, re, struct, sys, zlib
 
-report, shot, dom_path, *logs = sys.argv[1:]
+report, result, shot, dom_path, *logs = sys.argv[1:]
 fail = []
 
-# 1. Console errors. Headless Chromium logs every console message (errors,
+# 1. Console messages. Headless Chromium logs every console message (errors,
 # uncaught exceptions, failed loads) as an INFO:CONSOLE line without its level.
 # The report has no script, so any console message at all is a failure.
 for log in logs:
@@ -51,19 +100,62 @@ for log in logs:
         if ":CONSOLE" in line or "Uncaught" in line or "net::ERR_" in line:
             fail.append("console: " + line.strip())
 
-# 2. Every figure is in the rendered DOM: as many <svg> as the page says it has.
+# 2. Every figure is in the rendered DOM, as many as result.json implies: the
+# overview, the relative errors and one per target, found or not (figures() in
+# src/report/plots.rs), each a <figure> holding one <svg>.
 src = open(report, encoding="utf-8").read()
-m = re.search(r'<meta name="mapgauge-figures" content="(\d+)">', src)
-if not m:
-    fail.append("report.html has no mapgauge-figures count")
 dom = open(dom_path, encoding="utf-8", errors="replace").read()
+try:
+    n_targets = len(json.load(open(result, encoding="utf-8"))["targets"])
+except Exception as e:  # unreadable is a failed check, not a pass
+    n_targets = None
+    fail.append(f"result.json unreadable: {e}")
 n_svg = len(re.findall(r"<svg[\s>]", dom))
-if m and n_svg != int(m.group(1)):
-    fail.append(f"{n_svg} <svg> elements in the DOM, the report has {m.group(1)}")
+figs = re.findall(r'<figure id="(fig-[^"]*)"[^>]*>(.*?)</figure>', dom, re.S)
+ids = [i for i, _ in figs]
+if n_targets is not None:
+    want = 2 + n_targets
+    if n_svg != want:
+        fail.append(f"{n_svg} <svg> elements in the DOM, result.json implies {want}"
+                    f" (overview, relative, {n_targets} targets)")
+    n_fig = sum(i.startswith("fig-target-") for i in ids)
+    if n_fig != n_targets:
+        fail.append(f"{n_fig} target figures, result.json has {n_targets} targets")
+    m = re.search(r'<meta name="mapgauge-figures" content="(\d+)">', src)
+    if m and int(m.group(1)) != want:
+        fail.append(f"the page declares {m.group(1)} figures, result.json implies {want}")
+for need in ("fig-overview", "fig-relative"):
+    if ids.count(need) != 1:
+        fail.append(f"{ids.count(need)} figures {need}, want 1")
+for i, body in figs:
+    if len(re.findall(r"<svg[\s>]", body)) != 1:
+        fail.append(f"figure {i} holds no drawing")
 if "Map accuracy report" not in dom:
     fail.append("the DOM lacks the report heading")
 
-# 3. Not blank: decode the PNG (8-bit RGB/RGBA, no interlace) and count colours.
+# 3. Resources: none may fail to load (the probe's record), and none may come
+# from outside the page: a reference that loads here (a file beside the
+# report) breaks when the report is mailed or archived. The page's own source
+# is read too, for what a browser would fetch lazily or not at all.
+m = re.search(r'<pre id="mapgauge-load-check">(.*?)</pre>', dom, re.S)
+if not m:
+    fail.append("the load probe did not report (the page never finished loading?)")
+else:
+    probe = json.loads(html.unescape(m.group(1)))
+    for f in sorted(set(probe["failed"])):
+        fail.append("resource failed to load: " + f)
+    for u in sorted(set(probe["loaded"])):
+        if not u.startswith("data:"):
+            fail.append("resource fetched from outside the page: " + u)
+attr = r"""<(?!a[\s>])([a-zA-Z][\w:-]*)[^>]*?\s(?:src|href|xlink:href|srcset|data|poster|background)\s*=\s*["']?([^"'\s>]+)"""
+refs = re.findall(attr, src)
+refs += [("css", u) for u in re.findall(r"""url\(\s*["']?([^"')]+)""", src)]
+refs += [("css", u) for u in re.findall(r"""@import\s+(?:url\()?["']?([^"')\s;]+)""", src)]
+for tag, u in refs:
+    if not (u.startswith("data:") or u.startswith("#")):
+        fail.append(f"resource outside the page: <{tag}> {u}")
+
+# 4. Not blank: decode the PNG (8-bit RGB/RGBA, no interlace) and count colours.
 def png_pixels(path):
     data = open(path, "rb").read()
     assert data[:8] == b"\x89PNG\r\n\x1a\n", "not a PNG"
@@ -125,6 +217,6 @@ if fail:
     for f in fail:
         print("browser check FAILED:", f, file=sys.stderr)
     sys.exit(1)
-print(f"browser check: ok ({n_svg} figures, no console errors)")
+print(f"browser check: ok ({n_svg} figures, as result.json implies; no console message; no failed or outside resource)")
 EOF
 echo "browser check: screenshot at $shot"

@@ -1,7 +1,7 @@
 //! Fuzzes the e57 map reader. Every 1024-byte page of an E57 file ends in a
 //! CRC-32C of the page, which a mutated input almost never matches; the CRCs
 //! are recomputed before reading so that mutations reach the XML and binary
-//! sections instead of stopping at the checksum (tests/hostile.rs covers bad
+//! sections instead of stopping at the checksum (tests/integration/hostile.rs covers bad
 //! checksums).
 #![no_main]
 

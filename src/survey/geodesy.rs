@@ -180,3 +180,124 @@ mod tests {
         assert!(north.y > 110.0 && north.y < 112.0 && north.x.abs() < 1e-6);
     }
 }
+
+/// Values computed outside mapgauge, so that a mistake made the same way in a
+/// function and its inverse (east mirrored in both `enu_of` and `geodetic_of`,
+/// say) cannot pass. Source: PROJ 9.5.1 through pyproj 3.7.2 (`pip install
+/// pyproj`), WGS84: geodetic → ECEF with EPSG:4979 → EPSG:4978, and ENU with the
+/// pipeline `+proj=cart +ellps=WGS84 +step +proj=topocentric +ellps=WGS84
+/// +lat_0=… +lon_0=… +h_0=…`. The script: tests/data/geodesy_proj.py.
+#[cfg(test)]
+mod independent {
+    use super::*;
+
+    fn g(lat: f64, lon: f64, alt: f64) -> Geodetic {
+        Geodetic { lat, lon, alt }
+    }
+
+    /// (lat°, lon°, h m) → ECEF (m), PROJ.
+    const ECEF: [([f64; 3], [f64; 3]); 5] = [
+        (
+            [36.3725, 127.3631, 70.0],
+            [-3120283.5835112003, 4086613.421387339, 3761593.4927074695],
+        ),
+        (
+            [-33.9249, 18.4241, 10.0],
+            [5026365.641629906, 1674397.8020781025, -3539543.028381],
+        ),
+        (
+            [40.0, -105.0, 1600.0],
+            [-1266643.1360426995, -4727176.53876973, 4079014.0323758745],
+        ),
+        (
+            [-45.0, -70.5, -30.0],
+            [1507995.7414588796, -4258448.605736865, -4487327.195662484],
+        ),
+        ([0.0, 0.0, 0.0], [6378137.0, 0.0, 0.0]),
+    ];
+
+    /// (origin lat, lon, h; point lat, lon, h) → the point's east, north, up about
+    /// the origin (m), PROJ topocentric.
+    const ENU: [([f64; 3], [f64; 3], [f64; 3]); 6] = [
+        // North-east of the demo's origin (Daejeon).
+        (
+            [36.3725, 127.3631, 70.0],
+            [36.3735, 127.365, 75.5],
+            [170.50158107887387, 110.96892422451668, 5.496755368499592],
+        ),
+        // South-west of it.
+        (
+            [36.3725, 127.3631, 70.0],
+            [36.371, 127.3612, 64.0],
+            [-170.50672960566288, -166.44885900860953, -6.004455160600983],
+        ),
+        // South-east, southern hemisphere (Cape Town).
+        (
+            [-33.9249, 18.4241, 10.0],
+            [-33.93, 18.43, 15.0],
+            [545.518214793868, -565.7144989434465, 4.951517142598107],
+        ),
+        // South-west, western hemisphere (Colorado).
+        (
+            [40.0, -105.0, 1600.0],
+            [39.99, -105.02, 1590.0],
+            [
+                -1708.5514407182125,
+                -1110.4311883460737,
+                -10.325353392992952,
+            ],
+        ),
+        // Across the equator and the Greenwich meridian.
+        (
+            [0.001, -0.002, 0.0],
+            [-0.05, 0.06, 12.0],
+            [6901.817457060244, -5639.297952555787, 5.755936751064882],
+        ),
+        // 24 km away, where the earth's curvature shows in up (−40 m).
+        (
+            [52.0, 4.5, 40.0],
+            [52.15, 4.75, 45.0],
+            [17112.124500195197, 16719.834145694585, -39.83225114641573],
+        ),
+    ];
+
+    #[test]
+    fn ecef_matches_proj() {
+        for ([lat, lon, h], [x, y, z]) in ECEF {
+            let want = Point::new(x, y, z);
+            let got = g(lat, lon, h).to_ecef();
+            assert!(
+                (got - want).norm() < 1e-6,
+                "{lat},{lon},{h}: {got} vs PROJ {want}"
+            );
+            let back = Geodetic::from_ecef(&want);
+            assert!(
+                (back.lat - lat).abs() < 1e-11 && (back.lon - lon).abs() < 1e-11,
+                "{want}: {back:?} vs PROJ {lat},{lon}"
+            );
+            assert!((back.alt - h).abs() < 1e-6, "{want}: {back:?} vs PROJ {h}");
+        }
+    }
+
+    #[test]
+    fn enu_matches_proj() {
+        for ([olat, olon, oh], [lat, lon, h], [e, n, u]) in ENU {
+            let o = g(olat, olon, oh);
+            let want = Point::new(e, n, u);
+            let got = o.enu_of(&g(lat, lon, h));
+            // 0.1 mm: far below a survey's centimetres, far above rounding.
+            assert!(
+                (got - want).norm() < 1e-4,
+                "{lat},{lon},{h} about {o:?}: {got} vs PROJ {want}"
+            );
+            let p = o.geodetic_of(&want);
+            // 1e-9° is 0.1 mm on the ground.
+            assert!(
+                (p.lat - lat).abs() < 1e-9
+                    && (p.lon - lon).abs() < 1e-9
+                    && (p.alt - h).abs() < 1e-4,
+                "{want} about {o:?}: {p:?} vs PROJ {lat},{lon},{h}"
+            );
+        }
+    }
+}

@@ -2,15 +2,12 @@
 //! the map read back with the library, shapes, output formats, input formats,
 //! and the exit codes and messages for bad maps.
 
+use crate::util::{bin, stderr, tempdir};
 use mapgauge::Point;
 use mapgauge::survey::{SurveyOptions, read_survey};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
-}
+use std::process::Output;
 
 fn run(args: &[&str], paths: &[(&str, &Path)]) -> Output {
     let mut c = bin();
@@ -19,10 +16,6 @@ fn run(args: &[&str], paths: &[(&str, &Path)]) -> Output {
         c.arg(flag).arg(p);
     }
     c.output().expect("spawn mapgauge")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// A 300 000-point synthetic scene in `format`; returns (map, survey).
@@ -133,7 +126,7 @@ fn check_against_brute_force(
 
 #[test]
 fn cylinder_counts_and_files_equal_brute_force() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let (map, survey) = synth(dir.path(), "pcd", 1);
     let out = dir.path().join("crops");
     let table = crop(&map, &survey, &out, &[]);
@@ -142,7 +135,7 @@ fn cylinder_counts_and_files_equal_brute_force() {
 
 #[test]
 fn sphere_counts_equal_brute_force_and_are_inside_the_cylinder() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let (map, survey) = synth(dir.path(), "pcd", 2);
     let out = dir.path().join("sphere");
     let table = crop(&map, &survey, &out, &["--shape", "sphere", "--radius", "3"]);
@@ -164,7 +157,7 @@ fn sphere_counts_equal_brute_force_and_are_inside_the_cylinder() {
 
 #[test]
 fn pcd_output_holds_the_same_points_as_ply_output() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let (map, survey) = synth(dir.path(), "pcd", 3);
     let (ply_dir, pcd_dir) = (dir.path().join("ply"), dir.path().join("pcd"));
     let ply = crop(&map, &survey, &ply_dir, &["--format", "ply"]);
@@ -193,7 +186,7 @@ fn pcd_output_holds_the_same_points_as_ply_output() {
 /// panicked.
 #[test]
 fn target_outside_the_map_warns_and_still_succeeds() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let (map, survey) = synth(dir.path(), "pcd", 1);
     let reference = crop(&map, &survey, &dir.path().join("ref"), &[]);
     for (k, far) in ["5000.0,-3000.0", "1e300,1e300", "1e15,-1e15"]
@@ -254,7 +247,7 @@ fn assert_clean_failure(o: &Output, path: &Path) {
 
 #[test]
 fn missing_map_is_a_one_line_error() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let survey = dir.path().join("survey.csv");
     std::fs::write(&survey, "id,x,y,z\n1,0,0,0\n").unwrap();
     let map = dir.path().join("no such map.pcd");
@@ -268,7 +261,7 @@ fn missing_map_is_a_one_line_error() {
 
 #[test]
 fn truncated_maps_are_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     for format in ["pcd", "ply", "las"] {
         let (map, survey) = synth(dir.path(), format, 1);
         let bytes = std::fs::read(&map).unwrap();
@@ -298,7 +291,7 @@ fn truncated_maps_are_one_line_errors() {
 
 #[test]
 fn pcd_ply_and_las_maps_give_the_same_crops() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let mut tables = Vec::new();
     let mut maps = Vec::new();
     for format in ["pcd", "ply", "las"] {
@@ -331,7 +324,7 @@ fn pcd_ply_and_las_maps_give_the_same_crops() {
 
 #[test]
 fn radius_out_of_range_is_a_one_line_error() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let (map, survey) = synth(dir.path(), "pcd", 2);
     for r in ["0", "5e-324", "-1", "1e9", "NaN"] {
         let out = dir.path().join(format!("crops-{r}"));

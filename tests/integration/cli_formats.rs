@@ -2,13 +2,9 @@
 //! PCD, PLY and LAS (`mapgauge synth --format`) and evaluated (`mapgauge eval`)
 //! finds the same targets at the same places.
 
+use crate::util::{bin, tempdir};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
-}
 
 /// One row of targets.csv: status and the located map position.
 type Found = BTreeMap<String, (String, Option<[f64; 3]>)>;
@@ -72,7 +68,7 @@ fn synth_and_eval(dir: &Path, format: &str) -> Found {
 
 #[test]
 fn pcd_ply_and_las_maps_find_the_same_targets() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let pcd = synth_and_eval(dir.path(), "pcd");
     let ply = synth_and_eval(dir.path(), "ply");
     let las = synth_and_eval(dir.path(), "las");
@@ -123,7 +119,7 @@ fn crop_counts(map: &Path, survey: &Path, out: &Path) -> Vec<u64> {
 
 #[test]
 fn convert_to_every_format_keeps_the_crops() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let scene = dir.path().join("scene");
     let o = bin()
         .args([

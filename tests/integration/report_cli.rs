@@ -1,28 +1,16 @@
 //! `eval` writes report.html and, with `--plots`, every figure as SVG and PNG;
 //! `table` renders several runs as one HTML page or JSON.
 
+use crate::util::{bin, stdout_ok, tempdir};
 use std::path::Path;
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
-}
-
-fn run(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
 
 /// A small scene (4 targets) plus one surveyed target where nothing stands.
 fn scene(dir: &Path) {
-    run(bin()
-        .args(["synth", "--points", "800000", "--targets", "4", "--out"])
-        .arg(dir));
+    stdout_ok(
+        bin()
+            .args(["synth", "--points", "800000", "--targets", "4", "--out"])
+            .arg(dir),
+    );
     let survey = dir.join("survey.csv");
     let mut text = std::fs::read_to_string(&survey).unwrap();
     text.push_str("<t&9>,900.0,900.0,1.0,0.42\n");
@@ -31,19 +19,21 @@ fn scene(dir: &Path) {
 
 #[test]
 fn eval_writes_report_and_plots() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     scene(dir.path());
     let out = dir.path().join("out");
     let plots = dir.path().join("plots");
-    run(bin()
-        .args(["eval", "--map"])
-        .arg(dir.path().join("map.ply"))
-        .arg("--survey")
-        .arg(dir.path().join("survey_extra.csv"))
-        .arg("--out")
-        .arg(&out)
-        .arg("--plots")
-        .arg(&plots));
+    stdout_ok(
+        bin()
+            .args(["eval", "--map"])
+            .arg(dir.path().join("map.ply"))
+            .arg("--survey")
+            .arg(dir.path().join("survey_extra.csv"))
+            .arg("--out")
+            .arg(&out)
+            .arg("--plots")
+            .arg(&plots),
+    );
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     // Overview, relative error, and one panel per target (5, one failed).
     assert_eq!(html.matches("<svg ").count(), 7);
@@ -66,13 +56,15 @@ fn eval_writes_report_and_plots() {
     // result.json stays free of the date: byte-identical on a rerun.
     let first = std::fs::read(out.join("result.json")).unwrap();
     let out2 = dir.path().join("out2");
-    run(bin()
-        .args(["eval", "--no-report", "--map"])
-        .arg(dir.path().join("map.ply"))
-        .arg("--survey")
-        .arg(dir.path().join("survey_extra.csv"))
-        .arg("--out")
-        .arg(&out2));
+    stdout_ok(
+        bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(dir.path().join("map.ply"))
+            .arg("--survey")
+            .arg(dir.path().join("survey_extra.csv"))
+            .arg("--out")
+            .arg(&out2),
+    );
     assert_eq!(first, std::fs::read(out2.join("result.json")).unwrap());
     assert!(!out2.join("report.html").exists(), "--no-report");
 
@@ -99,7 +91,7 @@ fn eval_writes_report_and_plots() {
 
 #[test]
 fn table_html_and_json_line_up_different_target_sets() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     let mut results = Vec::new();
     for (name, drop) in [("all", None), ("four", Some("3"))] {
@@ -126,16 +118,18 @@ fn table_html_and_json_line_up_different_target_sets() {
         } else {
             data.join("paper_seq5_survey.csv")
         };
-        run(bin()
-            .args(["errors", "--survey"])
-            .arg(&survey)
-            .arg("--estimates")
-            .arg(&est_path)
-            .arg("--out")
-            .arg(&out));
+        stdout_ok(
+            bin()
+                .args(["errors", "--survey"])
+                .arg(&survey)
+                .arg("--estimates")
+                .arg(&est_path)
+                .arg("--out")
+                .arg(&out),
+        );
         results.push(out.join("result.json"));
     }
-    let html = run(bin().arg("table").args(&results).args([
+    let html = stdout_ok(bin().arg("table").args(&results).args([
         "--format",
         "html",
         "--names",
@@ -144,10 +138,12 @@ fn table_html_and_json_line_up_different_target_sets() {
     assert!(html.starts_with("<!DOCTYPE html>") && html.contains("Seq &lt;5&gt;"));
     assert!(html.contains("<td><strong>0.0516</strong></td>"), "{html}");
     assert!(!html.contains("http"));
-    let json = run(bin()
-        .arg("table")
-        .args(&results)
-        .args(["--format", "json", "--names", "a,b"]));
+    let json = stdout_ok(
+        bin()
+            .arg("table")
+            .args(&results)
+            .args(["--format", "json", "--names", "a,b"]),
+    );
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     let abs = &v["absolute"];
     // Full precision, not the 4 decimals of the text tables.

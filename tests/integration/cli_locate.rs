@@ -3,19 +3,12 @@
 //! with its reason and the exit status documented in src/cmd/locate.rs (0 when at
 //! least one file was located, 1 when none was).
 
+use crate::util::{bin, stderr, tempdir};
 use mapgauge::Point;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// One scene for all tests: synth (1 M points; 300 k is too sparse for the tight
 /// crop) and `eval --save-crops`. Lives under Cargo's target tmp dir (`cargo clean`
@@ -199,7 +192,7 @@ fn a_single_plate_is_reported_with_its_reason() {
         plate.len(),
         pts.len()
     );
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let bad = dir.path().join("plate.ply");
     mapgauge::cloud::write(&bad, mapgauge::cloud::OutFormat::Ply, &plate).unwrap();
 
@@ -239,7 +232,7 @@ fn a_single_plate_is_reported_with_its_reason() {
 fn unreadable_file_is_a_row_not_a_crash() {
     let s = scene();
     let files = tight_crops(s);
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let missing = dir.path().join("missing.ply");
     let o = locate(&["--format", "csv"], &[missing.clone(), files[1].clone()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

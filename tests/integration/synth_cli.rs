@@ -1,10 +1,6 @@
 //! `mapgauge synth` through the command line (map writing itself is tested in cloud).
 
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
-}
+use crate::util::{bin, tempdir};
 
 #[test]
 fn print_config_is_valid_toml_with_flags_applied() {
@@ -35,7 +31,7 @@ fn print_config_is_valid_toml_with_flags_applied() {
 
 #[test]
 fn bad_values_give_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let out = bin()
         .args(["synth", "--out"])
         .arg(dir.path())

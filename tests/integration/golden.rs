@@ -4,7 +4,7 @@
 //! 14); a change that means to alter an output re-blesses them and says so:
 //!
 //! ```sh
-//! MAPGAUGE_BLESS=1 cargo test --release --test golden
+//! MAPGAUGE_BLESS=1 cargo test --release --test integration golden::
 //! git diff --stat tests/golden
 //! ```
 //!
@@ -12,12 +12,13 @@
 //! elapsed time have their digits masked; nothing else is normalised. Binary
 //! outputs (crops, PNG figures) are compared by SHA-256 (`binary.sha256`).
 
+use crate::util::tempdir;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_mapgauge"));
+    let mut c = crate::util::bin();
     c.env("SOURCE_DATE_EPOCH", "1700000000")
         .env("RAYON_NUM_THREADS", "2");
     c
@@ -176,7 +177,7 @@ fn s(p: &Path) -> &str {
 
 #[test]
 fn demo_is_unchanged() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let mut g = Golden::new("demo", tmp.path());
     let out = tmp.path().join("demo");
     g.run("demo", &["demo", "--out", s(&out)]);
@@ -188,7 +189,7 @@ fn demo_is_unchanged() {
 /// every file `eval` can write.
 #[test]
 fn cluttered_scene_is_unchanged() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let t = tmp.path();
     let mut g = Golden::new("cluttered", t);
     let scene = t.join("scene");
@@ -303,7 +304,7 @@ fn cluttered_scene_is_unchanged() {
 /// alignment, the survey sigma, and a second eval's tables across runs.
 #[test]
 fn tilted_scene_is_unchanged() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let t = tmp.path();
     let mut g = Golden::new("tilted", t);
     let scene = t.join("scene");
@@ -395,7 +396,7 @@ fn tilted_scene_is_unchanged() {
 /// scene with roles, and a run with too few targets.
 #[test]
 fn errors_are_unchanged() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let t = tmp.path();
     let mut g = Golden::new("errors", t);
     let scene = t.join("scene");

@@ -9,10 +9,9 @@
 //!
 //! The files are generated here; they are a few hundred bytes each.
 
+use crate::util::{BIN, stderr, tempdir};
 use std::path::Path;
 use std::process::{Command, Output};
-
-const BIN: &str = env!("CARGO_BIN_EXE_mapgauge");
 
 /// Address-space cap for every run (KiB). A tiny file never needs more; a
 /// terabyte `Vec` (or even a 4 GB one) cannot be reserved under it.
@@ -29,10 +28,6 @@ fn run(args: &[&std::ffi::OsStr]) -> Output {
         .env("SOURCE_DATE_EPOCH", "1700000000")
         .output()
         .unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// Exit code 1, one stderr line `error: <file>...` containing every `want`.
@@ -677,28 +672,28 @@ fn cases(dir: &Path) -> Vec<Case> {
             "laz fixed chunk size of 1.3 G points in a 400-byte file (fuzz find)",
             Map,
             "m.laz",
-            include_bytes!("corpus/fuzz-laz-chunk-bytes.laz").to_vec(),
+            include_bytes!("../corpus/fuzz-laz-chunk-bytes.laz").to_vec(),
             &["LAZ: chunk size 1275118416 points is absurd"],
         ),
         case(
             "laz chunk table of 1.6 G chunks in a 391-byte file (fuzz find)",
             Map,
             "m.laz",
-            include_bytes!("corpus/fuzz-laz-chunk-count.laz").to_vec(),
+            include_bytes!("../corpus/fuzz-laz-chunk-count.laz").to_vec(),
             &["LAZ: chunk table declares 1560281089 chunks"],
         ),
         case(
             "laz with 64 KiB records: no 17 GB block buffer (fuzz find)",
             Map,
             "m.laz",
-            include_bytes!("corpus/fuzz-laz-record-64k.laz").to_vec(),
+            include_bytes!("../corpus/fuzz-laz-record-64k.laz").to_vec(),
             &[], // as above: the message depends on the laz crate's build
         ),
         case(
             "las header whose size arithmetic overflows in the las crate (fuzz find)",
             Map,
             "m.las",
-            include_bytes!("corpus/fuzz-las-header-overflow.las").to_vec(),
+            include_bytes!("../corpus/fuzz-las-header-overflow.las").to_vec(),
             // With overflow checks the crate panics (caught: "the decoder failed");
             // without them its arithmetic wraps and the sizes are refused.
             &[],
@@ -707,7 +702,7 @@ fn cases(dir: &Path) -> Vec<Case> {
             "laz chunk table that sends the laz crate out of bounds (fuzz find)",
             Map,
             "m.las",
-            include_bytes!("../fuzz/upstream/laz-decoders-index-out-of-bounds.las").to_vec(),
+            include_bytes!("../../fuzz/upstream/laz-decoders-index-out-of-bounds.las").to_vec(),
             &["the decoder failed on malformed data"],
         ),
         // ---------------------------------------------------------------- E57
@@ -1021,7 +1016,7 @@ fn cases(dir: &Path) -> Vec<Case> {
 
 #[test]
 fn every_malformed_file_is_one_line_error() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let dir = tmp.path();
     let good_map = dir.join("good.pcd");
     std::fs::write(&good_map, good_pcd()).unwrap();
@@ -1107,7 +1102,7 @@ fn ok(args: &[&std::ffi::OsStr]) -> Output {
 
 #[test]
 fn an_output_that_is_an_input_is_refused_under_any_spelling() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let d = tmp.path();
     let survey = d.join("survey.csv");
     std::fs::write(&survey, GOOD_SURVEY).unwrap();
@@ -1250,7 +1245,7 @@ fn small_scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
 
 #[test]
 fn existing_out_dirs_keep_the_users_files_and_nonfinite_points_are_skipped() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = tempdir();
     let d = tmp.path();
     let (map, survey) = small_scene(&d.join("scene"));
     // The user's files in the output directories, some where mapgauge writes.

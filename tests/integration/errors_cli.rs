@@ -1,5 +1,6 @@
 //! `mapgauge errors` end to end, and the paper's golden numbers (sequence 5).
 
+use crate::util::{bin, tempdir};
 use mapgauge::Point;
 use mapgauge::accuracy::{ScoreOptions as EvalOptions, score};
 use mapgauge::align::AlignMethod;
@@ -12,16 +13,11 @@ fn evaluate(s: &Survey, e: &[Estimate], o: &EvalOptions) -> mapgauge::Result<Run
 }
 use mapgauge::survey::{Geodetic, SurveyOptions, read_estimates, read_survey};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data")
         .join(name)
-}
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mapgauge"))
 }
 
 fn paper() -> RunResult {
@@ -159,7 +155,7 @@ fn every_method_runs_on_the_paper_data() {
 
 #[test]
 fn cli_table_json_and_out_dir() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let out = bin()
         .args(["errors", "--survey"])
         .arg(data("paper_seq5_survey.csv"))
@@ -270,7 +266,7 @@ fn cli_other_formats() {
 
 #[test]
 fn cli_errors_are_one_line_and_name_the_file() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let bad = dir.path().join("bad.csv");
     std::fs::write(&bad, "id,x,y\n1,0,0\n2,zero,0\n").unwrap();
     let out = bin()
@@ -321,7 +317,7 @@ fn cli_geodetic_survey_matches_local_survey() {
         lon: 127.3604,
         alt: 68.2,
     };
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempdir();
     let s = read_survey(&data("paper_seq5_survey.csv"), &SurveyOptions::default()).unwrap();
     let mut csv = String::from("id,lat,lon,alt,role\n");
     for (i, t) in s.targets.iter().enumerate() {
@@ -372,4 +368,45 @@ fn cli_geodetic_survey_matches_local_survey() {
     assert_eq!(cc.check.targets[0].id, "3");
     assert!(r.asprs.independent && r.asprs.n_checkpoints == 1);
     assert_eq!(r.asprs.survey_sigma_h, Some(0.02));
+}
+
+/// A lat/lon/alt survey read with an origin lands where PROJ puts it (values from
+/// PROJ 9.5.1 topocentric, tests/data/geodesy_proj.py): east is east, south is
+/// negative north, through the survey reader and not just the geodesy functions.
+#[test]
+fn geodetic_survey_reads_to_projs_east_north_up() {
+    let dir = tempdir();
+    let llh = dir.path().join("survey_llh.csv");
+    std::fs::write(
+        &llh,
+        "id,lat,lon,alt\nne,36.3735,127.365,75.5\nsw,36.371,127.3612,64.0\n",
+    )
+    .unwrap();
+    let opts = SurveyOptions {
+        origin: Some(Geodetic {
+            lat: 36.3725,
+            lon: 127.3631,
+            alt: 70.0,
+        }),
+    };
+    let s = read_survey(&llh, &opts).unwrap();
+    let want = [
+        (
+            "ne",
+            [170.50158107887387, 110.96892422451668, 5.496755368499592],
+        ),
+        (
+            "sw",
+            [-170.50672960566288, -166.44885900860953, -6.004455160600983],
+        ),
+    ];
+    for (t, (id, [e, n, u])) in s.targets.iter().zip(want) {
+        assert_eq!(t.id, id);
+        let d = t.position - Point::new(e, n, u);
+        assert!(
+            d.norm() < 1e-4,
+            "{id}: {} vs PROJ ({e}, {n}, {u})",
+            t.position
+        );
+    }
 }

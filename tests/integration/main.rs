@@ -1,0 +1,22 @@
+//! Every integration test of mapgauge, as one test binary (one link, one run):
+//! each module is one area, `util` holds what they share (the binary, stderr,
+//! temporary directories). Run one area with its module path, e.g.
+//!
+//! ```sh
+//! cargo test --release --test integration golden::
+//! ```
+
+mod truth;
+mod util;
+
+mod cli_crop;
+mod cli_formats;
+mod cli_locate;
+mod demo_truth;
+mod errors_cli;
+mod eval_scenes;
+mod golden;
+mod hostile;
+mod locate_acceptance;
+mod report_cli;
+mod synth_cli;
