@@ -78,8 +78,8 @@ pub fn origin(s: &str) -> std::result::Result<mapgauge::survey::Geodetic, String
 /// is done (a refused output should cost nothing).
 pub fn check_out_dir(out: &std::path::Path) -> mapgauge::Result<()> {
     if out.exists() && !out.is_dir() {
-        return Err(mapgauge::Error::Param(format!(
-            "--out {}: exists and is not a directory",
+        return Err(mapgauge::Error::Input(format!(
+            "{}: exists and is not a directory (--out names the directory to write into)",
             out.display()
         )));
     }

@@ -18,5 +18,6 @@ mod eval_scenes;
 mod golden;
 mod hostile;
 mod locate_acceptance;
+mod pipeline;
 mod report_cli;
 mod synth_cli;

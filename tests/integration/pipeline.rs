@@ -98,7 +98,7 @@ fn saved_crops_are_found_by_crops_whatever_the_id() {
     }
     let survey = d.join("odd.csv");
     std::fs::write(&survey, renamed).unwrap();
-    let bin = env!("CARGO_BIN_EXE_mapgauge");
+    let bin = crate::util::BIN;
     let out = d.join("eval");
     let run = |args: &[&std::ffi::OsStr]| {
         let o = Command::new(bin).args(args).output().unwrap();
