@@ -77,22 +77,22 @@ pub fn run(a: Args) -> Result<()> {
     print!("{}", render_report(&result, TableFormat::Text));
     println!();
     println!("Against the known truth (the scene's true target positions in the map):");
-    println!("  {:<6} {:>12} {:>12}", "", "measured", "truth");
+    println!("  {:<6} {:>12} {:>12}", "mm", "measured", "truth");
     println!(
-        "  {:<6} {:>12.4} {:>12.4}",
-        "E_abs", result.absolute.mean, expected.absolute.mean
+        "  {:<6} {:>12.1} {:>12.1}",
+        "E_abs", result.absolute.mean * 1e3, expected.absolute.mean * 1e3
     );
     println!(
-        "  {:<6} {:>12.4} {:>12.4}",
-        "σ_abs", result.absolute.std, expected.absolute.std
+        "  {:<6} {:>12.1} {:>12.1}",
+        "σ_abs", result.absolute.std * 1e3, expected.absolute.std * 1e3
     );
     println!(
-        "  {:<6} {:>12.4} {:>12.4}",
-        "E_rel", result.relative.mean, expected.relative.mean
+        "  {:<6} {:>12.1} {:>12.1}",
+        "E_rel", result.relative.mean * 1e3, expected.relative.mean * 1e3
     );
     println!(
-        "  {:<6} {:>12.4} {:>12.4}",
-        "σ_rel", result.relative.std, expected.relative.std
+        "  {:<6} {:>12.1} {:>12.1}",
+        "σ_rel", result.relative.std * 1e3, expected.relative.std * 1e3
     );
     println!("  localisation error per target (horizontal, mm):");
     for (t, tt) in result.targets.iter().zip(&truth.targets) {

@@ -26,6 +26,9 @@ pub struct Args {
     /// Output on stdout: table, json, csv, markdown, latex.
     #[arg(long, default_value = "table")]
     pub format: OutputFormat,
+    /// With `--format table`, also print every pair's relative error.
+    #[arg(long, short)]
+    pub verbose: bool,
     /// Survey's own 1-σ error in metres, horizontal[,vertical], folded into the ASPRS RMSEs.
     #[arg(long, value_name = "H[,V]", value_parser = super::one_or_two, allow_hyphen_values = true)]
     pub survey_sigma: Option<(f64, Option<f64>)>,
@@ -67,6 +70,6 @@ pub fn run(a: Args) -> Result<()> {
         write_outputs(&result, dir)?;
         eprintln!("wrote {}", dir.join("result.json").display());
     }
-    super::eval::print_result(&result, a.format);
+    super::eval::print_result(&result, a.format, a.verbose);
     Ok(())
 }

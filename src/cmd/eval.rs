@@ -66,9 +66,13 @@ pub struct Args {
     /// ENU origin `lat,lon[,alt]` for WGS84 surveys [default: the first target].
     #[arg(long, value_name = "LAT,LON[,ALT]", value_parser = super::origin, allow_hyphen_values = true)]
     pub origin: Option<Geodetic>,
-    /// What to print on stdout: table, json, markdown, latex, csv, html.
+    /// What to print on stdout: table (a summary, one row per target), json,
+    /// markdown, latex, csv, html (the paper's tables).
     #[arg(long, default_value = "table")]
     pub format: OutputFormat,
+    /// With `--format table`, also print every pair's relative error.
+    #[arg(long, short)]
+    pub verbose: bool,
     /// Do not write OUT/report.html (written by default with --out; it reads the
     /// map once more for its SHA-256, about 1 s per GB).
     #[arg(long)]
@@ -178,7 +182,7 @@ pub fn run(a: Args) -> Result<()> {
         Ok(h) => (h.flatten(), None),
         Err(e) => (None, Some(e)),
     };
-    print_result(&result, a.format);
+    print_result(&result, a.format, a.verbose);
     if let Some(out) = &a.out {
         write_outputs(&ev, &result, out, a.save_crops, &[map, survey_path])?;
         eprintln!("results written to {}", out.display());
@@ -199,8 +203,11 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// Prints a result on stdout in `format`.
-pub fn print_result(result: &ResultFile, format: OutputFormat) {
+pub fn print_result(result: &ResultFile, format: OutputFormat, verbose: bool) {
     match format {
+        OutputFormat::Table(TableFormat::Text) => {
+            print!("{}", render::render_text(result, verbose))
+        }
         OutputFormat::Table(TableFormat::Html) => print!(
             "{}",
             report::html::page(

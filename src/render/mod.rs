@@ -4,11 +4,13 @@
 
 mod summary;
 mod tables;
+mod text;
 
 pub use summary::{render_csv, render_report, write_outputs};
 pub use tables::{
     absolute_grid, extra_grid, merged_ids, pairs_grid, relative_grid, target_label, targets_grid,
 };
+pub use text::render_text;
 
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -213,8 +215,7 @@ impl Grid {
                         // Numbers align right (the stylesheet's default), words left.
                         let num = c.is_empty()
                             || c == "–"
-                            || c.chars()
-                                .all(|ch| ch.is_ascii_digit() || "+-.eE".contains(ch));
+                            || c.starts_with(|ch: char| ch.is_ascii_digit() || "+-(".contains(ch));
                         let class = if num || i == 0 { "" } else { " class=\"t\"" };
                         if self.bold.contains(&i) && !c.is_empty() && c != "–" {
                             let _ = write!(o, "<td{class}><strong>{e}</strong></td>");

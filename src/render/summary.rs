@@ -29,12 +29,16 @@ fn with_caption(o: &mut String, fmt: TableFormat, caption: &str, g: &Grid) {
     o.push('\n');
 }
 
-/// A complete human-readable report of one run in Text, Markdown or LaTeX.
+/// A complete human-readable report of one run: Markdown, LaTeX, HTML and
+/// CSV in the paper's layout; text is [`super::render_text`] (not verbose).
 pub fn render_report(r: &ResultFile, fmt: TableFormat) -> String {
     if fmt == TableFormat::Csv {
         return render_csv(r);
     }
-    let runs = [("result".to_string(), r)];
+    if fmt == TableFormat::Text {
+        return super::render_text(r, false);
+    }
+    let runs = [("this run".to_string(), r)];
     let dim = match r.dim {
         Dim::D2 => "2D",
         Dim::D3 => "3D",

@@ -2,6 +2,7 @@
 //! per-pair and statistics tables of one run.
 
 use super::Grid;
+use super::text::mm;
 use crate::record::ResultFile;
 
 /// The paper's label for a target: `t3` for id `3`, the id itself otherwise.
@@ -217,7 +218,7 @@ pub fn pairs_grid(r: &ResultFile) -> Grid {
 }
 
 /// The statistics beyond the paper (alignment, RMSE, honest errors, ASPRS), one
-/// `name, value, unit` row each.
+/// `name, value, unit` row each; lengths in millimetres.
 pub fn extra_grid(r: &ResultFile) -> Grid {
     let mut rows: Vec<Vec<String>> = Vec::new();
     let mut add = |k: &str, v: String, u: &str| rows.push(vec![k.to_string(), v, u.to_string()]);
@@ -239,25 +240,25 @@ pub fn extra_grid(r: &ResultFile) -> Grid {
     if a.method.starts_with("similarity") {
         add("scale", format!("{:.1}", a.scale_ppm), "ppm");
     }
-    add("abs RMSE", f4(r.absolute.rmse), "m");
-    add("abs median", f4(r.absolute.median), "m");
-    add("abs max", f4(r.absolute.max), "m");
-    add("rel max", f4(r.relative.max), "m");
+    add("abs RMSE", mm(r.absolute.rmse), "mm");
+    add("abs median", mm(r.absolute.median), "mm");
+    add("abs max", mm(r.absolute.max), "mm");
+    add("rel max", mm(r.relative.max), "mm");
     if let Some(l) = &r.leave_one_out {
-        add("leave-one-out mean", f4(l.summary.mean), "m");
-        add("leave-one-out RMSE", f4(l.summary.rmse), "m");
-        add("leave-one-out max", f4(l.summary.max), "m");
+        add("leave-one-out mean", mm(l.summary.mean), "mm");
+        add("leave-one-out RMSE", mm(l.summary.rmse), "mm");
+        add("leave-one-out max", mm(l.summary.max), "mm");
     }
     if let Some(s) = &r.sigma_hat {
-        add("sigma_hat", f4(s.value), &format!("m (dof {})", s.dof));
+        add("sigma_hat", mm(s.value), &format!("mm (dof {})", s.dof));
     }
     if let Some(c) = &r.control_check {
         add(
             "check mean (fit on control)",
-            f4(c.check.summary.mean),
-            &format!("m (n={})", c.check.summary.n),
+            mm(c.check.summary.mean),
+            &format!("mm (n={})", c.check.summary.n),
         );
-        add("check RMSE (fit on control)", f4(c.check.summary.rmse), "m");
+        add("check RMSE (fit on control)", mm(c.check.summary.rmse), "mm");
     }
     let s = &r.asprs;
     add(
@@ -271,32 +272,32 @@ pub fn extra_grid(r: &ResultFile) -> Grid {
     );
     add(
         "bias x / y",
-        format!("{:.4} / {:.4}", s.x.bias, s.y.bias),
-        "m",
+        format!("{} / {}", mm(s.x.bias), mm(s.y.bias)),
+        "mm",
     );
     add(
         "std x / y (sample)",
-        format!("{:.4} / {:.4}", s.x.std, s.y.std),
-        "m",
+        format!("{} / {}", mm(s.x.std), mm(s.y.std)),
+        "mm",
     );
     add(
         "RMSE_x / RMSE_y",
-        format!("{:.4} / {:.4}", s.rmse_x, s.rmse_y),
-        "m",
+        format!("{} / {}", mm(s.rmse_x), mm(s.rmse_y)),
+        "mm",
     );
-    add("RMSE_H", f4(s.rmse_h), "m");
+    add("RMSE_H", mm(s.rmse_h), "mm");
     if let Some(z) = &s.z {
         add(
             "bias z / std z",
-            format!("{:.4} / {:.4}", z.bias, z.std),
-            "m",
+            format!("{} / {}", mm(z.bias), mm(z.std)),
+            "mm",
         );
     }
     if let Some(v) = s.rmse_v {
-        add("RMSE_V", f4(v), "m");
+        add("RMSE_V", mm(v), "mm");
     }
     if let Some(v) = s.rmse_3d {
-        add("RMSE_3D", f4(v), "m");
+        add("RMSE_3D", mm(v), "mm");
     }
     Grid {
         header: vec!["statistic".into(), "value".into(), "unit".into()],

@@ -1,0 +1,207 @@
+//! The terminal report of one run: a summary first (targets found, E_abs,
+//! E_rel, RMSE_H in millimetres, the alignment), then one row per target,
+//! then the rest. It stays one screen whatever the number of targets: the
+//! paper's Table I has n(n−1)/2 columns, so it is printed only for a few
+//! targets; every pair is in `pairs.csv`, on the terminal with `--verbose`,
+//! and the paper's layouts stay available with `--format` and `mapgauge table`.
+
+use super::Grid;
+use super::TableFormat;
+use super::tables::{absolute_grid, extra_grid, pairs_grid, relative_grid};
+use crate::accuracy::Dim;
+use crate::record::ResultFile;
+use std::fmt::Write as _;
+
+/// Up to this many targets the paper's Tables I and II are printed too.
+const PAPER_TABLES_UP_TO: usize = 6;
+
+/// Millimetres with one decimal, never "-0.0".
+pub(crate) fn mm(m: f64) -> String {
+    if !m.is_finite() {
+        return "–".into();
+    }
+    let v = (m * 1e4).round() / 10.0;
+    if v == 0.0 {
+        "0.0".into()
+    } else {
+        format!("{v:.1}")
+    }
+}
+
+/// The terminal report of one run; `verbose` adds every pair.
+pub fn render_text(r: &ResultFile, verbose: bool) -> String {
+    let mut o = String::new();
+    let dim = match r.dim {
+        Dim::D2 => "2D",
+        Dim::D3 => "3D",
+    };
+    let n = r.targets.len();
+    let found = r.targets.iter().filter(|t| t.status == "ok").count();
+    let a = &r.alignment;
+    let _ = writeln!(
+        o,
+        "Found {found} of {n} targets; {dim} errors after {} alignment on {} targets",
+        a.method, a.n_used
+    );
+    let _ = writeln!(
+        o,
+        "  E_abs  {:>7} mm   σ_abs {:>7} mm   RMSE {:>7} mm   max {:>7} mm",
+        mm(r.absolute.mean),
+        mm(r.absolute.std),
+        mm(r.absolute.rmse),
+        mm(r.absolute.max)
+    );
+    let _ = writeln!(
+        o,
+        "  E_rel  {:>7} mm   σ_rel {:>7} mm   over {} pairs",
+        mm(r.relative.mean),
+        mm(r.relative.std),
+        r.relative.n
+    );
+    let _ = writeln!(
+        o,
+        "  RMSE_H {:>7} mm   NSSDA 95 % horizontal {} mm ({} checkpoints{})",
+        mm(r.asprs.rmse_h),
+        mm(r.asprs.nssda_horizontal_95),
+        r.asprs.n_checkpoints,
+        if r.asprs.independent {
+            ""
+        } else {
+            ", also used to fit"
+        }
+    );
+    let _ = writeln!(
+        o,
+        "  alignment map → survey: rotation {:.4}°, translation ({:.3}, {:.3}, {:.3}) m{}",
+        a.rotation_deg,
+        a.translation[0],
+        a.translation[1],
+        a.translation[2],
+        if a.method.starts_with("similarity") {
+            format!(", scale {:+.1} ppm", a.scale_ppm)
+        } else {
+            String::new()
+        }
+    );
+    o.push('\n');
+
+    let mut g = Grid {
+        header: ["id", "status", "error mm", "leave-one-out mm", "reason"]
+            .map(String::from)
+            .to_vec(),
+        ..Default::default()
+    };
+    for t in &r.targets {
+        g.rows.push(vec![
+            t.id.clone(),
+            t.status.clone(),
+            t.abs_error.map(mm).unwrap_or_else(|| "–".into()),
+            t.loo_error.map(mm).unwrap_or_else(|| "–".into()),
+            t.reason.clone().unwrap_or_default(),
+        ]);
+    }
+    let _ = writeln!(o, "Targets");
+    o.push_str(&g.render(TableFormat::Text));
+    o.push('\n');
+
+    if n <= PAPER_TABLES_UP_TO {
+        let runs = [("this run".to_string(), r)];
+        let _ = writeln!(o, "Relative error (m, {dim}) — paper Table I layout");
+        o.push_str(&relative_grid(&runs).render(TableFormat::Text));
+        o.push('\n');
+        let _ = writeln!(o, "Absolute error (m, {dim}) — paper Table II layout");
+        o.push_str(&absolute_grid(&runs).render(TableFormat::Text));
+        o.push('\n');
+    }
+    let _ = writeln!(o, "Statistics");
+    o.push_str(&extra_grid(r).render(TableFormat::Text));
+    o.push('\n');
+    if verbose {
+        let _ = writeln!(o, "Pairs (m)");
+        o.push_str(&pairs_grid(r).render(TableFormat::Text));
+        o.push('\n');
+    }
+    for l in &r.asprs.nssda_lines {
+        let _ = writeln!(o, "{l}");
+    }
+    for w in r.asprs.warnings.iter().chain(&r.warnings) {
+        let _ = writeln!(o, "warning: {w}");
+    }
+    let mut more = Vec::new();
+    if !verbose {
+        more.push(format!(
+            "all {} pairs: pairs.csv with --out, or --verbose",
+            r.relative.n
+        ));
+    }
+    if n > PAPER_TABLES_UP_TO {
+        more.push(
+            "the paper's Tables I and II: --format markdown|latex|csv, or `mapgauge table`".into(),
+        );
+    }
+    if !more.is_empty() {
+        let _ = writeln!(o, "({})", more.join("; "));
+    }
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn millimetres_never_negative_zero() {
+        assert_eq!(mm(-0.00001), "0.0");
+        assert_eq!(mm(0.01234), "12.3");
+        assert_eq!(mm(-0.0021), "-2.1");
+        assert_eq!(mm(f64::NAN), "–");
+    }
+
+    #[test]
+    fn twelve_targets_fit_on_a_screen() {
+        use crate::Point;
+        use crate::accuracy::{ScoreOptions, score};
+        use crate::survey::{Estimate, EstimateStatus, Survey, SurveyFrame, SurveyTarget};
+        let survey = Survey {
+            targets: (0..12)
+                .map(|i| SurveyTarget {
+                    id: (i + 1).to_string(),
+                    position: Point::new(10.0 * i as f64, (i * i) as f64, 0.0),
+                    has_z: false,
+                    role: None,
+                    antenna_height: 0.0,
+                    line: i as u64 + 2,
+                })
+                .collect(),
+            frame: SurveyFrame::Local,
+            origin: None,
+        };
+        let est: Vec<Estimate> = survey
+            .targets
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Estimate {
+                id: t.id.clone(),
+                status: if i == 4 {
+                    EstimateStatus::NotFound {
+                        reason: "no points".into(),
+                    }
+                } else {
+                    EstimateStatus::Found(
+                        t.position + nalgebra::Vector3::new(0.003 * i as f64, 0.0, 0.0),
+                    )
+                },
+                has_z: false,
+            })
+            .collect();
+        let acc = score(&survey, &est, &ScoreOptions::default()).unwrap();
+        let r = ResultFile::from_accuracy(&acc, &survey);
+        let t = render_text(&r, false);
+        assert!(t.starts_with("Found 11 of 12 targets"), "{t}");
+        assert!(t.lines().all(|l| l.chars().count() <= 200), "{t}");
+        assert!(t.lines().count() < 60, "{} lines:\n{t}", t.lines().count());
+        assert!(!t.contains("t1 & t2"), "no Table I for 12 targets");
+        let v = render_text(&r, true);
+        assert!(v.lines().count() > t.lines().count() + 50);
+    }
+}
