@@ -57,8 +57,9 @@ fn json_msg(e: &serde_json::Error) -> String {
 fn config_from_json(json: Option<&str>) -> PyResult<Config> {
     let cfg: Config = match json {
         None => Config::default(),
-        Some(s) => serde_json::from_str(s)
-            .map_err(|e| input_err(format!("config: {}", json_msg(&e))))?,
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("config: {}", json_msg(&e))))?
+        }
     };
     cfg.validate().map_err(err)?;
     Ok(cfg)
@@ -128,7 +129,11 @@ impl Progress {
         }
         let now = Instant::now();
         let end = total > 0 && done >= total;
-        if !end && self.last.is_some_and(|l| now - l < Duration::from_millis(100)) {
+        if !end
+            && self
+                .last
+                .is_some_and(|l| now - l < Duration::from_millis(100))
+        {
             return;
         }
         self.last = Some(now);
@@ -258,7 +263,10 @@ fn _survey_from_arrays(
     let mut targets = Vec::with_capacity(ids.len());
     for (i, (id, p)) in ids.into_iter().zip(pts).enumerate() {
         if id.trim().is_empty() {
-            return Err(input_err(format!("survey: target {} has an empty id", i + 1)));
+            return Err(input_err(format!(
+                "survey: target {} has an empty id",
+                i + 1
+            )));
         }
         if !seen.insert(id.clone()) {
             return Err(input_err(format!("survey: duplicate target id `{id}`")));
@@ -468,8 +476,9 @@ fn _errors(
 ) -> PyResult<ScoreCore> {
     let m: MetricsConfig = match metrics_json {
         None => MetricsConfig::default(),
-        Some(s) => serde_json::from_str(s)
-            .map_err(|e| input_err(format!("metrics: {}", json_msg(&e))))?,
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("metrics: {}", json_msg(&e))))?
+        }
     };
     m.validate().map_err(err)?;
     let opts = ScoreOptions {
@@ -545,7 +554,11 @@ fn read_points<'py>(
             let (mut lo, mut hi) = ([f64::NEG_INFINITY; 3], [f64::INFINITY; 3]);
             lo[..a.len()].copy_from_slice(a);
             hi[..b.len()].copy_from_slice(b);
-            if lo.iter().zip(&hi).any(|(l, h)| l.is_nan() || h.is_nan() || l > h) {
+            if lo
+                .iter()
+                .zip(&hi)
+                .any(|(l, h)| l.is_nan() || h.is_nan() || l > h)
+            {
                 return Err(input_err(
                     "bounds: each minimum must be a number no larger than its maximum",
                 ));
@@ -590,8 +603,9 @@ fn _locate<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let params: mapgauge::locate::LocateParams = match params_json {
         None => Default::default(),
-        Some(s) => serde_json::from_str(s)
-            .map_err(|e| input_err(format!("locate: {}", json_msg(&e))))?,
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("locate: {}", json_msg(&e))))?
+        }
     };
     let pts = points_from_any(points, "points")?;
     let up = up.map(|u| Point::new(u[0], u[1], u[2]).coords);
@@ -624,8 +638,9 @@ fn _synth<'py>(
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, PySurvey, String)> {
     let params: SynthParams = match params_json {
         None => SynthParams::default(),
-        Some(s) => serde_json::from_str(s)
-            .map_err(|e| input_err(format!("synth: {}", json_msg(&e))))?,
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("synth: {}", json_msg(&e))))?
+        }
     };
     let (pts, truth) = py
         .detach(|| -> mapgauge::Result<_> {
@@ -696,7 +711,12 @@ fn _table(
 }
 
 /// `mapgauge table`'s output, as text.
-fn render_tables(runs: &[(String, &ResultFile)], fmt: OutputFormat, rel: bool, abs: bool) -> String {
+fn render_tables(
+    runs: &[(String, &ResultFile)],
+    fmt: OutputFormat,
+    rel: bool,
+    abs: bool,
+) -> String {
     let mut tables: Vec<(&str, Grid)> = Vec::new();
     if rel {
         tables.push(("Relative error (m) — Table I", render::relative_grid(runs)));
