@@ -326,7 +326,7 @@ def evaluate(
     """
     s = _as_survey(survey, positions)
     cfg = _config_dict(config, sections, seed)
-    m = os.fspath(map) if _is_path(map) else _as_points(map, "map")
+    m: Any = os.fspath(map) if isinstance(map, (str, os.PathLike)) else _as_points(map, "map")
     core = _mapgauge._evaluate(
         m,
         s,
@@ -343,7 +343,7 @@ def errors(
     *,
     align: str = "rigid2d",
     dim: str = "2d",
-    survey_sigma: Optional[Tuple[float, Optional[float]]] = None,
+    survey_sigma: Union[None, float, Tuple[float, Optional[float]]] = None,
 ) -> Accuracy:
     """Scores map positions of the targets against a survey, as ``mapgauge errors`` does.
 
@@ -355,9 +355,10 @@ def errors(
     s = _as_survey(survey)
     metrics: Dict[str, Any] = {"align": align, "dim": dim}
     if survey_sigma is not None:
-        h, v = (tuple(survey_sigma) + (None,))[:2] if not isinstance(survey_sigma, (int, float)) else (survey_sigma, None)
-        metrics["survey_sigma_h"] = h
-        metrics["survey_sigma_v"] = v
+        if isinstance(survey_sigma, (int, float)):
+            metrics["survey_sigma_h"] = float(survey_sigma)
+        else:
+            metrics["survey_sigma_h"], metrics["survey_sigma_v"] = survey_sigma
     if _is_path(estimates):
         est: Any = os.fspath(estimates)  # type: ignore[arg-type]
     else:
@@ -369,7 +370,8 @@ def errors(
         if len(widths) > 1 or (widths and widths.pop() not in (2, 3)):
             raise MapgaugeError("estimates: every position needs the same coordinates, all (x, y) or all (x, y, z)")
         has_z = bool(found) and len(found[0]) == 3
-        rows, reasons = [], []
+        rows: List[Tuple[float, ...]] = []
+        reasons: List[Optional[str]] = []
         for v in estimates.values():
             if v is None:
                 rows.append((0.0, 0.0, 0.0))

@@ -273,6 +273,9 @@ def test_errors_matches_cli_errors(cli, scene, tmp_path):
     assert got.to_json() == want
     found = {t.id: tuple(t.map) for t in ev.targets if t.map is not None}
     assert mapgauge.errors(scene / "survey.csv", found, align="rigid3d", dim="3d").to_json() == want
+    want = run_cli(cli, "errors", "--survey", str(scene / "survey.csv"), "--estimates", str(csv),
+                   "--survey-sigma", "0.01,0.02", "--format", "json").stdout
+    assert mapgauge.errors(scene / "survey.csv", csv, survey_sigma=(0.01, 0.02)).to_json() == want
     with pytest.raises(mapgauge.MapgaugeError, match="unknown|rigid9d"):
         mapgauge.errors(scene / "survey.csv", found, align="rigid9d")
 
