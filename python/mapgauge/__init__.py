@@ -151,10 +151,10 @@ def survey(targets: Union[Mapping[str, Sequence[float]], Sequence[str]], positio
 
 
 def _as_survey(s: SurveyLike, ids_positions: Optional[Any] = None) -> Survey:
-    if isinstance(s, Survey):
-        return s
-    if _is_path(s):
-        return read_survey(s)  # type: ignore[arg-type]
+    if isinstance(s, Survey) or _is_path(s):
+        if ids_positions is not None:
+            raise MapgaugeError("survey: positions go with a sequence of ids, not with a survey file or Survey")
+        return s if isinstance(s, Survey) else read_survey(s)  # type: ignore[arg-type]
     return survey(s, ids_positions)  # type: ignore[arg-type]
 
 
@@ -460,8 +460,9 @@ def table(
     """The paper's Tables I (relative) and II (absolute) over several results, as ``mapgauge table`` prints them.
 
     ``results`` are :class:`Evaluation` / :class:`Accuracy` objects, result.json
-    paths or their dicts; ``names`` label the rows (default: a path's
-    directory name, else ``run 1``, ``run 2``, ...). ``format`` is markdown,
+    paths or their dicts; ``names`` label the rows (default: a result.json's
+    directory name as ``mapgauge table`` uses, an evaluation's map file name
+    without extension, else ``run 1``, ``run 2``, ...). ``format`` is markdown,
     latex, csv, html, json or text; ``which`` relative, absolute or both.
     """
     results = list(results)
@@ -472,7 +473,9 @@ def table(
     runs = []
     for i, r in enumerate(results):
         if isinstance(r, Accuracy):
-            kind, payload, default = "json", r.to_json(), f"run {i + 1}"
+            kind, payload = "json", r.to_json()
+            src = (r._d().get("eval") or {}).get("map", "<memory>")
+            default = Path(src).stem if src != "<memory>" else f"run {i + 1}"
         elif _is_path(r):
             p = Path(os.fspath(r))  # type: ignore[arg-type]
             kind, payload, default = "path", str(p), p.parent.name or str(p)

@@ -123,6 +123,8 @@ def test_survey_errors():
         mapgauge.survey({"a": (0, np.nan, 0)})
     with pytest.raises(mapgauge.MapgaugeError, match="same coordinates"):
         mapgauge.survey({"a": (0, 0, 0), "b": (1, 1)})
+    with pytest.raises(mapgauge.MapgaugeError, match="positions go with a sequence of ids"):
+        mapgauge.evaluate(np.zeros((10, 3)), "survey.csv", np.zeros((2, 3)))
 
 
 # --- errors -----------------------------------------------------------------
@@ -244,6 +246,7 @@ def test_table_is_the_cli_table(cli, scene, tmp_path):
            for a in ["rigid2d", "similarity2d"]]
     assert mapgauge.table(evs, names=["run0", "run1"]) == mapgauge.table(runs)
     assert mapgauge.table([e.to_dict() for e in evs], names=["run0", "run1"]) == mapgauge.table(runs)
+    assert "| map |" in mapgauge.table(evs[:1])  # named after the map file
     with pytest.raises(mapgauge.MapgaugeError, match="2 names for 1 results"):
         mapgauge.table(evs[:1], names=["a", "b"])
 
