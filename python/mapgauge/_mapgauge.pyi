@@ -1,0 +1,73 @@
+"""Type stubs of the Rust extension module. Use the functions of ``mapgauge``;
+the underscored ones here are its internals."""
+
+import os
+from typing import Any, Callable, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class MapgaugeError(ValueError):
+    """Bad input or a failed evaluation; the message is the CLI's one-line error."""
+
+class Survey:
+    """A survey: the ground truth every map is measured against."""
+
+    @property
+    def ids(self) -> List[str]:
+        """Target ids in survey order."""
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """(M, 3) reference points (antenna height removed); z = NaN without heights."""
+    @property
+    def has_z(self) -> bool:
+        """True when every target has a height."""
+    @property
+    def frame(self) -> str:
+        """``local`` or ``wgs84_enu``."""
+    @property
+    def name(self) -> str:
+        """The survey as result.json names it: the file as given, or ``<memory>``."""
+    def __len__(self) -> int: ...
+
+class EvalCore:
+    def to_json(self) -> str: ...
+    def pipeline_warnings(self) -> List[str]: ...
+    def crop(self, index: int, kind: str) -> npt.NDArray[np.float64]: ...
+    def samples(self, index: int) -> npt.NDArray[np.float64]: ...
+    def write(self, out: Union[str, os.PathLike[str]], report: bool) -> None: ...
+
+class ScoreCore:
+    def to_json(self) -> str: ...
+    def write(self, out: Union[str, os.PathLike[str]]) -> None: ...
+
+def read_survey(path: Union[str, os.PathLike[str]], origin: Optional[Sequence[float]] = None) -> Survey:
+    """Reads a survey CSV exactly as ``mapgauge eval --survey`` does."""
+
+def read_points(
+    path: Union[str, os.PathLike[str]],
+    bounds: Optional[Tuple[Sequence[float], Sequence[float]]] = None,
+) -> npt.NDArray[np.float64]:
+    """Every point of a map file (PCD, PLY, LAS/LAZ, E57, XYZ) as an (N, 3)
+    float64 array, streamed chunk by chunk; with ``bounds=(min, max)``, each
+    ``(x, y)`` or ``(x, y, z)``, only the points inside (edges included)."""
+
+def _survey_from_arrays(ids: List[str], xyz: npt.NDArray[np.float64], has_z: bool) -> Survey: ...
+def _evaluate(
+    map: Union[str, npt.NDArray[np.float64], npt.NDArray[np.float32]],
+    survey: Survey,
+    config_json: Optional[str] = None,
+    crops: Optional[str] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
+) -> EvalCore: ...
+def _config(config_json: Optional[str] = None) -> Tuple[str, str]: ...
+def _errors(survey: Survey, estimates: Any, metrics_json: Optional[str] = None) -> ScoreCore: ...
+def _locate(
+    points: Union[npt.NDArray[np.float64], npt.NDArray[np.float32]],
+    up: Optional[Sequence[float]] = None,
+    params_json: Optional[str] = None,
+) -> dict: ...
+def _synth(params_json: Optional[str] = None) -> Tuple[npt.NDArray[np.float64], Survey, str]: ...
+def _table(runs: List[Tuple[str, str, str]], format: str, which: str) -> str: ...

@@ -1,0 +1,790 @@
+//! `mapgauge._mapgauge`: the Rust side of the Python package. Each function
+//! here is a thin shim over the library: arguments are checked, the GIL is
+//! released while Rust works, and every `mapgauge::Error` becomes a
+//! `MapgaugeError` carrying the CLI's one-line message. The public API
+//! (argument normalisation, result objects) is `python/mapgauge/__init__.py`.
+
+use mapgauge::accuracy::{self, ScoreOptions};
+use mapgauge::cloud::{self, MapSource};
+use mapgauge::pipeline::{self, Config, Evaluation, MetricsConfig};
+use mapgauge::record::{EvalInfo, ResultFile, SCHEMA, refuse_overwrite};
+use mapgauge::render::{self, Grid, OutputFormat, TableFormat};
+use mapgauge::report::{self, html};
+use mapgauge::survey::{
+    Estimate, EstimateStatus, Geodetic, Survey, SurveyFrame, SurveyOptions, SurveyTarget,
+};
+use mapgauge::synth::{self, SynthParams};
+use mapgauge::{Error, Point};
+use numpy::ndarray::{Array2, ArrayView2};
+use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+create_exception!(
+    mapgauge,
+    MapgaugeError,
+    PyValueError,
+    "Bad input or a failed evaluation; the message is the CLI's one-line error."
+);
+
+/// The CLI's message as a Python exception.
+fn err(e: Error) -> PyErr {
+    MapgaugeError::new_err(e.to_string())
+}
+
+fn input_err(msg: impl Into<String>) -> PyErr {
+    MapgaugeError::new_err(msg.into())
+}
+
+/// A serde_json error without its " at line 1 column 42" (the JSON was made
+/// from a Python dict the user never saw as text).
+fn json_msg(e: &serde_json::Error) -> String {
+    let s = e.to_string();
+    match s.rfind(" at line ") {
+        Some(i) => s[..i].to_string(),
+        None => s,
+    }
+}
+
+/// A configuration from the JSON of a Python dict: keys exactly those of
+/// `mapgauge eval --print-config`, unknown keys are errors, ranges checked.
+fn config_from_json(json: Option<&str>) -> PyResult<Config> {
+    let cfg: Config = match json {
+        None => Config::default(),
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("config: {}", json_msg(&e))))?
+        }
+    };
+    cfg.validate().map_err(err)?;
+    Ok(cfg)
+}
+
+/// Copies an (N, 3) array into points (the pipeline runs without the GIL,
+/// so it cannot borrow memory Python may change meanwhile).
+fn points_of<T: Copy + Into<f64>>(a: ArrayView2<'_, T>, what: &str) -> PyResult<Vec<Point>> {
+    if a.ncols() != 3 {
+        return Err(input_err(format!(
+            "{what}: expected an (N, 3) array, got shape ({}, {})",
+            a.nrows(),
+            a.ncols()
+        )));
+    }
+    Ok(a.rows()
+        .into_iter()
+        .map(|r| Point::new(r[0].into(), r[1].into(), r[2].into()))
+        .collect())
+}
+
+/// Points from a float64 or float32 (N, 3) array.
+fn points_from_any(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<Point>> {
+    if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f64>>() {
+        return points_of(a.as_array(), what);
+    }
+    if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f32>>() {
+        return points_of(a.as_array(), what);
+    }
+    Err(input_err(format!(
+        "{what}: expected a 2-D float64 or float32 numpy array of shape (N, 3)"
+    )))
+}
+
+/// (N, 3) float64 array of points.
+fn points_array<'py>(py: Python<'py>, pts: &[Point]) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    Array2::from_shape_vec((pts.len(), 3), flat)
+        .expect("3 values per point")
+        .into_pyarray(py)
+}
+
+/// Calls a Python progress callback at most every 0.1 s from Rust code that
+/// runs without the GIL; the first exception it raises is kept for the end
+/// (the pipeline itself cannot be interrupted) and stops further calls.
+struct Progress {
+    cb: Option<Py<PyAny>>,
+    last: Option<Instant>,
+    error: Option<PyErr>,
+}
+
+impl Progress {
+    fn new(cb: Option<Py<PyAny>>) -> Self {
+        Progress {
+            cb,
+            last: None,
+            error: None,
+        }
+    }
+    fn call(&mut self, done: u64, total: u64) {
+        let Some(cb) = &self.cb else { return };
+        if total == 0 {
+            return; // points in memory: nothing streams
+        }
+        if self.error.is_some() {
+            return;
+        }
+        let now = Instant::now();
+        let end = total > 0 && done >= total;
+        if !end
+            && self
+                .last
+                .is_some_and(|l| now - l < Duration::from_millis(100))
+        {
+            return;
+        }
+        self.last = Some(now);
+        if let Err(e) = Python::attach(|py| cb.call1(py, (done, total)).map(drop)) {
+            self.error = Some(e);
+        }
+    }
+    fn finish(self) -> PyResult<()> {
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A survey: the ground truth every map is measured against.
+#[pyclass(frozen, name = "Survey", module = "mapgauge")]
+struct PySurvey {
+    inner: Survey,
+    /// How result.json names it: the path as given, or `<memory>`.
+    name: String,
+    path: Option<PathBuf>,
+}
+
+#[pymethods]
+impl PySurvey {
+    /// Target ids in survey order.
+    #[getter]
+    fn ids(&self) -> Vec<String> {
+        self.inner.targets.iter().map(|t| t.id.clone()).collect()
+    }
+    /// (M, 3) float64 reference points (antenna height removed), z = NaN where
+    /// the survey gives no height.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let pts: Vec<Point> = self
+            .inner
+            .targets
+            .iter()
+            .map(|t| {
+                let mut p = t.reference();
+                if !t.has_z {
+                    p.z = f64::NAN;
+                }
+                p
+            })
+            .collect();
+        points_array(py, &pts)
+    }
+    /// True when every target has a height.
+    #[getter]
+    fn has_z(&self) -> bool {
+        self.inner.has_z()
+    }
+    /// `local` or `wgs84_enu`.
+    #[getter]
+    fn frame(&self) -> &'static str {
+        match self.inner.frame {
+            SurveyFrame::Local => "local",
+            SurveyFrame::Wgs84Enu => "wgs84_enu",
+        }
+    }
+    /// The survey as result.json names it: the file as given, or `<memory>`.
+    #[getter]
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+    fn __len__(&self) -> usize {
+        self.inner.targets.len()
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Survey({}, {} targets, {})",
+            self.name,
+            self.inner.targets.len(),
+            if self.inner.has_z() { "3d" } else { "2d" }
+        )
+    }
+}
+
+/// An ENU origin, checked as the CLI's `--origin` is.
+fn geodetic(lat: f64, lon: f64, alt: f64) -> PyResult<Geodetic> {
+    if !(-90.0..=90.0).contains(&lat) || !(-180.0..=360.0).contains(&lon) || !alt.is_finite() {
+        return Err(input_err(
+            "origin: latitude must be within ±90° and longitude within ±180°",
+        ));
+    }
+    Ok(Geodetic { lat, lon, alt })
+}
+
+/// Reads a survey CSV exactly as `mapgauge eval --survey` does.
+#[pyfunction]
+#[pyo3(signature = (path, origin=None))]
+fn read_survey(py: Python<'_>, path: PathBuf, origin: Option<Vec<f64>>) -> PyResult<PySurvey> {
+    let origin = match origin.as_deref() {
+        None => None,
+        Some(&[lat, lon]) => Some(geodetic(lat, lon, 0.0)?),
+        Some(&[lat, lon, alt]) => Some(geodetic(lat, lon, alt)?),
+        Some(_) => return Err(input_err("origin: expected (lat, lon) or (lat, lon, alt)")),
+    };
+    let inner = py
+        .detach(|| mapgauge::survey::read_survey(&path, &SurveyOptions { origin }))
+        .map_err(err)?;
+    Ok(PySurvey {
+        inner,
+        name: path.display().to_string(),
+        path: Some(path),
+    })
+}
+
+/// A local-frame survey from ids and an (M, 3) array (`has_z` false: heights unknown).
+#[pyfunction]
+fn _survey_from_arrays(
+    ids: Vec<String>,
+    xyz: PyReadonlyArray2<'_, f64>,
+    has_z: bool,
+) -> PyResult<PySurvey> {
+    let pts = points_of(xyz.as_array(), "survey")?;
+    if pts.len() != ids.len() {
+        return Err(input_err(format!(
+            "survey: {} ids for {} positions",
+            ids.len(),
+            pts.len()
+        )));
+    }
+    let mut seen = HashSet::new();
+    let mut targets = Vec::with_capacity(ids.len());
+    for (i, (id, p)) in ids.into_iter().zip(pts).enumerate() {
+        if id.trim().is_empty() {
+            return Err(input_err(format!(
+                "survey: target {} has an empty id",
+                i + 1
+            )));
+        }
+        if !seen.insert(id.clone()) {
+            return Err(input_err(format!("survey: duplicate target id `{id}`")));
+        }
+        let z_ok = !has_z || p.z.is_finite();
+        if !(p.x.is_finite() && p.y.is_finite() && z_ok) {
+            return Err(input_err(format!(
+                "survey: target `{id}` has a non-finite coordinate"
+            )));
+        }
+        targets.push(SurveyTarget {
+            id,
+            position: Point::new(p.x, p.y, if has_z { p.z } else { 0.0 }),
+            has_z,
+            role: None,
+            antenna_height: 0.0,
+            line: i as u64 + 2,
+        });
+    }
+    Ok(PySurvey {
+        inner: Survey {
+            targets,
+            frame: SurveyFrame::Local,
+            origin: None,
+        },
+        name: "<memory>".into(),
+        path: None,
+    })
+}
+
+/// An evaluation's Rust side: the pipeline's output, its result file and
+/// what is needed to write the report.
+#[pyclass(frozen, module = "mapgauge._mapgauge")]
+struct EvalCore {
+    ev: Evaluation,
+    result: ResultFile,
+    cfg: Config,
+    map_path: Option<PathBuf>,
+    survey_path: Option<PathBuf>,
+}
+
+#[pymethods]
+impl EvalCore {
+    /// result.json's exact text.
+    fn to_json(&self) -> String {
+        self.result.to_json()
+    }
+    /// The pipeline's warnings (sphere crop without heights, ...).
+    fn pipeline_warnings(&self) -> Vec<String> {
+        self.ev.warnings.iter().map(|w| w.to_string()).collect()
+    }
+    /// The loose or tight crop of target `index` (survey order), (K, 3).
+    fn crop<'py>(
+        &self,
+        py: Python<'py>,
+        index: usize,
+        kind: &str,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let t = self
+            .ev
+            .targets
+            .get(index)
+            .ok_or_else(|| input_err(format!("target index {index} out of range")))?;
+        match kind {
+            "loose" => Ok(points_array(py, &t.loose)),
+            "tight" => Ok(points_array(py, &t.tight)),
+            k => Err(input_err(format!("crop kind `{k}`: loose or tight"))),
+        }
+    }
+    /// The accepted sample corners of target `index`, (S, 3), map frame.
+    fn samples<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let t = self
+            .ev
+            .targets
+            .get(index)
+            .ok_or_else(|| input_err(format!("target index {index} out of range")))?;
+        Ok(match &t.outcome {
+            Ok(f) => points_array(py, &f.located.samples),
+            Err(_) => points_array(py, &[]),
+        })
+    }
+    /// Writes result.json, targets.csv, pairs.csv and (with `report`)
+    /// report.html into `out`, as `mapgauge eval --out` does.
+    fn write(&self, py: Python<'_>, out: PathBuf, report: bool) -> PyResult<()> {
+        py.detach(|| {
+            let mut inputs: Vec<(&str, &Path)> = Vec::new();
+            if let Some(m) = &self.map_path {
+                inputs.push(("map", m));
+            }
+            if let Some(s) = &self.survey_path {
+                inputs.push(("survey", s));
+            }
+            let in_paths: Vec<&Path> = inputs.iter().map(|i| i.1).collect();
+            std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+            for name in ["result.json", "targets.csv", "pairs.csv", "report.html"] {
+                refuse_overwrite(&out.join(name), &in_paths)?;
+            }
+            render::write_outputs(&self.result, &out)?;
+            if report {
+                let hashed = report::hash_inputs(&inputs, &AtomicBool::new(false))?;
+                let html = out.join("report.html");
+                report::write_report(
+                    &self.ev,
+                    &self.result,
+                    &self.cfg,
+                    hashed,
+                    &in_paths,
+                    Some(&html),
+                    None,
+                )?;
+            }
+            Ok(())
+        })
+        .map_err(err)
+    }
+}
+
+/// Runs the whole pipeline (`mapgauge eval`) on a map file or an (N, 3) array.
+#[pyfunction]
+#[pyo3(signature = (map, survey, config_json=None, crops=None, progress=None))]
+fn _evaluate(
+    py: Python<'_>,
+    map: &Bound<'_, PyAny>,
+    survey: &Bound<'_, PySurvey>,
+    config_json: Option<&str>,
+    crops: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<EvalCore> {
+    let cfg = config_from_json(config_json)?;
+    let (pts, map_path) = match map.extract::<PathBuf>() {
+        Ok(p) => (None, Some(p)),
+        Err(_) => (Some(points_from_any(map, "map")?), None),
+    };
+    let survey = survey.get();
+    let mut prog = Progress::new(progress);
+    let run = py.detach(|| {
+        let source = match (&pts, &map_path) {
+            (Some(p), _) => MapSource::Points(p),
+            (None, Some(path)) => MapSource::File(path),
+            (None, None) => unreachable!("a map is either points or a path"),
+        };
+        let cb = |b, t| prog.call(b, t);
+        match &crops {
+            Some(dir) => pipeline::run_with_crops(source, &survey.inner, dir, &cfg, cb),
+            None => pipeline::run(source, &survey.inner, &cfg, cb),
+        }
+    });
+    prog.finish()?;
+    let ev = run.map_err(err)?;
+    let mut result = ResultFile::from_accuracy(&ev.accuracy, &survey.inner);
+    result.eval = Some(EvalInfo::from_evaluation(&ev, &survey.name));
+    Ok(EvalCore {
+        ev,
+        result,
+        cfg,
+        map_path,
+        survey_path: survey.path.clone(),
+    })
+}
+
+/// The full configuration (defaults merged with `config_json`) as JSON and as
+/// the TOML `--print-config` prints.
+#[pyfunction]
+#[pyo3(signature = (config_json=None))]
+fn _config(config_json: Option<&str>) -> PyResult<(String, String)> {
+    let cfg = config_from_json(config_json)?;
+    let json = serde_json::to_string(&cfg).map_err(|e| input_err(e.to_string()))?;
+    Ok((json, cfg.to_toml()))
+}
+
+/// Scores given positions against a survey (`mapgauge errors`).
+#[pyclass(frozen, module = "mapgauge._mapgauge")]
+struct ScoreCore {
+    result: ResultFile,
+    inputs: Vec<PathBuf>,
+}
+
+#[pymethods]
+impl ScoreCore {
+    /// result.json's exact text.
+    fn to_json(&self) -> String {
+        self.result.to_json()
+    }
+    /// Writes result.json, targets.csv and pairs.csv into `out`.
+    fn write(&self, py: Python<'_>, out: PathBuf) -> PyResult<()> {
+        py.detach(|| {
+            std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+            let inputs: Vec<&Path> = self.inputs.iter().map(|p| p.as_path()).collect();
+            for name in ["result.json", "targets.csv", "pairs.csv"] {
+                refuse_overwrite(&out.join(name), &inputs)?;
+            }
+            render::write_outputs(&self.result, &out)
+        })
+        .map_err(err)
+    }
+}
+
+/// `estimates` is an estimates CSV path, or `(ids, (K, 3) array, has_z,
+/// reasons)` where a reason marks a target not found.
+#[pyfunction]
+#[pyo3(signature = (survey, estimates, metrics_json=None))]
+fn _errors(
+    py: Python<'_>,
+    survey: &Bound<'_, PySurvey>,
+    estimates: &Bound<'_, PyAny>,
+    metrics_json: Option<&str>,
+) -> PyResult<ScoreCore> {
+    let m: MetricsConfig = match metrics_json {
+        None => MetricsConfig::default(),
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("metrics: {}", json_msg(&e))))?
+        }
+    };
+    m.validate().map_err(err)?;
+    let opts = ScoreOptions {
+        method: m.align,
+        dim: m.dim,
+        survey_sigma: m.survey_sigma_h.map(|h| (h, m.survey_sigma_v)),
+    };
+    let survey = survey.get();
+    let mut inputs: Vec<PathBuf> = survey.path.iter().cloned().collect();
+    let est: Vec<Estimate> = if let Ok(path) = estimates.extract::<PathBuf>() {
+        let e = py
+            .detach(|| mapgauge::survey::read_estimates(&path))
+            .map_err(err)?;
+        inputs.push(path);
+        e
+    } else {
+        let (ids, xyz, has_z, reasons): (
+            Vec<String>,
+            PyReadonlyArray2<'_, f64>,
+            bool,
+            Vec<Option<String>>,
+        ) = estimates.extract()?;
+        let pts = points_of(xyz.as_array(), "estimates")?;
+        if pts.len() != ids.len() || reasons.len() != ids.len() {
+            return Err(input_err(format!(
+                "estimates: {} ids for {} positions",
+                ids.len(),
+                pts.len()
+            )));
+        }
+        let mut seen = HashSet::new();
+        let mut v = Vec::with_capacity(ids.len());
+        for ((id, p), reason) in ids.into_iter().zip(pts).zip(reasons) {
+            if !seen.insert(id.clone()) {
+                return Err(input_err(format!("estimates: duplicate target id `{id}`")));
+            }
+            let status = match reason {
+                Some(reason) => EstimateStatus::NotFound { reason },
+                None => {
+                    if !(p.x.is_finite() && p.y.is_finite() && (!has_z || p.z.is_finite())) {
+                        return Err(input_err(format!(
+                            "estimates: target `{id}` has a non-finite coordinate"
+                        )));
+                    }
+                    EstimateStatus::Found(Point::new(p.x, p.y, if has_z { p.z } else { 0.0 }))
+                }
+            };
+            v.push(Estimate { id, status, has_z });
+        }
+        v
+    };
+    let acc = py
+        .detach(|| accuracy::score(&survey.inner, &est, &opts))
+        .map_err(err)?;
+    Ok(ScoreCore {
+        result: ResultFile::from_accuracy(&acc, &survey.inner),
+        inputs,
+    })
+}
+
+/// Reads every point of a map file (any format), streamed chunk by chunk and
+/// kept only inside `bounds` = (min, max), each (x, y) or (x, y, z).
+#[pyfunction]
+#[pyo3(signature = (path, bounds=None))]
+fn read_points<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    bounds: Option<(Vec<f64>, Vec<f64>)>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let (lo, hi) = match &bounds {
+        None => ([f64::NEG_INFINITY; 3], [f64::INFINITY; 3]),
+        Some((a, b)) if a.len() == b.len() && (a.len() == 2 || a.len() == 3) => {
+            let (mut lo, mut hi) = ([f64::NEG_INFINITY; 3], [f64::INFINITY; 3]);
+            lo[..a.len()].copy_from_slice(a);
+            hi[..b.len()].copy_from_slice(b);
+            if lo
+                .iter()
+                .zip(&hi)
+                .any(|(l, h)| l.is_nan() || h.is_nan() || l > h)
+            {
+                return Err(input_err(
+                    "bounds: each minimum must be a number no larger than its maximum",
+                ));
+            }
+            (lo, hi)
+        }
+        Some(_) => {
+            return Err(input_err(
+                "bounds: expected (min, max) with min and max both (x, y) or (x, y, z)",
+            ));
+        }
+    };
+    let flat = py
+        .detach(|| -> mapgauge::Result<Vec<f64>> {
+            let mut r = cloud::open(&path)?;
+            let (mut buf, mut flat) = (Vec::new(), Vec::new());
+            while r.next_chunk(&mut buf)? {
+                for p in &buf {
+                    let c = [p.x, p.y, p.z];
+                    if (0..3).all(|k| c[k] >= lo[k] && c[k] <= hi[k]) {
+                        flat.extend_from_slice(&c);
+                    }
+                }
+            }
+            Ok(flat)
+        })
+        .map_err(err)?;
+    let n = flat.len() / 3;
+    Ok(Array2::from_shape_vec((n, 3), flat)
+        .expect("3 values per point")
+        .into_pyarray(py))
+}
+
+/// The paper's localisation on a tight crop: a dict of the located target.
+#[pyfunction]
+#[pyo3(signature = (points, up=None, params_json=None))]
+fn _locate<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    up: Option<[f64; 3]>,
+    params_json: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let params: mapgauge::locate::LocateParams = match params_json {
+        None => Default::default(),
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("locate: {}", json_msg(&e))))?
+        }
+    };
+    let pts = points_from_any(points, "points")?;
+    let up = up.map(|u| Point::new(u[0], u[1], u[2]).coords);
+    let l = py
+        .detach(|| mapgauge::locate::locate(&pts, up, &params))
+        .map_err(|e| input_err(format!("localisation failed: {e}")))?;
+    let d = PyDict::new(py);
+    d.set_item("corner", vec![l.corner.x, l.corner.y, l.corner.z])?;
+    d.set_item("std", l.std.to_vec())?;
+    d.set_item("spread", l.spread())?;
+    d.set_item("accepted", l.accepted)?;
+    d.set_item("attempts", l.attempts)?;
+    d.set_item("plate_angle_deg", l.plate_angle_deg)?;
+    d.set_item(
+        "normals",
+        vec![l.plates[0].normal.to_vec(), l.plates[1].normal.to_vec()],
+    )?;
+    d.set_item("inliers", vec![l.plates[0].inliers, l.plates[1].inliers])?;
+    d.set_item("samples", points_array(py, &l.samples))?;
+    Ok(d)
+}
+
+/// A synthetic LiDAR scene with known truth (`mapgauge synth`, in memory):
+/// points, its exact survey and the truth as JSON.
+#[pyfunction]
+#[pyo3(signature = (params_json=None))]
+fn _synth<'py>(
+    py: Python<'py>,
+    params_json: Option<&str>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, PySurvey, String)> {
+    let params: SynthParams = match params_json {
+        None => SynthParams::default(),
+        Some(s) => {
+            serde_json::from_str(s).map_err(|e| input_err(format!("synth: {}", json_msg(&e))))?
+        }
+    };
+    let (pts, truth) = py
+        .detach(|| -> mapgauge::Result<_> {
+            let mut pts = Vec::new();
+            let truth = synth::generate(&params, &mut |p| {
+                pts.extend_from_slice(p);
+                Ok(())
+            })?;
+            Ok((pts, truth))
+        })
+        .map_err(err)?;
+    let survey = PySurvey {
+        inner: truth.survey(),
+        name: "<memory>".into(),
+        path: None,
+    };
+    let truth_json = serde_json::to_string(&truth).map_err(|e| input_err(e.to_string()))?;
+    Ok((points_array(py, &pts), survey, truth_json))
+}
+
+/// The paper's Tables I and II over several results, as `mapgauge table`
+/// prints them. Each run is (name, "path" | "json", path or JSON text).
+#[pyfunction]
+fn _table(
+    py: Python<'_>,
+    runs: Vec<(String, String, String)>,
+    format: &str,
+    which: &str,
+) -> PyResult<String> {
+    let fmt: OutputFormat = format.parse().map_err(err)?;
+    let (rel, abs) = match which {
+        "both" => (true, true),
+        "relative" => (true, false),
+        "absolute" => (false, true),
+        w => {
+            return Err(input_err(format!(
+                "which `{w}`: relative, absolute or both"
+            )));
+        }
+    };
+    let results = py
+        .detach(|| {
+            runs.iter()
+                .map(|(name, kind, payload)| match kind.as_str() {
+                    "path" => ResultFile::from_json_file(Path::new(payload)),
+                    _ => {
+                        let r: ResultFile = serde_json::from_str(payload).map_err(|e| {
+                            Error::Input(format!("{name}: not a mapgauge result: {}", json_msg(&e)))
+                        })?;
+                        if r.schema != SCHEMA {
+                            return Err(Error::Input(format!(
+                                "{name}: schema `{}`, expected `{SCHEMA}`",
+                                r.schema
+                            )));
+                        }
+                        Ok(r)
+                    }
+                })
+                .collect::<mapgauge::Result<Vec<_>>>()
+        })
+        .map_err(err)?;
+    let named: Vec<(String, &ResultFile)> = runs
+        .iter()
+        .map(|r| r.0.clone())
+        .zip(results.iter())
+        .collect();
+    Ok(render_tables(&named, fmt, rel, abs))
+}
+
+/// `mapgauge table`'s output, as text.
+fn render_tables(
+    runs: &[(String, &ResultFile)],
+    fmt: OutputFormat,
+    rel: bool,
+    abs: bool,
+) -> String {
+    let mut tables: Vec<(&str, Grid)> = Vec::new();
+    if rel {
+        tables.push(("Relative error (m) — Table I", render::relative_grid(runs)));
+    }
+    if abs {
+        tables.push(("Absolute error (m) — Table II", render::absolute_grid(runs)));
+    }
+    let fmt = match fmt {
+        OutputFormat::Table(f) => f,
+        OutputFormat::Json => {
+            let mut o = serde_json::Map::new();
+            for (key, (_, g)) in ["relative", "absolute"]
+                .iter()
+                .filter(|k| if **k == "relative" { rel } else { abs })
+                .zip(&tables)
+            {
+                o.insert((*key).into(), g.to_json());
+            }
+            let mut s =
+                serde_json::to_string_pretty(&serde_json::Value::Object(o)).unwrap_or_default();
+            s.push('\n');
+            return s;
+        }
+    };
+    if fmt == TableFormat::Html {
+        let mut body = String::from("<h1>Map accuracy</h1>\n");
+        for (caption, g) in &tables {
+            body.push_str(&format!(
+                "<h2>{}</h2>\n<div class=\"scroll\">{}</div>\n",
+                html::escape(caption),
+                g.render(fmt)
+            ));
+        }
+        body.push_str(
+            "<p class=\"sub\">Means and standard deviations in bold as in the paper; \
+             a blank cell: the run has no such target; –: it has, but could not locate it.</p>",
+        );
+        return html::page("mapgauge tables", &body, &[]);
+    }
+    let mut out = String::new();
+    for (k, (caption, g)) in tables.iter().enumerate() {
+        if k > 0 {
+            out.push('\n');
+        }
+        if fmt == TableFormat::Markdown {
+            out.push_str(&format!("**{caption}**\n\n"));
+        }
+        out.push_str(&g.render(fmt));
+    }
+    out
+}
+
+/// The extension module.
+#[pymodule]
+fn _mapgauge(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("MapgaugeError", m.py().get_type::<MapgaugeError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<PySurvey>()?;
+    m.add_class::<EvalCore>()?;
+    m.add_class::<ScoreCore>()?;
+    m.add_function(wrap_pyfunction!(read_survey, m)?)?;
+    m.add_function(wrap_pyfunction!(_survey_from_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(_evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(_config, m)?)?;
+    m.add_function(wrap_pyfunction!(_errors, m)?)?;
+    m.add_function(wrap_pyfunction!(read_points, m)?)?;
+    m.add_function(wrap_pyfunction!(_locate, m)?)?;
+    m.add_function(wrap_pyfunction!(_synth, m)?)?;
+    m.add_function(wrap_pyfunction!(_table, m)?)?;
+    Ok(())
+}
