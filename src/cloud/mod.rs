@@ -15,8 +15,8 @@ mod e57;
 mod las;
 mod num;
 mod pcd;
-mod pcd_lzf;
 mod ply;
+mod producer;
 mod records;
 mod region;
 mod scalar;
@@ -279,7 +279,7 @@ pub struct CloudWriter {
     sink: Box<dyn Sink>,
 }
 
-/// One output format's encoder (implemented in `write.rs` and `las.rs`).
+/// One output format's encoder (implemented in `write.rs` and `las/sink.rs`).
 trait Sink: Send {
     fn write(&mut self, points: &[Point]) -> Result<()>;
     fn finish(self: Box<Self>) -> Result<u64>;
