@@ -81,8 +81,7 @@ impl Golden {
     }
 
     fn text_file(&mut self, name: &str, path: &Path) {
-        let s = std::fs::read_to_string(path)
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let s = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let s = self.normalise(&s);
         self.text.push((name.into(), s));
     }
@@ -196,8 +195,20 @@ fn cluttered_scene_is_unchanged() {
     g.run(
         "synth",
         &[
-            "synth", "--out", s(&scene), "--seed", "3", "--targets", "8", "--points", "700000",
-            "--format", "pcd", "--near-clutter-m", "1.5", "--bush-touching",
+            "synth",
+            "--out",
+            s(&scene),
+            "--seed",
+            "3",
+            "--targets",
+            "8",
+            "--points",
+            "700000",
+            "--format",
+            "pcd",
+            "--near-clutter-m",
+            "1.5",
+            "--bush-touching",
         ],
     );
     let map = scene.join("map.pcd");
@@ -206,8 +217,18 @@ fn cluttered_scene_is_unchanged() {
     g.run(
         "eval",
         &[
-            "eval", "--map", s(&map), "--survey", s(&survey), "--out", s(&ev), "--save-crops",
-            "--plots", s(&t.join("plots")), "--seed", "7",
+            "eval",
+            "--map",
+            s(&map),
+            "--survey",
+            s(&survey),
+            "--out",
+            s(&ev),
+            "--save-crops",
+            "--plots",
+            s(&t.join("plots")),
+            "--seed",
+            "7",
         ],
     );
     g.tree("eval", &ev);
@@ -215,19 +236,43 @@ fn cluttered_scene_is_unchanged() {
     for f in ["json", "markdown", "latex", "csv", "html"] {
         g.run(
             &format!("eval-{f}"),
-            &["eval", "--map", s(&map), "--survey", s(&survey), "--seed", "7", "--format", f],
+            &[
+                "eval",
+                "--map",
+                s(&map),
+                "--survey",
+                s(&survey),
+                "--seed",
+                "7",
+                "--format",
+                f,
+            ],
         );
     }
     g.run(
         "eval-print-config",
-        &["eval", "--print-config", "--plate-size", "0.6,0.5", "--radius", "4"],
+        &[
+            "eval",
+            "--print-config",
+            "--plate-size",
+            "0.6,0.5",
+            "--radius",
+            "4",
+        ],
     );
     // Hand-made crops: the tight crops eval saved.
     g.run(
         "eval-crops",
         &[
-            "eval", "--map", s(&map), "--survey", s(&survey), "--crops",
-            s(&ev.join("crops/tight")), "--seed", "7",
+            "eval",
+            "--map",
+            s(&map),
+            "--survey",
+            s(&survey),
+            "--crops",
+            s(&ev.join("crops/tight")),
+            "--seed",
+            "7",
         ],
     );
     let tight: Vec<String> = (1..=8)
@@ -240,7 +285,15 @@ fn cluttered_scene_is_unchanged() {
     let crops = t.join("crops");
     g.run(
         "crop",
-        &["crop", "--map", s(&map), "--survey", s(&survey), "--out", s(&crops)],
+        &[
+            "crop",
+            "--map",
+            s(&map),
+            "--survey",
+            s(&survey),
+            "--out",
+            s(&crops),
+        ],
     );
     g.tree("crop", &crops);
     g.check();
@@ -257,9 +310,27 @@ fn tilted_scene_is_unchanged() {
     g.run(
         "synth",
         &[
-            "synth", "--out", s(&scene), "--seed", "11", "--targets", "6", "--points", "600000",
-            "--format", "las", "--tilt-deg", "1.5", "--yaw-deg", "2", "--offset-m", "2,-1.5,0.4",
-            "--slope-deg", "3", "--survey-noise-m", "0.01",
+            "synth",
+            "--out",
+            s(&scene),
+            "--seed",
+            "11",
+            "--targets",
+            "6",
+            "--points",
+            "600000",
+            "--format",
+            "las",
+            "--tilt-deg",
+            "1.5",
+            "--yaw-deg",
+            "2",
+            "--offset-m",
+            "2,-1.5,0.4",
+            "--slope-deg",
+            "3",
+            "--survey-noise-m",
+            "0.01",
         ],
     );
     let map = scene.join("map.las");
@@ -269,16 +340,37 @@ fn tilted_scene_is_unchanged() {
     g.run(
         "eval-3d",
         &[
-            "eval", "--map", s(&map), "--survey", s(&survey), "--out", s(&a), "--align",
-            "rigid2d+z", "--dim", "3d", "--survey-sigma", "0.01,0.02",
+            "eval",
+            "--map",
+            s(&map),
+            "--survey",
+            s(&survey),
+            "--out",
+            s(&a),
+            "--align",
+            "rigid2d+z",
+            "--dim",
+            "3d",
+            "--survey-sigma",
+            "0.01,0.02",
         ],
     );
     g.tree("a", &a);
     g.run(
         "eval-robust",
         &[
-            "eval", "--map", s(&map), "--survey", s(&survey), "--out", s(&b), "--align",
-            "robust2d", "--no-report", "--shape", "sphere",
+            "eval",
+            "--map",
+            s(&map),
+            "--survey",
+            s(&survey),
+            "--out",
+            s(&b),
+            "--align",
+            "robust2d",
+            "--no-report",
+            "--shape",
+            "sphere",
         ],
     );
     g.tree("b", &b);
@@ -286,8 +378,13 @@ fn tilted_scene_is_unchanged() {
         g.run(
             &format!("table-{f}"),
             &[
-                "table", s(&a.join("result.json")), s(&b.join("result.json")), "--names",
-                "A,B", "--format", f,
+                "table",
+                s(&a.join("result.json")),
+                s(&b.join("result.json")),
+                "--names",
+                "A,B",
+                "--format",
+                f,
             ],
         );
     }
@@ -305,15 +402,29 @@ fn errors_are_unchanged() {
     g.run(
         "synth",
         &[
-            "synth", "--out", s(&scene), "--seed", "5", "--targets", "7", "--points", "400000",
+            "synth",
+            "--out",
+            s(&scene),
+            "--seed",
+            "5",
+            "--targets",
+            "7",
+            "--points",
+            "400000",
         ],
     );
     let ev = t.join("eval");
     g.run(
         "eval",
         &[
-            "eval", "--map", s(&scene.join("map.ply")), "--survey", s(&scene.join("survey.csv")),
-            "--out", s(&ev), "--no-report",
+            "eval",
+            "--map",
+            s(&scene.join("map.ply")),
+            "--survey",
+            s(&scene.join("survey.csv")),
+            "--out",
+            s(&ev),
+            "--no-report",
         ],
     );
     // Estimates from that run, and a survey with roles.
@@ -329,7 +440,13 @@ fn errors_are_unchanged() {
         }
         let sp = &tg["survey"];
         let role = if i % 3 == 2 { "check" } else { "control" };
-        sv += &format!("{id},{},{},{},{role}\n", sp["x"], sp["y"], sp["z"], role = role);
+        sv += &format!(
+            "{id},{},{},{},{role}\n",
+            sp["x"],
+            sp["y"],
+            sp["z"],
+            role = role
+        );
     }
     std::fs::write(&est, e).unwrap();
     let roles = t.join("roles.csv");
@@ -337,14 +454,29 @@ fn errors_are_unchanged() {
     for f in ["table", "json", "csv", "markdown", "latex"] {
         g.run(
             &format!("errors-{f}"),
-            &["errors", "--survey", s(&roles), "--estimates", s(&est), "--format", f],
+            &[
+                "errors",
+                "--survey",
+                s(&roles),
+                "--estimates",
+                s(&est),
+                "--format",
+                f,
+            ],
         );
     }
     g.run(
         "errors-llh",
         &[
-            "errors", "--survey", s(&scene.join("survey_llh.csv")), "--estimates", s(&est),
-            "--align", "similarity2d", "--out", s(&t.join("llh")),
+            "errors",
+            "--survey",
+            s(&scene.join("survey_llh.csv")),
+            "--estimates",
+            s(&est),
+            "--align",
+            "similarity2d",
+            "--out",
+            s(&t.join("llh")),
         ],
     );
     g.tree("llh", &t.join("llh"));
@@ -352,8 +484,13 @@ fn errors_are_unchanged() {
     g.run(
         "errors-paper",
         &[
-            "errors", "--survey", s(&data.join("paper_seq5_survey.csv")), "--estimates",
-            s(&data.join("paper_seq5_estimates.csv")), "--align", "robust2d",
+            "errors",
+            "--survey",
+            s(&data.join("paper_seq5_survey.csv")),
+            "--estimates",
+            s(&data.join("paper_seq5_estimates.csv")),
+            "--align",
+            "robust2d",
         ],
     );
     let one = t.join("one.csv");

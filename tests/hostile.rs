@@ -345,6 +345,34 @@ fn cases(dir: &Path) -> Vec<Case> {
             cat(xyz3(100_000_000_000_000, "binary"), f32_points(2)),
             &["truncated binary data", "POINTS 100000000000000"],
         ),
+        // Bytes after the declared points: PCL's page padding (zeros up to
+        // one page past the data) is read; anything that could be points is not.
+        case(
+            "pcd binary padding with a non-zero byte",
+            Map,
+            "m.pcd",
+            {
+                let mut v = cat(xyz3(2, "binary"), f32_points(2));
+                v.resize(4096 + 24, 0);
+                *v.last_mut().unwrap() = 1;
+                v
+            },
+            &["declares POINTS 2", "not zero, so not PCL's page padding"],
+        ),
+        case(
+            "pcd binary zeros that are not a page",
+            Map,
+            "m.pcd",
+            cat(cat(xyz3(2, "binary"), f32_points(2)), [0u8; 100]),
+            &["declares POINTS 2", "are zeros but not PCL's page padding"],
+        ),
+        case(
+            "pcd binary zeros past the largest page",
+            Map,
+            "m.pcd",
+            cat(cat(xyz3(2, "binary"), f32_points(2)), vec![0u8; 65536]),
+            &["declares POINTS 2", "more than PCL's largest page padding"],
+        ),
         case(
             "pcd ascii declares terabytes",
             Map,

@@ -1,8 +1,13 @@
 //! ascii PCD data: read in blocks whose lines are parsed in parallel pieces
 //! with the exact fast number parser (`num.rs`), at most the declared count.
+//!
+//! A coordinate declared `TYPE F` with `SIZE 4` is rounded to the nearest f32,
+//! as PCL (`istream >> float`) and pypcd4 (numpy float32) read it, so an ascii
+//! map gives the same points as the same map in binary; `SIZE 8` stays f64.
 
 use super::header::Header;
-use crate::cloud::num::parse_f64;
+use crate::cloud::num::{parse_f64, round_f32};
+use crate::cloud::scalar::Scalar;
 use crate::cloud::{CloudInfo, Format, PointReader, ReadStats};
 use crate::{Error, Point, Result};
 use rayon::prelude::*;
@@ -18,6 +23,8 @@ pub(super) struct AsciiReader {
     header: Header,
     /// Token index of x, y, z on a data line.
     cols: [usize; 3],
+    /// x, y, z declared `TYPE F` `SIZE 4`: read as PCL does, to the nearest f32.
+    f32s: [bool; 3],
     st: TextState,
     /// Index of the next point to decode.
     next: u64,
@@ -39,6 +46,7 @@ impl AsciiReader {
         file.seek(SeekFrom::Start(header.data_offset as u64))
             .map_err(|e| Error::io(path, e))?;
         let cols = header.xyz.map(|i| header.fields[i].token);
+        let f32s = header.xyz.map(|i| header.fields[i].kind == Scalar::F32);
         let st = TextState {
             file,
             block: Vec::new(),
@@ -52,6 +60,7 @@ impl AsciiReader {
             stats: ReadStats::default(),
             header,
             cols,
+            f32s,
             st,
             next: 0,
         })
@@ -113,10 +122,10 @@ impl AsciiReader {
             };
             cuts.push(next);
         }
-        let cols = self.cols;
+        let (cols, f32s) = (self.cols, self.f32s);
         let pieces: Vec<Piece> = cuts
             .par_windows(2)
-            .map(|w| parse_piece(&text[w[0]..w[1]], cols))
+            .map(|w| parse_piece(&text[w[0]..w[1]], cols, f32s))
             .collect();
         let ntok = self.header.tokens_per_line;
         let mut remaining = self.header.points - self.next;
@@ -214,7 +223,9 @@ struct Piece {
     error: Option<(u64, LineError)>,
 }
 
-fn parse_piece(text: &[u8], cols: [usize; 3]) -> Piece {
+/// Parses the lines of `text`: x, y, z are tokens `cols`, rounded to f32
+/// where `f32s` says so.
+fn parse_piece(text: &[u8], cols: [usize; 3], f32s: [bool; 3]) -> Piece {
     let last = cols.iter().copied().max().unwrap_or(0);
     let mut piece = Piece {
         points: Vec::with_capacity(text.len() / 24),
@@ -233,6 +244,7 @@ fn parse_piece(text: &[u8], cols: [usize; 3]) -> Piece {
             for c in 0..3 {
                 if cols[c] == t {
                     match parse_f64(tok) {
+                        Some(v) if f32s[c] => vals[c] = round_f32(tok, v),
                         Some(v) => vals[c] = v,
                         None => {
                             let tok =

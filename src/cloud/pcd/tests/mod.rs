@@ -205,6 +205,7 @@ impl PipeRead for PathBuf {
 }
 
 mod errors;
+mod pcl;
 mod reading;
 mod streaming;
 mod writers;

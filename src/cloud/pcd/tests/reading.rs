@@ -46,7 +46,12 @@ fn open3d_ascii_with_packed_rgb_and_crlf() {
     let (got, _) = read(&p).unwrap();
     assert_eq!(
         got,
-        vec![[1.5, 2.5, 3.5], [-1.0, -2.0, -3.0], [1e-3, 200.0, -0.0]]
+        vec![
+            [1.5, 2.5, 3.5],
+            [-1.0, -2.0, -3.0],
+            // TYPE F SIZE 4: the nearest f32, as PCL reads it.
+            [f64::from(1e-3f32), 200.0, -0.0]
+        ]
     );
 }
 
