@@ -257,6 +257,12 @@ pub enum OutFormat {
     PcdCompressed,
     /// LAZ (LASzip-compressed LAS 1.2, point format 0, millimetre scale).
     Laz,
+    /// Binary PCD v0.7 with float32 x, y, z, for readers that misread double
+    /// PCD (Open3D 0.20's legacy reader returns zeros). f32 keeps ~7
+    /// significant digits: coordinates beyond ±32 768 m would round by over
+    /// 1 mm and are refused (UTM-size maps: keep `pcd`).
+    #[serde(rename = "pcd-f32")]
+    PcdF32,
 }
 
 impl OutFormat {
@@ -264,7 +270,9 @@ impl OutFormat {
     pub fn extension(self) -> &'static str {
         match self {
             OutFormat::Ply => "ply",
-            OutFormat::Pcd | OutFormat::PcdAscii | OutFormat::PcdCompressed => "pcd",
+            OutFormat::Pcd | OutFormat::PcdAscii | OutFormat::PcdCompressed | OutFormat::PcdF32 => {
+                "pcd"
+            }
             OutFormat::Las => "las",
             OutFormat::Laz => "laz",
         }
@@ -295,6 +303,7 @@ impl CloudWriter {
             OutFormat::Laz => las::las_sink(path, true)?,
             OutFormat::PcdAscii => write::pcd_ascii_sink(path)?,
             OutFormat::PcdCompressed => write::pcd_compressed_sink(path)?,
+            OutFormat::PcdF32 => write::pcd_f32_sink(path)?,
         };
         Ok(CloudWriter { sink })
     }

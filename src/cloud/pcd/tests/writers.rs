@@ -133,3 +133,67 @@ fn unfinished_writer_leaves_no_file() {
         .to_string();
     assert!(e.contains("no/such/dir"), "{e}");
 }
+
+#[test]
+fn float32_pcd_writer_rounds_and_refuses_what_f32_cannot_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts: Vec<Point> = (0..40_000)
+        .map(|i| Point::new(-32_767.9 + i as f64 * 1.6, 0.123456789 * i as f64, -5.5))
+        .collect();
+    let p = dir.path().join("f32.pcd");
+    let mut w = CloudWriter::create(&p, OutFormat::PcdF32).unwrap();
+    w.write(&pts[..20_000]).unwrap();
+    w.write(&pts[20_000..]).unwrap();
+    assert_eq!(w.finish().unwrap(), 40_000);
+    let bytes = std::fs::read(&p).unwrap();
+    let text = String::from_utf8_lossy(&bytes[..300]);
+    assert!(
+        text.contains("\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 40000\n"),
+        "{text}"
+    );
+    // Header, then exactly 12 bytes a point: nothing else.
+    let head = text.find("DATA binary\n").unwrap() + 12;
+    assert_eq!(bytes.len(), head + 12 * 40_000);
+    let got = cloud::read_all(&p).unwrap();
+    let want: Vec<Point> = pts
+        .iter()
+        .map(|q| Point::new(q.x as f32 as f64, q.y as f32 as f64, q.z as f32 as f64))
+        .collect();
+    assert_eq!(got, want);
+    assert!(
+        got.iter()
+            .zip(&pts)
+            .all(|(g, q)| (g - q).abs().max() < 0.001)
+    );
+    // A UTM coordinate would move by centimetres: refused, naming the point,
+    // and no file (or temporary) is left behind.
+    let utm = dir.path().join("utm.pcd");
+    let mut w = CloudWriter::create(&utm, OutFormat::PcdF32).unwrap();
+    w.write(&pts[..10]).unwrap();
+    let e = w
+        .write(&[
+            Point::new(1.0, 2.0, 3.0),
+            Point::new(350_123.456, 4_150_234.567, 12.0),
+        ])
+        .unwrap_err()
+        .to_string();
+    drop(w);
+    assert!(
+        e.contains("utm.pcd")
+            && e.contains("point 11 has a coordinate of 350123.456 m")
+            && e.contains("spacing 0.03125 m")
+            && e.contains("--format pcd"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'));
+    let mut left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["f32.pcd"]);
+    // Exactly at the limit is refused, just under it is written.
+    let e = cloud::write(&utm, OutFormat::PcdF32, &[Point::new(0.0, -32_768.0, 0.0)]);
+    assert!(e.is_err());
+    cloud::write(&utm, OutFormat::PcdF32, &[Point::new(0.0, -32_767.99, 0.0)]).unwrap();
+}
