@@ -1,5 +1,5 @@
 //! Hostile input through the command line: for every parser (PCD, PLY, LAS/LAZ,
-//! E57, XYZ, survey CSV, estimates CSV, TOML config, result.json) a table of
+//! E57, PTS, XYZ, survey CSV, estimates CSV, TOML config, result.json) a table of
 //! malformed files, each of which must end the run with exit code 1 and exactly
 //! one line `error: <file>...` on stderr — never a panic (exit 101), never an
 //! allocation out of proportion to the file (every run has its address space
@@ -782,6 +782,64 @@ fn cases(dir: &Path) -> Vec<Case> {
             "m.e57",
             e57_bytes(dir, &[[1.0, 2.0, 3.0]; 3], true),
             &["E57"],
+        ),
+        // ---------------------------------------------------------------- PTS
+        case("pts empty", Map, "m.pts", "", &["empty file"]),
+        case(
+            "pts blank lines only",
+            Map,
+            "m.pts",
+            "\n \n",
+            &["no point count line"],
+        ),
+        case(
+            "pts no count line",
+            Map,
+            "m.pts",
+            "1 2 3\n4 5 6\n",
+            &["m.pts:1: expected the point count"],
+        ),
+        case(
+            "pts count larger than the data",
+            Map,
+            "m.pts",
+            "5\n1 2 3\n4 5 6\n",
+            &["m.pts:1: count line declares 5 points but the file ends after 2"],
+        ),
+        case(
+            "pts count smaller than the data",
+            Map,
+            "m.pts",
+            "1\n1 2 3\n4 5 6\n",
+            &["m.pts:3: count line 1 declares 1 points but more follow"],
+        ),
+        case(
+            "pts section cut short by the next count",
+            Map,
+            "m.pts",
+            "3\n1 2 3\n1\n4 5 6\n",
+            &["m.pts:1: count line declares 3 points but line 3 starts another section after 1"],
+        ),
+        case(
+            "pts count declares terabytes",
+            Map,
+            "m.pts",
+            "100000000000000\n1 2 3\n",
+            &["declares 100000000000000 points but the file ends after 1"],
+        ),
+        case(
+            "pts non-numeric coordinate",
+            Map,
+            "m.pts",
+            "2\n1 2 3\n1 2 zz\n",
+            &["m.pts:3: z value 'zz' is not a number"],
+        ),
+        case(
+            "pts wrong number of values",
+            Map,
+            "m.pts",
+            "2\n1 2 3\n1 2 3 4 5\n",
+            &["m.pts:3: expected x y z [intensity [r g b]]", "found 5"],
         ),
         // ---------------------------------------------------------------- XYZ
         case("xyz empty", Map, "m.xyz", "", &["empty file"]),

@@ -17,6 +17,7 @@ mod num;
 mod pcd;
 mod ply;
 mod producer;
+mod pts;
 mod records;
 mod region;
 mod scalar;
@@ -39,6 +40,9 @@ pub enum Format {
     E57,
     /// Whitespace- or comma-separated x y z text.
     Xyz,
+    /// PTS text (Leica, CloudCompare, Open3D): a count line, then
+    /// `x y z [intensity [r g b]]` lines.
+    Pts,
 }
 
 /// What a reader knows about a cloud before reading its points.
@@ -157,6 +161,7 @@ pub fn open_as(path: &Path, format: Format) -> Result<Box<dyn PointReader>> {
         Format::Las | Format::Laz => las::open(path),
         Format::E57 => e57::open(path),
         Format::Xyz => xyz::open(path),
+        Format::Pts => pts::open(path),
     }
 }
 
@@ -217,10 +222,14 @@ pub fn detect(path: &Path) -> Result<Format> {
         }
         break;
     }
+    if pts::sniff(head, n < 512, ext == "pts") {
+        return Ok(Format::Pts);
+    }
     match ext.as_str() {
         "pcd" => Ok(Format::Pcd),
         "ply" => Ok(Format::Ply),
         "e57" => Ok(Format::E57),
+        "pts" => Ok(Format::Pts),
         _ => Ok(Format::Xyz),
     }
 }
