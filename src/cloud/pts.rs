@@ -393,4 +393,44 @@ mod tests {
         assert_eq!(st.points as usize, want.len());
         assert_eq!(st.skipped_nonfinite as usize, n - want.len());
     }
+
+    #[test]
+    fn mutated_files_give_points_or_one_line_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let seed = b"2\n1.5 2.5 3.5 0 1 2 3\n-1 -2 -3\n0\n1\n4 5 6 7\n";
+        let alphabet = b"0123456789 \t\n\r.-+eEnaif#,x\x00\xff";
+        let mut h = 1u64;
+        let p = dir.path().join("m.pts");
+        for _ in 0..800 {
+            let mut b = seed.to_vec();
+            for _ in 0..1 + (h >> 60) {
+                h = h
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let at = (h >> 33) as usize % (b.len() + 1);
+                let c = alphabet[(h >> 20) as usize % alphabet.len()];
+                match (h >> 10) % 3 {
+                    0 if at < b.len() => b[at] = c,
+                    1 if at < b.len() => {
+                        b.remove(at);
+                    }
+                    _ => b.insert(at, c),
+                }
+            }
+            std::fs::write(&p, &b).unwrap();
+            let mut r = cloud::open_as(&p, cloud::Format::Pts).unwrap();
+            let mut buf = Vec::new();
+            loop {
+                match r.next_chunk(&mut buf) {
+                    Ok(true) => assert!(buf.iter().all(|q| q.x.is_finite())),
+                    Ok(false) => break,
+                    Err(e) => {
+                        assert!(!e.to_string().contains('\n'), "{e}");
+                        break;
+                    }
+                }
+            }
+            let _ = cloud::detect(&p);
+        }
+    }
 }
