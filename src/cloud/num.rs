@@ -32,6 +32,15 @@ pub(super) fn parse_f64(tok: &[u8]) -> Option<f64> {
 #[inline]
 pub(super) fn round_f32(tok: &[u8], v: f64) -> f64 {
     let f = v as f32;
+    let a = v.abs();
+    if a >= f64::from(f32::MIN_POSITIVE) && a <= f64::from(f32::MAX) {
+        // Normal f32 range: an f32 midpoint is an f64 whose 29 mantissa bits
+        // below f32 precision are exactly 1000…0.
+        if v.to_bits() & 0x1FFF_FFFF != 0x1000_0000 {
+            return f64::from(f);
+        }
+        return reparse_f32(tok, f);
+    }
     if !v.is_finite() || f64::from(f) == v {
         return f64::from(f);
     }
@@ -45,6 +54,13 @@ pub(super) fn round_f32(tok: &[u8], v: f64) -> f64 {
     if v != mid {
         return f64::from(f);
     }
+    reparse_f32(tok, f)
+}
+
+/// `tok` parsed directly as f32 (`f` if that fails, which it cannot for a
+/// token that parsed as f64).
+#[cold]
+fn reparse_f32(tok: &[u8], f: f32) -> f64 {
     std::str::from_utf8(tok)
         .ok()
         .and_then(|s| s.parse::<f32>().ok())
