@@ -5,9 +5,9 @@
 //! pose is applied, so all scans come out in the file's common frame. Points
 //! without a valid cartesian position (direction-only or invalid) and
 //! non-finite points are skipped and counted. The crate's iterator borrows its
-//! reader, so it runs on a background thread (see `las::Producer`).
+//! reader, so it runs on a background thread (see `producer.rs`).
 
-use super::las::{Msg, Producer};
+use super::producer::{Msg, Producer};
 use super::{CloudInfo, Format, PointReader};
 use crate::{Error, Point, Result};
 use std::path::Path;

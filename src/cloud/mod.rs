@@ -16,8 +16,9 @@ mod e57;
 mod las;
 mod num;
 mod pcd;
-mod pcd_lzf;
 mod ply;
+mod producer;
+mod pts;
 mod records;
 mod region;
 mod scalar;
@@ -41,6 +42,9 @@ pub enum Format {
     E57,
     /// Whitespace- or comma-separated x y z text.
     Xyz,
+    /// PTS text (Leica, CloudCompare, Open3D): a count line, then
+    /// `x y z [intensity [r g b]]` lines.
+    Pts,
     /// Points handed over in memory ([`MapSource::Points`]): no file.
     Memory,
 }
@@ -161,6 +165,7 @@ pub fn open_as(path: &Path, format: Format) -> Result<Box<dyn PointReader>> {
         Format::Las | Format::Laz => las::open(path),
         Format::E57 => e57::open(path),
         Format::Xyz => xyz::open(path),
+        Format::Pts => pts::open(path),
         Format::Memory => Err(Error::Param(format!(
             "{}: `memory` is not a file format",
             path.display()
@@ -225,10 +230,14 @@ pub fn detect(path: &Path) -> Result<Format> {
         }
         break;
     }
+    if pts::sniff(head, n < 512, ext == "pts") {
+        return Ok(Format::Pts);
+    }
     match ext.as_str() {
         "pcd" => Ok(Format::Pcd),
         "ply" => Ok(Format::Ply),
         "e57" => Ok(Format::E57),
+        "pts" => Ok(Format::Pts),
         _ => Ok(Format::Xyz),
     }
 }
@@ -265,6 +274,12 @@ pub enum OutFormat {
     PcdCompressed,
     /// LAZ (LASzip-compressed LAS 1.2, point format 0, millimetre scale).
     Laz,
+    /// Binary PCD v0.7 with float32 x, y, z, for readers that misread double
+    /// PCD (Open3D 0.20's legacy reader returns zeros). f32 keeps ~7
+    /// significant digits: coordinates beyond ±32 768 m would round by over
+    /// 1 mm and are refused (UTM-size maps: keep `pcd`).
+    #[serde(rename = "pcd-f32")]
+    PcdF32,
 }
 
 impl OutFormat {
@@ -272,7 +287,9 @@ impl OutFormat {
     pub fn extension(self) -> &'static str {
         match self {
             OutFormat::Ply => "ply",
-            OutFormat::Pcd | OutFormat::PcdAscii | OutFormat::PcdCompressed => "pcd",
+            OutFormat::Pcd | OutFormat::PcdAscii | OutFormat::PcdCompressed | OutFormat::PcdF32 => {
+                "pcd"
+            }
             OutFormat::Las => "las",
             OutFormat::Laz => "laz",
         }
@@ -287,7 +304,7 @@ pub struct CloudWriter {
     sink: Box<dyn Sink>,
 }
 
-/// One output format's encoder (implemented in `write.rs` and `las.rs`).
+/// One output format's encoder (implemented in `write.rs` and `las/sink.rs`).
 trait Sink: Send {
     fn write(&mut self, points: &[Point]) -> Result<()>;
     fn finish(self: Box<Self>) -> Result<u64>;
@@ -303,6 +320,7 @@ impl CloudWriter {
             OutFormat::Laz => las::las_sink(path, true)?,
             OutFormat::PcdAscii => write::pcd_ascii_sink(path)?,
             OutFormat::PcdCompressed => write::pcd_compressed_sink(path)?,
+            OutFormat::PcdF32 => write::pcd_f32_sink(path)?,
         };
         Ok(CloudWriter { sink })
     }

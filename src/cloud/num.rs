@@ -24,6 +24,61 @@ pub(super) fn parse_f64(tok: &[u8]) -> Option<f64> {
     }
 }
 
+/// `tok`, already parsed to the nearest f64 `v`, rounded to the nearest f32
+/// the way C++ `istream >> float` (PCL) and numpy's float32 (pypcd4) read a
+/// 4-byte float: `v as f32` is that value except when `v` lies exactly halfway
+/// between two f32s, where the decimal itself may not (double rounding); only
+/// then is `tok` parsed again, directly as f32.
+#[inline]
+pub(super) fn round_f32(tok: &[u8], v: f64) -> f64 {
+    let f = v as f32;
+    let a = v.abs();
+    if a >= f64::from(f32::MIN_POSITIVE) && a <= f64::from(f32::MAX) {
+        // Normal f32 range: an f32 midpoint is an f64 whose 29 mantissa bits
+        // below f32 precision are exactly 1000…0.
+        if v.to_bits() & 0x1FFF_FFFF != 0x1000_0000 {
+            return f64::from(f);
+        }
+        return reparse_f32(tok, f);
+    }
+    if !v.is_finite() || f64::from(f) == v {
+        return f64::from(f);
+    }
+    let mid = if f.is_infinite() {
+        // Halfway between f32::MAX and 2^128, the first value past it.
+        let m = f64::from(f32::MAX.copysign(f));
+        (m + 2f64.powi(128).copysign(m)) * 0.5
+    } else {
+        (f64::from(f) + f64::from(step(f, f64::from(f) < v))) * 0.5
+    };
+    if v != mid {
+        return f64::from(f);
+    }
+    reparse_f32(tok, f)
+}
+
+/// `tok` parsed directly as f32 (`f` if that fails, which it cannot for a
+/// token that parsed as f64).
+#[cold]
+fn reparse_f32(tok: &[u8], f: f32) -> f64 {
+    std::str::from_utf8(tok)
+        .ok()
+        .and_then(|s| s.parse::<f32>().ok())
+        .map_or(f64::from(f), f64::from)
+}
+
+/// The f32 next to finite `f`, upwards or downwards (`f32::next_up` needs
+/// Rust 1.86).
+fn step(f: f32, up: bool) -> f32 {
+    if f == 0.0 {
+        let tiny = f32::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let b = f.to_bits();
+    // Away from zero is one more in the magnitude bits.
+    f32::from_bits(if (f > 0.0) == up { b + 1 } else { b - 1 })
+}
+
 /// The fast path; `None` means "ask the exact parser" (not "not a number").
 #[inline(always)]
 fn fast(tok: &[u8]) -> Option<f64> {
@@ -122,6 +177,49 @@ fn fast(tok: &[u8]) -> Option<f64> {
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    fn same_f32(s: &str) {
+        let want = s.parse::<f32>().unwrap();
+        let got = round_f32(s.as_bytes(), parse_f64(s.as_bytes()).unwrap());
+        assert_eq!(got.to_bits(), f64::from(want).to_bits(), "{s:?}");
+    }
+
+    #[test]
+    fn round_f32_equals_a_direct_f32_parse() {
+        // Double rounding: each decimal is within 1e-35 of an f32 midpoint,
+        // so its nearest f64 IS the midpoint.
+        for s in [
+            "1.00000005960464477539062500000000001",
+            "1.00000005960464477539062499999999999",
+            "-1.00000017881393432617187500000000001",
+            "350123.515625000000000000000000000001",
+            "350123.515624999999999999999999999999",
+            "4150234.25000000000000000000000000001",
+            "4150234.24999999999999999999999999999",
+            "340282356779733661637539395458142568448",
+            "340282356779733661637539395458142568447",
+            "1e-46",
+            "0.7",
+            "-0",
+            "nan",
+            "inf",
+            "1e39",
+        ] {
+            same_f32(s);
+        }
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        for _ in 0..200_000 {
+            let v: f64 = rng.random_range(-5e6..5e6);
+            let digits = rng.random_range(0..12);
+            same_f32(&format!("{v:.digits$}"));
+            // Exact f32 midpoints, printed in full.
+            let f = v as f32;
+            let m = (f64::from(f) + f64::from(step(f, true))) * 0.5;
+            let n = (f64::from(f) + f64::from(step(f, false))) * 0.5;
+            same_f32(&format!("{n}"));
+            same_f32(&format!("{m}"));
+        }
+    }
 
     fn same(s: &str) {
         let want = s.parse::<f64>().ok().map(f64::to_bits);

@@ -26,7 +26,13 @@ enum Kind {
     Ply,
     Pcd,
     PcdAscii,
+    /// Binary PCD with float (f32) x, y, z.
+    PcdF32,
 }
+
+/// Largest coordinate magnitude written as f32: below 2^15 m the f32 spacing
+/// is at most 2^-9 m, so rounding moves a point by under 1 mm.
+const F32_LIMIT: f64 = 32768.0;
 
 /// The header for `n` points; `pad` trailing spaces go on the comment line.
 fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
@@ -36,18 +42,18 @@ fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
             "ply\nformat binary_little_endian 1.0\ncomment written by mapgauge{pad}\n\
              element vertex {n}\nproperty double x\nproperty double y\nproperty double z\nend_header\n"
         ),
-        Kind::Pcd | Kind::PcdAscii => {
-            pcd_header(n, &pad, if kind == Kind::Pcd { "binary" } else { "ascii" })
-        }
+        Kind::Pcd => pcd_header(n, &pad, 8, "binary"),
+        Kind::PcdAscii => pcd_header(n, &pad, 8, "ascii"),
+        Kind::PcdF32 => pcd_header(n, &pad, 4, "binary"),
     };
     s.into_bytes()
 }
 
-/// A PCD header with double x, y, z.
-fn pcd_header(n: u64, pad: &str, data: &str) -> String {
+/// A PCD header with `size`-byte float x, y, z.
+fn pcd_header(n: u64, pad: &str, size: u8, data: &str) -> String {
     format!(
         "# .PCD v0.7 - Point Cloud Data file format{pad}\nVERSION 0.7\nFIELDS x y z\n\
-         SIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
+         SIZE {size} {size} {size}\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
          VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA {data}\n"
     )
 }
@@ -121,6 +127,18 @@ impl Sink for XyzSink {
                 for p in block {
                     let _ = writeln!(self.scratch, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
                 }
+            } else if self.kind == Kind::PcdF32 {
+                self.scratch.resize(12 * block.len(), 0);
+                for (k, (r, p)) in self.scratch.chunks_exact_mut(12).zip(block).enumerate() {
+                    for (c, v) in [p.x, p.y, p.z].into_iter().enumerate() {
+                        if v.is_finite() && v.abs() >= F32_LIMIT {
+                            return Err(f32_refusal(&self.dest, self.count + k as u64, v));
+                        }
+                        r[4 * c..4 * c + 4].copy_from_slice(&(v as f32).to_le_bytes());
+                    }
+                }
+                // `count` advances per block, so a refusal names the right point.
+                self.count += block.len() as u64;
             } else {
                 // Sized once and filled record by record: the crop writer's
                 // inner loop (a push per coordinate cost a capacity check each).
@@ -136,7 +154,9 @@ impl Sink for XyzSink {
             self.scratch = scratch;
             res.map_err(|e| Error::io(self.tmp_path(), e))?;
         }
-        self.count += points.len() as u64;
+        if self.kind != Kind::PcdF32 {
+            self.count += points.len() as u64;
+        }
         Ok(())
     }
 
@@ -176,6 +196,23 @@ pub(super) fn ply_sink(path: &Path) -> Result<Box<dyn Sink>> {
 /// Starts a binary PCD writer.
 pub(super) fn pcd_sink(path: &Path) -> Result<Box<dyn Sink>> {
     Ok(Box::new(XyzSink::create(path, Kind::Pcd)?))
+}
+
+/// Starts a binary float32 PCD writer (coordinates within ±[`F32_LIMIT`]).
+pub(super) fn pcd_f32_sink(path: &Path) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::PcdF32)?))
+}
+
+/// Why a coordinate cannot be written as f32: the error it would carry.
+fn f32_refusal(dest: &Path, point: u64, v: f64) -> Error {
+    let err = (v - f64::from(v as f32)).abs();
+    let ulp = 2f64.powi(v.abs().log2().floor() as i32 - 23);
+    Error::Input(format!(
+        "{}: point {point} has a coordinate of {v} m, which float32 PCD cannot hold to the millimetre \
+         (f32 keeps ~7 significant digits: spacing {ulp} m here, this one would move {err:.4} m; \
+         the limit is ±{F32_LIMIT} m); write double PCD (--format pcd) or move the map to a local frame first",
+        dest.display()
+    ))
 }
 
 /// Starts an ascii PCD writer (coordinates to the micrometre).
@@ -261,7 +298,7 @@ impl Sink for PcdCompressedSink {
             .map_err(|e| Error::io(&tmp, e))?;
         let mut out = BufWriter::with_capacity(1 << 20, file);
         let io = |e| Error::io(&tmp, e);
-        out.write_all(pcd_header(self.count, "", "binary_compressed").as_bytes())
+        out.write_all(pcd_header(self.count, "", 8, "binary_compressed").as_bytes())
             .map_err(io)?;
         out.write_all(&[0u8; 8]).map_err(io)?;
         let mut comp: u64 = 0;
@@ -289,7 +326,7 @@ impl Sink for PcdCompressedSink {
             ))
         })?;
         let mut file = out.into_inner().map_err(|e| io(e.into_error()))?;
-        let head = pcd_header(self.count, "", "binary_compressed").len() as u64;
+        let head = pcd_header(self.count, "", 8, "binary_compressed").len() as u64;
         file.seek(SeekFrom::Start(head)).map_err(io)?;
         file.write_all(&comp32.to_le_bytes()).map_err(io)?;
         file.write_all(&raw32.to_le_bytes()).map_err(io)?;
@@ -348,7 +385,7 @@ mod tests {
 
     #[test]
     fn header_length_is_fixed_for_every_count() {
-        for kind in [Kind::Ply, Kind::Pcd, Kind::PcdAscii] {
+        for kind in [Kind::Ply, Kind::Pcd, Kind::PcdAscii, Kind::PcdF32] {
             let len = fixed_header(kind, 0).len();
             for n in [1, 9, 10, 12345, u64::MAX / 3, u64::MAX] {
                 assert_eq!(fixed_header(kind, n).len(), len, "{kind:?} {n}");

@@ -8,13 +8,15 @@ use std::path::PathBuf;
 /// Convert a map to another format, streaming (memory does not grow with the map).
 #[derive(clap::Args)]
 pub struct Args {
-    /// Input map (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    /// Input map (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content).
     #[arg(long)]
     map: PathBuf,
     /// Output file.
     #[arg(long)]
     out: PathBuf,
     /// Output format [default: from the output's extension: .ply, .pcd (binary), .las, .laz].
+    /// `pcd-f32` is for readers that misread double PCD (Open3D 0.20): it
+    /// refuses coordinates beyond ±32 768 m, where f32 rounds by over 1 mm.
     #[arg(long, value_enum)]
     format: Option<OutFormat>,
 }

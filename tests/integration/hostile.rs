@@ -1,5 +1,5 @@
 //! Hostile input through the command line: for every parser (PCD, PLY, LAS/LAZ,
-//! E57, XYZ, survey CSV, estimates CSV, TOML config, result.json) a table of
+//! E57, PTS, XYZ, survey CSV, estimates CSV, TOML config, result.json) a table of
 //! malformed files, each of which must end the run with exit code 1 and exactly
 //! one line `error: <file>...` on stderr — never a panic (exit 101), never an
 //! allocation out of proportion to the file (every run has its address space
@@ -339,6 +339,34 @@ fn cases(dir: &Path) -> Vec<Case> {
             "m.pcd",
             cat(xyz3(100_000_000_000_000, "binary"), f32_points(2)),
             &["truncated binary data", "POINTS 100000000000000"],
+        ),
+        // Bytes after the declared points: PCL's page padding (zeros up to
+        // one page past the data) is read; anything that could be points is not.
+        case(
+            "pcd binary padding with a non-zero byte",
+            Map,
+            "m.pcd",
+            {
+                let mut v = cat(xyz3(2, "binary"), f32_points(2));
+                v.resize(4096 + 24, 0);
+                *v.last_mut().unwrap() = 1;
+                v
+            },
+            &["declares POINTS 2", "not zero, so not PCL's page padding"],
+        ),
+        case(
+            "pcd binary zeros that are not a page",
+            Map,
+            "m.pcd",
+            cat(cat(xyz3(2, "binary"), f32_points(2)), [0u8; 100]),
+            &["declares POINTS 2", "are zeros but not PCL's page padding"],
+        ),
+        case(
+            "pcd binary zeros past the largest page",
+            Map,
+            "m.pcd",
+            cat(cat(xyz3(2, "binary"), f32_points(2)), vec![0u8; 65536]),
+            &["declares POINTS 2", "more than PCL's largest page padding"],
         ),
         case(
             "pcd ascii declares terabytes",
@@ -749,6 +777,64 @@ fn cases(dir: &Path) -> Vec<Case> {
             "m.e57",
             e57_bytes(dir, &[[1.0, 2.0, 3.0]; 3], true),
             &["E57"],
+        ),
+        // ---------------------------------------------------------------- PTS
+        case("pts empty", Map, "m.pts", "", &["empty file"]),
+        case(
+            "pts blank lines only",
+            Map,
+            "m.pts",
+            "\n \n",
+            &["no point count line"],
+        ),
+        case(
+            "pts no count line",
+            Map,
+            "m.pts",
+            "1 2 3\n4 5 6\n",
+            &["m.pts:1: expected the point count"],
+        ),
+        case(
+            "pts count larger than the data",
+            Map,
+            "m.pts",
+            "5\n1 2 3\n4 5 6\n",
+            &["m.pts:1: count line declares 5 points but the file ends after 2"],
+        ),
+        case(
+            "pts count smaller than the data",
+            Map,
+            "m.pts",
+            "1\n1 2 3\n4 5 6\n",
+            &["m.pts:3: count line 1 declares 1 points but more follow"],
+        ),
+        case(
+            "pts section cut short by the next count",
+            Map,
+            "m.pts",
+            "3\n1 2 3\n1\n4 5 6\n",
+            &["m.pts:1: count line declares 3 points but line 3 starts another section after 1"],
+        ),
+        case(
+            "pts count declares terabytes",
+            Map,
+            "m.pts",
+            "100000000000000\n1 2 3\n",
+            &["declares 100000000000000 points but the file ends after 1"],
+        ),
+        case(
+            "pts non-numeric coordinate",
+            Map,
+            "m.pts",
+            "2\n1 2 3\n1 2 zz\n",
+            &["m.pts:3: z value 'zz' is not a number"],
+        ),
+        case(
+            "pts wrong number of values",
+            Map,
+            "m.pts",
+            "2\n1 2 3\n1 2 3 4 5\n",
+            &["m.pts:3: expected x y z [intensity [r g b]]", "found 5"],
         ),
         // ---------------------------------------------------------------- XYZ
         case("xyz empty", Map, "m.xyz", "", &["empty file"]),

@@ -22,9 +22,9 @@
 //! cloud. The price is a second decode of the coordinate columns (pass 1 is
 //! sequential, pass 2 parallel).
 
-use super::records::read_exact_at;
-use super::scalar::Scalar;
-use super::{Batch, CloudInfo, PointReader, ReadStats, Scratch};
+use crate::cloud::records::read_exact_at;
+use crate::cloud::scalar::Scalar;
+use crate::cloud::{Batch, CloudInfo, PointReader, ReadStats, Scratch};
 use crate::{Error, Point, Result};
 use rayon::prelude::*;
 use std::fs::File;

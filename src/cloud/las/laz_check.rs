@@ -1,0 +1,104 @@
+//! The LAZ chunk table checked against the file before the `laz` crate
+//! allocates from it.
+
+use std::fs::File;
+use std::io::{BufReader, Seek, SeekFrom};
+
+/// Checks a LAZ file's chunk table against the file size before the `laz`
+/// crate sees it: the crate allocates the table from its declared chunk count
+/// and reads each chunk into a buffer of its declared byte count, so a lying
+/// table would make it allocate gigabytes (found by fuzzing). Not LAZ: Ok.
+pub(super) fn check_laz_chunks(file: &File, file_bytes: u64) -> std::result::Result<(), String> {
+    use std::io::Read;
+    let mut f = BufReader::new(file);
+    let bad = |m: &str| format!("LAZ: {m}");
+    let io = |e: std::io::Error| format!("LAZ: {e}");
+    // Read the header fields directly: the las crate is more lenient than a
+    // strict header parser, and every file it would decompress must be checked.
+    let mut head = [0u8; 227];
+    if f.read_exact(&mut head).is_err() || &head[..4] != b"LASF" || head[104] & 0x80 == 0 {
+        return Ok(()); // not a compressed LAS header: the las crate decides
+    }
+    let start = u64::from(u32::from_le_bytes([head[96], head[97], head[98], head[99]]));
+    // The laszip VLR lies between the header and the point data; find it by
+    // its user id rather than by walking VLR lengths the crate may read otherwise.
+    let mut vlrs = Vec::new();
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
+    (&mut f)
+        .take(start.min(file_bytes))
+        .read_to_end(&mut vlrs)
+        .map_err(io)?;
+    let id = laz::LazVlr::USER_ID.as_bytes();
+    let vlr = (0..vlrs.len().saturating_sub(id.len()))
+        .filter(|&p| p >= 2 && vlrs[p..].starts_with(id))
+        .find_map(|p| {
+            let rec = u16::from_le_bytes([*vlrs.get(p + 16)?, *vlrs.get(p + 17)?]);
+            let len = u16::from_le_bytes([*vlrs.get(p + 18)?, *vlrs.get(p + 19)?]) as usize;
+            let data = vlrs.get(p + 52..p + 52 + len)?;
+            (rec == laz::LazVlr::RECORD_ID)
+                .then(|| laz::LazVlr::from_buffer(data).ok())
+                .flatten()
+        });
+    let Some(vlr) = vlr else {
+        return Err(bad("compressed point format but no readable laszip VLR"));
+    };
+    let mut word = [0u8; 8];
+    f.seek(SeekFrom::Start(start)).map_err(io)?;
+    f.read_exact(&mut word)
+        .map_err(|_| bad("point data ends before the chunk table offset"))?;
+    let mut table = i64::from_le_bytes(word);
+    if table == -1 {
+        // Written by a streaming compressor: the offset is the file's last 8 bytes.
+        f.seek(SeekFrom::End(-8)).map_err(io)?;
+        f.read_exact(&mut word).map_err(io)?;
+        table = i64::from_le_bytes(word);
+    }
+    let table = u64::try_from(table).unwrap_or(u64::MAX);
+    if table < start + 8 || table.saturating_add(8) > file_bytes {
+        return Err(bad(&format!(
+            "chunk table offset {table} lies outside the point data ({}..{file_bytes})",
+            start + 8
+        )));
+    }
+    f.seek(SeekFrom::Start(table + 4)).map_err(io)?;
+    f.read_exact(&mut word[..4]).map_err(io)?;
+    let chunks = u64::from(u32::from_le_bytes([word[0], word[1], word[2], word[3]]));
+    // Every chunk holds at least one byte of point data.
+    if chunks > table - start {
+        return Err(bad(&format!(
+            "chunk table declares {chunks} chunks in {} bytes of point data",
+            table - start
+        )));
+    }
+    // The crate sizes a chunk's output buffer by its point count (the VLR's
+    // chunk size when chunks are fixed): no real file packs more than a few
+    // dozen points into a compressed byte, so allow 64 per byte (and the
+    // LASzip default chunk of 50 000 whatever the size).
+    let data = table - start;
+    let max_points = data.saturating_mul(64).max(50_000);
+    if !vlr.uses_variable_size_chunks() && u64::from(vlr.chunk_size()) > max_points {
+        return Err(bad(&format!(
+            "chunk size {} points is absurd for {data} bytes of point data",
+            vlr.chunk_size()
+        )));
+    }
+    f.seek(SeekFrom::Start(start)).map_err(io)?;
+    let entries =
+        laz::laszip::ChunkTable::read_from(&mut f, &vlr).map_err(|e| bad(&e.to_string()))?;
+    let (mut bytes, mut points) = (0u64, 0u64);
+    for e in entries.as_ref() {
+        bytes = bytes.saturating_add(e.byte_count);
+        points = points.saturating_add(e.point_count);
+    }
+    if bytes > data {
+        return Err(bad(&format!(
+            "chunk table declares {bytes} compressed bytes, the point data holds {data}"
+        )));
+    }
+    if vlr.uses_variable_size_chunks() && points > max_points {
+        return Err(bad(&format!(
+            "chunk table declares {points} points in {data} bytes of point data"
+        )));
+    }
+    Ok(())
+}

@@ -1,0 +1,167 @@
+//! LAS/LAZ written by the `las` crate read back to the millimetre; the writer
+//! round-trips and never leaves a partial file.
+
+use super::*;
+use crate::cloud::ReadStats;
+
+fn read(path: &Path) -> Result<(Vec<Point>, ReadStats, CloudInfo)> {
+    let mut r = super::super::open(path)?;
+    let mut all = Vec::new();
+    let mut buf = Vec::new();
+    while r.next_chunk(&mut buf)? {
+        all.extend_from_slice(&buf);
+    }
+    Ok((all, r.stats(), r.info().clone()))
+}
+
+fn truth(n: usize) -> Vec<Point> {
+    (0..n)
+        .map(|i| {
+            Point::new(
+                350123.456 + i as f64 * 0.01,
+                4150234.567 - i as f64 * 0.002,
+                12.5 + i as f64 * 0.001,
+            )
+        })
+        .collect()
+}
+
+/// Writes `pts` with the las crate itself in point format `fmt`.
+fn write_with_crate(path: &Path, fmt: u8, version: (u8, u8), pts: &[Point]) {
+    let mut b = las::Builder::from(version);
+    b.point_format = las::point::Format::new(fmt).unwrap();
+    let tr = |o| las::Transform {
+        scale: 0.001,
+        offset: o,
+    };
+    b.transforms = las::Vector {
+        x: tr(350000.0),
+        y: tr(4150000.0),
+        z: tr(0.0),
+    };
+    let mut w = las::Writer::from_path(path, b.into_header().unwrap()).unwrap();
+    for p in pts {
+        let mut q = las::Point {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            intensity: 7,
+            return_number: 1,
+            number_of_returns: 1,
+            ..Default::default()
+        };
+        let f = w.header().point_format();
+        if f.has_gps_time {
+            q.gps_time = Some(1234.5);
+        }
+        if f.has_color {
+            q.color = Some(las::Color::new(1, 2, 3));
+        }
+        w.write_point(q).unwrap();
+    }
+    w.close().unwrap();
+}
+
+fn assert_mm(got: &[Point], want: &[Point]) {
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(want) {
+        assert!((g - w).abs().max() < 0.0005 + 1e-9, "{g} vs {w}");
+    }
+}
+
+#[test]
+fn reads_formats_0_1_3_6_and_laz() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts = truth(CHUNK as usize + 1000);
+    for (fmt, ver, ext) in [
+        (0, (1, 2), "las"),
+        (1, (1, 2), "las"),
+        (3, (1, 2), "las"),
+        (6, (1, 4), "las"),
+        (3, (1, 2), "laz"),
+        (6, (1, 4), "laz"),
+    ] {
+        let path = dir.path().join(format!("f{fmt}.{ext}"));
+        write_with_crate(&path, fmt, ver, &pts);
+        let (got, st, info) = read(&path).unwrap();
+        assert_eq!(
+            info.format,
+            if ext == "laz" {
+                Format::Laz
+            } else {
+                Format::Las
+            },
+            "{fmt} {ext}"
+        );
+        assert_eq!(info.declared_points, Some(pts.len() as u64));
+        assert_eq!(st.points, pts.len() as u64);
+        assert_mm(&got, &pts);
+    }
+}
+
+#[test]
+fn truncated_las_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.las");
+    write_with_crate(&path, 0, (1, 2), &truth(100));
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() - 30]).unwrap();
+    let e = read(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("t.las") && e.contains("declares 100 points") && e.contains("holds 98"),
+        "{e}"
+    );
+    std::fs::write(&path, &bytes[..50]).unwrap();
+    let e = read(&path).unwrap_err().to_string();
+    assert!(e.contains("t.las") && e.contains("LAS"), "{e}");
+}
+
+#[test]
+fn sink_roundtrip_keeps_millimetres_at_utm() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("out.las");
+    let pts = truth(5000);
+    let mut w = super::super::CloudWriter::create(&path, super::super::OutFormat::Las).unwrap();
+    for c in pts.chunks(777) {
+        w.write(c).unwrap();
+    }
+    assert!(!path.exists(), "final name appears only on finish");
+    assert_eq!(w.finish().unwrap(), pts.len() as u64);
+    let (got, _, _) = read(&path).unwrap();
+    assert_mm(&got, &pts);
+    // exact to the millimetre grid
+    assert_eq!(got[0], Point::new(350123.456, 4150234.567, 12.5));
+    // header bounds computed by the crate
+    let r = las::Reader::from_path(&path).unwrap();
+    let b = r.header().bounds();
+    assert!((b.min.x - 350123.456).abs() < 1e-6 && (b.max.z - (12.5 + 4.999)).abs() < 1e-6);
+    // deterministic bytes
+    let path2 = dir.path().join("out2.las");
+    super::super::write(&path2, super::super::OutFormat::Las, &pts).unwrap();
+    assert_eq!(
+        std::fs::read(&path).unwrap(),
+        std::fs::read(&path2).unwrap()
+    );
+}
+
+#[test]
+fn sink_dropped_without_finish_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("gone.las");
+    let mut w = super::super::CloudWriter::create(&path, super::super::OutFormat::Las).unwrap();
+    w.write(&truth(10)).unwrap();
+    drop(w);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // empty cloud is a valid file
+    super::super::write(&path, super::super::OutFormat::Las, &[]).unwrap();
+    assert_eq!(read(&path).unwrap().0.len(), 0);
+    // a point too far away is an error, not garbage
+    let e = super::super::write(
+        &path,
+        super::super::OutFormat::Las,
+        &[Point::origin(), Point::new(3e6, 0., 0.)],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("point 1"), "{e}");
+}
