@@ -27,6 +27,11 @@ pub struct Args {
     /// Crop shape: vertical cylinder (horizontal distance) or sphere.
     #[arg(long, value_enum, default_value_t = Shape::Cylinder)]
     shape: Shape,
+    /// Write the automatic tight crops instead (ground removed, the target's
+    /// plates isolated, as `eval` makes them): what `locate` and `eval --crops`
+    /// expect. Loose crops keep the ground, for inspection or hand editing.
+    #[arg(long)]
+    tight: bool,
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutFormat::Ply)]
     format: OutFormat,
@@ -60,6 +65,9 @@ pub fn run(a: Args) -> Result<()> {
     if shape == Shape::Sphere && !survey.has_z() {
         eprintln!("warning: the survey has no heights; cropping with a vertical cylinder");
         shape = Shape::Cylinder;
+    }
+    if a.tight {
+        return write_tight(&a, &survey, &centres, shape);
     }
     let mut reader = cloud::open(&a.map)?;
     std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
@@ -117,6 +125,58 @@ pub fn run(a: Args) -> Result<()> {
             String::new()
         },
         survey.targets.len() - empty,
+        survey.targets.len()
+    );
+    Ok(())
+}
+
+/// `crop --tight`: the loose crops in memory (thinned as `eval` thins them),
+/// then each target's automatic tight crop written, or why there is none.
+fn write_tight(
+    a: &Args,
+    survey: &mapgauge::survey::Survey,
+    centres: &[Point],
+    shape: Shape,
+) -> Result<()> {
+    let params = LooseParams {
+        radius: a.radius,
+        shape,
+        ..LooseParams::default()
+    };
+    let mut reader = cloud::open(&a.map)?;
+    let pb = progress_bar(reader.info().file_bytes, "reading map");
+    let loose = mapgauge::crop::loose_crop(reader.as_mut(), centres, &params, |b| {
+        if let Some(pb) = &pb {
+            pb.set_position(b)
+        }
+    })?;
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
+    let tight_params = mapgauge::crop::TightParams::default();
+    println!("{:<12} {:>10}  file", "id", "points");
+    let mut written = 0;
+    for ((t, pts), c) in survey.targets.iter().zip(&loose.points).zip(centres) {
+        match mapgauge::crop::tight_crop(pts, c, &tight_params) {
+            Ok(tc) => {
+                let path = a
+                    .out
+                    .join(format!("{}.{}", file_stem(&t.id), a.format.extension()));
+                refuse_overwrite(&path, &[&a.map, &a.survey])?;
+                cloud::write(&path, a.format, &tc.points)?;
+                println!("{:<12} {:>10}  {}", t.id, tc.points.len(), path.display());
+                written += 1;
+            }
+            Err(e) => {
+                println!("{:<12} {:>10}  -", t.id, 0);
+                eprintln!("warning: target {}: no tight crop: {e}", t.id);
+            }
+        }
+    }
+    eprintln!(
+        "{} of {} targets have a tight crop",
+        written,
         survey.targets.len()
     );
     Ok(())

@@ -80,19 +80,27 @@ pub fn run(a: Args) -> Result<()> {
     println!("  {:<6} {:>12} {:>12}", "mm", "measured", "truth");
     println!(
         "  {:<6} {:>12.1} {:>12.1}",
-        "E_abs", result.absolute.mean * 1e3, expected.absolute.mean * 1e3
+        "E_abs",
+        result.absolute.mean * 1e3,
+        expected.absolute.mean * 1e3
     );
     println!(
         "  {:<6} {:>12.1} {:>12.1}",
-        "σ_abs", result.absolute.std * 1e3, expected.absolute.std * 1e3
+        "σ_abs",
+        result.absolute.std * 1e3,
+        expected.absolute.std * 1e3
     );
     println!(
         "  {:<6} {:>12.1} {:>12.1}",
-        "E_rel", result.relative.mean * 1e3, expected.relative.mean * 1e3
+        "E_rel",
+        result.relative.mean * 1e3,
+        expected.relative.mean * 1e3
     );
     println!(
         "  {:<6} {:>12.1} {:>12.1}",
-        "σ_rel", result.relative.std * 1e3, expected.relative.std * 1e3
+        "σ_rel",
+        result.relative.std * 1e3,
+        expected.relative.std * 1e3
     );
     println!("  localisation error per target (horizontal, mm):");
     for (t, tt) in result.targets.iter().zip(&truth.targets) {

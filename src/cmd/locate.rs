@@ -125,9 +125,14 @@ pub fn run(args: Args) -> mapgauge::Result<()> {
             .unwrap_or_default();
         let result = mapgauge::cloud::read_all(path)
             .map_err(|e| e.to_string())
-            .and_then(|pts| {
-                locate::locate(&pts, Some(args.up), &params)
-                    .map_err(|e| format!("{}: {e}", path.display()))
+            .and_then(|pts| match mapgauge::crop::looks_loose(&pts, 0.6) {
+                Some(span) => Err(format!(
+                    "{}: {}",
+                    path.display(),
+                    mapgauge::crop::loose_crop_message(span)
+                )),
+                None => locate::locate(&pts, Some(args.up), &params)
+                    .map_err(|e| format!("{}: {e}", path.display())),
             });
         let row = match result {
             Ok(l) => Row {

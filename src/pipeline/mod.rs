@@ -208,7 +208,11 @@ fn too_few_found(
             ". The survey has {} target(s): {need} are needed to align",
             survey.targets.len()
         );
-    } else if n_found < survey.targets.len() {
+    } else if n_found < survey.targets.len()
+        && !found
+            .iter()
+            .all(|r| r.outcome.is_ok() || matches!(r.outcome, Err(Failure::HandCrop(_))))
+    {
         msg += &match (survey.frame, survey.origin) {
             (crate::survey::SurveyFrame::Wgs84Enu, Some(o)) => format!(
                 ". The survey is WGS84, placed in a local east-north-up frame about {:.7}, {:.7}; if the map's origin is elsewhere, give --origin LAT,LON[,ALT] of the map's origin (and --init x,y,yaw_deg if its axes are not east and north)",

@@ -115,7 +115,7 @@ pub(crate) fn locate_target(
     };
     // Hand-made tight crops (the paper's workflow) or the automatic one.
     let ups: Vec<Vector3<f64>> = match crops_dir {
-        Some(dir) => match hand_crop(dir, id) {
+        Some(dir) => match hand_crop(dir, id, cfg.tight.plate_width) {
             Ok(p) => {
                 run.tight = p;
                 vec![Vector3::z()]
@@ -196,12 +196,18 @@ pub(crate) fn locate_with(
 
 /// Finds `DIR/<stem>.<ext>` for any readable cloud extension and reads it,
 /// where the stem is the id made safe as a file name.
-fn hand_crop(dir: &Path, id: &str) -> Result<Vec<Point>> {
+fn hand_crop(dir: &Path, id: &str, plate_width: f64) -> Result<Vec<Point>> {
     let stem = crate::survey::file_stem(id);
-    for ext in ["ply", "pcd", "las", "laz", "xyz", "txt", "csv", "e57"] {
+    for ext in [
+        "ply", "pcd", "las", "laz", "xyz", "txt", "csv", "e57", "pts",
+    ] {
         let p = dir.join(format!("{stem}.{ext}"));
         if p.is_file() {
-            return crate::cloud::read_all(&p);
+            let pts = crate::cloud::read_all(&p)?;
+            if let Some(span) = crop::looks_loose(&pts, plate_width) {
+                return Err(Error::format(&p, crop::loose_crop_message(span)));
+            }
+            return Ok(pts);
         }
     }
     Err(Error::Input(format!(

@@ -258,7 +258,11 @@ pub fn extra_grid(r: &ResultFile) -> Grid {
             mm(c.check.summary.mean),
             &format!("mm (n={})", c.check.summary.n),
         );
-        add("check RMSE (fit on control)", mm(c.check.summary.rmse), "mm");
+        add(
+            "check RMSE (fit on control)",
+            mm(c.check.summary.rmse),
+            "mm",
+        );
     }
     let s = &r.asprs;
     add(

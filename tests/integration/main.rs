@@ -15,6 +15,7 @@ mod cli_locate;
 mod demo_truth;
 mod errors_cli;
 mod eval_scenes;
+mod first_use;
 mod golden;
 mod hostile;
 mod locate_acceptance;
