@@ -126,7 +126,7 @@ pub struct LooseCrop {
 /// Upper bound on grid cells; the cell size grows when targets span a huge area.
 const MAX_CELLS: usize = 1 << 22;
 
-struct Grid {
+struct CentreIndex {
     min: [f64; 2],
     /// 1 / cell size: a multiplication per axis instead of a division.
     inv: f64,
@@ -140,8 +140,8 @@ struct Grid {
     ids: Vec<u32>,
 }
 
-impl Grid {
-    fn new(centres: &[Point], radius: f64) -> Grid {
+impl CentreIndex {
+    fn new(centres: &[Point], radius: f64) -> CentreIndex {
         let mut min = [f64::INFINITY; 2];
         let mut max = [f64::NEG_INFINITY; 2];
         for c in centres {
@@ -188,7 +188,7 @@ impl Grid {
             ids.extend_from_slice(l);
             starts.push(ids.len() as u32);
         }
-        Grid {
+        CentreIndex {
             min,
             inv,
             nx,
@@ -258,7 +258,7 @@ pub fn loose_crop_each(
     if centres.is_empty() {
         return Ok((0, 0));
     }
-    let grid = Grid::new(centres, params.radius);
+    let grid = CentreIndex::new(centres, params.radius);
     // Handed to the reader so that it drops most of the map before building
     // points; the exact test below still decides.
     let region = Region::discs(
