@@ -107,7 +107,11 @@ impl Case {
             open: Vec::new(),
             points: Vec::new(),
         };
-        for seed in SEEDS {
+        let seeds: Vec<u64> = match std::env::var("CLUTTER_SEED") {
+            Ok(s) => vec![s.parse().unwrap()],
+            Err(_) => SEEDS.to_vec(),
+        };
+        for seed in seeds {
             let mut p = params(seed, obstacles.clone());
             tweak(&mut p);
             let (map, truth) = generate(&p);
@@ -301,8 +305,84 @@ fn decoys(seeds: std::ops::Range<u64>) -> (usize, usize) {
         let (map, truth) = generate(&p);
         if let Ok(c) = locate_target(&map, &truth, 0) {
             located += 1;
-            eprintln!("seed {seed}: located a decoy at {c}");
+            let near = truth
+                .clutter
+                .iter()
+                .min_by(|a, b| {
+                    let da = (a.x - c.x).hypot(a.y - c.y);
+                    let db = (b.x - c.x).hypot(b.y - c.y);
+                    da.total_cmp(&db)
+                })
+                .map_or(String::new(), |k| k.role.clone());
+            eprintln!("seed {seed}: located something at {c}, nearest obstacle: {near}");
         }
     }
     (located, n as usize)
+}
+
+#[test]
+fn open() {
+    check("open");
+}
+
+#[test]
+fn wall_half_a_metre_behind() {
+    check("wall 0.5 m behind");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (the wall's peak outvotes the plate; the pair through the wall runs through the corner or is 2 m tall)"]
+fn wall_a_tenth_behind() {
+    check("wall 0.1 m behind");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (before: 2 of 4, median 2.31 mm); see the table"]
+fn wall_a_third_behind() {
+    check("wall 0.3 m behind");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (the stack's faces under the plates make 'an L 1.2 m tall')"]
+fn stack_inside_the_l() {
+    check("stack 0.65 m inside the L");
+}
+
+#[test]
+#[ignore = "issue 16: found in 1 of 4 seeds (5.0 mm); elsewhere the barrier in front reads as 'a plane continuing 1 m past the corner' or 'a T'"]
+fn lower_plates_hidden() {
+    check("lower 40 % hidden");
+}
+
+#[test]
+#[ignore = "issue 16: found 4 of 4 but max 13.1 mm > 10 mm (median 2.96 mm; open max 4.5 mm)"]
+fn one_plate_a_quarter() {
+    check("plate 2 a quarter");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (foliage in the plates' slabs: 'an L 1.2 m tall')"]
+fn grass_through_the_plates() {
+    check("grass through lower plates");
+}
+
+#[test]
+#[ignore = "issue 16: 8 of 8 found but one seed takes the other target (max 1503 mm): the nearer L to the expected position wins"]
+fn second_target_close_by() {
+    check("second target 1.5 m");
+}
+
+#[test]
+#[ignore = "issue 16: found in 3 of 4 seeds (median 4.5, max 11.1 mm with 116-178 target returns)"]
+fn seen_only_from_afar() {
+    check("seen from 30+ m");
+}
+
+/// The surveyed target is absent; a 0.4 × 0.5 m L, a 1.2 m L, a cabinet, an
+/// L of 110° and a wall segment stand 0.6–2.5 m from where it should be.
+/// Before issue 16's width check the small L was located in 14 of 20 seeds.
+#[test]
+fn decoys_are_never_located() {
+    let (located, n) = decoys(100..120);
+    assert_eq!(located, 0, "a decoy was located in {located} of {n} seeds");
 }

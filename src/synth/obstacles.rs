@@ -151,7 +151,7 @@ pub(super) fn add(
         } else if f.road.dot(&f.u[0]) > 0.0 {
             (1, -f.u[0], -2.0)
         } else {
-            (0, f.u[1], p.target.post_m)
+            (0, f.u[1], 0.15)
         };
         let to = w + 3.0;
         let mid = f.u[k] * ((from + to) / 2.0) + normal * (d + 0.05);
