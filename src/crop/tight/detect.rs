@@ -185,7 +185,7 @@ fn fit_l(
         .iter()
         .flat_map(|a| pb.iter().map(move |b| (a.0.min(b.0), a.1, b.1)))
         .collect();
-    pairs.sort_by(|x, y| y.0.cmp(&x.0));
+    pairs.sort_by_key(|x| std::cmp::Reverse(x.0));
     let mut why = Err((0, String::new()));
     for (score, oa, ob) in pairs {
         let checked = check_l(win, up, p, [na, nb], [oa, ob], score).and_then(|l| {
