@@ -149,6 +149,9 @@ pub struct Plate {
     pub pitch: f64,
     /// Side of a square hole (`hole < pitch`).
     pub hole: f64,
+    /// Share of the rays striking metal that return (1: all); the rest pass
+    /// through, as from a plate seen past foliage or at a grazing angle.
+    pub keep: f64,
 }
 
 impl Plate {
@@ -297,7 +300,8 @@ impl Prim {
                 }
                 let q = r.at(t);
                 let s = (q.x - p.x) * p.u.0 + (q.y - p.y) * p.u.1;
-                p.solid_at(s, q.z - p.z0).then_some(t)
+                let returned = p.keep >= 1.0 || unit_from(key ^ 0x3C3C_3C3C_3C3C_3C3C) < p.keep;
+                (returned && p.solid_at(s, q.z - p.z0)).then_some(t)
             }
         }
     }
@@ -564,6 +568,7 @@ mod tests {
             frame: 0.02,
             pitch: 0.04,
             hole: 0.028,
+            keep: 1.0,
         }
     }
 

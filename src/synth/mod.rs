@@ -14,15 +14,17 @@
 pub mod distort;
 pub mod geometry;
 pub mod lidar;
+mod obstacles;
+mod scene;
 
 use crate::{Error, Point, Result};
 use distort::{DistortParams, Distortion};
-use geometry::{Ground, Object, Plate, Prim, Wave, World};
+use geometry::Ground;
 use lidar::{LidarParams, Pose, Road};
-use nalgebra::Vector3;
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64;
+pub use obstacles::ObstacleParams;
+use rand::Rng;
 use rayon::prelude::*;
+use scene::{Scene, build_scene, stream};
 
 /// The build of one L-target (defaults: the paper's hardware).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -125,6 +127,10 @@ pub struct SynthParams {
     pub road_curve_m: f64,
     /// Clutter and hard cases.
     pub clutter: ClutterParams,
+    /// Obstacles around target 1 (issue 16's field cases); all off by default
+    /// and then left out of truth.json, so existing scenes keep their bytes.
+    #[serde(skip_serializing_if = "ObstacleParams::is_off")]
+    pub obstacles: ObstacleParams,
     /// The sensor.
     pub lidar: LidarParams,
     /// World → map distortion.
@@ -150,6 +156,7 @@ impl Default for SynthParams {
             undulation_m: 0.08,
             road_curve_m: 3.0,
             clutter: ClutterParams::default(),
+            obstacles: ObstacleParams::default(),
             lidar: LidarParams::default(),
             distortion: DistortParams::default(),
             survey_noise_m: 0.0,
@@ -221,6 +228,7 @@ impl SynthParams {
         {
             return bad("clutter.near_target_m must be in [0, 20]");
         }
+        self.obstacles.validate()?;
         self.lidar.validate()?;
         self.distortion.validate()
     }
@@ -303,386 +311,6 @@ pub struct Truth {
     pub path: Vec<Pose>,
     /// Clutter objects.
     pub clutter: Vec<ClutterInfo>,
-}
-
-/// A scene before scanning.
-struct Scene {
-    world: World,
-    road: Road,
-    targets: Vec<TargetTruth>,
-    clutter: Vec<ClutterInfo>,
-}
-
-/// Independent random streams, so enabling one feature does not move the rest.
-fn stream(seed: u64, what: u64) -> Pcg64 {
-    Pcg64::seed_from_u64(geometry::splitmix(seed ^ geometry::splitmix(what)))
-}
-
-fn build_ground(p: &SynthParams) -> Ground {
-    let mut rng = stream(p.seed, 1);
-    let s = p.slope_deg.to_radians().tan();
-    let dir = p.slope_dir_deg.to_radians();
-    let n = 4;
-    let weights: Vec<f64> = (0..n).map(|_| rng.random_range(0.5..1.0)).collect();
-    let wsum: f64 = weights.iter().sum();
-    let waves = weights
-        .iter()
-        .map(|w| {
-            let lambda = rng.random_range(6.0..25.0);
-            let a = rng.random_range(0.0..std::f64::consts::TAU);
-            let k = std::f64::consts::TAU / lambda;
-            Wave {
-                kx: k * a.cos(),
-                ky: k * a.sin(),
-                amp: p.undulation_m * w / wsum,
-                phase: rng.random_range(0.0..std::f64::consts::TAU),
-            }
-        })
-        .filter(|w| w.amp > 0.0)
-        .collect();
-    Ground {
-        z0: 0.0,
-        cx: p.spread_m / 2.0,
-        cy: 0.0,
-        gx: s * dir.cos(),
-        gy: s * dir.sin(),
-        waves,
-    }
-}
-
-fn yaw_box(c: Vector3<f64>, size: [f64; 3], yaw: f64) -> Prim {
-    Prim::Box {
-        c,
-        half: Vector3::from(size) / 2.0,
-        cs: (yaw.cos(), yaw.sin()),
-    }
-}
-
-/// The primitives of one L-target with its corner line at (x, y).
-fn build_target(
-    g: &Ground,
-    shape: &TargetShape,
-    x: f64,
-    y: f64,
-    heading: f64,
-) -> (Object, [f64; 4]) {
-    let gz = g.height(x, y);
-    let z0 = gz + shape.plate_bottom_m;
-    let z1 = z0 + shape.plate_height_m;
-    let post_top = z1 + shape.post_above_m;
-    let ant_top = post_top + shape.antenna_height_m;
-    let plate = |a: f64| {
-        Prim::Plate(Plate {
-            x,
-            y,
-            u: (a.cos(), a.sin()),
-            z0,
-            w: shape.plate_width_m,
-            h: shape.plate_height_m,
-            frame: shape.frame_m,
-            pitch: shape.mesh_pitch_m,
-            hole: shape.mesh_hole_m,
-        })
-    };
-    let mut prims = vec![plate(heading), plate(heading + std::f64::consts::FRAC_PI_2)];
-    // The corner post, centred on the corner line, from the ground to above the plates.
-    let bottom = gz - 0.05;
-    prims.push(yaw_box(
-        Vector3::new(x, y, (bottom + post_top) / 2.0),
-        [shape.post_m, shape.post_m, post_top - bottom],
-        heading,
-    ));
-    // The stand's three feet on the ground.
-    for k in 0..3 {
-        let a = heading + std::f64::consts::FRAC_PI_4 + k as f64 * std::f64::consts::TAU / 3.0;
-        let (fx, fy) = (x + 0.25 * a.cos(), y + 0.25 * a.sin());
-        let fz = g.height(fx, fy);
-        prims.push(yaw_box(
-            Vector3::new(fx, fy, fz + 0.01),
-            [0.5, 0.04, 0.08],
-            a,
-        ));
-    }
-    // The GNSS antenna on top of the post.
-    prims.push(Prim::VCyl {
-        x,
-        y,
-        r: shape.antenna_radius_m,
-        z0: post_top,
-        z1: ant_top,
-    });
-    (Object::new(prims), [gz, z0, z1, ant_top])
-}
-
-fn build_scene(p: &SynthParams) -> Scene {
-    let ground = build_ground(p);
-    let k = p.targets;
-    let lead = 30.0;
-    let road = Road {
-        x0: -lead,
-        x1: p.spread_m + lead,
-        amp: p.road_curve_m,
-        wavelength: (p.spread_m + 2.0 * lead).max(40.0),
-    };
-    let mut objects = Vec::new();
-    let mut targets = Vec::new();
-    let mut rng = stream(p.seed, 2);
-    let [dmin, dmax] = p.target_distance_m;
-    for i in 0..k {
-        let tx = if k > 1 {
-            p.spread_m * i as f64 / (k - 1) as f64 + rng.random_range(-2.0..2.0)
-        } else {
-            p.spread_m / 2.0
-        };
-        let side = if i % 2 == 0 { -1.0 } else { 1.0 };
-        let dist = if dmax > dmin {
-            rng.random_range(dmin..dmax)
-        } else {
-            dmin
-        };
-        // Perpendicular to the road's local heading.
-        let h = road.heading(tx);
-        let (cx, cy) = (
-            tx - side * dist * h.sin(),
-            road.y(tx) + side * dist * h.cos(),
-        );
-        let heading = rng.random_range(0.0..std::f64::consts::TAU);
-        let (obj, [gz, z0, z1, ant]) = build_target(&ground, &p.target, cx, cy, heading);
-        objects.push(obj);
-        let zc = (z0 + z1) / 2.0;
-        targets.push(TargetTruth {
-            id: (i + 1).to_string(),
-            world: [cx, cy, zc],
-            survey: SurveyPoint {
-                x: cx,
-                y: cy,
-                z: ant,
-                antenna_height: ant - zc,
-            },
-            map: [0.0; 3],
-            heading_deg: heading.to_degrees().rem_euclid(360.0),
-            ground_z: gz,
-            plate_bottom_z: z0,
-            plate_top_z: z1,
-            antenna_top_z: ant,
-            road_distance_m: dist,
-            points: 0,
-        });
-    }
-
-    let mut clutter = Vec::new();
-    let corners: Vec<(f64, f64)> = targets.iter().map(|t| (t.world[0], t.world[1])).collect();
-    let free = |x: f64, y: f64, clear: f64| {
-        (y - road.y(x)).abs() >= 3.0 && corners.iter().all(|&(a, b)| (x - a).hypot(y - b) >= clear)
-    };
-    let mut rng = stream(p.seed, 3);
-    let place = |rng: &mut Pcg64, clear: f64, lat: (f64, f64)| -> Option<(f64, f64)> {
-        for _ in 0..100 {
-            let x = rng.random_range(road.x0 + 5.0..road.x1 - 5.0);
-            let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-            let y = road.y(x) + side * rng.random_range(lat.0..lat.1);
-            if free(x, y, clear) {
-                return Some((x, y));
-            }
-        }
-        None
-    };
-    let g = &ground;
-    for _ in 0..p.clutter.poles {
-        let r = rng.random_range(0.08..0.2);
-        let hgt = rng.random_range(4.0..9.0);
-        if let Some((x, y)) = place(&mut rng, 4.0 + r, (4.0, 28.0)) {
-            let gz = g.height(x, y);
-            objects.push(Object::new(vec![Prim::VCyl {
-                x,
-                y,
-                r,
-                z0: gz - 0.2,
-                z1: gz + hgt,
-            }]));
-            clutter.push(ClutterInfo {
-                kind: "pole".into(),
-                x,
-                y,
-                role: "random".into(),
-            });
-        }
-    }
-    for _ in 0..p.clutter.bushes {
-        let n = rng.random_range(3..8);
-        let params: Vec<(f64, f64, f64, f64)> = (0..n)
-            .map(|_| {
-                (
-                    rng.random_range(-0.8..0.8),
-                    rng.random_range(-0.8..0.8),
-                    rng.random_range(0.3..0.8),
-                    rng.random_range(0.3..0.8),
-                )
-            })
-            .collect();
-        if let Some((x, y)) = place(&mut rng, 5.5, (4.0, 28.0)) {
-            objects.push(bush(g, x, y, &params));
-            clutter.push(ClutterInfo {
-                kind: "bush".into(),
-                x,
-                y,
-                role: "random".into(),
-            });
-        }
-    }
-    for _ in 0..p.clutter.cars {
-        let x = rng.random_range(road.x0 + 10.0..road.x1 - 10.0);
-        let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-        let h = road.heading(x);
-        let (cx, cy) = (x - side * 3.6 * h.sin(), road.y(x) + side * 3.6 * h.cos());
-        if corners.iter().all(|&(a, b)| (cx - a).hypot(cy - b) >= 5.0) {
-            objects.push(car(g, cx, cy, h));
-            clutter.push(ClutterInfo {
-                kind: "car".into(),
-                x: cx,
-                y: cy,
-                role: "random".into(),
-            });
-        }
-    }
-    if p.clutter.wall {
-        let x = road.x0 + 0.35 * road.length();
-        let h = road.heading(x);
-        let (cx, cy) = (x - 36.0 * h.sin(), road.y(x) + 36.0 * h.cos());
-        let len = 40.0;
-        let zmin = (-20..=20)
-            .map(|i| {
-                let s = i as f64 / 40.0 * len;
-                g.height(cx + s * h.cos(), cy + s * h.sin())
-            })
-            .fold(f64::INFINITY, f64::min);
-        let top = g.height(cx, cy) + 6.0;
-        objects.push(Object::new(vec![yaw_box(
-            Vector3::new(cx, cy, (zmin - 0.5 + top) / 2.0),
-            [len, 0.3, top - zmin + 0.5],
-            h,
-        )]));
-        clutter.push(ClutterInfo {
-            kind: "wall".into(),
-            x: cx,
-            y: cy,
-            role: "random".into(),
-        });
-    }
-    // Hard cases.
-    if let Some(d) = p.clutter.near_target_m {
-        let t = &targets[0];
-        let a = t.heading_deg.to_radians();
-        let (x, y) = (t.world[0], t.world[1]);
-        // A pole off the L's outer corner ...
-        let r = 0.1;
-        let ap = a + 1.25 * std::f64::consts::PI;
-        let (px, py) = (x + (d + r) * ap.cos(), y + (d + r) * ap.sin());
-        let gz = g.height(px, py);
-        objects.push(Object::new(vec![Prim::VCyl {
-            x: px,
-            y: py,
-            r,
-            z0: gz - 0.2,
-            z1: gz + 3.5,
-        }]));
-        clutter.push(ClutterInfo {
-            kind: "pole".into(),
-            x: px,
-            y: py,
-            role: format!("near target 1 ({d} m)"),
-        });
-        // ... and a flat-faced utility cabinet inside it.
-        let ai = a + std::f64::consts::FRAC_PI_4;
-        let (bx, by) = (x + (d + 0.25) * ai.cos(), y + (d + 0.25) * ai.sin());
-        let gz = g.height(bx, by);
-        objects.push(Object::new(vec![yaw_box(
-            Vector3::new(bx, by, gz + 0.55),
-            [0.5, 0.8, 1.3],
-            ai,
-        )]));
-        clutter.push(ClutterInfo {
-            kind: "cabinet".into(),
-            x: bx,
-            y: by,
-            role: format!("near target 1 ({d} m)"),
-        });
-    }
-    if p.clutter.bush_touching {
-        let t = &targets[k.min(2) - 1];
-        let a = t.heading_deg.to_radians();
-        let (u1, u2) = (
-            Vector3::new(a.cos(), a.sin(), 0.0),
-            Vector3::new(-a.sin(), a.cos(), 0.0),
-        );
-        let c = Vector3::new(t.world[0], t.world[1], 0.0);
-        let r1 = 0.55;
-        let s1 = c + u1 * 0.3 - u2 * r1;
-        let s2 = c + u1 * 0.75 - u2 * 0.45;
-        let gz = t.ground_z;
-        let prims = vec![
-            Prim::Sphere {
-                c: Vector3::new(s1.x, s1.y, t.plate_bottom_z + 0.05),
-                r: r1,
-                porosity: 0.25,
-            },
-            Prim::Sphere {
-                c: Vector3::new(s2.x, s2.y, gz + 0.4),
-                r: 0.45,
-                porosity: 0.25,
-            },
-        ];
-        objects.push(Object::new(prims));
-        clutter.push(ClutterInfo {
-            kind: "bush".into(),
-            x: s1.x,
-            y: s1.y,
-            role: format!("touching target {}", t.id),
-        });
-    }
-    Scene {
-        world: World { ground, objects },
-        road,
-        targets,
-        clutter,
-    }
-}
-
-fn bush(g: &Ground, x: f64, y: f64, spheres: &[(f64, f64, f64, f64)]) -> Object {
-    let prims = spheres
-        .iter()
-        .map(|&(dx, dy, r, f)| {
-            let (sx, sy) = (x + dx, y + dy);
-            Prim::Sphere {
-                c: Vector3::new(sx, sy, g.height(sx, sy) + r * f),
-                r,
-                porosity: 0.3,
-            }
-        })
-        .collect();
-    Object::new(prims)
-}
-
-fn car(g: &Ground, x: f64, y: f64, yaw: f64) -> Object {
-    let gz = g.height(x, y);
-    let (c, s) = (yaw.cos(), yaw.sin());
-    let mut prims = vec![
-        yaw_box(Vector3::new(x, y, gz + 0.75), [4.5, 1.8, 0.9], yaw),
-        yaw_box(
-            Vector3::new(x - 0.3 * c, y - 0.3 * s, gz + 1.45),
-            [2.4, 1.6, 0.5],
-            yaw,
-        ),
-    ];
-    for (a, b) in [(1.4, 0.8), (1.4, -0.8), (-1.4, 0.8), (-1.4, -0.8)] {
-        let (wx, wy) = (x + a * c - b * s, y + a * s + b * c);
-        prims.push(yaw_box(
-            Vector3::new(wx, wy, g.height(wx, wy) + 0.3),
-            [0.6, 0.22, 0.6],
-            yaw,
-        ));
-    }
-    Object::new(prims)
 }
 
 /// Scans cast per parallel batch (at most); any value gives the same output.

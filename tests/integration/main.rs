@@ -10,6 +10,7 @@ mod truth;
 mod util;
 
 mod cli_crop;
+mod clutter;
 mod cli_formats;
 mod cli_locate;
 mod demo_truth;

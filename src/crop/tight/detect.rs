@@ -41,12 +41,13 @@ impl LShape {
 }
 
 /// Hough over headings in windows centred on occupied cells. Returns the chosen
-/// L, the number of windows that passed, and the best score seen.
+/// L, the number of windows that passed, the best score seen, and (when none
+/// passed) what the best-supported rejected window looked like.
 pub(super) fn detect_l(
     ap: &[Vector3<f64>],
     up: &Vector3<f64>,
     params: &TightParams,
-) -> (Option<LShape>, usize, usize) {
+) -> (Option<LShape>, usize, usize, Option<String>) {
     let w = params.plate_width;
     let step = 0.25_f64.min(w / 2.0);
     let rw = 0.47 * w / 0.6 * 1.0 + step * 0.75;
@@ -63,6 +64,7 @@ pub(super) fn detect_l(
     let mut found: Vec<LShape> = Vec::new();
     let mut best_score = 0;
     let mut window: Vec<Vector3<f64>> = Vec::new();
+    let mut seen: Option<(usize, String)> = None;
     for &(kx, ky) in &keys {
         let centre = Vector3::new((kx as f64 + 0.5) * step, (ky as f64 + 0.5) * step, 0.0);
         window.clear();
@@ -81,18 +83,24 @@ pub(super) fn detect_l(
         if window.len() < 2 * params.min_plate_points {
             continue;
         }
-        if let Some(l) =
-            fit_l(&window, up, params).filter(|l| is_bounded(l, &cells, ap, step, up, params))
-        {
-            best_score = best_score.max(l.score);
-            if l.score >= params.min_plate_points {
-                found.push(l);
+        let bounded = |l: &LShape| is_bounded(l, &cells, ap, step, up, params);
+        match fit_l(&window, up, params, bounded) {
+            Ok(l) => {
+                best_score = best_score.max(l.score);
+                if l.score >= params.min_plate_points {
+                    found.push(l);
+                }
+            }
+            Err((s, why)) => {
+                if !why.is_empty() && seen.as_ref().is_none_or(|b: &(usize, String)| s > b.0) {
+                    seen = Some((s, why));
+                }
             }
         }
     }
     let n = found.len();
     let Some(top) = found.iter().map(|l| l.score).max() else {
-        return (None, 0, best_score);
+        return (None, 0, best_score, seen.map(|s| s.1));
     };
     // Nearest strong candidate to the expected position, then the best-supported
     // window on that same corner.
@@ -110,17 +118,22 @@ pub(super) fn detect_l(
                 .cmp(&b.score)
                 .then(b.corner.xy().norm().total_cmp(&a.corner.xy().norm()))
         });
-    (chosen, n, best_score)
+    (chosen, n, best_score, None)
 }
 
 /// Best perpendicular pair of vertical planes in one window, or `None` when the
 /// support does not look like an L of the configured size.
-fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LShape> {
+fn fit_l(
+    win: &[Vector3<f64>],
+    up: &Vector3<f64>,
+    p: &TightParams,
+    bounded: impl Fn(&LShape) -> bool,
+) -> Result<LShape, (usize, String)> {
     // Horizontal basis orthogonal to up.
     let e1 = (Vector3::x() - up * up.x).normalize();
     let e2 = up.cross(&e1);
     let bin = 0.02;
-    let first = *win.first()?;
+    let first = *win.first().ok_or((0, String::new()))?;
     // Histograms over a fixed range around the first point (every window point
     // is within two window radii of it, plus what a slightly tilted "up" adds):
     // arrays, not hash maps, since this loop is most of a dense map's crop time.
@@ -151,13 +164,70 @@ fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LSh
         }
         deg += 1.5;
     }
-    let (score, deg, oa, ob) = best?;
+    let (_, deg, _, _) = best.ok_or((0, String::new()))?;
     let th = deg.to_radians();
     let na = e1 * th.cos() + e2 * th.sin();
     let nb = up.cross(&na);
+    // At the winning heading, every strong peak of each histogram: a wall or a
+    // container parallel behind a plate makes a peak of its own, often the
+    // highest. Each pairing is checked in turn, strongest first; the plate is
+    // the one that stops where a plate stops.
+    let peaks = |n: &Vector3<f64>| {
+        let base = (n.dot(&first) / bin).floor() as i64 - half;
+        let mut h = vec![0u32; (2 * half + 1) as usize];
+        for v in win {
+            h[((n.dot(v) / bin).floor() as i64 - base).clamp(0, 2 * half) as usize] += 1;
+        }
+        strong_peaks(&h, base, bin, p.min_plate_points)
+    };
+    let (pa, pb) = (peaks(&na), peaks(&nb));
+    let mut pairs: Vec<(usize, f64, f64)> = pa
+        .iter()
+        .flat_map(|a| pb.iter().map(move |b| (a.0.min(b.0), a.1, b.1)))
+        .collect();
+    pairs.sort_by_key(|x| std::cmp::Reverse(x.0));
+    let mut why = Err((0, String::new()));
+    for (score, oa, ob) in pairs {
+        let checked = check_l(win, up, p, [na, nb], [oa, ob], score).and_then(|l| {
+            if bounded(&l) {
+                Ok(l)
+            } else {
+                Err((
+                    score,
+                    "faces going on past a plate's edge (a car, a cabinet, a wall)".into(),
+                ))
+            }
+        });
+        match checked {
+            Ok(l) => return Ok(l),
+            Err(e)
+                if why
+                    .as_ref()
+                    .is_err_and(|w: &(usize, String)| w.1.is_empty()) =>
+            {
+                why = Err(e)
+            }
+            Err(_) => {}
+        }
+    }
+    why
+}
+
+/// Whether the planes `n·x = off` (at one heading) are an L of the configured
+/// size in this window; else the score and what the points looked like.
+fn check_l(
+    win: &[Vector3<f64>],
+    up: &Vector3<f64>,
+    p: &TightParams,
+    [na, nb]: [Vector3<f64>; 2],
+    [oa, ob]: [f64; 2],
+    score: usize,
+) -> Result<LShape, (usize, String)> {
+    let no = |s: String| Err((score, s));
     let corner = na * oa + nb * ob;
     let tol = 0.04;
     let mut along = [Vector3::zeros(); 2];
+    let mut width = [0.0; 2];
     let mut inl_h: Vec<f64> = Vec::new();
     for (k, (n, off, dir)) in [(na, oa, nb), (nb, ob, na)].into_iter().enumerate() {
         let ts: Vec<f64> = win
@@ -173,16 +243,22 @@ fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LSh
         } else {
             (-1.0, neg, pos)
         };
-        if major < p.min_plate_points || minor * 3 > major {
-            return None;
+        if major < p.min_plate_points {
+            return no(String::new());
+        }
+        if minor * 3 > major {
+            return no("a plane running through the corner (a T or a cross)".into());
         }
         along[k] = dir * sign;
         let mut ext: Vec<f64> = ts.iter().map(|t| t * sign).filter(|&t| t > 0.0).collect();
         ext.sort_by(f64::total_cmp);
         let far = ext[(ext.len() * 9) / 10];
         if far > p.plate_width + 0.15 {
-            return None;
+            return no(format!("a plane continuing {far:.1} m past the corner"));
         }
+        // A plate is as wide as a plate: occlusion from below or foliage
+        // thins it but leaves its top edge whole.
+        width[k] = ext[(ext.len() * 19) / 20];
         inl_h.extend(
             win.iter()
                 .filter(|v| {
@@ -193,15 +269,27 @@ fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LSh
         );
     }
     if inl_h.len() < 2 * p.min_plate_points {
-        return None;
+        return no(String::new());
     }
     inl_h.sort_by(f64::total_cmp);
     let lo = inl_h[inl_h.len() / 50];
     let hi = inl_h[inl_h.len() - 1 - inl_h.len() / 50];
-    if hi - lo > p.plate_height + 0.25 {
-        return None; // taller than a plate: a wall, a cabinet, a tree
+    let narrow = width[0].min(width[1]);
+    if narrow < MIN_WIDTH_SHARE * p.plate_width {
+        return no(format!(
+            "a {:.2} × {:.2} m L (plates {:.2} and {:.2} m wide, {} m expected)",
+            narrow,
+            hi - lo,
+            width[0],
+            width[1],
+            p.plate_width
+        ));
     }
-    Some(LShape {
+    if hi - lo > p.plate_height + 0.25 {
+        // taller than a plate: a wall, a cabinet, a tree
+        return no(format!("an L {:.1} m tall", hi - lo));
+    }
+    Ok(LShape {
         n: [na, nb],
         off: [oa, ob],
         along,
@@ -209,6 +297,44 @@ fn fit_l(win: &[Vector3<f64>], up: &Vector3<f64>, p: &TightParams) -> Option<LSh
         band: (lo, hi),
         score,
     })
+}
+
+/// A plate narrower than this share of the configured width (from the 95th
+/// percentile of its points' distance from the corner) is not the target's:
+/// the grill's frame returns at the far edge, so a whole plate reaches ~0.97.
+const MIN_WIDTH_SHARE: f64 = 0.8;
+
+/// Peaks tried per histogram. One (the strongest, as before issue 16): with
+/// more, a wall behind a plate paired the other way, but foliage through the
+/// plates made false Ls (see docs/algorithm.md).
+const MAX_PEAKS: usize = 1;
+
+/// Peaks (count of three bins ≥ `min`, centre) of a histogram, strongest
+/// first, at most `MAX_PEAKS`, each at least 4 bins (8 cm) from a stronger one.
+fn strong_peaks(h: &[u32], base: i64, bin: f64, min: usize) -> Vec<(usize, f64)> {
+    let mut all: Vec<(usize, usize)> = (0..h.len())
+        .filter(|&k| h[k] > 0)
+        .map(|k| {
+            let c = h[k] as usize
+                + k.checked_sub(1).map_or(0, |j| h[j] as usize)
+                + h.get(k + 1).map_or(0, |&x| x as usize);
+            (c, k)
+        })
+        .filter(|&(c, _)| c >= min)
+        .collect();
+    all.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut kept: Vec<(usize, usize)> = Vec::new();
+    for (c, k) in all {
+        if kept.iter().all(|&(_, j)| j.abs_diff(k) >= 4) {
+            kept.push((c, k));
+            if kept.len() == MAX_PEAKS {
+                break;
+            }
+        }
+    }
+    kept.into_iter()
+        .map(|(c, k)| (c, (k as i64 + base) as f64 * bin + 0.5 * bin))
+        .collect()
 }
 
 /// A plate ends where the target ends: along each plate's plane, beyond its far
@@ -249,7 +375,10 @@ fn is_bounded(
                     // Past the plate's end, look in a 15° wedge, not only the
                     // slab: a face the Hough vote saw a few degrees off still
                     // shows there.
-                    if in_band && t > w + 0.15 && t < reach && d < tol + 0.27 * (t - w) {
+                    // A surface parallel behind the plate (0.1 m or more) is
+                    // background seen through the grill, not the plate going on.
+                    let wedge = (tol + 0.27 * (t - w)).min(0.08);
+                    if in_band && t > w + 0.15 && t < reach && d < wedge {
                         beyond[k] += 1;
                         continue;
                     }

@@ -114,7 +114,8 @@ pub enum TightError {
     },
     /// Objects stand there, but none is shaped like the target.
     #[error(
-        "no target-shaped object within {radius} m ({above} points above ground; best plate support {best})"
+        "no target-shaped object within {radius} m ({above} points above ground; best plate support {best}){}",
+        seen.as_ref().map_or(String::new(), |s| format!("; closest thing seen: {s}"))
     )]
     NoTargetShape {
         /// Search radius used.
@@ -123,6 +124,10 @@ pub enum TightError {
         above: usize,
         /// Best weaker-plate support seen in any window.
         best: usize,
+        /// What the best-supported rejected window looked like ("a 0.38 ×
+        /// 0.46 m L", "a plane continuing 1.2 m past the corner").
+        #[serde(skip_serializing_if = "Option::is_none")]
+        seen: Option<String>,
     },
 }
 
@@ -159,12 +164,13 @@ pub fn tight_crop(
         Vector3::z()
     };
     let ap: Vec<Vector3<f64>> = above.iter().map(|&i| q[i]).collect();
-    let (best, candidates, best_score) = detect_l(&ap, &up, params);
+    let (best, candidates, best_score, seen) = detect_l(&ap, &up, params);
     let Some(l) = best else {
         return Err(TightError::NoTargetShape {
             radius: params.search_radius,
             above: above.len(),
             best: best_score,
+            seen,
         });
     };
     let kept: Vec<Point> = ap

@@ -1,0 +1,388 @@
+//! Issue 16: targets in real clutter. Each case is a small local synth scene
+//! (one surveyed target, ~300 k points) with one obstacle from
+//! `SynthParams::obstacles`, run through the automatic tight crop and the
+//! localisation as `mapgauge eval` does, over several seeds. The error is the
+//! horizontal distance (the paper's 2D error) of the located corner from the
+//! true corner in the map frame.
+//!
+//! `cargo test --release --test clutter -- --ignored --nocapture table` prints
+//! the table of every case.
+
+use mapgauge::Point;
+use mapgauge::crop::{TightParams, tight_crop};
+use mapgauge::locate::{self, LocateParams};
+use mapgauge::synth::{self, ObstacleParams, SynthParams, Truth};
+use nalgebra::Vector3;
+
+const SEEDS: [u64; 4] = [1, 2, 3, 4];
+
+/// A one-target local scene.
+fn params(seed: u64, obstacles: ObstacleParams) -> SynthParams {
+    let mut p = SynthParams {
+        seed,
+        points: 1_000_000,
+        targets: 1,
+        spread_m: 0.0,
+        obstacles,
+        ..SynthParams::default()
+    };
+    p.clutter.poles = 2;
+    p.clutter.bushes = 1;
+    p.clutter.cars = 1;
+    p.clutter.wall = false;
+    // A frame already roughly aligned (as `frame.init` or the second pass
+    // gives): the survey position is within ~0.3 m of the target in the map.
+    p.target_distance_m = [4.0, 8.0];
+    p.distortion.offset_m = [0.2, -0.15, 0.05];
+    p.distortion.yaw_deg = 0.3;
+    // Returns beyond 40 m are of no use here: more scans for the same points.
+    p.lidar.max_range_m = 40.0;
+    p
+}
+
+fn generate(p: &SynthParams) -> (Vec<Point>, Truth) {
+    let mut map = Vec::new();
+    let truth = synth::generate(p, &mut |pts| {
+        map.extend_from_slice(pts);
+        Ok(())
+    })
+    .unwrap();
+    (map, truth)
+}
+
+/// Tight crop and localisation of survey target `i` as the pipeline's first
+/// pass does them (ground normal then +z as up; refit then plain draws).
+fn locate_target(map: &[Point], truth: &Truth, i: usize) -> Result<Point, String> {
+    let survey = truth.survey();
+    let expected = survey.targets[i].reference();
+    let loose: Vec<Point> = map
+        .iter()
+        .filter(|p| (p.x - expected.x).hypot(p.y - expected.y) < 5.0)
+        .copied()
+        .collect();
+    let tight =
+        tight_crop(&loose, &expected, &TightParams::default()).map_err(|e| e.to_string())?;
+    let up = Vector3::from(tight.up);
+    let mut ups = vec![up];
+    if up != Vector3::z() {
+        ups.push(Vector3::z());
+    }
+    let plain = LocateParams {
+        refit_iterations: 0,
+        ..LocateParams::default()
+    };
+    let mut last = String::new();
+    for u in ups {
+        for params in [LocateParams::default(), plain.clone()] {
+            match locate::locate(&tight.points, Some(u), &params) {
+                Ok(l) => return Ok(l.corner),
+                Err(e) => last = format!("localisation failed: {e}"),
+            }
+        }
+    }
+    Err(last)
+}
+
+/// Horizontal error (mm) of target `i`, or why it was not found.
+fn error_mm(map: &[Point], truth: &Truth, i: usize) -> Result<f64, String> {
+    let c = locate_target(map, truth, i)?;
+    let t = truth.targets[i].map;
+    Ok(1e3 * (c.x - t[0]).hypot(c.y - t[1]))
+}
+
+/// One case over the seeds: per seed the error of every surveyed target.
+struct Case {
+    errors: Vec<f64>,
+    misses: Vec<String>,
+    open: Vec<f64>,
+    /// Returns from the target per seed (target 1).
+    points: Vec<u64>,
+}
+
+impl Case {
+    fn run(obstacles: &ObstacleParams, tweak: fn(&mut SynthParams)) -> Case {
+        let mut case = Case {
+            errors: Vec::new(),
+            misses: Vec::new(),
+            open: Vec::new(),
+            points: Vec::new(),
+        };
+        let seeds: Vec<u64> = match std::env::var("CLUTTER_SEED") {
+            Ok(s) => vec![s.parse().unwrap()],
+            Err(_) => SEEDS.to_vec(),
+        };
+        for seed in seeds {
+            let mut p = params(seed, obstacles.clone());
+            tweak(&mut p);
+            let (map, truth) = generate(&p);
+            case.points.push(truth.targets[0].points);
+            let mut q = p.clone();
+            q.obstacles = ObstacleParams::default();
+            let (open_map, open_truth) = generate(&q);
+            for i in 0..truth.targets.len() {
+                match error_mm(&map, &truth, i) {
+                    Ok(e) => case.errors.push(e),
+                    Err(why) => case
+                        .misses
+                        .push(format!("seed {seed} target {}: {why}", i + 1)),
+                }
+                // The same target without the obstacles (target 1's twin for a
+                // second target: the same build, in the open).
+                let j = i.min(open_truth.targets.len() - 1);
+                if let Ok(e) = error_mm(&open_map, &open_truth, j) {
+                    case.open.push(e);
+                }
+            }
+        }
+        case
+    }
+    fn found(&self) -> String {
+        format!(
+            "{}/{}",
+            self.errors.len(),
+            self.errors.len() + self.misses.len()
+        )
+    }
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    s[s.len() / 2]
+}
+
+fn max(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::NAN, f64::max)
+}
+
+fn far(p: &mut SynthParams) {
+    p.target_distance_m = [30.0, 34.0];
+    p.points = 2_000_000;
+    p.lidar.max_range_m = 60.0;
+}
+
+fn none(_: &mut SynthParams) {}
+
+/// The cases of the issue.
+fn cases() -> Vec<(&'static str, ObstacleParams, fn(&mut SynthParams))> {
+    let o = ObstacleParams::default;
+    vec![
+        ("open", o(), none),
+        (
+            "wall 0.1 m behind",
+            ObstacleParams {
+                wall_behind_m: Some(0.1),
+                ..o()
+            },
+            none,
+        ),
+        (
+            "wall 0.3 m behind",
+            ObstacleParams {
+                wall_behind_m: Some(0.3),
+                ..o()
+            },
+            none,
+        ),
+        (
+            "wall 0.5 m behind",
+            ObstacleParams {
+                wall_behind_m: Some(0.5),
+                ..o()
+            },
+            none,
+        ),
+        (
+            "stack 0.65 m inside the L",
+            ObstacleParams {
+                inside_object_m: Some(0.65),
+                ..o()
+            },
+            none,
+        ),
+        (
+            "lower 40 % hidden",
+            ObstacleParams {
+                hide_lower: Some(0.4),
+                ..o()
+            },
+            none,
+        ),
+        (
+            "plate 2 a quarter",
+            ObstacleParams {
+                plate2_keep: Some(0.25),
+                ..o()
+            },
+            none,
+        ),
+        (
+            "grass through lower plates",
+            ObstacleParams {
+                grass_m: Some(0.25),
+                ..o()
+            },
+            none,
+        ),
+        (
+            "second target 1.5 m",
+            ObstacleParams {
+                second_target_m: Some(1.5),
+                ..o()
+            },
+            none,
+        ),
+        ("seen from 30+ m", o(), far),
+    ]
+}
+
+/// Checks one case: every target found, median ≤ 3 mm, none above 10 mm, and
+/// no worse than twice the open scene's (with 1 mm of slack for a tiny open error).
+fn check(name: &str) {
+    let (_, o, tweak) = cases().into_iter().find(|c| c.0 == name).unwrap();
+    let c = Case::run(&o, tweak);
+    let (med, mx) = (median(&c.errors), max(&c.errors));
+    let (omed, omx) = (median(&c.open), max(&c.open));
+    eprintln!(
+        "{name}: found {} median {med:.2} max {mx:.2} mm (open: median {omed:.2} max {omx:.2}); misses {:?}",
+        c.found(),
+        c.misses
+    );
+    assert!(c.misses.is_empty(), "{name}: not found: {:?}", c.misses);
+    assert!(med <= 3.0, "{name}: median {med:.2} mm > 3 mm");
+    assert!(mx <= 10.0, "{name}: max {mx:.2} mm > 10 mm");
+    assert!(
+        med <= 2.0 * omed.max(1.0) && mx <= 2.0 * omx.max(1.0),
+        "{name}: median {med:.2} / max {mx:.2} mm, more than twice the open scene's {omed:.2} / {omx:.2} mm"
+    );
+}
+
+#[test]
+#[ignore = "prints the table of every case (slow): --ignored --nocapture table"]
+fn table() {
+    let only = std::env::var("CLUTTER_CASE").ok();
+    println!("| case | found | median mm | max mm | open median | open max | target returns |");
+    println!("|---|---|---|---|---|---|---|");
+    for (name, o, tweak) in cases() {
+        if only.as_deref().is_some_and(|s| !name.contains(s)) {
+            continue;
+        }
+        let c = Case::run(&o, tweak);
+        println!(
+            "| {name} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:?} |",
+            c.found(),
+            median(&c.errors),
+            max(&c.errors),
+            median(&c.open),
+            max(&c.open),
+            c.points
+        );
+        for m in &c.misses {
+            println!("|  ↳ {m} | | | | | |");
+        }
+    }
+    let (found, n) = decoys(0..20);
+    println!("decoys only: located {found} of {n} seeds");
+}
+
+/// Seeds in `seeds` of scenes whose target 1 is absent but decoys stand near
+/// it: how many located something, of how many.
+fn decoys(seeds: std::ops::Range<u64>) -> (usize, usize) {
+    let mut located = 0;
+    let n = seeds.end - seeds.start;
+    for seed in seeds {
+        let p = params(
+            seed,
+            ObstacleParams {
+                target1_absent: true,
+                decoys: 5,
+                ..ObstacleParams::default()
+            },
+        );
+        let (map, truth) = generate(&p);
+        if let Ok(c) = locate_target(&map, &truth, 0) {
+            located += 1;
+            let near = truth
+                .clutter
+                .iter()
+                .min_by(|a, b| {
+                    let da = (a.x - c.x).hypot(a.y - c.y);
+                    let db = (b.x - c.x).hypot(b.y - c.y);
+                    da.total_cmp(&db)
+                })
+                .map_or(String::new(), |k| k.role.clone());
+            eprintln!("seed {seed}: located something at {c}, nearest obstacle: {near}");
+        }
+    }
+    (located, n as usize)
+}
+
+#[test]
+fn open() {
+    check("open");
+}
+
+#[test]
+fn wall_half_a_metre_behind() {
+    check("wall 0.5 m behind");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (the wall's peak outvotes the plate; the pair through the wall runs through the corner or is 2 m tall)"]
+fn wall_a_tenth_behind() {
+    check("wall 0.1 m behind");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (before: 2 of 4, median 2.31 mm); see the table"]
+fn wall_a_third_behind() {
+    check("wall 0.3 m behind");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (the stack's faces under the plates make 'an L 1.2 m tall')"]
+fn stack_inside_the_l() {
+    check("stack 0.65 m inside the L");
+}
+
+#[test]
+#[ignore = "issue 16: found in 1 of 4 seeds (5.0 mm); elsewhere the barrier in front reads as 'a plane continuing 1 m past the corner' or 'a T'"]
+fn lower_plates_hidden() {
+    check("lower 40 % hidden");
+}
+
+#[test]
+#[ignore = "issue 16: found 4 of 4 but max 13.1 mm > 10 mm (median 2.96 mm; open max 4.5 mm)"]
+fn one_plate_a_quarter() {
+    check("plate 2 a quarter");
+}
+
+#[test]
+#[ignore = "issue 16: not found in 4 of 4 seeds (foliage in the plates' slabs: 'an L 1.2 m tall')"]
+fn grass_through_the_plates() {
+    check("grass through lower plates");
+}
+
+#[test]
+#[ignore = "issue 16: 8 of 8 found but one seed takes the other target (max 1503 mm): the nearer L to the expected position wins"]
+fn second_target_close_by() {
+    check("second target 1.5 m");
+}
+
+#[test]
+#[ignore = "issue 16: found in 3 of 4 seeds (median 4.5, max 11.1 mm with 116-178 target returns)"]
+fn seen_only_from_afar() {
+    check("seen from 30+ m");
+}
+
+/// The surveyed target is absent; a 0.4 × 0.5 m L, a 1.2 m L, a cabinet, an
+/// L of 110° and a wall segment stand 0.6–2.5 m from where it should be.
+/// Before issue 16's width check the small L was located in 14 of 20 seeds.
+#[test]
+fn decoys_are_never_located() {
+    let (located, n) = decoys(100..120);
+    assert_eq!(located, 0, "a decoy was located in {located} of {n} seeds");
+}
