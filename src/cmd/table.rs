@@ -58,6 +58,9 @@ pub fn run(a: Args) -> Result<()> {
             .collect(),
     };
     let runs: Vec<(String, &ResultFile)> = names.into_iter().zip(results.iter()).collect();
+    for w in survey_mismatches(&runs) {
+        eprintln!("warning: {w}");
+    }
     let (rel, abs) = match a.which.as_str() {
         "both" => (true, true),
         "relative" => (true, false),
@@ -113,4 +116,35 @@ pub fn run(a: Args) -> Result<()> {
         print!("{}", g.render(fmt));
     }
     Ok(())
+}
+
+/// Runs compared in one table should share a survey: a target id whose
+/// surveyed position differs between two runs (by more than 1 mm) means they
+/// were measured against different surveys, and the columns do not compare.
+fn survey_mismatches(runs: &[(String, &ResultFile)]) -> Vec<String> {
+    let mut out = Vec::new();
+    let Some((first, r0)) = runs.first() else {
+        return out;
+    };
+    for (name, r) in &runs[1..] {
+        let differ: Vec<&str> = r
+            .targets
+            .iter()
+            .filter(|t| {
+                r0.targets.iter().any(|u| {
+                    u.id == t.id
+                        && ((u.survey.x - t.survey.x).hypot(u.survey.y - t.survey.y) > 1e-3
+                            || r0.survey_frame != r.survey_frame)
+                })
+            })
+            .map(|t| t.id.as_str())
+            .collect();
+        if !differ.is_empty() {
+            out.push(format!(
+                "runs `{first}` and `{name}` were scored against different surveys (targets {} differ): their columns do not compare",
+                differ.join(", ")
+            ));
+        }
+    }
+    out
 }

@@ -89,44 +89,54 @@ pub fn render_csv(r: &ResultFile) -> String {
         header: vec!["table".into(), "item".into(), "value".into()],
         ..Default::default()
     };
-    let mut add = |t: &str, k: &str, v: f64| g.rows.push(vec![t.into(), k.into(), format!("{v}")]);
-    add("absolute", "mean", r.absolute.mean);
-    add("absolute", "std", r.absolute.std);
-    add("absolute", "rmse", r.absolute.rmse);
-    add("absolute", "median", r.absolute.median);
-    add("absolute", "max", r.absolute.max);
+    // A value, or an empty cell for an item that has none (a target not scored).
+    let mut add = |t: &str, k: &str, v: Option<f64>| {
+        g.rows.push(vec![
+            t.into(),
+            k.into(),
+            v.map(|v| format!("{v}")).unwrap_or_default(),
+        ])
+    };
+    add("absolute", "mean", Some(r.absolute.mean));
+    add("absolute", "std", Some(r.absolute.std));
+    add("absolute", "rmse", Some(r.absolute.rmse));
+    add("absolute", "median", Some(r.absolute.median));
+    add("absolute", "max", Some(r.absolute.max));
     for t in &r.targets {
-        if let Some(e) = t.abs_error {
-            add("absolute", &t.id, e);
-        }
+        // Not scored: listed with an empty value, not left out.
+        add("absolute", &t.id, t.abs_error);
     }
-    add("relative", "mean", r.relative.mean);
-    add("relative", "std", r.relative.std);
+    add("relative", "mean", Some(r.relative.mean));
+    add("relative", "std", Some(r.relative.std));
     for p in &r.relative.pairs {
-        add("relative", &format!("{}&{}", p.a, p.b), p.error);
+        add("relative", &format!("{}&{}", p.a, p.b), Some(p.error));
     }
-    add("alignment", "rotation_deg", r.alignment.rotation_deg);
-    add("alignment", "tx", r.alignment.translation[0]);
-    add("alignment", "ty", r.alignment.translation[1]);
-    add("alignment", "tz", r.alignment.translation[2]);
-    add("alignment", "scale", r.alignment.scale);
+    add("alignment", "rotation_deg", Some(r.alignment.rotation_deg));
+    add("alignment", "tx", Some(r.alignment.translation[0]));
+    add("alignment", "ty", Some(r.alignment.translation[1]));
+    add("alignment", "tz", Some(r.alignment.translation[2]));
+    add("alignment", "scale", Some(r.alignment.scale));
     if let Some(l) = &r.leave_one_out {
-        add("leave_one_out", "mean", l.summary.mean);
-        add("leave_one_out", "rmse", l.summary.rmse);
+        add("leave_one_out", "mean", Some(l.summary.mean));
+        add("leave_one_out", "rmse", Some(l.summary.rmse));
     }
     if let Some(s) = &r.sigma_hat {
-        add("sigma_hat", "value", s.value);
+        add("sigma_hat", "value", Some(s.value));
     }
-    add("asprs", "rmse_x", r.asprs.rmse_x);
-    add("asprs", "rmse_y", r.asprs.rmse_y);
-    add("asprs", "rmse_h", r.asprs.rmse_h);
+    add("asprs", "rmse_x", Some(r.asprs.rmse_x));
+    add("asprs", "rmse_y", Some(r.asprs.rmse_y));
+    add("asprs", "rmse_h", Some(r.asprs.rmse_h));
     if let Some(v) = r.asprs.rmse_v {
-        add("asprs", "rmse_v", v);
+        add("asprs", "rmse_v", Some(v));
     }
     if let Some(v) = r.asprs.rmse_3d {
-        add("asprs", "rmse_3d", v);
+        add("asprs", "rmse_3d", Some(v));
     }
-    add("asprs", "nssda_horizontal_95", r.asprs.nssda_horizontal_95);
+    add(
+        "asprs",
+        "nssda_horizontal_95",
+        Some(r.asprs.nssda_horizontal_95),
+    );
     g.render(TableFormat::Csv)
 }
 

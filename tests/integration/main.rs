@@ -10,9 +10,9 @@ mod truth;
 mod util;
 
 mod cli_crop;
-mod clutter;
 mod cli_formats;
 mod cli_locate;
+mod clutter;
 mod demo_truth;
 mod errors_cli;
 mod eval_scenes;
