@@ -5,9 +5,11 @@
 //! sentences. `record` turns it into `result.json`, `render` into tables.
 
 mod asprs;
+pub mod intervals;
 mod stats;
 
 pub use asprs::{Asprs, AsprsCaveat};
+pub use intervals::{Ci95, Interval, Intervals};
 pub use stats::{AxisStats, PairError, Summary, dist, leave_one_out, relative_errors, summarize};
 
 use crate::align::{self, AlignMethod, Alignment};
@@ -90,6 +92,8 @@ pub struct TargetScore {
     pub loo_error: Option<f64>,
     /// Control or check, when the survey says.
     pub role: Option<Role>,
+    /// Covariance of `map` (m², map frame, row-major), when the locator gave one.
+    pub map_covariance: Option<[[f64; 3]; 3]>,
 }
 
 /// The fitted map → survey transform and how many targets it used.
@@ -168,6 +172,11 @@ pub enum Warning {
     },
     /// Heights were given but the alignment does not fit them.
     VerticalNotReported,
+    /// Too few scored targets for confidence intervals.
+    TooFewForIntervals {
+        /// Targets scored.
+        n: usize,
+    },
 }
 
 /// Everything [`score`] computes.
@@ -195,6 +204,8 @@ pub struct Accuracy {
     pub survey_only: Vec<String>,
     /// In the estimates, not in the survey.
     pub estimates_only: Vec<String>,
+    /// 95 % intervals of E_abs, E_rel and RMSE_H (`intervals.rs`).
+    pub intervals: Intervals,
     /// Caveats for the reader.
     pub warnings: Vec<Warning>,
 }
@@ -204,6 +215,18 @@ pub struct Accuracy {
 /// Targets are matched by id; estimates that are not found or excluded are
 /// listed in the result with their reason but never scored.
 pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Result<Accuracy> {
+    score_with_covariances(survey, estimates, &HashMap::new(), opts)
+}
+
+/// [`score`] with each located target's covariance (m², map frame), by id:
+/// they are reported per target and give the measurement intervals (which
+/// need one for every scored target).
+pub fn score_with_covariances(
+    survey: &Survey,
+    estimates: &[Estimate],
+    covariances: &HashMap<String, [[f64; 3]; 3]>,
+    opts: &ScoreOptions,
+) -> Result<Accuracy> {
     let dim = opts.dim;
     let mut warnings = Vec::new();
     let by_id: HashMap<&str, &Estimate> = estimates.iter().map(|e| (e.id.as_str(), e)).collect();
@@ -226,6 +249,7 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
             abs_error: None,
             loo_error: None,
             role: st.role,
+            map_covariance: None,
         };
         match by_id.get(st.id.as_str()) {
             None => {
@@ -249,6 +273,7 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
                     targets.push(TargetScore {
                         map: Some(*p),
                         map_has_z: e.has_z,
+                        map_covariance: covariances.get(&st.id).copied(),
                         ..base
                     });
                 }
@@ -425,6 +450,27 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
     if all_z && !vertical {
         warnings.push(Warning::VerticalNotReported);
     }
+    let covs: Option<Vec<nalgebra::Matrix3<f64>>> = used
+        .iter()
+        .map(|&k| {
+            covariances
+                .get(&survey.targets[k].id)
+                .map(|c| nalgebra::Matrix3::from_fn(|i, j| c[i][j]))
+        })
+        .collect();
+    let intervals = intervals::intervals(&intervals::Inputs {
+        method: opts.method,
+        dim,
+        ids: &ids,
+        map: &map_pts,
+        survey: &sur_pts,
+        covariances: covs,
+        survey_sigma_h: opts.survey_sigma.map_or(0.0, |s| s.0),
+        rmse_h: !asprs.independent,
+    });
+    if n < intervals::MIN_TARGETS {
+        warnings.push(Warning::TooFewForIntervals { n });
+    }
 
     Ok(Accuracy {
         dim,
@@ -447,6 +493,7 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
         asprs,
         survey_only,
         estimates_only,
+        intervals,
         warnings,
     })
 }

@@ -136,16 +136,25 @@ impl Config {
             .unwrap_or_else(|e| format!("# cannot print configuration: {e}\n"));
         let mut unset: Vec<(&str, &str)> = Vec::new();
         if self.metrics.survey_sigma_h.is_none() {
-            unset.push(("metrics", "# survey_sigma_h = 0.02   # unset: the survey's own error is not folded in"));
+            unset.push((
+                "metrics",
+                "# survey_sigma_h = 0.02   # unset: the survey's own error is not folded in",
+            ));
         }
         if self.metrics.survey_sigma_v.is_none() {
-            unset.push(("metrics", "# survey_sigma_v = 0.03   # unset: the survey's own error is not folded in"));
+            unset.push((
+                "metrics",
+                "# survey_sigma_v = 0.03   # unset: the survey's own error is not folded in",
+            ));
         }
         if self.frame.init.is_none() {
             unset.push(("frame", "# init = [x, y, yaw_deg]   # unset: the map is in the survey frame (survey = R(yaw)·map + (x, y))"));
         }
         if self.frame.origin.is_none() {
-            unset.push(("frame", "# origin = [lat, lon, alt]   # unset: a WGS84 survey's first target"));
+            unset.push((
+                "frame",
+                "# origin = [lat, lon, alt]   # unset: a WGS84 survey's first target",
+            ));
         }
         let mut out = String::new();
         for line in text.lines() {

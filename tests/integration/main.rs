@@ -21,3 +21,4 @@ mod locate_acceptance;
 mod pipeline;
 mod report_cli;
 mod synth_cli;
+mod uncertainty;
