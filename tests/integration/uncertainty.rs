@@ -174,3 +174,47 @@ fn covariance_ellipses_are_calibrated() {
         "68 % ellipse covers {c68:.1} %"
     );
 }
+
+/// `compare` on two committed result files: the verdict, the tables, JSON, and
+/// a clear refusal of a wrong `--names`.
+#[test]
+fn compare_cli_gives_a_verdict() {
+    use crate::util::{bin, stderr, stdout_ok};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/tilted");
+    let (a, b) = (dir.join("a__result.json"), dir.join("b__result.json"));
+    let out = stdout_ok(
+        bin()
+            .arg("compare")
+            .arg(&a)
+            .arg(&b)
+            .args(["--names", "a,b"]),
+    );
+    assert!(
+        out.starts_with("b's E_abs is lower than a's by 163 mm, 95 % CI [101, 231] mm\n"),
+        "{out}"
+    );
+    assert!(out.contains("E_rel: no significant difference"), "{out}");
+    let json = stdout_ok(
+        bin()
+            .arg("compare")
+            .arg(&a)
+            .arg(&b)
+            .args(["--format", "json"]),
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["targets"].as_array().unwrap().len(), 5);
+    assert!(v["e_abs"]["ci95"][1].as_f64().unwrap() < 0.0);
+    let o = bin()
+        .arg("compare")
+        .arg(&a)
+        .arg(&b)
+        .args(["--names", "x"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--names has 1 names for 2 result files"),
+        "{}",
+        stderr(&o)
+    );
+}
