@@ -352,3 +352,62 @@ mod tests {
         assert!(compare(&a, &result(&[("9", Some(0.1))]), ["A".into(), "B".into()]).is_err());
     }
 }
+
+/// Mean of one number over several runs and its 95 % interval.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AcrossRuns {
+    /// Runs with a value.
+    pub n: usize,
+    /// Mean over the runs.
+    pub mean: f64,
+    /// 95 % interval of the mean: mean ± t(0.975, n − 1) · s / √n, s the
+    /// sample standard deviation over runs (Student's t: runs are few).
+    pub ci95: [f64; 2],
+}
+
+/// Student's t 0.975 quantile for `dof` degrees of freedom (table to 30, then
+/// the normal limit with the first correction term).
+fn t975(dof: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    match dof {
+        0 => f64::NAN,
+        d if d <= 30 => T[d - 1],
+        d => 1.959_964 + 2.372 / d as f64,
+    }
+}
+
+/// Mean and 95 % interval of `values` (one per run); `None` with fewer than
+/// 2 runs (no spread to estimate).
+pub fn across_runs(values: &[f64]) -> Option<AcrossRuns> {
+    let n = values.len();
+    if n < 2 || values.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    let s = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+    let h = t975(n - 1) * s / (n as f64).sqrt();
+    Some(AcrossRuns {
+        n,
+        mean,
+        ci95: [mean - h, mean + h],
+    })
+}
+
+#[cfg(test)]
+mod runs_tests {
+    use super::*;
+
+    #[test]
+    fn across_runs_is_a_t_interval() {
+        let r = across_runs(&[0.01, 0.02, 0.03]).unwrap();
+        assert!((r.mean - 0.02).abs() < 1e-15);
+        // s = 0.01, t(2) = 4.303: half-width 0.004303·√3/… = 4.303·0.01/√3.
+        assert!((r.ci95[1] - 0.02 - 4.303 * 0.01 / 3f64.sqrt()).abs() < 1e-12);
+        assert!(across_runs(&[0.01]).is_none());
+        assert!((t975(1000) - 1.962).abs() < 1e-3);
+    }
+}

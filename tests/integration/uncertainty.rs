@@ -218,3 +218,42 @@ fn compare_cli_gives_a_verdict() {
         stderr(&o)
     );
 }
+
+/// `table --stats`: three rows (mean, 95 % interval ends) after the runs, in
+/// text and JSON.
+#[test]
+fn table_stats_adds_mean_and_interval_rows() {
+    use crate::util::{bin, stdout_ok};
+    let g = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
+    let files = [
+        g.join("tilted/a__result.json"),
+        g.join("tilted/b__result.json"),
+    ];
+    let out = stdout_ok(bin().arg("table").args(&files).args([
+        "--stats", "--which", "absolute", "--format", "text", "--names", "a,b",
+    ]));
+    let mean = out
+        .lines()
+        .find(|l| l.starts_with("mean (2 runs)"))
+        .expect(&out);
+    // E_abs 0.1793 and 0.0164: mean 0.0979 (rounding of the cells aside).
+    assert!(mean.split_whitespace().nth(3) == Some("0.0979"), "{out}");
+    assert!(
+        out.contains("95 % CI low") && out.contains("95 % CI high"),
+        "{out}"
+    );
+    let json = stdout_ok(
+        bin()
+            .arg("table")
+            .args(&files)
+            .args(["--stats", "--which", "absolute", "--format", "json"]),
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let rows = v["absolute"].as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    let (lo, hi) = (
+        rows[3]["E_abs"].as_f64().unwrap(),
+        rows[4]["E_abs"].as_f64().unwrap(),
+    );
+    assert!(lo < 0.0164 && hi > 0.1793, "{lo} {hi}");
+}
