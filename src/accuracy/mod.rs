@@ -172,6 +172,20 @@ pub enum Warning {
     },
     /// Heights were given but the alignment does not fit them.
     VerticalNotReported,
+    /// A target whose aligned residual is inconsistent both with its own
+    /// covariance (outside the 99.9 % ellipse) and with the other targets
+    /// (robust z-score of its error > 3.5): probably a gross error (wrong
+    /// corner, survey blunder). Reported, never dropped silently.
+    GrossError {
+        /// Target id.
+        id: String,
+        /// Its absolute error (m).
+        error: f64,
+        /// Its horizontal 1-σ from the covariance (m): √(trace of the 2×2 / 2).
+        sigma: f64,
+        /// (error − median) / (1.4826 · MAD) over the scored targets.
+        robust_z: f64,
+    },
     /// Too few scored targets for confidence intervals.
     TooFewForIntervals {
         /// Targets scored.
@@ -471,6 +485,19 @@ pub fn score_with_covariances(
     if n < intervals::MIN_TARGETS {
         warnings.push(Warning::TooFewForIntervals { n });
     }
+    let residuals: Vec<nalgebra::Vector3<f64>> =
+        aligned.iter().zip(&sur_pts).map(|(a, s)| a - s).collect();
+    let covs_survey: Vec<Option<nalgebra::Matrix3<f64>>> = used
+        .iter()
+        .map(|&k| {
+            covariances.get(&survey.targets[k].id).map(|c| {
+                let c = nalgebra::Matrix3::from_fn(|i, j| c[i][j]);
+                let r = al.rotation * al.scale;
+                r * c * r.transpose()
+            })
+        })
+        .collect();
+    warnings.extend(gross_errors(&ids, &abs, &residuals, &covs_survey));
 
     Ok(Accuracy {
         dim,
@@ -498,6 +525,59 @@ pub fn score_with_covariances(
     })
 }
 
+/// χ²₂ 99.9 % quantile: −2 ln(0.001).
+const CHI2_2_999: f64 = 13.815_510_557_964_274;
+/// Robust z-score above which an error is far from the others.
+const ROBUST_Z: f64 = 3.5;
+
+/// Targets whose horizontal residual lies outside their own 99.9 % ellipse and
+/// whose error is a robust outlier among the targets' errors (needs ≥ 5
+/// targets: a median and MAD of fewer say little).
+fn gross_errors(
+    ids: &[String],
+    errors: &[f64],
+    residuals: &[nalgebra::Vector3<f64>],
+    covs: &[Option<nalgebra::Matrix3<f64>>],
+) -> Vec<Warning> {
+    let n = errors.len();
+    if n < 5 {
+        return Vec::new();
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        let m = v.len() / 2;
+        if v.len() % 2 == 1 {
+            v[m]
+        } else {
+            (v[m - 1] + v[m]) / 2.0
+        }
+    };
+    let med = median(&mut errors.to_vec());
+    let mad = 1.4826 * median(&mut errors.iter().map(|e| (e - med).abs()).collect());
+    // A floor of 1 mm: identical errors would make any difference "infinitely" far.
+    let scale = mad.max(1e-3);
+    let mut out = Vec::new();
+    for j in 0..n {
+        let z = (errors[j] - med) / scale;
+        let Some(c) = covs[j] else { continue };
+        let c2 = nalgebra::Matrix2::new(c[(0, 0)], c[(0, 1)], c[(1, 0)], c[(1, 1)]);
+        let r = residuals[j].xy();
+        let Some(inv) = c2.try_inverse() else {
+            continue;
+        };
+        let m2 = (r.transpose() * inv * r)[(0, 0)];
+        if z > ROBUST_Z && m2 > CHI2_2_999 {
+            out.push(Warning::GrossError {
+                id: ids[j].clone(),
+                error: errors[j],
+                sigma: ((c2[(0, 0)] + c2[(1, 1)]) / 2.0).max(0.0).sqrt(),
+                robust_z: z,
+            });
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -521,6 +601,54 @@ mod tests {
             frame: SurveyFrame::Local,
             origin: None,
         }
+    }
+
+    #[test]
+    fn a_gross_error_is_flagged_with_its_covariance_only() {
+        let s = survey(&[
+            (0.0, 0.0, 0.0),
+            (30.0, 0.0, 0.0),
+            (0.0, 30.0, 0.0),
+            (30.0, 30.0, 0.0),
+            (15.0, 5.0, 0.0),
+            (5.0, 20.0, 0.0),
+            (22.0, 12.0, 0.0),
+        ]);
+        let jitter = [0.004, -0.006, 0.005, -0.003, 0.002, -0.005, 0.0];
+        let est: Vec<Estimate> = s
+            .targets
+            .iter()
+            .zip(jitter)
+            .enumerate()
+            .map(|(i, (t, j))| {
+                let blunder = if i == 6 { 0.3 } else { 0.0 };
+                Estimate::found(
+                    t.id.clone(),
+                    t.position + Vector3::new(j + blunder, -j, 0.0),
+                )
+            })
+            .collect();
+        let cov = [[1e-5, 0.0, 0.0], [0.0, 1e-5, 0.0], [0.0, 0.0, 1e-4]];
+        let covs: HashMap<String, [[f64; 3]; 3]> =
+            s.targets.iter().map(|t| (t.id.clone(), cov)).collect();
+        let r = score_with_covariances(&s, &est, &covs, &ScoreOptions::default()).unwrap();
+        let flagged: Vec<&str> = r
+            .warnings
+            .iter()
+            .filter_map(|w| match w {
+                Warning::GrossError { id, .. } => Some(id.as_str()),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(flagged, ["t7"]);
+        // Without covariances nothing is claimed.
+        let r2 = score(&s, &est, &ScoreOptions::default()).unwrap();
+        assert!(
+            !r2.warnings
+                .iter()
+                .any(|w| matches!(w, Warning::GrossError { .. }))
+        );
+        assert!(r2.intervals.e_abs.measurement.is_none() && r2.intervals.e_abs.targets.is_some());
     }
 
     #[test]

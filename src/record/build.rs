@@ -68,6 +68,16 @@ pub fn warning_text(w: &Warning) -> String {
         Warning::TooFewControls { n, method } => format!(
             "only {n} located control target(s): cannot fit {method} on control targets alone"
         ),
+        Warning::GrossError {
+            id,
+            error,
+            sigma,
+            robust_z,
+        } => format!(
+            "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it, or drop it from the survey)",
+            error * 1000.0,
+            sigma * 1000.0
+        ),
         Warning::TooFewForIntervals { n } => format!(
             "only {n} target(s) scored: no confidence intervals (need at least {})",
             accuracy::intervals::MIN_TARGETS
