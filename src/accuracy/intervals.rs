@@ -199,16 +199,15 @@ pub(crate) fn intervals(inp: &Inputs) -> Intervals {
 mod tests {
     use super::*;
 
-    fn inputs(
-        n: usize,
-        noise: f64,
-        covs: bool,
-    ) -> (
+    /// Ids, map points, survey points and covariances of a test scene.
+    type Scene = (
         Vec<String>,
         Vec<Point>,
         Vec<Point>,
         Option<Vec<Matrix3<f64>>>,
-    ) {
+    );
+
+    fn inputs(n: usize, noise: f64, covs: bool) -> Scene {
         let mut rng = Pcg64Mcg::seed_from_u64(3);
         let ids: Vec<String> = (0..n).map(|i| format!("t{i}")).collect();
         let survey: Vec<Point> = (0..n)
