@@ -80,6 +80,7 @@
 pub mod accuracy;
 pub mod align;
 pub mod cloud;
+pub mod compare;
 pub mod crop;
 mod error;
 pub(crate) mod geom;

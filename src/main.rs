@@ -28,6 +28,8 @@ enum Command {
     Errors(cmd::errors::Args),
     /// Paper-style tables (Table I relative, Table II absolute) across result files.
     Table(cmd::table::Args),
+    /// Is B better than A? Paired differences of two result files, with 95 % intervals.
+    Compare(cmd::compare::Args),
     /// Rewrite a map in another format (streamed).
     Convert(cmd::convert::Args),
     /// Generate a synthetic LiDAR map with surveyed targets and known truth.
@@ -44,6 +46,7 @@ fn main() -> ExitCode {
         Command::Locate(a) => cmd::locate::run(a),
         Command::Errors(a) => cmd::errors::run(a),
         Command::Table(a) => cmd::table::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Convert(a) => cmd::convert::run(a),
         Command::Demo(a) => cmd::demo::run(a),

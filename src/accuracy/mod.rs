@@ -5,9 +5,11 @@
 //! sentences. `record` turns it into `result.json`, `render` into tables.
 
 mod asprs;
+pub mod intervals;
 mod stats;
 
 pub use asprs::{Asprs, AsprsCaveat};
+pub use intervals::{Ci95, Interval, Intervals};
 pub use stats::{AxisStats, PairError, Summary, dist, leave_one_out, relative_errors, summarize};
 
 use crate::align::{self, AlignMethod, Alignment};
@@ -90,6 +92,8 @@ pub struct TargetScore {
     pub loo_error: Option<f64>,
     /// Control or check, when the survey says.
     pub role: Option<Role>,
+    /// Covariance of `map` (m², map frame, row-major), when the locator gave one.
+    pub map_covariance: Option<[[f64; 3]; 3]>,
 }
 
 /// The fitted map → survey transform and how many targets it used.
@@ -168,6 +172,25 @@ pub enum Warning {
     },
     /// Heights were given but the alignment does not fit them.
     VerticalNotReported,
+    /// A target whose aligned residual is inconsistent both with its own
+    /// covariance (outside the 99.9 % ellipse) and with the other targets
+    /// (robust z-score of its error > 3.5): probably a gross error (wrong
+    /// corner, survey blunder). Reported, never dropped silently.
+    GrossError {
+        /// Target id.
+        id: String,
+        /// Its absolute error (m).
+        error: f64,
+        /// Its horizontal 1-σ from the covariance (m): √(trace of the 2×2 / 2).
+        sigma: f64,
+        /// (error − median) / (1.4826 · MAD) over the scored targets.
+        robust_z: f64,
+    },
+    /// Too few scored targets for confidence intervals.
+    TooFewForIntervals {
+        /// Targets scored.
+        n: usize,
+    },
 }
 
 /// Everything [`score`] computes.
@@ -195,6 +218,8 @@ pub struct Accuracy {
     pub survey_only: Vec<String>,
     /// In the estimates, not in the survey.
     pub estimates_only: Vec<String>,
+    /// 95 % intervals of E_abs, E_rel and RMSE_H (`intervals.rs`).
+    pub intervals: Intervals,
     /// Caveats for the reader.
     pub warnings: Vec<Warning>,
 }
@@ -204,6 +229,18 @@ pub struct Accuracy {
 /// Targets are matched by id; estimates that are not found or excluded are
 /// listed in the result with their reason but never scored.
 pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Result<Accuracy> {
+    score_with_covariances(survey, estimates, &HashMap::new(), opts)
+}
+
+/// [`score`] with each located target's covariance (m², map frame), by id:
+/// they are reported per target and give the measurement intervals (which
+/// need one for every scored target).
+pub fn score_with_covariances(
+    survey: &Survey,
+    estimates: &[Estimate],
+    covariances: &HashMap<String, [[f64; 3]; 3]>,
+    opts: &ScoreOptions,
+) -> Result<Accuracy> {
     let dim = opts.dim;
     let mut warnings = Vec::new();
     let by_id: HashMap<&str, &Estimate> = estimates.iter().map(|e| (e.id.as_str(), e)).collect();
@@ -226,6 +263,7 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
             abs_error: None,
             loo_error: None,
             role: st.role,
+            map_covariance: None,
         };
         match by_id.get(st.id.as_str()) {
             None => {
@@ -249,6 +287,7 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
                     targets.push(TargetScore {
                         map: Some(*p),
                         map_has_z: e.has_z,
+                        map_covariance: covariances.get(&st.id).copied(),
                         ..base
                     });
                 }
@@ -425,6 +464,40 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
     if all_z && !vertical {
         warnings.push(Warning::VerticalNotReported);
     }
+    let covs: Option<Vec<nalgebra::Matrix3<f64>>> = used
+        .iter()
+        .map(|&k| {
+            covariances
+                .get(&survey.targets[k].id)
+                .map(|c| nalgebra::Matrix3::from_fn(|i, j| c[i][j]))
+        })
+        .collect();
+    let intervals = intervals::intervals(&intervals::Inputs {
+        method: opts.method,
+        dim,
+        ids: &ids,
+        map: &map_pts,
+        survey: &sur_pts,
+        covariances: covs,
+        survey_sigma_h: opts.survey_sigma.map_or(0.0, |s| s.0),
+        rmse_h: !asprs.independent,
+    });
+    if n < intervals::MIN_TARGETS {
+        warnings.push(Warning::TooFewForIntervals { n });
+    }
+    let residuals: Vec<nalgebra::Vector3<f64>> =
+        aligned.iter().zip(&sur_pts).map(|(a, s)| a - s).collect();
+    let covs_survey: Vec<Option<nalgebra::Matrix3<f64>>> = used
+        .iter()
+        .map(|&k| {
+            covariances.get(&survey.targets[k].id).map(|c| {
+                let c = nalgebra::Matrix3::from_fn(|i, j| c[i][j]);
+                let r = al.rotation * al.scale;
+                r * c * r.transpose()
+            })
+        })
+        .collect();
+    warnings.extend(gross_errors(&ids, &abs, &residuals, &covs_survey));
 
     Ok(Accuracy {
         dim,
@@ -447,8 +520,62 @@ pub fn score(survey: &Survey, estimates: &[Estimate], opts: &ScoreOptions) -> Re
         asprs,
         survey_only,
         estimates_only,
+        intervals,
         warnings,
     })
+}
+
+/// χ²₂ 99.9 % quantile: −2 ln(0.001).
+const CHI2_2_999: f64 = 13.815_510_557_964_274;
+/// Robust z-score above which an error is far from the others.
+const ROBUST_Z: f64 = 3.5;
+
+/// Targets whose horizontal residual lies outside their own 99.9 % ellipse and
+/// whose error is a robust outlier among the targets' errors (needs ≥ 5
+/// targets: a median and MAD of fewer say little).
+fn gross_errors(
+    ids: &[String],
+    errors: &[f64],
+    residuals: &[nalgebra::Vector3<f64>],
+    covs: &[Option<nalgebra::Matrix3<f64>>],
+) -> Vec<Warning> {
+    let n = errors.len();
+    if n < 5 {
+        return Vec::new();
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        let m = v.len() / 2;
+        if v.len() % 2 == 1 {
+            v[m]
+        } else {
+            (v[m - 1] + v[m]) / 2.0
+        }
+    };
+    let med = median(&mut errors.to_vec());
+    let mad = 1.4826 * median(&mut errors.iter().map(|e| (e - med).abs()).collect());
+    // A floor of 1 mm: identical errors would make any difference "infinitely" far.
+    let scale = mad.max(1e-3);
+    let mut out = Vec::new();
+    for j in 0..n {
+        let z = (errors[j] - med) / scale;
+        let Some(c) = covs[j] else { continue };
+        let c2 = nalgebra::Matrix2::new(c[(0, 0)], c[(0, 1)], c[(1, 0)], c[(1, 1)]);
+        let r = residuals[j].xy();
+        let Some(inv) = c2.try_inverse() else {
+            continue;
+        };
+        let m2 = (r.transpose() * inv * r)[(0, 0)];
+        if z > ROBUST_Z && m2 > CHI2_2_999 {
+            out.push(Warning::GrossError {
+                id: ids[j].clone(),
+                error: errors[j],
+                sigma: ((c2[(0, 0)] + c2[(1, 1)]) / 2.0).max(0.0).sqrt(),
+                robust_z: z,
+            });
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -474,6 +601,54 @@ mod tests {
             frame: SurveyFrame::Local,
             origin: None,
         }
+    }
+
+    #[test]
+    fn a_gross_error_is_flagged_with_its_covariance_only() {
+        let s = survey(&[
+            (0.0, 0.0, 0.0),
+            (30.0, 0.0, 0.0),
+            (0.0, 30.0, 0.0),
+            (30.0, 30.0, 0.0),
+            (15.0, 5.0, 0.0),
+            (5.0, 20.0, 0.0),
+            (22.0, 12.0, 0.0),
+        ]);
+        let jitter = [0.004, -0.006, 0.005, -0.003, 0.002, -0.005, 0.0];
+        let est: Vec<Estimate> = s
+            .targets
+            .iter()
+            .zip(jitter)
+            .enumerate()
+            .map(|(i, (t, j))| {
+                let blunder = if i == 6 { 0.3 } else { 0.0 };
+                Estimate::found(
+                    t.id.clone(),
+                    t.position + Vector3::new(j + blunder, -j, 0.0),
+                )
+            })
+            .collect();
+        let cov = [[1e-5, 0.0, 0.0], [0.0, 1e-5, 0.0], [0.0, 0.0, 1e-4]];
+        let covs: HashMap<String, [[f64; 3]; 3]> =
+            s.targets.iter().map(|t| (t.id.clone(), cov)).collect();
+        let r = score_with_covariances(&s, &est, &covs, &ScoreOptions::default()).unwrap();
+        let flagged: Vec<&str> = r
+            .warnings
+            .iter()
+            .filter_map(|w| match w {
+                Warning::GrossError { id, .. } => Some(id.as_str()),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(flagged, ["t7"]);
+        // Without covariances nothing is claimed.
+        let r2 = score(&s, &est, &ScoreOptions::default()).unwrap();
+        assert!(
+            !r2.warnings
+                .iter()
+                .any(|w| matches!(w, Warning::GrossError { .. }))
+        );
+        assert!(r2.intervals.e_abs.measurement.is_none() && r2.intervals.e_abs.targets.is_some());
     }
 
     #[test]

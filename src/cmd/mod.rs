@@ -1,5 +1,6 @@
 //! One module per subcommand: flag definitions and printing only.
 
+pub mod compare;
 pub mod convert;
 pub mod crop;
 pub mod demo;

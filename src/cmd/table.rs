@@ -21,6 +21,59 @@ pub struct Args {
     /// Which table: relative (Table I), absolute (Table II) or both.
     #[arg(long, default_value = "both")]
     which: String,
+    /// Add the mean and 95 % interval of every column across the runs (runs of
+    /// one system: mean ± t·s/√n over runs).
+    #[arg(long)]
+    stats: bool,
+}
+
+/// `g` with three rows appended: the mean of every numeric column over the
+/// runs, and the low and high ends of its 95 % interval (blank where fewer
+/// than 2 runs have a value).
+fn with_stats(mut g: Grid) -> Grid {
+    let cols = g.header.len();
+    let mut out: [(Vec<String>, Vec<Option<f64>>); 3] = Default::default();
+    let n = g.rows.len();
+    for (k, label) in [
+        format!("mean ({n} runs)"),
+        "95 % CI low".into(),
+        "95 % CI high".into(),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        out[k].0.push(label);
+        out[k].1.push(None);
+    }
+    for c in 1..cols {
+        let vals: Vec<f64> = g
+            .values
+            .iter()
+            .filter_map(|r| r.get(c).copied().flatten())
+            .collect();
+        let s = mapgauge::compare::across_runs(&vals);
+        for (k, v) in [
+            s.map(|s| s.mean),
+            s.map(|s| s.ci95[0]),
+            s.map(|s| s.ci95[1]),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            out[k]
+                .0
+                .push(v.map(|v| format!("{v:.4}")).unwrap_or_default());
+            out[k].1.push(v);
+        }
+    }
+    if g.values.len() < g.rows.len() {
+        g.values.resize(g.rows.len(), vec![None; cols]);
+    }
+    for (row, vals) in out {
+        g.rows.push(row);
+        g.values.push(vals);
+    }
+    g
 }
 
 /// Runs `table`.
@@ -71,20 +124,21 @@ pub fn run(a: Args) -> Result<()> {
             )));
         }
     };
+    let st = |g: Grid| if a.stats { with_stats(g) } else { g };
     let mut tables: Vec<(&str, Grid)> = Vec::new();
     if rel {
-        tables.push(("Relative error (m) — Table I", relative_grid(&runs)));
+        tables.push(("Relative error (m) — Table I", st(relative_grid(&runs))));
     }
     if abs {
-        tables.push(("Absolute error (m) — Table II", absolute_grid(&runs)));
+        tables.push(("Absolute error (m) — Table II", st(absolute_grid(&runs))));
     }
     let Some(fmt) = fmt else {
         let mut o = serde_json::Map::new();
         if rel {
-            o.insert("relative".into(), relative_grid(&runs).to_json());
+            o.insert("relative".into(), st(relative_grid(&runs)).to_json());
         }
         if abs {
-            o.insert("absolute".into(), absolute_grid(&runs).to_json());
+            o.insert("absolute".into(), st(absolute_grid(&runs)).to_json());
         }
         let text = serde_json::to_string_pretty(&serde_json::Value::Object(o)).unwrap_or_default();
         println!("{text}");

@@ -128,6 +128,24 @@ impl<'a> Ctx<'a> {
         self.up
     }
 
+    /// The crop, centred.
+    pub(crate) fn points(&self) -> &'a [Vector3<f64>] {
+        self.pts
+    }
+
+    /// Half-width of the band each plate's final inliers were taken from: the
+    /// refit's noise-wide band, or RANSAC's threshold without a refit.
+    pub(crate) fn final_band(&self, planes: &[Plane; 2]) -> [f64; 2] {
+        if self.params.refit_iterations == 0 {
+            return [self.params.inlier_threshold; 2];
+        }
+        let mut resid = Vec::new();
+        [
+            self.refit_band(&planes[0], &planes[1], &mut resid),
+            self.refit_band(&planes[1], &planes[0], &mut resid),
+        ]
+    }
+
     /// Runs attempt `index`; with `labels`, also records each point's role.
     pub(crate) fn attempt(
         &self,

@@ -34,6 +34,7 @@
 //! are consumed in index order, so results are bit-identical for any thread count.
 
 mod attempt;
+mod covariance;
 pub(crate) mod kmeans;
 mod params;
 #[doc(hidden)]
@@ -212,6 +213,7 @@ fn summarise(ctx: &Ctx, origin: Vector3<f64>, run: Run) -> Located {
             tilt_deg: n.dot(&up).abs().clamp(0.0, 1.0).asin().to_degrees(),
         }
     };
+    let covariance = corner_covariance(ctx, &reference, &labels, &mean, &samples);
     let cos = reference.planes[0]
         .normal
         .dot(&reference.planes[1].normal)
@@ -220,6 +222,7 @@ fn summarise(ctx: &Ctx, origin: Vector3<f64>, run: Run) -> Located {
     Located {
         corner: Point::from(origin + mean),
         std: [var.x.sqrt(), var.y.sqrt(), var.z.sqrt()],
+        covariance,
         accepted: samples.len(),
         attempts,
         rejects,
@@ -231,4 +234,46 @@ fn summarise(ctx: &Ctx, origin: Vector3<f64>, run: Run) -> Located {
             .map(|s| Point::from(origin + s.corner))
             .collect(),
     }
+}
+
+/// The corner's covariance: the reference sample's plate fits propagated to the
+/// corner (`covariance.rs`), raised to cover the samples' own spread where that
+/// is larger. Without a usable propagation (degenerate plate layout) the
+/// samples' spread alone.
+fn corner_covariance(
+    ctx: &Ctx,
+    reference: &Sample,
+    labels: &[Label],
+    corner: &Vector3<f64>,
+    samples: &[Sample],
+) -> [[f64; 3]; 3] {
+    let pts = ctx.points();
+    let plate = |j: usize, want: Label| covariance::PlateFitPoints {
+        normal: reference.planes[j].normal,
+        offset: reference.planes[j].offset,
+        points: pts
+            .iter()
+            .zip(labels)
+            .filter(|(_, l)| **l == want)
+            .map(|(p, _)| p)
+            .collect(),
+    };
+    let plates = [plate(0, Label::Plate1), plate(1, Label::Plate2)];
+    let band = ctx.final_band(&reference.planes);
+    let spread =
+        covariance::sample_covariance(&samples.iter().map(|s| s.corner).collect::<Vec<_>>());
+    let c = match covariance::corner_covariance(
+        &plates,
+        corner,
+        &ctx.up(),
+        [Some(band[0]), Some(band[1])],
+    ) {
+        Some(fit) => covariance::cover(&fit, &spread),
+        None => spread,
+    };
+    [
+        [c[(0, 0)], c[(0, 1)], c[(0, 2)]],
+        [c[(1, 0)], c[(1, 1)], c[(1, 2)]],
+        [c[(2, 0)], c[(2, 1)], c[(2, 2)]],
+    ]
 }

@@ -56,6 +56,10 @@ pub struct Located {
     pub corner: Point,
     /// Population standard deviation of the accepted samples per axis, metres.
     pub std: [f64; 3],
+    /// Covariance of the corner (m², row-major): how far it may be from the
+    /// truth, from the plates' noise and point layout (`locate/covariance.rs`),
+    /// at least the samples' spread.
+    pub covariance: [[f64; 3]; 3],
     /// Accepted samples averaged into `corner`.
     pub accepted: usize,
     /// Attempts needed to collect them (accepted + rejected).
@@ -79,6 +83,10 @@ impl Located {
     /// One number for the spread: the norm of `std`, metres.
     pub fn spread(&self) -> f64 {
         Vector3::from(self.std).norm()
+    }
+    /// The corner's standard deviation per axis (√ of the covariance's diagonal), metres.
+    pub fn sigma(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| self.covariance[i][i].max(0.0).sqrt())
     }
     /// Fraction of attempts accepted.
     pub fn acceptance(&self) -> f64 {

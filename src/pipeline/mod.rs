@@ -168,7 +168,17 @@ fn evaluate(
     if n_found < need {
         return Err(too_few_found(&found, survey, n_found, need, cfg, &map.name));
     }
-    let accuracy = accuracy::score(survey, &estimates(&found), &opts)?;
+    let covariances = found
+        .iter()
+        .filter_map(|r| {
+            r.outcome
+                .as_ref()
+                .ok()
+                .map(|f| (r.id.clone(), f.located.covariance))
+        })
+        .collect();
+    let accuracy =
+        accuracy::score_with_covariances(survey, &estimates(&found), &covariances, &opts)?;
     Ok(Evaluation {
         accuracy,
         targets: found,

@@ -21,7 +21,11 @@ impl ResultFile {
             origin: survey.origin,
             alignment: alignment_out(&acc.fit),
             targets: acc.targets.iter().map(target_out).collect(),
-            absolute: stats(&acc.absolute),
+            absolute: Stats {
+                ci95_measurement: Some(acc.intervals.e_abs.measurement),
+                ci95_targets: Some(acc.intervals.e_abs.targets),
+                ..stats(&acc.absolute)
+            },
             relative: relative(acc),
             leave_one_out: acc.leave_one_out.as_ref().map(held_out),
             control_check: acc.control_check.as_ref().map(|c| ControlCheck {
@@ -34,7 +38,7 @@ impl ResultFile {
                 sse: s.sse,
                 dof: s.dof,
             }),
-            asprs: asprs(&acc.asprs),
+            asprs: asprs(&acc.asprs, &acc.intervals.rmse_h),
             unmatched: Unmatched {
                 survey_only: acc.survey_only.clone(),
                 estimates_only: acc.estimates_only.clone(),
@@ -63,6 +67,20 @@ pub fn warning_text(w: &Warning) -> String {
         Warning::NoCheckTargets => "survey has roles but no located check targets".into(),
         Warning::TooFewControls { n, method } => format!(
             "only {n} located control target(s): cannot fit {method} on control targets alone"
+        ),
+        Warning::GrossError {
+            id,
+            error,
+            sigma,
+            robust_z,
+        } => format!(
+            "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it, or drop it from the survey)",
+            error * 1000.0,
+            sigma * 1000.0
+        ),
+        Warning::TooFewForIntervals { n } => format!(
+            "only {n} target(s) scored: no confidence intervals (need at least {})",
+            accuracy::intervals::MIN_TARGETS
         ),
         Warning::VerticalNotReported => {
             "vertical accuracy not reported: choose an alignment that fits z (rigid2d+z, rigid3d)"
@@ -97,6 +115,8 @@ fn stats(s: &Summary) -> Stats {
         rmse: s.rmse,
         median: s.median,
         max: s.max,
+        ci95_measurement: None,
+        ci95_targets: None,
     }
 }
 
@@ -135,6 +155,7 @@ fn target_out(t: &accuracy::TargetScore) -> TargetOut {
         abs_error: t.abs_error,
         loo_error: t.loo_error,
         role: t.role,
+        map_covariance: t.map_covariance,
     }
 }
 
@@ -147,6 +168,8 @@ fn relative(acc: &Accuracy) -> RelativeStats {
         rmse: s.rmse,
         median: s.median,
         max: s.max,
+        ci95_measurement: acc.intervals.e_rel.measurement,
+        ci95_targets: acc.intervals.e_rel.targets,
         pairs: acc
             .relative
             .pairs
@@ -185,7 +208,7 @@ fn axis(a: &accuracy::AxisStats) -> AxisStats {
     }
 }
 
-fn asprs(a: &accuracy::Asprs) -> Asprs {
+fn asprs(a: &accuracy::Asprs, ci: &accuracy::Ci95) -> Asprs {
     let mut lines = vec![format!(
         "Tested {:.3} m horizontal accuracy at 95% confidence level",
         a.nssda_horizontal_95
@@ -214,5 +237,7 @@ fn asprs(a: &accuracy::Asprs) -> Asprs {
         nssda_vertical_95: a.nssda_vertical_95,
         nssda_lines: lines,
         warnings: a.caveats.iter().map(caveat_text).collect(),
+        ci95_measurement: ci.measurement,
+        ci95_targets: ci.targets,
     }
 }

@@ -81,6 +81,10 @@ pub struct TargetOut {
     /// Control or check, when the survey says.
     #[serde(default)]
     pub role: Option<Role>,
+    /// Covariance of `map` (m², map frame, row-major), `null` when not located
+    /// or when the estimates came from a file without one.
+    #[serde(default)]
+    pub map_covariance: Option<[[f64; 3]; 3]>,
 }
 
 /// Summary statistics of a list of errors (the paper's Table II numbers and more).
@@ -98,6 +102,15 @@ pub struct Stats {
     pub median: f64,
     /// Maximum.
     pub max: f64,
+    /// 95 % interval [lo, hi] of the mean from the per-target covariances
+    /// (Monte Carlo); `null` when not computable, absent where not defined
+    /// (held-out errors).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ci95_measurement: Option<Option<[f64; 2]>>,
+    /// 95 % interval [lo, hi] of the mean from the choice of targets
+    /// (bootstrap); `null`/absent as `ci95_measurement`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ci95_targets: Option<Option<[f64; 2]>>,
 }
 
 /// One pair's relative error (the paper's Table I).
@@ -137,6 +150,12 @@ pub struct RelativeStats {
     /// Largest pair error.
     #[serde(default)]
     pub max: f64,
+    /// 95 % interval [lo, hi] of E_rel from the per-target covariances (Monte Carlo).
+    #[serde(default)]
+    pub ci95_measurement: Option<[f64; 2]>,
+    /// 95 % interval [lo, hi] of E_rel from the choice of targets (bootstrap).
+    #[serde(default)]
+    pub ci95_targets: Option<[f64; 2]>,
     /// Every pair, i < j in survey order.
     pub pairs: Vec<Pair>,
 }
@@ -232,6 +251,13 @@ pub struct Asprs {
     pub nssda_lines: Vec<String>,
     /// Caveats (too few checkpoints, not independent).
     pub warnings: Vec<String>,
+    /// 95 % interval [lo, hi] of RMSE_H from the per-target covariances (Monte
+    /// Carlo); `null` with check targets or too few targets.
+    #[serde(default)]
+    pub ci95_measurement: Option<[f64; 2]>,
+    /// 95 % interval [lo, hi] of RMSE_H from the choice of targets (bootstrap).
+    #[serde(default)]
+    pub ci95_targets: Option<[f64; 2]>,
 }
 
 /// Ids present on one side only.

@@ -153,6 +153,9 @@ pub fn targets_grid(r: &ResultFile) -> Grid {
         "aligned_z",
         "abs_error",
         "loo_error",
+        "sigma_x",
+        "sigma_y",
+        "sigma_z",
     ];
     let o = |v: Option<f64>| v.map(|v| format!("{v:.6}")).unwrap_or_default();
     let rows = r
@@ -171,6 +174,10 @@ pub fn targets_grid(r: &ResultFile) -> Grid {
             }
             row.push(o(t.abs_error));
             row.push(o(t.loo_error));
+            // The corner's 1-σ per axis (map frame), from its covariance.
+            for i in 0..3 {
+                row.push(o(t.map_covariance.map(|c| c[i][i].max(0.0).sqrt())));
+            }
             row
         })
         .collect();
@@ -372,6 +379,7 @@ mod tests {
                 abs_error: ok.then_some(0.005),
                 loo_error: None,
                 role: None,
+                map_covariance: None,
             });
         }
         for (i, a) in found.iter().enumerate() {

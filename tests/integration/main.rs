@@ -23,3 +23,4 @@ mod locate_acceptance;
 mod pipeline;
 mod report_cli;
 mod synth_cli;
+mod uncertainty;

@@ -249,9 +249,12 @@ fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView
         .iter()
         .map(|p| ((p.x - c.x) * 1000.0, (p.y - c.y) * 1000.0))
         .collect();
+    // The 95 % ellipse of the corner's covariance (χ²₂ = 5.991), millimetres.
+    let ellipse = t.map_covariance.and_then(|c| ellipse95_mm(&c));
     let m = dev
         .iter()
         .map(|p| p.0.abs().max(p.1.abs()))
+        .chain(ellipse.iter().flatten().map(|p| p.0.abs().max(p.1.abs())))
         .fold(0.0, f64::max)
         .max(1.0)
         * 1.25;
@@ -267,18 +270,9 @@ fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView
         r: 2.0,
         color: palette::SAMPLE,
     });
-    let n = dev.len().max(1) as f64;
-    let sdx = (dev.iter().map(|p| p.0 * p.0).sum::<f64>() / n).sqrt();
-    let sdy = (dev.iter().map(|p| p.1 * p.1).sum::<f64>() / n).sqrt();
-    if sdx > 0.0 || sdy > 0.0 {
-        let ring: Vec<(f64, f64)> = (0..=48)
-            .map(|k| {
-                let a = k as f64 / 48.0 * std::f64::consts::TAU;
-                sp.map(2.0 * sdx * a.cos(), 2.0 * sdy * a.sin())
-            })
-            .collect();
+    if let Some(ring) = &ellipse {
         f.items.push(Item::Polyline {
-            pts: ring,
+            pts: ring.iter().map(|p| sp.map(p.0, p.1)).collect(),
             color: Color(0x1e, 0x84, 0x49),
             width: 1.2,
         });
@@ -319,7 +313,11 @@ fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView
     }
     f.text(
         (THIRD.0, THIRD.1 + THIRD.3 + 44.0),
-        "ellipse: 2σ of the samples",
+        if ellipse.is_some() {
+            "ellipse: 95 % of the corner's uncertainty"
+        } else {
+            "no uncertainty recorded"
+        },
         10.0,
         palette::INK,
         Anchor::Start,
@@ -468,4 +466,30 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         palette::SURVEY,
         "survey (aligned into the map)",
     );
+}
+
+/// The horizontal 95 % ellipse (χ²₂ = 5.991) of a covariance (m²), as a closed
+/// ring of points in millimetres about the corner; `None` when degenerate.
+fn ellipse95_mm(c: &[[f64; 3]; 3]) -> Option<Vec<(f64, f64)>> {
+    let (a, b, d) = (c[0][0], c[0][1], c[1][1]);
+    // Eigen-decomposition of the symmetric 2×2 [[a, b], [b, d]].
+    let tr = (a + d) / 2.0;
+    let disc = (((a - d) / 2.0).powi(2) + b * b).sqrt();
+    let (l1, l2) = (tr + disc, (tr - disc).max(0.0));
+    if !(l1 > 0.0) || !l1.is_finite() {
+        return None;
+    }
+    let theta = 0.5 * (2.0 * b).atan2(a - d);
+    let k = 5.991_464_547_107_979f64.sqrt() * 1000.0;
+    let (r1, r2) = (k * l1.sqrt(), k * l2.sqrt());
+    let (st, ct) = theta.sin_cos();
+    Some(
+        (0..=48)
+            .map(|i| {
+                let t = i as f64 / 48.0 * std::f64::consts::TAU;
+                let (u, v) = (r1 * t.cos(), r2 * t.sin());
+                (ct * u - st * v, st * u + ct * v)
+            })
+            .collect(),
+    )
 }

@@ -1,0 +1,413 @@
+//! "Is B better than A?": paired differences of two result files on the
+//! targets both located, with 95 % intervals from a paired bootstrap over
+//! targets (seeded, sequential: deterministic). Definitions in
+//! `docs/uncertainty.md`.
+
+use crate::record::ResultFile;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// Bootstrap resamples.
+pub const RESAMPLES: usize = 4000;
+/// Seed of the bootstrap.
+pub const SEED: u64 = 0x636f_6d70_6172_6521;
+/// Fewest common targets for an interval.
+pub const MIN_COMMON: usize = 4;
+
+/// One target both runs located.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetDiff {
+    /// Target id.
+    pub id: String,
+    /// A's absolute error (m).
+    pub a: f64,
+    /// B's absolute error (m).
+    pub b: f64,
+    /// b − a (m).
+    pub diff: f64,
+}
+
+/// One pair of common targets.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PairDiff {
+    /// First id.
+    pub a_id: String,
+    /// Second id.
+    pub b_id: String,
+    /// A's relative error (m).
+    pub a: f64,
+    /// B's relative error (m).
+    pub b: f64,
+    /// b − a (m).
+    pub diff: f64,
+}
+
+/// A headline number in both runs and their difference.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Difference {
+    /// A's value on the common targets (m).
+    pub a: f64,
+    /// B's value on the common targets (m).
+    pub b: f64,
+    /// b − a (m).
+    pub diff: f64,
+    /// 95 % interval of b − a (paired bootstrap over targets), `null` with
+    /// fewer than [`MIN_COMMON`] common targets.
+    pub ci95: Option<[f64; 2]>,
+}
+
+impl Difference {
+    /// Whether the interval excludes zero.
+    pub fn significant(&self) -> bool {
+        self.ci95.is_some_and(|c| c[0] > 0.0 || c[1] < 0.0)
+    }
+}
+
+/// Two runs compared.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Comparison {
+    /// Names of A and B.
+    pub names: [String; 2],
+    /// Targets both located, in A's order.
+    pub targets: Vec<TargetDiff>,
+    /// Pairs of common targets both runs report.
+    pub pairs: Vec<PairDiff>,
+    /// Mean absolute error on the common targets.
+    pub e_abs: Difference,
+    /// Mean relative error on the common pairs.
+    pub e_rel: Difference,
+}
+
+/// Compares `b` with `a` on the targets both located.
+pub fn compare(a: &ResultFile, b: &ResultFile, names: [String; 2]) -> crate::Result<Comparison> {
+    let b_abs: HashMap<&str, f64> = b
+        .targets
+        .iter()
+        .filter_map(|t| t.abs_error.map(|e| (t.id.as_str(), e)))
+        .collect();
+    let targets: Vec<TargetDiff> = a
+        .targets
+        .iter()
+        .filter_map(|t| {
+            let (ea, eb) = (t.abs_error?, *b_abs.get(t.id.as_str())?);
+            Some(TargetDiff {
+                id: t.id.clone(),
+                a: ea,
+                b: eb,
+                diff: eb - ea,
+            })
+        })
+        .collect();
+    if targets.len() < 2 {
+        return Err(crate::Error::Input(format!(
+            "{} and {} have {} located target(s) in common; comparing needs at least 2",
+            names[0],
+            names[1],
+            targets.len()
+        )));
+    }
+    let index: HashMap<&str, usize> = targets
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (t.id.as_str(), i))
+        .collect();
+    let key = |x: &str, y: &str| {
+        if x <= y {
+            (x.to_string(), y.to_string())
+        } else {
+            (y.to_string(), x.to_string())
+        }
+    };
+    let b_pairs: HashMap<(String, String), f64> = b
+        .relative
+        .pairs
+        .iter()
+        .map(|p| (key(&p.a, &p.b), p.error))
+        .collect();
+    let mut pairs = Vec::new();
+    let mut pair_idx = Vec::new();
+    for p in &a.relative.pairs {
+        let (Some(&i), Some(&j)) = (index.get(p.a.as_str()), index.get(p.b.as_str())) else {
+            continue;
+        };
+        if let Some(&eb) = b_pairs.get(&key(&p.a, &p.b)) {
+            pairs.push(PairDiff {
+                a_id: p.a.clone(),
+                b_id: p.b.clone(),
+                a: p.error,
+                b: eb,
+                diff: eb - p.error,
+            });
+            pair_idx.push((i, j));
+        }
+    }
+    let n = targets.len();
+    let mean = |v: &mut dyn Iterator<Item = f64>| {
+        let (s, k) = v.fold((0.0, 0usize), |(s, k), x| (s + x, k + 1));
+        (k > 0).then(|| s / k as f64)
+    };
+    let e_abs_a = mean(&mut targets.iter().map(|t| t.a)).unwrap_or(f64::NAN);
+    let e_abs_b = mean(&mut targets.iter().map(|t| t.b)).unwrap_or(f64::NAN);
+    let e_rel_a = mean(&mut pairs.iter().map(|p| p.a)).unwrap_or(f64::NAN);
+    let e_rel_b = mean(&mut pairs.iter().map(|p| p.b)).unwrap_or(f64::NAN);
+    let (ci_abs, ci_rel) = if n >= MIN_COMMON {
+        bootstrap(&targets, &pairs, &pair_idx)
+    } else {
+        (None, None)
+    };
+    Ok(Comparison {
+        names,
+        e_abs: Difference {
+            a: e_abs_a,
+            b: e_abs_b,
+            diff: e_abs_b - e_abs_a,
+            ci95: ci_abs,
+        },
+        e_rel: Difference {
+            a: e_rel_a,
+            b: e_rel_b,
+            diff: e_rel_b - e_rel_a,
+            ci95: if pairs.is_empty() { None } else { ci_rel },
+        },
+        targets,
+        pairs,
+    })
+}
+
+/// Paired bootstrap: resample the common targets with replacement; the mean
+/// per-target difference, and the mean pair difference over the resample's
+/// pairs of distinct targets (with multiplicity).
+fn bootstrap(
+    targets: &[TargetDiff],
+    pairs: &[PairDiff],
+    pair_idx: &[(usize, usize)],
+) -> (Option<[f64; 2]>, Option<[f64; 2]>) {
+    let n = targets.len();
+    let mut rng = Pcg64Mcg::seed_from_u64(SEED);
+    let mut abs = Vec::with_capacity(RESAMPLES);
+    let mut rel = Vec::with_capacity(RESAMPLES);
+    let mut count = vec![0usize; n];
+    for _ in 0..RESAMPLES {
+        count.iter_mut().for_each(|c| *c = 0);
+        for _ in 0..n {
+            count[rng.random_range(0..n)] += 1;
+        }
+        let d: f64 = targets
+            .iter()
+            .zip(&count)
+            .map(|(t, &c)| t.diff * c as f64)
+            .sum();
+        abs.push(d / n as f64);
+        let (mut s, mut w) = (0.0, 0usize);
+        for (p, &(i, j)) in pairs.iter().zip(pair_idx) {
+            let m = count[i] * count[j];
+            s += p.diff * m as f64;
+            w += m;
+        }
+        if w > 0 {
+            rel.push(s / w as f64);
+        }
+    }
+    (percentile95(abs), percentile95(rel))
+}
+
+fn percentile95(mut v: Vec<f64>) -> Option<[f64; 2]> {
+    if v.len() < 100 {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        let x = p * (v.len() - 1) as f64;
+        let (i, f) = (x.floor() as usize, x.fract());
+        let j = (i + 1).min(v.len() - 1);
+        v[i] + (v[j] - v[i]) * f
+    };
+    Some([q(0.025), q(0.975)])
+}
+
+/// The one-line verdict on `what` (e.g. "E_abs"): "B's E_abs is lower by
+/// 12 mm, 95 % CI [4, 20] mm", "no significant difference …", or why nothing
+/// can be said.
+pub fn verdict(c: &Comparison, d: &Difference, what: &str) -> String {
+    let mm = |v: f64| v * 1000.0;
+    let [a, b] = &c.names;
+    match d.ci95 {
+        None => format!(
+            "{what}: too few common targets ({}) to say whether {a} or {b} is better (need {MIN_COMMON})",
+            c.targets.len()
+        ),
+        Some(ci) if d.significant() => {
+            let (word, lo, hi) = if d.diff < 0.0 {
+                ("lower", -ci[1], -ci[0])
+            } else {
+                ("higher", ci[0], ci[1])
+            };
+            format!(
+                "{b}'s {what} is {word} than {a}'s by {:.0} mm, 95 % CI [{:.0}, {:.0}] mm",
+                mm(d.diff.abs()),
+                mm(lo),
+                mm(hi)
+            )
+        }
+        Some(ci) => format!(
+            "{what}: no significant difference ({b} − {a} = {:+.0} mm, 95 % CI [{:.0}, {:.0}] mm)",
+            mm(d.diff),
+            mm(ci[0]),
+            mm(ci[1])
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn result(errors: &[(&str, Option<f64>)]) -> ResultFile {
+        let mut r: ResultFile = serde_json::from_str(
+            r#"{"schema":"mapgauge.result/1","mapgauge_version":"0","alignment":{"method":"rigid2d","rotation_deg":0,"translation":[0,0,0],"scale":1},
+            "targets":[],"absolute":{"n":0,"mean":0,"std":0,"rmse":0,"median":0,"max":0},
+            "relative":{"n":0,"mean":0,"std":0,"pairs":[]},
+            "asprs":{"n_checkpoints":0,"independent":false,"x":{"bias":0,"std":0,"rmse":0},"y":{"bias":0,"std":0,"rmse":0},"z":null,
+            "rmse_x":0,"rmse_y":0,"rmse_h":0,"rmse_v":null,"rmse_3d":null,"rmse_h_measured":0,"rmse_v_measured":null,
+            "survey_sigma_h":null,"survey_sigma_v":null,"nssda_horizontal_95":0,"nssda_vertical_95":null,"nssda_lines":[],"warnings":[]}}"#,
+        )
+        .unwrap();
+        for (id, e) in errors {
+            r.targets.push(crate::record::TargetOut {
+                id: id.to_string(),
+                status: if e.is_some() { "ok" } else { "not_found" }.into(),
+                reason: None,
+                survey: crate::record::Xyz {
+                    x: 0.0,
+                    y: 0.0,
+                    z: None,
+                },
+                map: None,
+                aligned: None,
+                abs_error: *e,
+                loo_error: None,
+                role: None,
+                map_covariance: None,
+            });
+        }
+        let ok: Vec<_> = errors.iter().filter(|e| e.1.is_some()).collect();
+        for (i, x) in ok.iter().enumerate() {
+            for y in &ok[i + 1..] {
+                r.relative.pairs.push(crate::record::Pair {
+                    a: x.0.into(),
+                    b: y.0.into(),
+                    survey_distance: 10.0,
+                    map_distance: 10.0,
+                    error: (x.1.unwrap() + y.1.unwrap()) / 2.0,
+                    error_per_100m: None,
+                });
+            }
+        }
+        r
+    }
+
+    #[test]
+    fn a_clear_improvement_is_significant_and_noise_is_not() {
+        let a = result(&[
+            ("1", Some(0.03)),
+            ("2", Some(0.04)),
+            ("3", Some(0.035)),
+            ("4", Some(0.05)),
+            ("5", Some(0.045)),
+            ("6", None),
+        ]);
+        let b = result(&[
+            ("1", Some(0.02)),
+            ("2", Some(0.028)),
+            ("3", Some(0.024)),
+            ("4", Some(0.037)),
+            ("5", Some(0.036)),
+            ("6", Some(0.01)),
+        ]);
+        let c = compare(&a, &b, ["A".into(), "B".into()]).unwrap();
+        assert_eq!(c.targets.len(), 5);
+        assert_eq!(c.pairs.len(), 10);
+        assert!(c.e_abs.significant() && c.e_abs.diff < 0.0, "{:?}", c.e_abs);
+        let v = verdict(&c, &c.e_abs, "E_abs");
+        assert!(v.starts_with("B's E_abs is lower than A's by 11 mm"), "{v}");
+        assert_eq!(c, compare(&a, &b, ["A".into(), "B".into()]).unwrap());
+        // Mixed signs: no significant difference.
+        let d = result(&[
+            ("1", Some(0.04)),
+            ("2", Some(0.03)),
+            ("3", Some(0.045)),
+            ("4", Some(0.04)),
+            ("5", Some(0.045)),
+        ]);
+        let c2 = compare(&a, &d, ["A".into(), "B".into()]).unwrap();
+        assert!(!c2.e_abs.significant());
+        assert!(verdict(&c2, &c2.e_abs, "E_abs").contains("no significant difference"));
+        // Too few: no interval, says so.
+        let e = result(&[("1", Some(0.02)), ("2", Some(0.02)), ("3", Some(0.02))]);
+        let c3 = compare(&a, &e, ["A".into(), "B".into()]).unwrap();
+        assert!(c3.e_abs.ci95.is_none());
+        assert!(verdict(&c3, &c3.e_abs, "E_abs").contains("too few common targets (3)"));
+        assert!(compare(&a, &result(&[("9", Some(0.1))]), ["A".into(), "B".into()]).is_err());
+    }
+}
+
+/// Mean of one number over several runs and its 95 % interval.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AcrossRuns {
+    /// Runs with a value.
+    pub n: usize,
+    /// Mean over the runs.
+    pub mean: f64,
+    /// 95 % interval of the mean: mean ± t(0.975, n − 1) · s / √n, s the
+    /// sample standard deviation over runs (Student's t: runs are few).
+    pub ci95: [f64; 2],
+}
+
+/// Student's t 0.975 quantile for `dof` degrees of freedom (table to 30, then
+/// the normal limit with the first correction term).
+fn t975(dof: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    match dof {
+        0 => f64::NAN,
+        d if d <= 30 => T[d - 1],
+        d => 1.959_964 + 2.372 / d as f64,
+    }
+}
+
+/// Mean and 95 % interval of `values` (one per run); `None` with fewer than
+/// 2 runs (no spread to estimate).
+pub fn across_runs(values: &[f64]) -> Option<AcrossRuns> {
+    let n = values.len();
+    if n < 2 || values.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    let s = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+    let h = t975(n - 1) * s / (n as f64).sqrt();
+    Some(AcrossRuns {
+        n,
+        mean,
+        ci95: [mean - h, mean + h],
+    })
+}
+
+#[cfg(test)]
+mod runs_tests {
+    use super::*;
+
+    #[test]
+    fn across_runs_is_a_t_interval() {
+        let r = across_runs(&[0.01, 0.02, 0.03]).unwrap();
+        assert!((r.mean - 0.02).abs() < 1e-15);
+        // s = 0.01, t(2) = 4.303: half-width 0.004303·√3/… = 4.303·0.01/√3.
+        assert!((r.ci95[1] - 0.02 - 4.303 * 0.01 / 3f64.sqrt()).abs() < 1e-12);
+        assert!(across_runs(&[0.01]).is_none());
+        assert!((t975(1000) - 1.962).abs() < 1e-3);
+    }
+}

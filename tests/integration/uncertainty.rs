@@ -1,0 +1,259 @@
+//! Calibration of the per-target covariance (issue 17): on synthetic targets
+//! with known corners, the 95 % and 68 % horizontal ellipses (χ²₂) of
+//! `Located::covariance` must contain the true corner about that often.
+//!
+//! `cargo test --release --test integration uncertainty:: -- --nocapture`
+//! prints the coverage per condition (the table in docs/uncertainty.md).
+
+use mapgauge::locate::{self, LocateParams, testgen};
+use nalgebra::{Matrix2, Vector2, Vector3};
+use rand::{Rng, SeedableRng};
+
+/// χ²₂ quantiles: −2 ln(1 − p).
+const CHI2_95: f64 = 5.991_464_547_107_979;
+const CHI2_68: f64 = 2.278_869_232_352_346;
+
+/// One condition of the calibration grid.
+#[derive(Clone, Copy)]
+struct Condition {
+    noise: f64,
+    range: (f64, f64),
+    tilted: bool,
+}
+
+impl Condition {
+    fn label(&self) -> String {
+        format!(
+            "{:.0} cm, {:.0}–{:.0} m, {}",
+            self.noise * 100.0,
+            self.range.0,
+            self.range.1,
+            if self.tilted { "tilted" } else { "level" }
+        )
+    }
+}
+
+/// Tally of one condition.
+#[derive(Default, Clone, Copy)]
+struct Tally {
+    n: usize,
+    in95: usize,
+    in68: usize,
+    failed: usize,
+}
+
+/// A target seen from `range` metres: 1–3 viewpoints, points falling off with
+/// the square of the distance (1,300 at 8 m, at least 200), 5–15 % clutter.
+fn spec<R: Rng>(rng: &mut R, c: &Condition) -> testgen::Spec {
+    let nv = rng.random_range(1..=3);
+    let viewpoints: Vec<Vector3<f64>> = (0..nv)
+        .map(|i| {
+            let v = testgen::viewpoint(rng, i == 0);
+            let d = rng.random_range(c.range.0..c.range.1);
+            let h = Vector3::new(v.x, v.y, 0.0).normalize() * d;
+            Vector3::new(h.x, h.y, v.z)
+        })
+        .collect();
+    let nearest = viewpoints
+        .iter()
+        .map(|v| v.xy().norm())
+        .fold(f64::INFINITY, f64::min);
+    let points = ((1300.0 * (8.0 / nearest).powi(2)).round() as usize).clamp(200, 1300);
+    testgen::Spec {
+        origin: Vector3::new(
+            rng.random_range(-200.0..200.0),
+            rng.random_range(-200.0..200.0),
+            rng.random_range(-2.0..2.0),
+        ),
+        heading: rng.random_range(0.0..std::f64::consts::TAU),
+        tilt: if c.tilted {
+            (
+                rng.random_range(0.2f64..0.7).to_radians(),
+                rng.random_range(0.0..std::f64::consts::TAU),
+            )
+        } else {
+            (0.0, 0.0)
+        },
+        noise: c.noise,
+        viewpoints,
+        points,
+        outlier_fraction: rng.random_range(0.05..0.15),
+        one_plate: false,
+    }
+}
+
+/// Runs `per` targets of condition `c` from `seed`.
+fn run(c: &Condition, seed: u64, per: usize) -> Tally {
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let mut t = Tally::default();
+    for i in 0..per {
+        let s = spec(&mut rng, c);
+        let target = testgen::generate(&mut rng, &s);
+        let params = LocateParams {
+            seed: seed ^ i as u64,
+            ..LocateParams::default()
+        };
+        let up = c.tilted.then_some(target.up);
+        let Ok(l) = locate::locate(&target.points, up, &params) else {
+            t.failed += 1;
+            continue;
+        };
+        let e = Vector2::new(l.corner.x - target.corner.x, l.corner.y - target.corner.y);
+        let cov = Matrix2::new(
+            l.covariance[0][0],
+            l.covariance[0][1],
+            l.covariance[1][0],
+            l.covariance[1][1],
+        );
+        let m2 = (e.transpose() * cov.try_inverse().expect("covariance invertible") * e)[(0, 0)];
+        t.n += 1;
+        t.in95 += usize::from(m2 <= CHI2_95);
+        t.in68 += usize::from(m2 <= CHI2_68);
+    }
+    t
+}
+
+fn pct(k: usize, n: usize) -> f64 {
+    100.0 * k as f64 / n.max(1) as f64
+}
+
+#[test]
+fn covariance_ellipses_are_calibrated() {
+    let mut conditions = Vec::new();
+    for noise in [0.01, 0.02, 0.03] {
+        for range in [(5.0, 15.0), (15.0, 35.0)] {
+            for tilted in [false, true] {
+                conditions.push(Condition {
+                    noise,
+                    range,
+                    tilted,
+                });
+            }
+        }
+    }
+    // 12 conditions × 2 seeds × 14 targets = 336 targets.
+    let seeds = [17u64, 1017];
+    let per = 14;
+    let mut total = Tally::default();
+    println!("| condition | targets | in 68 % ellipse | in 95 % ellipse | not located |");
+    println!("|---|---|---|---|---|");
+    for (k, c) in conditions.iter().enumerate() {
+        let mut t = Tally::default();
+        for s in seeds {
+            let r = run(c, s * 100 + k as u64, per);
+            t.n += r.n;
+            t.in95 += r.in95;
+            t.in68 += r.in68;
+            t.failed += r.failed;
+        }
+        println!(
+            "| {} | {} | {:.0} % | {:.0} % | {} |",
+            c.label(),
+            t.n,
+            pct(t.in68, t.n),
+            pct(t.in95, t.n),
+            t.failed
+        );
+        total.n += t.n;
+        total.in95 += t.in95;
+        total.in68 += t.in68;
+        total.failed += t.failed;
+    }
+    let (c95, c68) = (pct(total.in95, total.n), pct(total.in68, total.n));
+    println!(
+        "| all | {} | {c68:.1} % | {c95:.1} % | {} |",
+        total.n, total.failed
+    );
+    assert!(total.n >= 300, "only {} targets located", total.n);
+    assert!(
+        (92.0..=98.0).contains(&c95),
+        "95 % ellipse covers {c95:.1} %"
+    );
+    assert!(
+        (62.0..=74.0).contains(&c68),
+        "68 % ellipse covers {c68:.1} %"
+    );
+}
+
+/// `compare` on two committed result files: the verdict, the tables, JSON, and
+/// a clear refusal of a wrong `--names`.
+#[test]
+fn compare_cli_gives_a_verdict() {
+    use crate::util::{bin, stderr, stdout_ok};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/tilted");
+    let (a, b) = (dir.join("a__result.json"), dir.join("b__result.json"));
+    let out = stdout_ok(
+        bin()
+            .arg("compare")
+            .arg(&a)
+            .arg(&b)
+            .args(["--names", "a,b"]),
+    );
+    assert!(
+        out.starts_with("b's E_abs is lower than a's by 163 mm, 95 % CI [101, 231] mm\n"),
+        "{out}"
+    );
+    assert!(out.contains("E_rel: no significant difference"), "{out}");
+    let json = stdout_ok(
+        bin()
+            .arg("compare")
+            .arg(&a)
+            .arg(&b)
+            .args(["--format", "json"]),
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["targets"].as_array().unwrap().len(), 5);
+    assert!(v["e_abs"]["ci95"][1].as_f64().unwrap() < 0.0);
+    let o = bin()
+        .arg("compare")
+        .arg(&a)
+        .arg(&b)
+        .args(["--names", "x"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--names has 1 names for 2 result files"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// `table --stats`: three rows (mean, 95 % interval ends) after the runs, in
+/// text and JSON.
+#[test]
+fn table_stats_adds_mean_and_interval_rows() {
+    use crate::util::{bin, stdout_ok};
+    let g = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
+    let files = [
+        g.join("tilted/a__result.json"),
+        g.join("tilted/b__result.json"),
+    ];
+    let out = stdout_ok(bin().arg("table").args(&files).args([
+        "--stats", "--which", "absolute", "--format", "text", "--names", "a,b",
+    ]));
+    let mean = out
+        .lines()
+        .find(|l| l.starts_with("mean (2 runs)"))
+        .expect(&out);
+    // E_abs 0.1793 and 0.0164: mean 0.0979 (rounding of the cells aside).
+    assert!(mean.split_whitespace().nth(3) == Some("0.0979"), "{out}");
+    assert!(
+        out.contains("95 % CI low") && out.contains("95 % CI high"),
+        "{out}"
+    );
+    let json = stdout_ok(
+        bin()
+            .arg("table")
+            .args(&files)
+            .args(["--stats", "--which", "absolute", "--format", "json"]),
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let rows = v["absolute"].as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    let (lo, hi) = (
+        rows[3]["E_abs"].as_f64().unwrap(),
+        rows[4]["E_abs"].as_f64().unwrap(),
+    );
+    assert!(lo < 0.0164 && hi > 0.1793, "{lo} {hi}");
+}
