@@ -70,6 +70,38 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             ", also used to fit"
         }
     );
+    let ci = |m: Option<[f64; 2]>, t: Option<[f64; 2]>| -> Option<String> {
+        let f = |c: Option<[f64; 2]>| {
+            c.map(|[lo, hi]| format!("[{}, {}]", mm(lo), mm(hi)))
+                .unwrap_or_else(|| "–".into())
+        };
+        (m.is_some() || t.is_some()).then(|| format!("measurement {}, targets {}", f(m), f(t)))
+    };
+    let lines = [
+        (
+            "E_abs",
+            ci(
+                r.absolute.ci95_measurement.flatten(),
+                r.absolute.ci95_targets.flatten(),
+            ),
+        ),
+        (
+            "E_rel",
+            ci(r.relative.ci95_measurement, r.relative.ci95_targets),
+        ),
+        ("RMSE_H", ci(r.asprs.ci95_measurement, r.asprs.ci95_targets)),
+    ];
+    if lines.iter().any(|l| l.1.is_some()) {
+        let _ = writeln!(
+            o,
+            "  95 % intervals (mm) from the measurement noise and from the choice of targets:"
+        );
+        for (k, v) in lines {
+            if let Some(v) = v {
+                let _ = writeln!(o, "    {k:<6} {v}");
+            }
+        }
+    }
     let _ = writeln!(
         o,
         "  alignment map → survey: rotation {:.4}°, translation ({:.3}, {:.3}, {:.3}) m{}",
@@ -86,9 +118,16 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     o.push('\n');
 
     let mut g = Grid {
-        header: ["id", "status", "error mm", "leave-one-out mm", "reason"]
-            .map(String::from)
-            .to_vec(),
+        header: [
+            "id",
+            "status",
+            "error mm",
+            "leave-one-out mm",
+            "σx σy mm",
+            "reason",
+        ]
+        .map(String::from)
+        .to_vec(),
         ..Default::default()
     };
     for t in &r.targets {
@@ -97,6 +136,15 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             t.status.clone(),
             t.abs_error.map(mm).unwrap_or_else(|| "–".into()),
             t.loo_error.map(mm).unwrap_or_else(|| "–".into()),
+            t.map_covariance
+                .map(|c| {
+                    format!(
+                        "{} {}",
+                        mm(c[0][0].max(0.0).sqrt()),
+                        mm(c[1][1].max(0.0).sqrt())
+                    )
+                })
+                .unwrap_or_else(|| "–".into()),
             t.reason.clone().unwrap_or_default(),
         ]);
     }
