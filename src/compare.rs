@@ -213,18 +213,12 @@ fn bootstrap(
     (percentile95(abs), percentile95(rel))
 }
 
-fn percentile95(mut v: Vec<f64>) -> Option<[f64; 2]> {
+/// The 95 % percentile interval of at least 100 resampled values.
+fn percentile95(v: Vec<f64>) -> Option<[f64; 2]> {
     if v.len() < 100 {
         return None;
     }
-    v.sort_by(f64::total_cmp);
-    let q = |p: f64| {
-        let x = p * (v.len() - 1) as f64;
-        let (i, f) = (x.floor() as usize, x.fract());
-        let j = (i + 1).min(v.len() - 1);
-        v[i] + (v[j] - v[i]) * f
-    };
-    Some([q(0.025), q(0.975)])
+    crate::accuracy::intervals::percentile_interval(v)
 }
 
 /// The one-line verdict on `what` (e.g. "E_abs"): "B's E_abs is lower by

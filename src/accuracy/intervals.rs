@@ -98,7 +98,7 @@ fn headline(inp: &Inputs, map: &[Point], survey: &[Point], ids: &[String]) -> Op
 }
 
 /// The 2.5 % and 97.5 % quantiles (linear interpolation between order statistics).
-fn percentile_interval(mut v: Vec<f64>) -> Option<Interval> {
+pub(crate) fn percentile_interval(mut v: Vec<f64>) -> Option<Interval> {
     if v.len() < 20 {
         return None;
     }
