@@ -70,6 +70,10 @@ pub struct Args {
     /// markdown, latex, csv, html (the paper's tables).
     #[arg(long, default_value = "table")]
     pub format: OutputFormat,
+    /// Refit without targets flagged as gross errors; they stay in the result
+    /// as `excluded`, with the reason [default: off: flagged in the warnings only].
+    #[arg(long)]
+    pub exclude_outliers: bool,
     /// With `--format table`, also print every pair's relative error.
     #[arg(long, short)]
     pub verbose: bool,
@@ -120,6 +124,9 @@ pub fn config(a: &Args) -> Result<Config> {
     }
     if let Some(i) = a.init {
         cfg.frame.init = Some(i);
+    }
+    if a.exclude_outliers {
+        cfg.metrics.exclude_outliers = true;
     }
     if let Some(o) = a.origin {
         cfg.frame.origin = Some([o.lat, o.lon, o.alt]);

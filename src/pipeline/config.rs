@@ -52,6 +52,10 @@ pub struct MetricsConfig {
     pub survey_sigma_h: Option<f64>,
     /// The survey's own vertical 1-σ error (m).
     pub survey_sigma_v: Option<f64>,
+    /// Refit without targets flagged as gross errors (their residual is
+    /// inconsistent with their covariance and with the other targets); they
+    /// stay in the result as `excluded`, with the reason.
+    pub exclude_outliers: bool,
 }
 
 /// Where targets are expected in the map.

@@ -45,11 +45,14 @@ pub struct MapStats {
 }
 
 /// Something the caller should tell the user.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Warning {
     /// A sphere crop was asked for but the survey has no heights: a vertical
     /// cylinder was used.
     SphereWithoutHeights,
+    /// These targets were flagged as gross errors and left out of the fit
+    /// and the statistics (`metrics.exclude_outliers`).
+    OutliersExcluded(Vec<String>),
 }
 
 impl std::fmt::Display for Warning {
@@ -57,6 +60,11 @@ impl std::fmt::Display for Warning {
         match self {
             Warning::SphereWithoutHeights => f.write_str(
                 "the survey has no heights; cropping with a vertical cylinder instead of a sphere",
+            ),
+            Warning::OutliersExcluded(ids) => write!(
+                f,
+                "gross errors excluded and the alignment refitted without them: {}",
+                ids.join(", ")
             ),
         }
     }
@@ -177,8 +185,44 @@ fn evaluate(
                 .map(|f| (r.id.clone(), f.located.covariance))
         })
         .collect();
-    let accuracy =
-        accuracy::score_with_covariances(survey, &estimates(&found), &covariances, &opts)?;
+    let mut est = estimates(&found);
+    let mut accuracy = accuracy::score_with_covariances(survey, &est, &covariances, &opts)?;
+    if cfg.metrics.exclude_outliers {
+        // Refit without the gross errors, each kept in the result as excluded
+        // with the numbers that condemned it: never dropped silently.
+        let gross: Vec<(String, String)> = accuracy
+            .warnings
+            .iter()
+            .filter_map(|w| match w {
+                accuracy::Warning::GrossError {
+                    id,
+                    error,
+                    robust_z,
+                    ..
+                } => Some((
+                    id.clone(),
+                    format!(
+                        "excluded as a gross error (--exclude-outliers): error {:.0} mm, robust z {robust_z:.1}",
+                        error * 1e3
+                    ),
+                )),
+                _ => None,
+            })
+            .collect();
+        if !gross.is_empty() {
+            for e in &mut est {
+                if let Some((_, why)) = gross.iter().find(|g| g.0 == e.id) {
+                    e.status = EstimateStatus::Excluded {
+                        reason: why.clone(),
+                    };
+                }
+            }
+            accuracy = accuracy::score_with_covariances(survey, &est, &covariances, &opts)?;
+            warnings.push(Warning::OutliersExcluded(
+                gross.into_iter().map(|g| g.0).collect(),
+            ));
+        }
+    }
     Ok(Evaluation {
         accuracy,
         targets: found,

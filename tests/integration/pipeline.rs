@@ -145,3 +145,44 @@ fn saved_crops_are_found_by_crops_whatever_the_id() {
     }
     assert!(tight.join("T_1_a.ply").is_file() && tight.join("_...ply").is_file());
 }
+
+/// A survey blunder on one target: flagged as a gross error; with
+/// `exclude_outliers` the fit is redone without it, and it stays in the
+/// result as excluded with the reason.
+#[test]
+fn a_gross_error_is_flagged_and_excluded_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = SynthParams {
+        targets: 8,
+        points: 3_000_000,
+        ..params()
+    };
+    let (files, _, _) = synth::write_scene(dir.path(), &p, OutFormat::Pcd).unwrap();
+    let mut survey = read_survey(&files.survey, &SurveyOptions::default()).unwrap();
+    survey.targets[2].position.x += 0.3;
+    let mut cfg = Config::default();
+    let flagged = pipeline::run(MapSource::File(&files.map), &survey, &cfg, |_, _| {}).unwrap();
+    let gross: Vec<&str> = flagged
+        .accuracy
+        .warnings
+        .iter()
+        .filter_map(|w| match w {
+            mapgauge::accuracy::Warning::GrossError { id, .. } => Some(id.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(gross, ["3"]);
+    assert_eq!(flagged.accuracy.absolute.n, 8);
+    cfg.metrics.exclude_outliers = true;
+    let ev = pipeline::run(MapSource::File(&files.map), &survey, &cfg, |_, _| {}).unwrap();
+    assert_eq!(ev.accuracy.absolute.n, 7);
+    assert!(matches!(
+        &ev.accuracy.targets[2].status,
+        mapgauge::accuracy::Status::Excluded(why) if why.contains("gross error")
+    ));
+    assert_eq!(
+        ev.warnings,
+        [pipeline::Warning::OutliersExcluded(vec!["3".into()])]
+    );
+    assert!(ev.accuracy.absolute.mean < 0.5 * flagged.accuracy.absolute.mean);
+}
