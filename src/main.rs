@@ -22,6 +22,8 @@ enum Command {
     Eval(Box<cmd::eval::Args>),
     /// Loose crops around every surveyed target, for inspection or hand editing.
     Crop(cmd::crop::Args),
+    /// Every target-shaped object in a map, without a survey (CSV and PLY).
+    Detect(cmd::detect::Args),
     /// Locate targets in tight crops (the paper's k-means → RANSAC → SVD algorithm).
     Locate(cmd::locate::Args),
     /// Align estimated positions to the survey and report the errors.
@@ -44,6 +46,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => cmd::eval::run(*a),
         Command::Crop(a) => cmd::crop::run(a),
         Command::Locate(a) => cmd::locate::run(a),
+        Command::Detect(a) => cmd::detect::run(a),
         Command::Errors(a) => cmd::errors::run(a),
         Command::Table(a) => cmd::table::run(a),
         Command::Compare(a) => cmd::compare::run(a),

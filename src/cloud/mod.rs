@@ -7,13 +7,18 @@
 //! bounded whatever the map's size. Non-finite points are skipped and counted.
 
 use crate::{Error, Point, Result};
+pub(crate) use fold::fold_points;
+pub(crate) use motion::Moved;
+pub use motion::RigidMotion;
 pub use region::Region;
 pub use source::{MapSource, MemoryReader};
 use std::io::Read;
 use std::path::Path;
 
 mod e57;
+mod fold;
 mod las;
+mod motion;
 mod num;
 mod pcd;
 mod ply;
@@ -132,6 +137,8 @@ pub struct Scratch {
     points: Vec<Point>,
     /// Decompressed columns of a piece (binary_compressed PCD).
     cols: Vec<Vec<u8>>,
+    /// Points moved by a [`RigidMotion`] reader.
+    moved: Vec<Point>,
 }
 
 /// Points per piece of an already decoded block.

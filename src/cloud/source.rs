@@ -24,6 +24,18 @@ impl<'a> MapSource<'a> {
         }
     }
 
+    /// [`MapSource::open`] with every point moved by `motion` (none: as stored).
+    pub fn open_moved(
+        &self,
+        motion: Option<&super::RigidMotion>,
+    ) -> Result<Box<dyn PointReader + 'a>> {
+        let inner = self.open()?;
+        Ok(match motion {
+            Some(m) if !m.is_identity() => Box::new(super::Moved { inner, motion: *m }),
+            _ => inner,
+        })
+    }
+
     /// How the source is named in results: the path as given, or `<memory>`.
     pub fn name(&self) -> String {
         match self {

@@ -4,6 +4,7 @@ pub mod compare;
 pub mod convert;
 pub mod crop;
 pub mod demo;
+pub mod detect;
 pub mod errors;
 pub mod eval;
 pub mod locate;

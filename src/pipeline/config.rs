@@ -79,6 +79,10 @@ pub struct FrameConfig {
     /// Targets located with an "up" further than this from the common plumb line
     /// are located again with it (degrees).
     pub tilt_redo_deg: f64,
+    /// The map is levelled (read rotated so that its ground's vertical is +z)
+    /// when its ground leans more than this (degrees); the targets' plumb line
+    /// refines it afterwards.
+    pub level_above_deg: f64,
 }
 
 impl Default for FrameConfig {
@@ -90,6 +94,7 @@ impl Default for FrameConfig {
             second_pass_min_shift: 0.5,
             max_tilt_deg: 3.0,
             tilt_redo_deg: 0.25,
+            level_above_deg: 2.5,
         }
     }
 }

@@ -320,6 +320,7 @@ impl LzfColumns {
             bytes,
             points,
             cols,
+            ..
         } = s;
         cols.resize_with(3, Vec::new);
         let mut n = 0;

@@ -22,6 +22,17 @@ pub(super) struct LShape {
     pub(super) band: (f64, f64),
     /// Support of the weaker plate.
     pub(super) score: usize,
+    /// Each plate's width measured from its points (95th percentile of the
+    /// distance from the corner).
+    pub(super) widths: [f64; 2],
+}
+
+impl LShape {
+    /// Heading of the L's bisector (from the corner into the L), radians
+    /// from the horizontal basis' first axis `e1`.
+    pub(super) fn bisector(&self) -> Vector3<f64> {
+        (self.along[0] + self.along[1]).normalize()
+    }
 }
 
 impl LShape {
@@ -296,6 +307,7 @@ fn check_l(
         corner,
         band: (lo, hi),
         score,
+        widths: width,
     })
 }
 

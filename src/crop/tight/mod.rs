@@ -95,6 +95,12 @@ pub struct TightCrop {
     pub score: usize,
     /// Windows that looked like a target.
     pub candidates: usize,
+    /// Heading of the L's bisector (corner → inside), degrees from +x.
+    pub heading_deg: f64,
+    /// Plate widths measured from the points (m).
+    pub plate_widths: [f64; 2],
+    /// Height of the plates' band measured from the points (m).
+    pub plate_height: f64,
 }
 
 /// Why no tight crop could be made.
@@ -192,5 +198,11 @@ pub fn tight_crop(
         ),
         score: l.score,
         candidates,
+        heading_deg: {
+            let b = l.bisector();
+            b.y.atan2(b.x).to_degrees().rem_euclid(360.0)
+        },
+        plate_widths: l.widths,
+        plate_height: l.band.1 - l.band.0,
     })
 }

@@ -1,0 +1,183 @@
+//! `mapgauge detect`: every target-shaped object in a map, without a survey.
+
+use mapgauge::cloud::MapSource;
+use mapgauge::crop::TightParams;
+use mapgauge::detect::{DetectParams, Detection, detect_map};
+use mapgauge::frame::ground_level;
+use mapgauge::record::write_atomic;
+use mapgauge::{Error, Result};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// List every object shaped like a target (two perpendicular plates of the
+/// configured size meeting at a vertical edge) anywhere in the map.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The map (PCD, PLY, LAS/LAZ, E57, XYZ, PTS).
+    #[arg(long)]
+    map: PathBuf,
+    /// Directory for detections.csv and detections.ply (corners and the L's
+    /// arms, to view with the map); without it, only the table is printed.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Plate width[,height] in metres (default 0.6,0.6: the paper's target).
+    #[arg(long, value_parser = super::one_or_two, allow_hyphen_values = true)]
+    plate_size: Option<(f64, Option<f64>)>,
+    /// The map is levelled when its ground leans more than this (degrees).
+    #[arg(long, default_value_t = mapgauge::pipeline::FrameConfig::default().level_above_deg)]
+    level_above: f64,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    if let Some(out) = &a.out {
+        super::check_out_dir(out)?;
+    }
+    let mut tight = TightParams::default();
+    if let Some((w, h)) = a.plate_size {
+        if !(w > 0.05 && w <= 5.0 && h.is_none_or(|h| h > 0.05 && h <= 5.0)) {
+            return Err(Error::Param(
+                "--plate-size: width and height must be in (0.05, 5] m".into(),
+            ));
+        }
+        tight.plate_width = w;
+        tight.plate_height = h.unwrap_or(w);
+    }
+    let source = MapSource::File(&a.map);
+    let ground = ground_level(source, None, |_| {})?;
+    let motion = ground.levelling(a.level_above);
+    let found = detect_map(
+        source,
+        &ground,
+        &motion,
+        &DetectParams::default(),
+        &tight,
+        |_| {},
+    )?;
+    let mut s = String::new();
+    let _ = writeln!(s, "map: {} ({} points)", a.map.display(), ground.points);
+    match &ground.level {
+        Some(l) => {
+            let _ = writeln!(
+                s,
+                "ground: leans {:.2}° towards {:.0}° ({:.0} % of {} ground blocks agree){}",
+                l.tilt_deg,
+                l.azimuth_deg,
+                100.0 * l.support,
+                l.blocks,
+                if motion.is_identity() {
+                    String::new()
+                } else {
+                    "; the map was levelled for detection".into()
+                }
+            );
+        }
+        None => s.push_str("ground: too little seen to level the map\n"),
+    }
+    let _ = writeln!(
+        s,
+        "{} target-shaped object(s) among {} candidate group(s)",
+        found.detections.len(),
+        found.candidates
+    );
+    for (why, n) in found.rejected.iter().take(5) {
+        let _ = writeln!(s, "  rejected {n}: {why}");
+    }
+    if !found.detections.is_empty() {
+        s.push_str(&table(&found.detections));
+    }
+    print!("{s}");
+    if let Some(out) = &a.out {
+        std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+        write_atomic(
+            &out.join("detections.csv"),
+            csv(&found.detections).as_bytes(),
+        )?;
+        write_atomic(
+            &out.join("detections.ply"),
+            ply(&found.detections, &tight).as_bytes(),
+        )?;
+        println!(
+            "wrote {} and {}",
+            out.join("detections.csv").display(),
+            out.join("detections.ply").display()
+        );
+    }
+    Ok(())
+}
+
+fn table(d: &[Detection]) -> String {
+    let mut s = format!(
+        "{:>4} {:>14} {:>14} {:>10} {:>8} {:>13} {:>7} {:>7} {:>6}\n",
+        "#", "x", "y", "z", "heading", "widths", "height", "support", "score"
+    );
+    for (i, d) in d.iter().enumerate() {
+        let c = d.corner_map;
+        let _ = writeln!(
+            s,
+            "{:>4} {:>14.3} {:>14.3} {:>10.3} {:>7.1}° {:>6.2}×{:<6.2} {:>7.2} {:>7} {:>6.2}",
+            i + 1,
+            c.x,
+            c.y,
+            c.z,
+            d.heading_deg,
+            d.plate_widths[0],
+            d.plate_widths[1],
+            d.plate_height,
+            d.support,
+            d.score
+        );
+    }
+    s
+}
+
+fn csv(d: &[Detection]) -> String {
+    let mut s = String::from(
+        "n,x,y,z,heading_deg,plate_width_a,plate_width_b,plate_height,support,score\n",
+    );
+    for (i, d) in d.iter().enumerate() {
+        let c = d.corner_map;
+        let _ = writeln!(
+            s,
+            "{},{:.4},{:.4},{:.4},{:.2},{:.3},{:.3},{:.3},{},{:.3}",
+            i + 1,
+            c.x,
+            c.y,
+            c.z,
+            d.heading_deg,
+            d.plate_widths[0],
+            d.plate_widths[1],
+            d.plate_height,
+            d.support,
+            d.score
+        );
+    }
+    s
+}
+
+/// Each detection as a red L: its two arms at mid-height, in the map's frame.
+fn ply(d: &[Detection], t: &TightParams) -> String {
+    let mut v = Vec::new();
+    for (i, d) in d.iter().enumerate() {
+        let h = d.heading_deg.to_radians();
+        let arms = [
+            h - std::f64::consts::FRAC_PI_4,
+            h + std::f64::consts::FRAC_PI_4,
+        ];
+        for a in arms {
+            for k in 0..=24 {
+                let r = t.plate_width * k as f64 / 24.0;
+                let c = d.corner;
+                let p = nalgebra::Point3::new(c.x + r * a.cos(), c.y + r * a.sin(), c.z);
+                v.push((d.corner_map + (p - c), i + 1));
+            }
+        }
+    }
+    let mut s = format!(
+        "ply\nformat ascii 1.0\ncomment mapgauge detect: target-shaped objects\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty int detection\nend_header\n",
+        v.len()
+    );
+    for (p, i) in v {
+        let _ = writeln!(s, "{:.4} {:.4} {:.4} 255 0 0 {i}", p.x, p.y, p.z);
+    }
+    s
+}

@@ -1,0 +1,333 @@
+//! Map-wide detection: every object shaped like a target, anywhere in the map.
+//!
+//! Two passes over the (levelled) map after the ground pass of
+//! [`crate::frame::level`]:
+//! 1. **Occupancy.** Points between `min_height` and `max_height` above the
+//!    ground fall into 0.1 m cells. Connected groups of cells as small as a
+//!    target (no side longer than `max_extent`, nothing above `max_height`)
+//!    are candidates; walls, hedges, vehicles and buildings are groups too
+//!    large to be one.
+//! 2. **Shape.** One loose-crop pass gathers the points around every
+//!    candidate; the tight crop's L detector ([`crate::crop::tight_crop`])
+//!    decides, with its checks of the physical target: two perpendicular
+//!    plates meeting at a vertical edge, each as wide and as tall as a plate,
+//!    faces that stop where a plate stops.
+//!
+//! Memory follows the site's area (the two grids), not its number of points.
+
+use crate::cloud::{MapSource, RigidMotion, fold_points};
+use crate::crop::{LooseParams, Shape, TightParams, loose_crop, tight_crop};
+use crate::frame::MapGround;
+use crate::frame::grid::CellGrid;
+use crate::{Point, Result};
+use rayon::prelude::*;
+use std::collections::{HashMap, VecDeque};
+
+/// Detection settings; the target's size comes from [`TightParams`].
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DetectParams {
+    /// Occupancy cell side (m).
+    pub cell: f64,
+    /// Points lower than this above the ground are ground (m).
+    pub min_height: f64,
+    /// Groups reaching higher than this above the ground are not targets (m).
+    pub max_height: f64,
+    /// Groups longer than this on a side are not targets (m).
+    pub max_extent: f64,
+    /// Points a group needs to be looked at.
+    pub min_points: u64,
+    /// Radius of the crop gathered around a candidate (m; ground included).
+    pub crop_radius: f64,
+    /// The L must stand within this of the candidate's centre (m).
+    pub search_radius: f64,
+}
+
+impl Default for DetectParams {
+    fn default() -> Self {
+        DetectParams {
+            cell: 0.1,
+            min_height: 0.3,
+            max_height: 2.6,
+            max_extent: 1.8,
+            min_points: 30,
+            crop_radius: 2.5,
+            search_radius: 1.2,
+        }
+    }
+}
+
+impl DetectParams {
+    /// Range checks.
+    pub fn validate(&self) -> Result<()> {
+        let ok = self.cell > 0.01
+            && self.cell <= 1.0
+            && self.min_height >= 0.0
+            && self.max_height > self.min_height
+            && self.max_height <= 50.0
+            && self.max_extent > 0.0
+            && self.max_extent <= 20.0
+            && self.crop_radius > 0.0
+            && self.crop_radius <= 20.0
+            && self.search_radius > 0.0
+            && self.search_radius <= self.crop_radius;
+        if ok {
+            Ok(())
+        } else {
+            Err(crate::Error::Param(
+                "detect: need 0.01 < cell <= 1, 0 <= min_height < max_height <= 50, 0 < max_extent <= 20, 0 < search_radius <= crop_radius <= 20".into(),
+            ))
+        }
+    }
+}
+
+/// One object shaped like a target.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detection {
+    /// Corner (plates' intersection, z at the plates' mid-height), levelled frame.
+    pub corner: Point,
+    /// The same corner in the map's own frame.
+    pub corner_map: Point,
+    /// Heading of the L's bisector (corner → inside), degrees from +x, levelled frame.
+    pub heading_deg: f64,
+    /// Plate widths measured from the points (m).
+    pub plate_widths: [f64; 2],
+    /// Height of the plates measured from the points (m).
+    pub plate_height: f64,
+    /// Points on the weaker plate.
+    pub support: usize,
+    /// Closeness to the configured target, 0–1: 1 when both plates have the
+    /// configured width and height.
+    pub score: f64,
+}
+
+/// What a whole-map detection found.
+#[derive(Debug, Clone)]
+pub struct MapDetections {
+    /// Detections, strongest first.
+    pub detections: Vec<Detection>,
+    /// Groups of cells looked at.
+    pub candidates: usize,
+    /// Why the others were not targets: (reason, count), most common first.
+    pub rejected: Vec<(String, usize)>,
+    /// Memory of the occupancy grid (bytes).
+    pub grid_bytes: usize,
+}
+
+#[derive(Clone, Copy)]
+struct Occ {
+    n: u32,
+    hi: f32,
+}
+
+/// Detects targets in `source`, read through `motion` (the levelling; the
+/// identity for a level map). `ground` is the ground pass of the same map.
+pub fn detect_map(
+    source: MapSource,
+    ground: &MapGround,
+    motion: &RigidMotion,
+    params: &DetectParams,
+    tight: &TightParams,
+    mut progress: impl FnMut(u64),
+) -> Result<MapDetections> {
+    params.validate()?;
+    let floor = ground.floor(motion);
+    let z0 = ground.z0;
+    let (lo_h, hi_h) = (params.min_height as f32, params.max_height as f32);
+    let origin = floor.origin;
+    let cell = params.cell;
+    let mut reader = source.open_moved(Some(motion))?;
+    let occ = fold_points(
+        reader.as_mut(),
+        || CellGrid::new(cell, origin, Occ { n: 0, hi: 0.0 }),
+        |g, pts| {
+            for p in pts {
+                let Some(fk) = floor.key(p.x, p.y) else {
+                    continue;
+                };
+                let Some(&f) = floor.get(fk) else { continue };
+                let h = (p.z - z0) as f32 - f;
+                // Up to a metre above the limit counts (a group reaching
+                // there is not a target); higher is an overhang (a canopy, a
+                // roof) that must not hide a target standing under it.
+                if h > lo_h && h < hi_h + 1.0 && f.is_finite() {
+                    if let Some(k) = g.key(p.x, p.y) {
+                        let c = g.entry(k);
+                        c.n += 1;
+                        c.hi = c.hi.max(h.min(hi_h + 1.0));
+                    }
+                }
+            }
+        },
+        |a, b| {
+            a.merge(b, |x, y| {
+                x.n += y.n;
+                x.hi = x.hi.max(y.hi);
+            })
+        },
+        &mut progress,
+    )?;
+    let grid_bytes = occ.bytes() + floor.bytes() + ground.lowest.bytes();
+    let groups = groups(&occ, params);
+    let mut rejected: HashMap<String, usize> = HashMap::new();
+    let centres: Vec<Point> = groups
+        .iter()
+        .filter_map(|g| match g {
+            Ok(c) => Some(*c),
+            Err(why) => {
+                *rejected.entry(why.to_string()).or_default() += 1;
+                None
+            }
+        })
+        .collect();
+    let candidates = centres.len();
+    let mut detections = Vec::new();
+    if !centres.is_empty() {
+        // Candidate centres at their ground height (the crop is a cylinder).
+        let mut reader = source.open_moved(Some(motion))?;
+        let loose = LooseParams {
+            radius: params.crop_radius,
+            shape: Shape::Cylinder,
+            max_points: 200_000,
+        };
+        let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
+        let tp = TightParams {
+            search_radius: params.search_radius,
+            ..tight.clone()
+        };
+        let found: Vec<std::result::Result<Detection, String>> = crop
+            .points
+            .par_iter()
+            .zip(&centres)
+            .map(|(pts, c)| {
+                let t = tight_crop(pts, c, &tp).map_err(|e| short_reason(&e.to_string()))?;
+                let corner = t.corner_guess;
+                let [wa, wb] = t.plate_widths;
+                let fit = |m: f64, want: f64| 1.0 - ((m - want).abs() / want).min(1.0);
+                let score = (fit(wa, tight.plate_width)
+                    * fit(wb, tight.plate_width)
+                    * fit(t.plate_height, tight.plate_height))
+                .cbrt();
+                Ok(Detection {
+                    corner,
+                    corner_map: motion.invert(&corner),
+                    heading_deg: t.heading_deg,
+                    plate_widths: t.plate_widths,
+                    plate_height: t.plate_height,
+                    support: t.score,
+                    score,
+                })
+            })
+            .collect();
+        for f in found {
+            match f {
+                Ok(d) => detections.push(d),
+                Err(why) => *rejected.entry(why).or_default() += 1,
+            }
+        }
+    }
+    // One detection per object: candidates close together may find the same L.
+    detections.sort_by(|a, b| {
+        b.support
+            .cmp(&a.support)
+            .then(a.corner.x.total_cmp(&b.corner.x))
+            .then(a.corner.y.total_cmp(&b.corner.y))
+    });
+    let mut kept: Vec<Detection> = Vec::new();
+    for d in detections {
+        if kept
+            .iter()
+            .all(|k| (k.corner - d.corner).xy().norm() > 0.3 * tight.plate_width / 0.6)
+        {
+            kept.push(d);
+        }
+    }
+    let mut rejected: Vec<(String, usize)> = rejected.into_iter().collect();
+    rejected.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    Ok(MapDetections {
+        detections: kept,
+        candidates,
+        rejected,
+        grid_bytes,
+    })
+}
+
+/// The first clause of a tight-crop error, without its numbers, so that
+/// rejections can be counted by kind.
+fn short_reason(e: &str) -> String {
+    if let Some(i) = e.find("closest thing seen: ") {
+        let s = &e[i + 20..];
+        // "a 0.38 × 0.46 m L (...)" → "a … L"; keep the words only.
+        let words: Vec<&str> = s
+            .split_whitespace()
+            .filter(|w| !w.chars().any(|c| c.is_ascii_digit()) && *w != "×" && *w != "m")
+            .take(6)
+            .collect();
+        return words.join(" ");
+    }
+    e.split(['(', ';']).next().unwrap_or(e).trim().to_string()
+}
+
+/// Connected groups of occupied cells: the centre of each small enough to be
+/// a target, or why not.
+fn groups(occ: &CellGrid<Occ>, p: &DetectParams) -> Vec<std::result::Result<Point, &'static str>> {
+    let cells: Vec<((i64, i64), Occ)> = occ
+        .cells()
+        .filter(|(_, c)| c.n > 0)
+        .map(|(k, c)| (k, *c))
+        .collect();
+    let index: HashMap<(i64, i64), usize> =
+        cells.iter().enumerate().map(|(i, c)| (c.0, i)).collect();
+    let mut seen = vec![false; cells.len()];
+    let max_cells = (p.max_extent / p.cell).ceil() as i64;
+    let mut out = Vec::new();
+    let mut queue = VecDeque::new();
+    for start in 0..cells.len() {
+        if seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        queue.push_back(start);
+        let (mut x0, mut x1, mut y0, mut y1) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
+        let (mut n, mut sx, mut sy, mut hi) = (0u64, 0.0, 0.0, 0.0f32);
+        while let Some(i) = queue.pop_front() {
+            let (k, c) = cells[i];
+            x0 = x0.min(k.0);
+            x1 = x1.max(k.0);
+            y0 = y0.min(k.1);
+            y1 = y1.max(k.1);
+            n += c.n as u64;
+            sx += (k.0 - cells[start].0.0) as f64 * c.n as f64;
+            sy += (k.1 - cells[start].0.1) as f64 * c.n as f64;
+            hi = hi.max(c.hi);
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    if let Some(&j) = index.get(&(k.0 + dx, k.1 + dy))
+                        && !seen[j]
+                    {
+                        seen[j] = true;
+                        queue.push_back(j);
+                    }
+                }
+            }
+        }
+        if n < p.min_points {
+            continue; // specks: not worth a reason
+        }
+        if x1 - x0 + 1 > max_cells || y1 - y0 + 1 > max_cells {
+            out.push(Err(
+                "larger than a target (a wall, a vehicle, a hedge, a building)",
+            ));
+            continue;
+        }
+        if hi > p.max_height as f32 {
+            out.push(Err("taller than a target"));
+            continue;
+        }
+        let (kx, ky) = cells[start].0;
+        let c = occ.centre((kx, ky));
+        let (fx, fy) = (sx / n as f64, sy / n as f64);
+        out.push(Ok(Point::new(c[0] + fx * p.cell, c[1] + fy * p.cell, 0.0)));
+    }
+    out
+}

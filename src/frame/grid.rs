@@ -1,0 +1,146 @@
+//! A sparse 2D grid of cells over a map of any extent: tiles of 64 × 64 cells
+//! are allocated where points fall, so memory follows the site's area, not its
+//! number of points, and a point costs one tile lookup (cached: a map's points
+//! arrive in scan order, mostly in the tile of the previous one).
+
+use std::collections::HashMap;
+
+/// Cells per tile side.
+const TILE: i64 = 64;
+
+/// A sparse grid of `T` cells of side `cell` metres, keyed from `origin`.
+#[derive(Debug, Clone)]
+pub(crate) struct CellGrid<T> {
+    pub(crate) cell: f64,
+    pub(crate) origin: [f64; 2],
+    empty: T,
+    index: HashMap<(i64, i64), usize>,
+    tiles: Vec<((i64, i64), Box<[T]>)>,
+    last: Option<((i64, i64), usize)>,
+}
+
+/// Farthest cell index accepted; a point beyond (10⁷ cells: thousands of
+/// kilometres) is not part of any site and is left out.
+const FAR: f64 = 1e7;
+
+impl<T: Copy> CellGrid<T> {
+    pub(crate) fn new(cell: f64, origin: [f64; 2], empty: T) -> Self {
+        CellGrid {
+            cell,
+            origin,
+            empty,
+            index: HashMap::new(),
+            tiles: Vec::new(),
+            last: None,
+        }
+    }
+
+    /// The cell holding (x, y), or `None` when absurdly far from the origin.
+    #[inline]
+    pub(crate) fn key(&self, x: f64, y: f64) -> Option<(i64, i64)> {
+        let fx = ((x - self.origin[0]) / self.cell).floor();
+        let fy = ((y - self.origin[1]) / self.cell).floor();
+        (fx.abs() < FAR && fy.abs() < FAR).then_some((fx as i64, fy as i64))
+    }
+
+    /// Centre of cell `k`.
+    pub(crate) fn centre(&self, k: (i64, i64)) -> [f64; 2] {
+        [
+            self.origin[0] + (k.0 as f64 + 0.5) * self.cell,
+            self.origin[1] + (k.1 as f64 + 0.5) * self.cell,
+        ]
+    }
+
+    fn split(k: (i64, i64)) -> ((i64, i64), usize) {
+        let t = (k.0.div_euclid(TILE), k.1.div_euclid(TILE));
+        let i = (k.1.rem_euclid(TILE) * TILE + k.0.rem_euclid(TILE)) as usize;
+        (t, i)
+    }
+
+    /// The cell `k`, created empty when new.
+    #[inline]
+    pub(crate) fn entry(&mut self, k: (i64, i64)) -> &mut T {
+        let (t, i) = Self::split(k);
+        let slot = match self.last {
+            Some((lt, s)) if lt == t => s,
+            _ => {
+                let s = match self.index.get(&t) {
+                    Some(&s) => s,
+                    None => {
+                        self.tiles
+                            .push((t, vec![self.empty; (TILE * TILE) as usize].into()));
+                        self.index.insert(t, self.tiles.len() - 1);
+                        self.tiles.len() - 1
+                    }
+                };
+                self.last = Some((t, s));
+                s
+            }
+        };
+        &mut self.tiles[slot].1[i]
+    }
+
+    /// The cell `k`, if its tile exists.
+    pub(crate) fn get(&self, k: (i64, i64)) -> Option<&T> {
+        let (t, i) = Self::split(k);
+        self.index.get(&t).map(|&s| &self.tiles[s].1[i])
+    }
+
+    /// Every cell of every tile with its key, tiles in key order (deterministic
+    /// whatever order the tiles were made in).
+    pub(crate) fn cells(&self) -> impl Iterator<Item = ((i64, i64), &T)> {
+        let mut order: Vec<usize> = (0..self.tiles.len()).collect();
+        order.sort_by_key(|&s| self.tiles[s].0);
+        order.into_iter().flat_map(move |s| {
+            let (t, cells) = &self.tiles[s];
+            cells.iter().enumerate().map(move |(i, c)| {
+                let i = i as i64;
+                ((t.0 * TILE + i % TILE, t.1 * TILE + i / TILE), c)
+            })
+        })
+    }
+
+    /// Merges `other` (same cell and origin) cell by cell.
+    pub(crate) fn merge(&mut self, other: CellGrid<T>, f: impl Fn(&mut T, &T)) {
+        for (t, cells) in other.tiles {
+            match self.index.get(&t) {
+                Some(&s) => {
+                    for (a, b) in self.tiles[s].1.iter_mut().zip(cells.iter()) {
+                        f(a, b);
+                    }
+                }
+                None => {
+                    self.tiles.push((t, cells));
+                    self.index.insert(t, self.tiles.len() - 1);
+                }
+            }
+        }
+        self.last = None;
+    }
+
+    /// Bytes held by the tiles (for the memory bound).
+    pub(crate) fn bytes(&self) -> usize {
+        self.tiles.len() * (TILE * TILE) as usize * std::mem::size_of::<T>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cells_round_trip_across_negative_tiles() {
+        let mut g = CellGrid::new(0.5, [100.0, -50.0], 0u32);
+        for (x, y) in [(100.1, -50.1), (60.0, -90.0), (140.0, 0.0), (100.1, -50.2)] {
+            let k = g.key(x, y).unwrap();
+            *g.entry(k) += 1;
+        }
+        let k = g.key(100.1, -50.1).unwrap();
+        assert_eq!(*g.get(k).unwrap(), 2);
+        let c = g.centre(k);
+        assert!((c[0] - 100.25).abs() < 1e-12 && (c[1] + 50.25).abs() < 1e-12);
+        let total: u32 = g.cells().map(|(_, &c)| c).sum();
+        assert_eq!(total, 4);
+        assert!(g.key(1e300, 0.0).is_none());
+    }
+}

@@ -1,0 +1,124 @@
+//! `--hints`: where a user saw a few targets in the map (clicked in a viewer,
+//! ±0.5 m), as a CSV like the survey's (`id,x,y[,z]`, map frame). Two shared
+//! ids fix the 2D transform; more are fitted by least squares, and a hint that
+//! disagrees with the others by more than a metre is an error, not an average.
+
+use crate::survey::{Survey, SurveyOptions, read_survey};
+use crate::{Error, Point, Result};
+use std::path::Path;
+
+/// The transform the hints give: `[tx, ty, yaw_deg]` (survey = R·map + t) and
+/// the survey-minus-map height offset (0 when either lacks heights).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HintFrame {
+    /// `--init` convention.
+    pub init: [f64; 3],
+    /// Survey z minus map z.
+    pub dz: f64,
+    /// Hints used.
+    pub used: usize,
+    /// Largest disagreement of a hint with the fit (m).
+    pub worst: f64,
+}
+
+/// Reads `path` and fits the map → survey transform from the ids it shares
+/// with `survey`.
+pub fn read_hints(path: &Path, survey: &Survey) -> Result<HintFrame> {
+    let hints = read_survey(path, &SurveyOptions::default())?;
+    let pairs: Vec<(Point, Point, bool)> = hints
+        .targets
+        .iter()
+        .filter_map(|h| {
+            survey
+                .get(&h.id)
+                .map(|s| (h.position, s.reference(), h.has_z && s.has_z))
+        })
+        .collect();
+    if pairs.len() < 2 {
+        return Err(Error::Input(format!(
+            "{}: hints must give the map positions of at least 2 surveyed targets; {} of its ids are in the survey",
+            path.display(),
+            pairs.len()
+        )));
+    }
+    let map: Vec<Point> = pairs.iter().map(|p| p.0).collect();
+    let sur: Vec<Point> = pairs.iter().map(|p| p.1).collect();
+    let (init, worst) = fit2d(&map, &sur);
+    if worst > 1.0 {
+        return Err(Error::Input(format!(
+            "{}: the hints do not agree with the survey's layout: one is {worst:.1} m off the best fit of the others (hints should be within ±0.5 m)",
+            path.display()
+        )));
+    }
+    let mut dzs: Vec<f64> = pairs
+        .iter()
+        .filter(|p| p.2)
+        .map(|p| p.1.z - p.0.z)
+        .collect();
+    dzs.sort_by(f64::total_cmp);
+    Ok(HintFrame {
+        init,
+        dz: dzs.get(dzs.len() / 2).copied().unwrap_or(0.0),
+        used: pairs.len(),
+        worst,
+    })
+}
+
+/// 2D rigid least squares, map → survey: (`[tx, ty, yaw_deg]`, worst residual).
+pub(crate) fn fit2d(map: &[Point], sur: &[Point]) -> ([f64; 3], f64) {
+    let n = map.len() as f64;
+    let (o_m, o_s) = (map[0], sur[0]);
+    let mm = map.iter().fold([0.0; 2], |a, p| {
+        [a[0] + (p.x - o_m.x) / n, a[1] + (p.y - o_m.y) / n]
+    });
+    let ms = sur.iter().fold([0.0; 2], |a, p| {
+        [a[0] + (p.x - o_s.x) / n, a[1] + (p.y - o_s.y) / n]
+    });
+    let (mut c, mut s) = (0.0, 0.0);
+    for (a, b) in map.iter().zip(sur) {
+        let (ax, ay) = (a.x - o_m.x - mm[0], a.y - o_m.y - mm[1]);
+        let (bx, by) = (b.x - o_s.x - ms[0], b.y - o_s.y - ms[1]);
+        c += ax * bx + ay * by;
+        s += ax * by - ay * bx;
+    }
+    let yaw = s.atan2(c);
+    let (sn, cs) = yaw.sin_cos();
+    // survey = R·map + t, with t taken at the centroids.
+    let (cmx, cmy) = (o_m.x + mm[0], o_m.y + mm[1]);
+    let (csx, csy) = (o_s.x + ms[0], o_s.y + ms[1]);
+    let tx = csx - (cs * cmx - sn * cmy);
+    let ty = csy - (sn * cmx + cs * cmy);
+    let worst = map
+        .iter()
+        .zip(sur)
+        .map(|(a, b)| {
+            let (dx, dy) = (a.x - cmx, a.y - cmy);
+            let px = csx + cs * dx - sn * dy;
+            let py = csy + sn * dx + cs * dy;
+            (px - b.x).hypot(py - b.y)
+        })
+        .fold(0.0, f64::max);
+    ([tx, ty, yaw.to_degrees().rem_euclid(360.0)], worst)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_hints_fix_yaw_and_offset_in_utm_coordinates() {
+        let init = [352_123.0, 4_026_456.0, 233.0];
+        let sur = [
+            Point::new(352_100.0, 4_026_400.0, 70.0),
+            Point::new(352_160.0, 4_026_430.0, 71.0),
+        ];
+        let map: Vec<Point> = sur
+            .iter()
+            .map(|p| crate::pipeline::expected_in_map(&init, p))
+            .collect();
+        let (got, worst) = fit2d(&map, &sur);
+        assert!(worst < 1e-6);
+        assert!((got[0] - init[0]).abs() < 1e-5 && (got[1] - init[1]).abs() < 1e-5);
+        assert!((got[2] - init[2]).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,377 @@
+//! Levelling: the map's vertical from its ground, map-wide.
+//!
+//! One pass keeps the lowest point of every 0.5 m cell (the ground, where
+//! anything was seen of it). Blocks of 4 × 4 cells (2 m) that are planar give
+//! one ground normal each; the map's vertical is the *mode* of those normals
+//! (the direction most of the ground shares, within 1°), not their mean: ramps,
+//! embankments, pitched roofs and the foot of walls each lean their own way and
+//! are outvoted by the roads, yards and flat roofs of any real site.
+//!
+//! The ground is not always level, so this vertical is a coarse one (a site's
+//! general slope is in it); [`crate::pipeline`] refines it with the targets'
+//! own plumb lines, which are built vertical.
+
+use super::grid::CellGrid;
+use crate::cloud::{MapSource, RigidMotion, fold_points};
+use crate::{Point, Result};
+use nalgebra::Vector3;
+use std::collections::HashMap;
+
+/// Ground cell side (metres).
+const CELL: f64 = 0.5;
+/// Block side in cells.
+const BLOCK: i64 = 4;
+/// A block is ground when its lowest points lie within this of a plane (m).
+const PLANAR: f64 = 0.06;
+/// Ground steeper than this is not evidence of the vertical (degrees).
+const MAX_SLOPE_DEG: f64 = 20.0;
+/// Half-width of the mode window (degrees).
+const MODE_DEG: f64 = 1.0;
+
+/// What the map's ground says about its vertical.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroundLevel {
+    /// The ground's common upward normal (map frame).
+    pub up: Vector3<f64>,
+    /// Its angle from +z (degrees).
+    pub tilt_deg: f64,
+    /// Azimuth of the direction the ground rises towards, degrees from +x.
+    pub azimuth_deg: f64,
+    /// Planar 2 m ground blocks seen.
+    pub blocks: usize,
+    /// Share of them within 1° of `up`.
+    pub support: f64,
+    /// A point near the map's middle: the centre of rotation when levelling.
+    pub centre: Point,
+    /// Memory the ground grid took (bytes).
+    pub grid_bytes: usize,
+}
+
+impl GroundLevel {
+    /// The rotation about `centre` that makes `up` vertical.
+    pub fn motion(&self) -> RigidMotion {
+        RigidMotion::levelling(self.centre, &self.up)
+    }
+}
+
+/// The map's ground as one pass saw it: its vertical, and the lowest point of
+/// every cell (for heights above ground in later passes).
+#[derive(Debug, Clone)]
+pub struct MapGround {
+    /// The vertical, or `None` when too little ground was seen.
+    pub level: Option<GroundLevel>,
+    /// Finite points read.
+    pub points: u64,
+    pub(crate) lowest: CellGrid<f32>,
+    pub(crate) z0: f64,
+}
+
+impl MapGround {
+    /// The motion that levels the map: the ground's vertical made +z when it
+    /// leans more than `above_deg` (below, a site's own slope could be most of
+    /// it, and the targets' plumb lines decide later); else the identity.
+    pub fn levelling(&self, above_deg: f64) -> RigidMotion {
+        match &self.level {
+            Some(l) if l.tilt_deg > above_deg => l.motion(),
+            Some(l) => RigidMotion::identity_at(l.centre),
+            None => RigidMotion::identity_at(Point::origin()),
+        }
+    }
+
+    /// The ground's height under every 0.5 m cell of the frame `motion` moves
+    /// the map into: the lowest moved ground point in the cell's 3 × 3
+    /// neighbourhood (bumps and the residual slope cost a few centimetres).
+    pub(crate) fn floor(&self, motion: &RigidMotion) -> CellGrid<f32> {
+        let mut moved = CellGrid::new(CELL, self.lowest.origin, f32::INFINITY);
+        for (k, &z) in self.lowest.cells() {
+            if z.is_finite() {
+                let c = self.lowest.centre(k);
+                let q = motion.apply(&Point::new(c[0], c[1], self.z0 + z as f64));
+                if let Some(k) = moved.key(q.x, q.y) {
+                    let m = moved.entry(k);
+                    *m = m.min((q.z - self.z0) as f32);
+                }
+            }
+        }
+        let mut floor = CellGrid::new(CELL, self.lowest.origin, f32::INFINITY);
+        for (k, &z) in moved.cells() {
+            if z.is_finite() {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let f = floor.entry((k.0 + dx, k.1 + dy));
+                        *f = f.min(z);
+                    }
+                }
+            }
+        }
+        floor
+    }
+}
+
+/// Lowest z per cell, relative to the grid's origin height.
+#[derive(Clone)]
+struct Lowest {
+    grid: CellGrid<f32>,
+    z0: f64,
+    count: u64,
+    sum: [f64; 3],
+}
+
+/// Streams the map once and estimates its vertical from the ground. `None`
+/// when the map shows too little ground (fewer than 20 planar blocks).
+pub fn ground_level(
+    source: MapSource,
+    motion: Option<&RigidMotion>,
+    progress: impl FnMut(u64),
+) -> Result<MapGround> {
+    // The grid's origin: the first point, so cell keys and heights stay small
+    // for georeferenced maps.
+    let first = {
+        let mut r = source.open_moved(motion)?;
+        let mut buf = Vec::new();
+        let mut p = None;
+        while p.is_none() && r.next_chunk(&mut buf)? {
+            p = buf.first().copied();
+        }
+        match p {
+            Some(p) => p,
+            None => {
+                return Ok(MapGround {
+                    level: None,
+                    points: 0,
+                    lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
+                    z0: 0.0,
+                });
+            }
+        }
+    };
+    let origin = [first.x.round(), first.y.round()];
+    let z0 = first.z.round();
+    let mut reader = source.open_moved(motion)?;
+    let new = || Lowest {
+        grid: CellGrid::new(CELL, origin, f32::INFINITY),
+        z0,
+        count: 0,
+        sum: [0.0; 3],
+    };
+    let low = fold_points(
+        reader.as_mut(),
+        new,
+        |acc, pts| {
+            let mut s = [0.0; 3];
+            for p in pts {
+                if let Some(k) = acc.grid.key(p.x, p.y) {
+                    let z = (p.z - acc.z0) as f32;
+                    let c = acc.grid.entry(k);
+                    if z < *c {
+                        *c = z;
+                    }
+                    s[0] += p.x - origin[0];
+                    s[1] += p.y - origin[1];
+                    s[2] += p.z - z0;
+                }
+            }
+            acc.count += pts.len() as u64;
+            for k in 0..3 {
+                acc.sum[k] += s[k];
+            }
+        },
+        |a, b| {
+            a.grid.merge(b.grid, |x, y| {
+                if *y < *x {
+                    *x = *y
+                }
+            });
+            a.count += b.count;
+            for k in 0..3 {
+                a.sum[k] += b.sum[k];
+            }
+        },
+        progress,
+    )?;
+    let n = low.count.max(1) as f64;
+    let centre = Point::new(
+        origin[0] + (low.sum[0] / n).round(),
+        origin[1] + (low.sum[1] / n).round(),
+        z0 + (low.sum[2] / n).round(),
+    );
+    let level = estimate(&low.grid).map(|(up, blocks, support)| {
+        let tilt_deg = up.angle(&Vector3::z()).to_degrees();
+        GroundLevel {
+            up,
+            tilt_deg,
+            azimuth_deg: (-up.y).atan2(-up.x).to_degrees().rem_euclid(360.0),
+            blocks,
+            support,
+            centre,
+            grid_bytes: low.grid.bytes(),
+        }
+    });
+    Ok(MapGround {
+        level,
+        points: low.count,
+        lowest: low.grid,
+        z0,
+    })
+}
+
+/// The mode of planar blocks' normals: (up, blocks, share within 1°).
+fn estimate(grid: &CellGrid<f32>) -> Option<(Vector3<f64>, usize, f64)> {
+    // Block → cells (local x, y, z).
+    let mut blocks: HashMap<(i64, i64), Vec<[f64; 3]>> = HashMap::new();
+    for (k, &z) in grid.cells() {
+        if z.is_finite() {
+            let b = (k.0.div_euclid(BLOCK), k.1.div_euclid(BLOCK));
+            let x = (k.0.rem_euclid(BLOCK) as f64 + 0.5) * CELL;
+            let y = (k.1.rem_euclid(BLOCK) as f64 + 0.5) * CELL;
+            blocks.entry(b).or_default().push([x, y, z as f64]);
+        }
+    }
+    let mut keys: Vec<(i64, i64)> = blocks.keys().copied().collect();
+    keys.sort_unstable();
+    let min_cos = MAX_SLOPE_DEG.to_radians().cos();
+    let normals: Vec<Vector3<f64>> = keys
+        .iter()
+        .filter_map(|k| block_normal(&blocks[k]))
+        .filter(|n| n.z >= min_cos)
+        .collect();
+    if normals.len() < 20 {
+        return None;
+    }
+    // Histogram of the normals' horizontal components, bins of a quarter
+    // degree; the window of ±1° with the most normals is the mode.
+    let bin = 0.25_f64.to_radians();
+    let mut hist: HashMap<(i64, i64), u32> = HashMap::new();
+    for n in &normals {
+        *hist
+            .entry(((n.x / bin).round() as i64, (n.y / bin).round() as i64))
+            .or_default() += 1;
+    }
+    let reach = (MODE_DEG / 0.25).round() as i64;
+    let mut bins: Vec<(i64, i64)> = hist.keys().copied().collect();
+    bins.sort_unstable();
+    let mut best = ((0, 0), 0u32);
+    for &(bx, by) in &bins {
+        let mut s = 0;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                s += hist.get(&(bx + dx, by + dy)).copied().unwrap_or(0);
+            }
+        }
+        if s > best.1 {
+            best = ((bx, by), s);
+        }
+    }
+    let (bx, by) = best.0;
+    let mut up = Vector3::new(bx as f64 * bin, by as f64 * bin, 1.0).normalize();
+    // Refine: the mean of the normals near the mode, twice.
+    let window = MODE_DEG.to_radians();
+    let mut support = 0;
+    for _ in 0..2 {
+        let near: Vec<&Vector3<f64>> = normals.iter().filter(|n| n.angle(&up) <= window).collect();
+        if near.is_empty() {
+            break;
+        }
+        support = near.len();
+        up = near
+            .iter()
+            .fold(Vector3::zeros(), |s, n| s + *n)
+            .normalize();
+    }
+    Some((up, normals.len(), support as f64 / normals.len() as f64))
+}
+
+/// Least-squares plane z = a·x + b·y + c through a block's lowest points, when
+/// at least 10 of its 16 cells saw ground and they lie on the plane.
+fn block_normal(cells: &[[f64; 3]]) -> Option<Vector3<f64>> {
+    if cells.len() < 10 {
+        return None;
+    }
+    let n = cells.len() as f64;
+    let m = cells
+        .iter()
+        .fold([0.0; 3], |s, c| [s[0] + c[0], s[1] + c[1], s[2] + c[2]]);
+    let m = [m[0] / n, m[1] / n, m[2] / n];
+    let (mut sxx, mut sxy, mut syy, mut sxz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for c in cells {
+        let (x, y, z) = (c[0] - m[0], c[1] - m[1], c[2] - m[2]);
+        sxx += x * x;
+        sxy += x * y;
+        syy += y * y;
+        sxz += x * z;
+        syz += y * z;
+    }
+    let det = sxx * syy - sxy * sxy;
+    if det.abs() < 1e-9 {
+        return None;
+    }
+    let a = (sxz * syy - syz * sxy) / det;
+    let b = (syz * sxx - sxz * sxy) / det;
+    let worst = cells
+        .iter()
+        .map(|c| ((c[2] - m[2]) - a * (c[0] - m[0]) - b * (c[1] - m[1])).abs())
+        .fold(0.0, f64::max);
+    (worst <= PLANAR).then(|| Vector3::new(-a, -b, 1.0).normalize())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Rotation3, Unit};
+
+    /// A 60 × 60 m yard, a 12° ramp over a fifth of it and a wall, tilted.
+    fn site(tilt_deg: f64) -> Vec<Point> {
+        let r = Rotation3::from_axis_angle(
+            &Unit::new_normalize(Vector3::new(0.3, 1.0, 0.0)),
+            tilt_deg.to_radians(),
+        );
+        let mut pts = Vec::new();
+        let mut s = 7u64;
+        let mut rnd = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 33) as f64) / (1u64 << 31) as f64 - 0.5
+        };
+        for i in 0..300 {
+            for j in 0..300 {
+                let (x, y) = (i as f64 * 0.2 + 0.1 * rnd(), j as f64 * 0.2 + 0.1 * rnd());
+                let ramp = if x > 48.0 {
+                    (x - 48.0) * 12f64.to_radians().tan()
+                } else {
+                    0.0
+                };
+                pts.push(Point::new(x, y, ramp + 0.005 * rnd()));
+            }
+        }
+        for i in 0..400 {
+            for h in 0..30 {
+                pts.push(Point::new(10.0, i as f64 * 0.1, h as f64 * 0.1));
+            }
+        }
+        pts.iter()
+            .map(|p| Point::from(r * p.coords + Vector3::new(5e5, 4e6, 30.0)))
+            .collect()
+    }
+
+    #[test]
+    fn finds_the_tilt_of_a_tilted_yard_with_a_ramp_and_a_wall() {
+        for tilt in [0.0, 6.6, 14.0] {
+            let pts = site(tilt);
+            let g = ground_level(MapSource::Points(&pts), None, |_| {})
+                .unwrap()
+                .level
+                .unwrap();
+            assert!(
+                (g.tilt_deg - tilt).abs() < 0.1,
+                "tilt {tilt}: found {}",
+                g.tilt_deg
+            );
+            let m = g.motion();
+            // Levelled, the yard is flat.
+            let a = m.apply(&pts[0]);
+            let b = m.apply(&pts[299 * 300 / 2]);
+            assert!((a.z - b.z).abs() < 0.05, "{} {}", a.z, b.z);
+        }
+    }
+}
