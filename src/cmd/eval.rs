@@ -59,10 +59,21 @@ pub struct Args {
     /// Plate width and height `W[,H]` in metres [default: 0.6,0.6].
     #[arg(long, value_name = "W[,H]", value_parser = super::one_or_two, allow_hyphen_values = true)]
     pub plate_size: Option<(f64, Option<f64>)>,
-    /// Approximate map → survey transform `x,y,yaw_deg` (survey = R(yaw)·map + (x, y))
-    /// when the map is not in the survey frame.
+    /// Approximate map → survey transform `x,y,yaw_deg`: a map point p is at
+    /// R(yaw)·p + (x, y) in the survey, yaw counter-clockwise in degrees
+    /// (so a survey point s is looked for at R(-yaw)·(s - (x, y)) in the map).
+    /// Not needed when the frame can be found automatically (--frame auto).
     #[arg(long, value_name = "X,Y,YAW_DEG", value_parser = super::triple, allow_hyphen_values = true)]
     pub init: Option<[f64; 3]>,
+    /// How to find the map's frame: auto = --init or --hints when given, else
+    /// the survey frame when the targets are there, else detect target-shaped
+    /// objects map-wide and match them to the survey [default: auto].
+    #[arg(long, value_enum)]
+    pub frame: Option<mapgauge::pipeline::FrameMode>,
+    /// CSV `id,x,y[,z]`: approximate map positions (±0.5 m, as clicked in a
+    /// viewer) of 2 or more surveyed targets; they give the transform.
+    #[arg(long, value_name = "FILE")]
+    pub hints: Option<std::path::PathBuf>,
     /// ENU origin `lat,lon[,alt]` for WGS84 surveys [default: the first target].
     #[arg(long, value_name = "LAT,LON[,ALT]", value_parser = super::origin, allow_hyphen_values = true)]
     pub origin: Option<Geodetic>,
@@ -124,6 +135,12 @@ pub fn config(a: &Args) -> Result<Config> {
     }
     if let Some(i) = a.init {
         cfg.frame.init = Some(i);
+    }
+    if let Some(m) = a.frame {
+        cfg.frame.mode = m;
+    }
+    if let Some(h) = &a.hints {
+        cfg.frame.hints = Some(h.clone());
     }
     if a.exclude_outliers {
         cfg.metrics.exclude_outliers = true;

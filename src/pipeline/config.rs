@@ -58,10 +58,33 @@ pub struct MetricsConfig {
     pub exclude_outliers: bool,
 }
 
+/// How the map → survey frame is found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameMode {
+    /// `init` or `hints` when given; else the survey frame when the targets
+    /// are found there; else detection and matching.
+    #[default]
+    Auto,
+    /// The map is in the survey frame (to within a few metres), or `init` places it.
+    Survey,
+    /// Detect target-shaped objects map-wide and match them to the survey.
+    Detect,
+    /// The transform fitted to `hints` (approximate map positions of ≥ 2 targets).
+    Hints,
+}
+
 /// Where targets are expected in the map.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FrameConfig {
+    /// How the frame is found.
+    pub mode: FrameMode,
+    /// CSV `id,x,y[,z]` of approximate map positions (±0.5 m) of ≥ 2 targets.
+    pub hints: Option<std::path::PathBuf>,
+    /// A detection matches a surveyed target within this (m) when matching
+    /// frames; it must cover the map's own error.
+    pub match_tolerance: f64,
     /// Approximate map → survey transform `[x, y, yaw_deg]` (survey = R·map + t);
     /// `None` = the map is in the survey frame to within a few metres.
     pub init: Option<[f64; 3]>,
@@ -88,6 +111,9 @@ pub struct FrameConfig {
 impl Default for FrameConfig {
     fn default() -> Self {
         FrameConfig {
+            mode: FrameMode::Auto,
+            hints: None,
+            match_tolerance: 0.5,
             init: None,
             origin: None,
             second_pass: true,
@@ -158,6 +184,12 @@ impl Config {
         }
         if self.frame.init.is_none() {
             unset.push(("frame", "# init = [x, y, yaw_deg]   # unset: the map is in the survey frame (survey = R(yaw)·map + (x, y))"));
+        }
+        if self.frame.hints.is_none() {
+            unset.push((
+                "frame",
+                "# hints = \"hints.csv\"   # unset: no hints (CSV id,x,y[,z] of approximate map positions)",
+            ));
         }
         if self.frame.origin.is_none() {
             unset.push((
@@ -291,6 +323,19 @@ impl FrameConfig {
             1e4,
         )?;
         range("frame.max_tilt_deg", self.max_tilt_deg, 0.0, 90.0)?;
-        range("frame.tilt_redo_deg", self.tilt_redo_deg, 0.0, 90.0)
+        range("frame.tilt_redo_deg", self.tilt_redo_deg, 0.0, 90.0)?;
+        range("frame.level_above_deg", self.level_above_deg, 0.0, 90.0)?;
+        range("frame.match_tolerance", self.match_tolerance, 0.01, 100.0)?;
+        if self.mode == FrameMode::Hints && self.hints.is_none() {
+            return Err(Error::Param(
+                "frame.mode = hints needs frame.hints (a CSV id,x,y[,z] of map positions)".into(),
+            ));
+        }
+        if self.mode == FrameMode::Detect && self.init.is_some() {
+            return Err(Error::Param(
+                "frame.mode = detect finds the transform itself: leave frame.init unset".into(),
+            ));
+        }
+        Ok(())
     }
 }

@@ -17,14 +17,16 @@
 //! ```
 
 mod config;
+mod frame;
 mod passes;
 mod target;
 
-pub use config::{Config, FrameConfig, MetricsConfig};
+pub use config::{Config, FrameConfig, FrameMode, MetricsConfig};
+pub use frame::{FrameFound, FrameHow, Plumb};
 pub use target::{Failure, Found, Pass, TargetRun};
 
 use crate::accuracy::{self, Accuracy, ScoreOptions};
-use crate::cloud::MapSource;
+use crate::cloud::{MapSource, RigidMotion};
 use crate::crop::{self, LooseParams, Shape};
 use crate::survey::{Estimate, EstimateStatus, Survey};
 use crate::{Error, Point, Result};
@@ -45,7 +47,7 @@ pub struct MapStats {
 }
 
 /// Something the caller should tell the user.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Warning {
     /// A sphere crop was asked for but the survey has no heights: a vertical
     /// cylinder was used.
@@ -53,6 +55,14 @@ pub enum Warning {
     /// These targets were flagged as gross errors and left out of the fit
     /// and the statistics (`metrics.exclude_outliers`).
     OutliersExcluded(Vec<String>),
+    /// Objects located for these targets were far from where the others put
+    /// them and were rejected (the targets are not found).
+    WrongObjects(Vec<String>),
+    /// The map leans; it was read levelled and positions are in that frame.
+    Levelled {
+        /// Total tilt corrected (degrees).
+        tilt_deg: f64,
+    },
 }
 
 impl std::fmt::Display for Warning {
@@ -65,6 +75,15 @@ impl std::fmt::Display for Warning {
                 f,
                 "gross errors excluded and the alignment refitted without them: {}",
                 ids.join(", ")
+            ),
+            Warning::WrongObjects(ids) => write!(
+                f,
+                "objects located for {} were far from where the other targets place them and nothing target-shaped stands there: reported as not found",
+                ids.join(", ")
+            ),
+            Warning::Levelled { tilt_deg } => write!(
+                f,
+                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back)"
             ),
         }
     }
@@ -81,6 +100,8 @@ pub struct Evaluation {
     pub map: MapStats,
     /// Caveats for the user.
     pub warnings: Vec<Warning>,
+    /// How the map's frame was found, and its levelling.
+    pub frame: FrameFound,
 }
 
 /// Evaluates a map against a survey. `progress` gets (bytes read, total
@@ -118,12 +139,6 @@ fn evaluate(
     if survey.targets.is_empty() {
         return Err(Error::Input("the survey has no targets".into()));
     }
-    let init = cfg.frame.init.unwrap_or([0.0, 0.0, 0.0]);
-    let expected: Vec<Point> = survey
-        .targets
-        .iter()
-        .map(|t| expected_in_map(&init, &t.reference()))
-        .collect();
     let mut warnings = Vec::new();
     let mut crop_params = cfg.crop;
     if crop_params.shape == Shape::Sphere && !survey.has_z() {
@@ -134,20 +149,78 @@ fn evaluate(
         name: source.name(),
         ..Default::default()
     };
-
-    let crops = read_crops(source, &expected, &crop_params, &mut map, &mut progress)?;
-    let mut found: Vec<TargetRun> = survey
-        .targets
-        .par_iter()
-        .zip(&expected)
-        .zip(crops)
-        .map(|((t, e), (pts, offered))| {
-            let thinned = (offered > pts.len() as u64).then_some(offered);
-            let mut r = target::locate_target(&t.id, *e, pts, crops_dir, cfg, Pass::First);
-            r.loose_thinned_from = thinned;
-            r
-        })
-        .collect();
+    // The ground pass: the map's vertical (and, for detection, its ground).
+    let total = match source {
+        MapSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
+        MapSource::Points(_) => 0,
+    };
+    let ground = crate::frame::ground_level(source, None, |b| progress(b, total))?;
+    let mut motion = ground.levelling(cfg.frame.level_above_deg);
+    let (mut how, mut init, mut dz) = frame::given(survey, cfg)?;
+    let mut unmatched = Vec::new();
+    if cfg.frame.mode == config::FrameMode::Detect {
+        (how, init, dz, unmatched) =
+            frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress)?;
+    }
+    let first = |init: &[f64; 3], dz: f64, map: &mut MapStats, progress: &mut _| {
+        let expected = expected_positions(survey, init, dz);
+        let crops = read_crops(source, &expected, &crop_params, &motion, map, progress)?;
+        let found: Vec<TargetRun> = survey
+            .targets
+            .par_iter()
+            .zip(&expected)
+            .zip(crops)
+            .map(|((t, e), (pts, offered))| {
+                let thinned = (offered > pts.len() as u64).then_some(offered);
+                let mut r = target::locate_target(
+                    &t.id,
+                    *e,
+                    pts,
+                    crops_dir,
+                    cfg,
+                    Pass::First,
+                    motion.rotation * nalgebra::Vector3::z(),
+                );
+                r.loose_thinned_from = thinned;
+                r
+            })
+            .collect();
+        Result::Ok((expected, found))
+    };
+    let (mut expected, mut found) = first(&init, dz, &mut map, &mut progress)?;
+    if cfg.frame.mode == config::FrameMode::Auto
+        && how == FrameHow::Survey
+        && crops_dir.is_none()
+        && survey.targets.len() >= 3
+        && !frame::targets_there(&found)
+    {
+        (how, init, dz, unmatched) =
+            frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress)?;
+        (expected, found) = first(&init, dz, &mut map, &mut progress)?;
+    }
+    // The targets' plumb lines refine the vertical, once: each line is a
+    // plain plane fit of the target's own points, which turn with the frame,
+    // so a second look would see the same lines (plus the noise of the
+    // planes' point selection, which is not worth chasing).
+    let turned = !motion.is_identity();
+    let plumb = frame::plumb(&found, turned).map(|(p, rot)| {
+        if let Some(rot) = rot {
+            frame::turn_targets(&mut found, &rot, motion.origin, cfg);
+            let m = RigidMotion {
+                origin: motion.origin,
+                rotation: rot,
+            };
+            for e in expected.iter_mut() {
+                *e = m.apply(e);
+            }
+            motion = motion.then(&rot);
+        }
+        p
+    });
+    let tilt = motion.tilt_deg();
+    if tilt > 0.0 {
+        warnings.push(Warning::Levelled { tilt_deg: tilt });
+    }
 
     let opts = ScoreOptions {
         method: cfg.metrics.align,
@@ -157,7 +230,13 @@ fn evaluate(
             .survey_sigma_h
             .map(|h| (h, cfg.metrics.survey_sigma_v)),
     };
-    if cfg.frame.second_pass && crops_dir.is_none() {
+    // Objects far from where the others put them are looked for again there.
+    let far = if crops_dir.is_none() {
+        frame::far_from_others(&found, survey, &opts)
+    } else {
+        Vec::new()
+    };
+    if (cfg.frame.second_pass || !far.is_empty()) && crops_dir.is_none() {
         passes::second_pass(
             source,
             survey,
@@ -166,10 +245,32 @@ fn evaluate(
             cfg,
             &opts,
             &mut found,
+            &motion,
+            &far,
             &mut progress,
         )?;
     }
     passes::common_vertical(&mut found, cfg);
+    // What is still far after the search is not the target.
+    let mut wrong = Vec::new();
+    // (A target found again close to the prediction is the object there:
+    // its error is the map's or the survey's, and stays in the result.)
+    for (i, error, median) in frame::far_from_others(&found, survey, &opts) {
+        if far.iter().any(|f| f.0 == i) && found[i].pass == Pass::Second {
+            continue;
+        }
+        if let Some(at) = found[i].corner() {
+            found[i].outcome = Err(Failure::FarFromOthers { at, error, median });
+        }
+    }
+    for (i, r) in found.iter().enumerate() {
+        if matches!(r.outcome, Err(Failure::FarFromOthers { .. })) {
+            wrong.push(survey.targets[i].id.clone());
+        }
+    }
+    if !wrong.is_empty() {
+        warnings.push(Warning::WrongObjects(wrong));
+    }
 
     let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
     let need = cfg.metrics.align.min_points().max(2);
@@ -228,6 +329,15 @@ fn evaluate(
         targets: found,
         map,
         warnings,
+        frame: FrameFound {
+            how,
+            init,
+            dz,
+            ground: ground.level,
+            levelling: motion,
+            plumb,
+            unmatched,
+        },
     })
 }
 
@@ -295,6 +405,19 @@ fn estimates(found: &[TargetRun]) -> Vec<Estimate> {
         .collect()
 }
 
+/// Where every surveyed target is expected in the (levelled) map.
+fn expected_positions(survey: &Survey, init: &[f64; 3], dz: f64) -> Vec<Point> {
+    survey
+        .targets
+        .iter()
+        .map(|t| {
+            let mut e = expected_in_map(init, &t.reference());
+            e.z -= dz;
+            e
+        })
+        .collect()
+}
+
 /// Where a surveyed point `p` is expected in the map: the inverse of the
 /// approximate map → survey transform `init` (`[x, y, yaw_deg]`, survey =
 /// R(yaw)·map + (x, y)).
@@ -310,10 +433,11 @@ fn read_crops(
     source: MapSource,
     centres: &[Point],
     params: &LooseParams,
+    motion: &RigidMotion,
     map: &mut MapStats,
     progress: &mut impl FnMut(u64, u64),
 ) -> Result<Vec<(Vec<Point>, u64)>> {
-    let mut reader = source.open()?;
+    let mut reader = source.open_moved(Some(motion))?;
     let total = reader.info().file_bytes;
     map.bytes = total;
     let crop = crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?;

@@ -5,7 +5,7 @@
 use super::target::{self, Pass, TargetRun};
 use super::{Config, read_crops};
 use crate::accuracy::{self, ScoreOptions};
-use crate::cloud::MapSource;
+use crate::cloud::{MapSource, RigidMotion};
 use crate::crop::LooseParams;
 use crate::survey::Survey;
 use crate::{Point, Result};
@@ -24,22 +24,34 @@ pub(super) fn second_pass(
     cfg: &Config,
     opts: &ScoreOptions,
     found: &mut [TargetRun],
+    motion: &RigidMotion,
+    narrow: &[(usize, f64, f64)],
     progress: &mut impl FnMut(u64, u64),
 ) -> Result<()> {
+    let is_narrow = |i: usize| narrow.iter().find(|n| n.0 == i).copied();
     let missing: Vec<usize> = (0..found.len())
-        .filter(|&i| found[i].outcome.is_err())
+        .filter(|&i| found[i].outcome.is_err() || is_narrow(i).is_some())
         .collect();
     if missing.is_empty() {
         return Ok(());
     }
-    let Ok(first) = accuracy::score(survey, &super::estimates(found), opts) else {
+    // Targets searched again narrowly are left out of the fit that predicts.
+    let mut est = super::estimates(found);
+    for &(i, _, _) in narrow {
+        est[i].status = crate::survey::EstimateStatus::NotFound {
+            reason: String::new(),
+        };
+    }
+    let Ok(first) = accuracy::score(survey, &est, opts) else {
         return Ok(());
     };
     let inverse = first.fit.alignment.inverse();
     let mut redo = Vec::new();
     for &i in &missing {
         let predicted = inverse.apply(&survey.targets[i].reference());
-        if (predicted - expected[i]).xy().norm() > cfg.frame.second_pass_min_shift {
+        if is_narrow(i).is_some()
+            || (predicted - expected[i]).xy().norm() > cfg.frame.second_pass_min_shift
+        {
             redo.push((i, predicted));
         }
     }
@@ -49,13 +61,44 @@ pub(super) fn second_pass(
     let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
     // The map's statistics stay those of the first pass.
     let mut again_stats = super::MapStats::default();
-    let again = read_crops(source, &centres, crop_params, &mut again_stats, progress)?;
+    let again = read_crops(
+        source,
+        &centres,
+        crop_params,
+        motion,
+        &mut again_stats,
+        progress,
+    )?;
+    // A target searched again because the one found was far from where the
+    // others put it is looked for only close to the prediction, so the same
+    // wrong object cannot be found again.
+    // The radius grows with the error, so that a target of a badly distorted
+    // map is still found where it is, while the wrong object stays outside.
+    let map_up = motion.rotation * Vector3::z();
     for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
         let thinned = (offered > pts.len() as u64).then_some(offered);
-        let mut r = target::locate_target(&survey.targets[i].id, c, pts, None, cfg, Pass::Second);
+        let mut close = cfg.clone();
+        if let Some((_, error, _)) = is_narrow(i) {
+            close.tight.search_radius = (0.5 * error).clamp(1.0, cfg.tight.search_radius);
+        }
+        let mut r = target::locate_target(
+            &survey.targets[i].id,
+            c,
+            pts,
+            None,
+            &close,
+            Pass::Second,
+            map_up,
+        );
         r.loose_thinned_from = thinned;
         if r.outcome.is_ok() {
             found[i] = r;
+        } else if let Some((_, error, median)) = is_narrow(i)
+            && let Ok(f) = &found[i].outcome
+        {
+            let at = f.located.corner;
+            found[i] = r;
+            found[i].outcome = Err(target::Failure::FarFromOthers { at, error, median });
         }
     }
     Ok(())

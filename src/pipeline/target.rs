@@ -39,6 +39,16 @@ pub enum Failure {
     Tight(TightError),
     /// The localisation failed on the tight crop (the last variant's error).
     Locate(LocateError),
+    /// Something target-shaped was located, but far from where every other
+    /// target places it, and nothing was found where they do: not the target.
+    FarFromOthers {
+        /// Where the object was (evaluation frame).
+        at: Point,
+        /// Its error under a fit without it (m).
+        error: f64,
+        /// The median of the same error over the targets (m).
+        median: f64,
+    },
 }
 
 impl Failure {
@@ -48,6 +58,7 @@ impl Failure {
             Failure::NoLoosePoints => "loose",
             Failure::HandCrop(_) | Failure::Tight(_) => "tight",
             Failure::Locate(_) => "locate",
+            Failure::FarFromOthers { .. } => "check",
         }
     }
 }
@@ -61,6 +72,13 @@ impl std::fmt::Display for Failure {
             Failure::HandCrop(e) => write!(f, "{e}"),
             Failure::Tight(e) => write!(f, "{e}"),
             Failure::Locate(e) => write!(f, "localisation failed: {e}"),
+            Failure::FarFromOthers { at, error, median } => write!(
+                f,
+                "the object located at ({:.2}, {:.2}) is {error:.2} m from where the other targets place it (their median {:.0} mm), and nothing target-shaped stands at that place: not this target",
+                at.x,
+                at.y,
+                median * 1e3
+            ),
         }
     }
 }
@@ -94,7 +112,9 @@ impl TargetRun {
 }
 
 /// Steps 4–5 for one target: tight crop (hand-made from `crops_dir`, else
-/// automatic from `loose`), then localisation.
+/// automatic from `loose`), then localisation. `map_up` is the map's own +z in
+/// the frame the points are in: the last "up" tried, in case levelling by the
+/// ground turned a level map on a slope.
 pub(crate) fn locate_target(
     id: &str,
     expected: Point,
@@ -102,6 +122,7 @@ pub(crate) fn locate_target(
     crops_dir: Option<&Path>,
     cfg: &Config,
     pass: Pass,
+    map_up: Vector3<f64>,
 ) -> TargetRun {
     let mut run = TargetRun {
         id: id.to_string(),
@@ -136,8 +157,10 @@ pub(crate) fn locate_target(
                     run.tight = t.points;
                     // A fallback "up" in case the ground normal misleads the gates.
                     let mut ups = vec![up];
-                    if up != Vector3::z() {
-                        ups.push(Vector3::z());
+                    for u in [Vector3::z(), map_up] {
+                        if !ups.contains(&u) {
+                            ups.push(u);
+                        }
                     }
                     ups
                 }

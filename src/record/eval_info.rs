@@ -1,7 +1,7 @@
 //! The `eval` section of result.json: provenance and what the pipeline
 //! learned about each target, for reports and debugging.
 
-use crate::pipeline::{Evaluation, TargetRun};
+use crate::pipeline::{Evaluation, FrameFound, FrameHow, TargetRun};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -36,8 +36,69 @@ pub struct TargetDetail {
     pub plate_angle_deg: Option<f64>,
     /// Direction of the plates' intersection line (the target's plumb line in the map).
     pub axis: Option<[f64; 3]>,
-    /// Stage at which it failed (`loose`, `tight`, `locate`), when it did.
+    /// Stage at which it failed (`loose`, `tight`, `locate`, `check`), when it did.
     pub failed_stage: Option<String>,
+    /// The located corner in the map's own frame, when the map was levelled
+    /// (positions elsewhere are in the levelled frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corner_in_map: Option<[f64; 3]>,
+}
+
+/// How the map's frame was found (the `frame` key of the `eval` section).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrameInfo {
+    /// `survey` (the map is in the survey frame), `init`, `hints` or `detect`.
+    pub how: String,
+    /// Map → survey `[tx, ty, yaw_deg]` used to place the crops (survey =
+    /// R(yaw)·map + t, levelled frame).
+    pub init: [f64; 3],
+    /// Survey z minus map z used to place the crops (m).
+    pub dz: f64,
+    /// Levelling: p_levelled = origin + R·(p_map − origin); every position in
+    /// this file is levelled (identity when the map is level).
+    pub levelling: Levelling,
+    /// Detection and matching, when the frame was found that way.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detection: Option<DetectionInfo>,
+}
+
+/// The levelling applied to the map.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Levelling {
+    /// Total tilt corrected (degrees; 0 = none).
+    pub tilt_deg: f64,
+    /// Centre of rotation (map frame).
+    pub origin: [f64; 3],
+    /// Rotation matrix, row-major.
+    pub rotation: [[f64; 3]; 3],
+    /// The ground's lean from +z of the map (degrees), when enough ground was seen.
+    pub ground_tilt_deg: Option<f64>,
+    /// Direction the ground rises towards (degrees from +x).
+    pub ground_azimuth_deg: Option<f64>,
+    /// Share of 2 m ground blocks within 1° of the ground's vertical.
+    pub ground_support: Option<f64>,
+    /// The targets' mean plumb line: its tilt from the ground-levelled +z
+    /// and standard error (degrees), and whether the frame was turned to it.
+    pub plumb_tilt_deg: Option<f64>,
+    /// Standard error of `plumb_tilt_deg`.
+    pub plumb_se_deg: Option<f64>,
+    /// Whether the plumb lines were applied.
+    pub plumb_applied: bool,
+}
+
+/// What map-wide detection found and matched.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct DetectionInfo {
+    /// Target-shaped objects detected.
+    pub detections: usize,
+    /// Survey ids matched to a detection.
+    pub matched: Vec<String>,
+    /// RMS horizontal residual of the matches (m).
+    pub rms: f64,
+    /// Matches of the best different transform (0: none).
+    pub runner_up: usize,
+    /// Detections matched to no surveyed target (map frame corners).
+    pub unmatched: Vec<[f64; 3]>,
 }
 
 /// Provenance and per-target details of an `eval` run (the `eval` key of result.json).
@@ -55,6 +116,9 @@ pub struct EvalInfo {
     pub survey: String,
     /// Per target.
     pub targets: Vec<TargetDetail>,
+    /// How the map's frame was found.
+    #[serde(default)]
+    pub frame: FrameInfo,
 }
 
 impl EvalInfo {
@@ -67,8 +131,70 @@ impl EvalInfo {
             map_points: ev.map.points,
             skipped_nonfinite: ev.map.skipped_nonfinite,
             survey: survey.to_string(),
-            targets: ev.targets.iter().map(detail).collect(),
+            targets: ev
+                .targets
+                .iter()
+                .map(|t| {
+                    let mut d = detail(t);
+                    if !ev.frame.levelling.is_identity() {
+                        d.corner_in_map = t.corner().map(|c| {
+                            let p = ev.frame.levelling.invert(&c);
+                            [p.x, p.y, p.z]
+                        });
+                    }
+                    d
+                })
+                .collect(),
+            frame: frame_info(&ev.frame),
         }
+    }
+}
+
+fn frame_info(f: &FrameFound) -> FrameInfo {
+    let r = f.levelling.rotation.matrix();
+    let detection = match &f.how {
+        FrameHow::Detected {
+            detections,
+            matched,
+            rms,
+            runner_up,
+        } => Some(DetectionInfo {
+            detections: *detections,
+            matched: matched.iter().map(|m| m.0.clone()).collect(),
+            rms: *rms,
+            runner_up: *runner_up,
+            unmatched: f
+                .unmatched
+                .iter()
+                .map(|d| [d.corner_map.x, d.corner_map.y, d.corner_map.z])
+                .collect(),
+        }),
+        _ => None,
+    };
+    FrameInfo {
+        how: f.how.name().into(),
+        init: f.init,
+        dz: f.dz,
+        levelling: Levelling {
+            tilt_deg: f.levelling.tilt_deg(),
+            origin: [
+                f.levelling.origin.x,
+                f.levelling.origin.y,
+                f.levelling.origin.z,
+            ],
+            rotation: [
+                [r[(0, 0)], r[(0, 1)], r[(0, 2)]],
+                [r[(1, 0)], r[(1, 1)], r[(1, 2)]],
+                [r[(2, 0)], r[(2, 1)], r[(2, 2)]],
+            ],
+            ground_tilt_deg: f.ground.as_ref().map(|g| g.tilt_deg),
+            ground_azimuth_deg: f.ground.as_ref().map(|g| g.azimuth_deg),
+            ground_support: f.ground.as_ref().map(|g| g.support),
+            plumb_tilt_deg: f.plumb.as_ref().map(|p| p.tilt_deg),
+            plumb_se_deg: f.plumb.as_ref().map(|p| p.se_deg),
+            plumb_applied: f.plumb.as_ref().is_some_and(|p| p.applied),
+        },
+        detection,
     }
 }
 

@@ -338,12 +338,15 @@ fn init_transform_hand_crops_and_failures() {
     let (map, survey) = (scene.join("map.ply"), scene.join("survey.csv"));
     let os = |s: &'static str| std::ffi::OsStr::new(s);
 
-    // Without --init nothing is where the survey says: a clear error, exit 1.
+    // Told the map is in the survey frame, nothing is where the survey says:
+    // a clear error, exit 1.
     let out = eval(&[
         os("--map"),
         map.as_os_str(),
         os("--survey"),
         survey.as_os_str(),
+        os("--frame"),
+        os("survey"),
     ]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);

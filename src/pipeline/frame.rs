@@ -1,0 +1,313 @@
+//! Where to look and which way is up: the frame steps of the pipeline.
+//!
+//! - **Levelling.** A ground pass over the whole map gives its vertical; a map
+//!   leaning more than `frame.level_above_deg` is read rotated upright. After
+//!   the first pass the targets' own plumb lines (they are built vertical)
+//!   refine it, when they disagree with +z by more than their own scatter.
+//! - **The transform.** `--init` or `--hints` when given; else the survey
+//!   frame if the targets are found there; else map-wide detection matched to
+//!   the survey without correspondences ([`crate::frame::matching`]).
+//! - **Wrong objects.** A located object far from where all the others put it
+//!   is searched for again at the predicted position, and otherwise not found.
+
+use super::target::{self, Failure, TargetRun};
+use super::{Config, FrameMode};
+use crate::cloud::{MapSource, RigidMotion};
+use crate::detect::{DetectParams, Detection, detect_map};
+use crate::frame::hints::read_hints;
+use crate::frame::matching::{Candidate, MatchError, MatchParams, match_frame};
+use crate::frame::{GroundLevel, MapGround};
+use crate::survey::Survey;
+use crate::{Error, Point, Result};
+use nalgebra::{Rotation3, Vector3};
+use rayon::prelude::*;
+
+/// How the map → survey transform was found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FrameHow {
+    /// The targets were where the survey says (the map is in its frame).
+    Survey,
+    /// `--init` gave it.
+    Init,
+    /// Fitted to `--hints`.
+    Hints {
+        /// Hints shared with the survey.
+        used: usize,
+        /// Largest disagreement of a hint with the fit (m).
+        worst: f64,
+    },
+    /// Target-shaped objects detected map-wide and matched to the survey.
+    Detected {
+        /// Objects detected.
+        detections: usize,
+        /// (survey id, detection index) per match.
+        matched: Vec<(String, usize)>,
+        /// RMS horizontal residual of the matches (m).
+        rms: f64,
+        /// Matches of the best different transform (0: none).
+        runner_up: usize,
+    },
+}
+
+impl FrameHow {
+    /// Short name, as result.json gives it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            FrameHow::Survey => "survey",
+            FrameHow::Init => "init",
+            FrameHow::Hints { .. } => "hints",
+            FrameHow::Detected { .. } => "detect",
+        }
+    }
+}
+
+/// The targets' plumb lines as evidence of the map's vertical.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plumb {
+    /// Angle of their mean from +z of the frame they were located in (the
+    /// ground-levelled one, or the map's own) (degrees).
+    pub tilt_deg: f64,
+    /// Its standard error, from their scatter (degrees).
+    pub se_deg: f64,
+    /// Targets that gave one.
+    pub targets: usize,
+    /// Whether the frame was turned to it (see [`plumb`]).
+    pub applied: bool,
+}
+
+/// What the pipeline learned about the map's frame.
+#[derive(Debug, Clone)]
+pub struct FrameFound {
+    /// How the transform was found.
+    pub how: FrameHow,
+    /// Map → survey, `[tx, ty, yaw_deg]` (survey = R·map + t), in the levelled frame.
+    pub init: [f64; 3],
+    /// Survey z minus map z used to place the crops.
+    pub dz: f64,
+    /// The ground's vertical, when enough ground was seen.
+    pub ground: Option<GroundLevel>,
+    /// Map → the frame every position of the evaluation is in (identity for a
+    /// level map): p_levelled = origin + R·(p_map − origin).
+    pub levelling: RigidMotion,
+    /// The targets' plumb lines, when three or more were located.
+    pub plumb: Option<Plumb>,
+    /// Detected objects that matched no surveyed target (map frame corners).
+    pub unmatched: Vec<Detection>,
+}
+
+/// The first guess at the transform before any target is located: what the
+/// user gave, or the survey frame (auto mode tries it first).
+pub(super) fn given(survey: &Survey, cfg: &Config) -> Result<(FrameHow, [f64; 3], f64)> {
+    if let Some(init) = cfg.frame.init {
+        return Ok((FrameHow::Init, init, 0.0));
+    }
+    if let Some(path) = &cfg.frame.hints
+        && matches!(cfg.frame.mode, FrameMode::Auto | FrameMode::Hints)
+    {
+        let h = read_hints(path, survey)?;
+        return Ok((
+            FrameHow::Hints {
+                used: h.used,
+                worst: h.worst,
+            },
+            h.init,
+            h.dz,
+        ));
+    }
+    Ok((FrameHow::Survey, [0.0, 0.0, 0.0], 0.0))
+}
+
+/// Whether the first pass in the survey frame found the targets there.
+pub(super) fn targets_there(found: &[TargetRun]) -> bool {
+    let n = found.iter().filter(|r| r.outcome.is_ok()).count();
+    n >= 3.min(found.len()).max(2)
+}
+
+/// Detects targets map-wide and matches them to the survey.
+pub(super) fn detect_and_match(
+    source: MapSource,
+    survey: &Survey,
+    ground: &MapGround,
+    motion: &RigidMotion,
+    cfg: &Config,
+    progress: &mut impl FnMut(u64, u64),
+) -> Result<(FrameHow, [f64; 3], f64, Vec<Detection>)> {
+    let total = match source {
+        MapSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
+        MapSource::Points(_) => 0,
+    };
+    let found = detect_map(
+        source,
+        ground,
+        motion,
+        &DetectParams::default(),
+        &cfg.tight,
+        |b| progress(b, total),
+    )?;
+    let cands: Vec<Candidate> = found
+        .detections
+        .iter()
+        .map(|d| Candidate { at: d.corner })
+        .collect();
+    let sur: Vec<Point> = survey.targets.iter().map(|t| t.reference()).collect();
+    let params = MatchParams {
+        tol: cfg.frame.match_tolerance,
+        min_matches: 3,
+    };
+    let m = match_frame(&cands, &sur, survey.has_z(), &params).map_err(|e| {
+        let remedy = match e {
+            MatchError::Ambiguous { .. } => {
+                "; give --hints FILE (id,x,y of 2 or more targets as seen in the map, ±0.5 m) to choose"
+            }
+            MatchError::TooFew { .. } => {
+                "; give --hints FILE (id,x,y of 2 or more targets as seen in the map, ±0.5 m) or --init x,y,yaw_deg"
+            }
+        };
+        Error::Input(format!(
+            "the map is not in the survey frame and its frame could not be found: {e}{remedy}"
+        ))
+    })?;
+    let used: Vec<usize> = m.matches.iter().map(|x| x.1).collect();
+    let unmatched = found
+        .detections
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !used.contains(i))
+        .map(|(_, d)| d.clone())
+        .collect();
+    let how = FrameHow::Detected {
+        detections: found.detections.len(),
+        matched: m
+            .matches
+            .iter()
+            .map(|&(i, a, _)| (survey.targets[i].id.clone(), a))
+            .collect(),
+        rms: m.rms,
+        runner_up: m.runner_up,
+    };
+    Ok((how, m.init, m.dz, unmatched))
+}
+
+/// The targets' common plumb line, and the rotation that makes it +z when it
+/// leans. In a frame already turned (`turned`: the ground's vertical, which
+/// carries the site's slope, or an earlier plumb turn) the plumb lines are the
+/// better vertical whatever their scatter (unbiased, where the ground is not),
+/// so any lean is turned away. A map read as it is is turned only beyond three
+/// standard errors and half a degree: a level map must not be turned by the
+/// plumb lines' noise (a 0.2° turn moves targets 2 m apart in height by 7 mm).
+pub(super) fn plumb(found: &[TargetRun], turned: bool) -> Option<(Plumb, Option<Rotation3<f64>>)> {
+    let axes: Vec<Vector3<f64>> = found
+        .iter()
+        .filter_map(|r| {
+            r.outcome
+                .as_ref()
+                .ok()
+                .and_then(|f| plain_axis(&r.tight, f))
+        })
+        .collect();
+    let n = axes.len();
+    if n < 3 {
+        return None;
+    }
+    let mean = axes.iter().fold(Vector3::zeros(), |s, a| s + a).normalize();
+    let tilt = mean.angle(&Vector3::z()).to_degrees();
+    let var = axes.iter().map(|a| a.angle(&mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let se = (var / n as f64).sqrt().to_degrees();
+    // Up to 20°: beyond, three targets agreeing is more likely a mistake.
+    let bar = if turned { 0.01 } else { (3.0 * se).max(0.5) };
+    let applied = tilt > bar && tilt <= 20.0;
+    let rot = applied
+        .then(|| Rotation3::rotation_between(&mean, &Vector3::z()))
+        .flatten();
+    Some((
+        Plumb {
+            tilt_deg: tilt,
+            se_deg: se,
+            targets: n,
+            applied: rot.is_some(),
+        },
+        rot,
+    ))
+}
+
+/// A target's plumb line from plain least-squares planes through the points
+/// near each located plate: the locator's own axis comes from a sample that
+/// passed its verticality gate, which leans it towards the "up" it was given.
+fn plain_axis(tight: &[Point], f: &target::Found) -> Option<Vector3<f64>> {
+    let c = f.located.corner;
+    let q: Vec<Vector3<f64>> = tight.iter().map(|p| p - c).collect();
+    let mut n = [
+        Vector3::from(f.located.plates[0].normal),
+        Vector3::from(f.located.plates[1].normal),
+    ];
+    let mut off = [0.0, 0.0];
+    for _ in 0..2 {
+        for k in 0..2 {
+            let idx: Vec<u32> = (0..q.len() as u32)
+                .filter(|&i| (n[k].dot(&q[i as usize]) - off[k]).abs() < 0.02)
+                .collect();
+            if idx.len() < 20 {
+                return None;
+            }
+            let p = crate::geom::plane::fit(&q, &idx)?;
+            n[k] = p.normal;
+            off[k] = p.offset;
+        }
+    }
+    let a = n[0].cross(&n[1]);
+    let a = if a.z < 0.0 { -a } else { a };
+    (a.norm() > 0.5).then(|| a.normalize())
+}
+
+/// Turns every target's crops by `rot` about `origin` and locates the found
+/// ones again with +z as their vertical.
+pub(super) fn turn_targets(
+    found: &mut [TargetRun],
+    rot: &Rotation3<f64>,
+    origin: Point,
+    cfg: &Config,
+) {
+    let m = RigidMotion {
+        origin,
+        rotation: *rot,
+    };
+    found.par_iter_mut().for_each(|r| {
+        r.expected = m.apply(&r.expected);
+        for p in r.loose.iter_mut().chain(r.tight.iter_mut()) {
+            *p = m.apply(p);
+        }
+        r.ground_normal = r.ground_normal.map(|n| rot * n);
+        if let Ok(f) = &r.outcome {
+            let ups = [Vector3::z(), rot * f.up];
+            r.outcome = target::locate_with(&r.tight, &ups, cfg).map_err(Failure::Locate);
+        }
+    });
+}
+
+/// Found targets whose error under a fit without them is far beyond the
+/// others' (> 5 × the median and > 0.3 m): (index, that error, the median).
+pub(super) fn far_from_others(
+    found: &[TargetRun],
+    survey: &Survey,
+    opts: &crate::accuracy::ScoreOptions,
+) -> Vec<(usize, f64, f64)> {
+    let Ok(acc) = crate::accuracy::score(survey, &super::estimates(found), opts) else {
+        return Vec::new();
+    };
+    let errs: Vec<(usize, f64)> = acc
+        .targets
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| t.loo_error.map(|e| (i, e)))
+        .collect();
+    if errs.len() < 4 {
+        return Vec::new();
+    }
+    let mut v: Vec<f64> = errs.iter().map(|e| e.1).collect();
+    v.sort_by(f64::total_cmp);
+    let median = v[v.len() / 2];
+    errs.into_iter()
+        .filter(|&(_, e)| e > 5.0 * median && e > 0.3)
+        .map(|(i, e)| (i, e, median))
+        .collect()
+}
