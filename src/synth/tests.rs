@@ -608,7 +608,7 @@ fn square_layout_targets_are_all_seen_from_the_road() {
     // Corners are side/2 (± the road's curve) off the road: at 1 M points a
     // 30 m square gives 160–260 returns per target, a 60 m one 55–75.
     for (side, least) in [(30.0, 120), (60.0, 40)] {
-        let mut p = small(9, 800_000);
+        let mut p = small(9, 1_000_000);
         p.layout = Layout::Square;
         p.targets = 4;
         p.spread_m = side;
