@@ -120,6 +120,21 @@ impl Draw {
 
     /// Points every 0.25 m along the outline of the footprint at (x, y).
     fn outline(&self, x: f64, y: f64) -> Vec<(f64, f64)> {
+        let mut out = Vec::new();
+        for (a, b) in self.segments(x, y) {
+            let len = (b.0 - a.0).hypot(b.1 - a.1);
+            let n = (len / 0.25).ceil().max(1.0) as usize;
+            for i in 0..=n {
+                let f = i as f64 / n as f64;
+                out.push((a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1)));
+            }
+        }
+        out
+    }
+
+    /// The footprint's outline at (x, y) as segments: an L's two arms (outer
+    /// faces), a box's four sides.
+    fn segments(&self, x: f64, y: f64) -> Vec<((f64, f64), (f64, f64))> {
         let (c, s) = (self.heading.cos(), self.heading.sin());
         let u1 = (c, s);
         let u2 = (-s, c);
@@ -140,16 +155,7 @@ impl Draw {
                 segs.push((k[i], k[(i + 1) % 4]));
             }
         }
-        let mut out = Vec::new();
-        for (a, b) in segs {
-            let len = (b.0 - a.0).hypot(b.1 - a.1);
-            let n = (len / 0.25).ceil().max(1.0) as usize;
-            for i in 0..=n {
-                let f = i as f64 / n as f64;
-                out.push((a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1)));
-            }
-        }
-        out
+        segs
     }
 
     /// The object at (x, y) and its truth (object index filled in by the caller).
@@ -234,6 +240,18 @@ impl Draw {
     }
 }
 
+/// Distance from q to the segment [a, b].
+fn segment_distance(q: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len2 = dx * dx + dy * dy;
+    let f = if len2 > 0.0 {
+        (((q.0 - a.0) * dx + (q.1 - a.1) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (q.0 - a.0 - f * dx).hypot(q.1 - a.1 - f * dy)
+}
+
 /// How close a decoy may come to a clutter object's noted centre, metres
 /// (the façade is checked as a segment, see `clear_of_clutter`).
 fn clutter_clearance(kind: &str) -> f64 {
@@ -301,13 +319,18 @@ pub(super) fn add(
                 sx - side * dist * h.sin(),
                 road.y(sx) + side * dist * h.cos(),
             );
+            let clear_of_targets = d.segments(x, y).iter().all(|&(a, b)| {
+                targets
+                    .iter()
+                    .all(|t| segment_distance((t.world[0], t.world[1]), a, b) >= TARGET_CLEAR_M)
+            });
+            if !clear_of_targets {
+                continue;
+            }
             let outline = d.outline(x, y);
             let ok = outline.iter().all(|&q| {
                 (q.1 - road.y(q.0)).abs() >= ROAD_CLEAR_M
-                    && targets.iter().all(|t| {
-                        (q.0 - t.world[0]).hypot(q.1 - t.world[1]) >= TARGET_CLEAR_M
-                            && !hides(q, t, road)
-                    })
+                    && targets.iter().all(|t| !hides(q, t, road))
                     && placed
                         .iter()
                         .all(|r| (q.0 - r.0).hypot(q.1 - r.1) >= DECOY_CLEAR_M)

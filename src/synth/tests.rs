@@ -273,6 +273,34 @@ fn layout_of(t: &Truth) -> (Vec<TargetTruth>, Vec<ClutterInfo>) {
     (targets, t.clutter.clone())
 }
 
+/// Points every centimetre along a decoy's footprint outline (the L's outer
+/// faces, the box's sides), from its truth alone.
+fn footprint(d: &DecoyTruth) -> Vec<(f64, f64)> {
+    let a = d.heading_deg.to_radians();
+    let (u, v) = ((a.cos(), a.sin()), (-a.sin(), a.cos()));
+    let (x, y) = (d.world[0], d.world[1]);
+    let at = |s: f64, t: f64| (x + s * u.0 + t * v.0, y + s * u.1 + t * v.1);
+    let [l, w, _] = d.size_m;
+    let corners = if matches!(d.kind.as_str(), "building_corner" | "l_board" | "small_l") {
+        vec![at(l, 0.0), at(0.0, 0.0), at(0.0, w)]
+    } else {
+        let (h, k) = (l / 2.0, w / 2.0);
+        vec![at(h, k), at(-h, k), at(-h, -k), at(h, -k), at(h, k)]
+    };
+    let mut out = Vec::new();
+    for s in corners.windows(2) {
+        let n = ((s[1].0 - s[0].0).hypot(s[1].1 - s[0].1) / 0.01).ceil() as usize;
+        for i in 0..=n {
+            let f = i as f64 / n as f64;
+            out.push((
+                s[0].0 + f * (s[1].0 - s[0].0),
+                s[0].1 + f * (s[1].1 - s[0].1),
+            ));
+        }
+    }
+    out
+}
+
 fn with_decoys(seed: u64, points: u64, n: usize) -> SynthParams {
     let mut p = small(seed, points);
     p.clutter.decoys = n;
@@ -313,9 +341,12 @@ fn decoys_are_deterministic_and_move_nothing_else() {
                 d.kind,
                 d.road_distance_m
             );
-            for tg in &t.targets {
-                let r = (d.world[0] - tg.world[0]).hypot(d.world[1] - tg.world[1]);
-                assert!(r >= 4.0, "{} {r} m from target {}", d.kind, tg.id);
+            for q in footprint(d) {
+                for tg in &t.targets {
+                    let r = (q.0 - tg.world[0]).hypot(q.1 - tg.world[1]);
+                    assert!(r >= 4.0, "{} {r} m from target {}", d.kind, tg.id);
+                }
+                assert!((q.1 - t.road.y(q.0)).abs() >= 3.0, "{} on the road", d.kind);
             }
             let m = t.distortion.apply(&Point::from(d.world));
             assert!((m - Point::from(d.map)).norm() < 1e-9);
