@@ -123,6 +123,17 @@ impl Distortion {
         yaw * tilt
     }
 
+    /// The rigid part of world → map (drift left out): map ≈ r · world + t,
+    /// with r = Rz(yaw) · R_tilt and t = c + offset − r · (c + F). The
+    /// transform a perfect frame matcher would find, up to the drift.
+    pub fn rigid(&self) -> (Rotation3<f64>, Vector3<f64>) {
+        let r = self.rotation();
+        let c = Vector3::from(self.centre);
+        let t =
+            c + Vector3::from(self.params.offset_m) - r * (c + Vector3::from(self.survey_origin));
+        (r, t)
+    }
+
     /// Maps a world (survey-frame) point into the distorted map frame.
     pub fn apply(&self, p: &Point) -> Point {
         self.applier()(p)
@@ -171,6 +182,43 @@ mod tests {
         };
         let p = Point::new(12.0, -7.0, 1.0);
         assert!((d.apply(&p) - p).norm() < 1e-12);
+    }
+
+    #[test]
+    fn rigid_part_is_the_distortion_without_drift() {
+        let d = Distortion {
+            params: DistortParams {
+                offset_m: [9_876.5, -4_321.0, 12.0],
+                yaw_deg: 237.0,
+                tilt_deg: 12.0,
+                tilt_axis_deg: 70.0,
+                drift_m: [0.0; 3],
+                drift_wave_m: 0.0,
+            },
+            centre: [50.0, 0.0, 3.0],
+            drift_x0: -30.0,
+            drift_length: 160.0,
+            survey_origin: [352_000.0, 4_026_000.0, 10.0],
+        };
+        let (r, t) = d.rigid();
+        for p in [
+            Point::new(352_012.0, 4_026_007.0, 11.0),
+            Point::new(352_130.0, 4_025_980.0, 14.0),
+        ] {
+            let m = d.apply(&p);
+            assert!((Point::from(r * p.coords + t) - m).norm() < 1e-8);
+        }
+        // With drift, the rigid part is off by about the drift.
+        let drifting = Distortion {
+            params: DistortParams {
+                drift_m: [0.04, -0.03, 0.02],
+                ..d.params.clone()
+            },
+            ..d.clone()
+        };
+        let p = Point::new(352_130.0, 4_025_980.0, 14.0);
+        let e = (drifting.apply(&p) - Point::from(r * p.coords + t)).norm();
+        assert!(e > 1e-3 && e < 0.05, "{e}");
     }
 
     #[test]
