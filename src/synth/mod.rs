@@ -314,8 +314,12 @@ impl SynthParams {
             return bad("target.frame_m must be in [0, plate size / 2]");
         }
         let c = &self.clutter;
-        if c.poles > 10_000 || c.bushes > 10_000 || c.cars > 10_000 || c.decoys > 10_000 {
+        if c.poles > 10_000 || c.bushes > 10_000 || c.cars > 10_000 {
             return bad("clutter counts must be <= 10000");
+        }
+        // Placement checks every decoy against those placed: quadratic.
+        if c.decoys > 200 {
+            return bad("clutter.decoys must be <= 200");
         }
         if let Some(d) = c.near_target_m
             && !(0.0..=20.0).contains(&d)

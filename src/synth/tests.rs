@@ -352,6 +352,13 @@ fn decoys_are_deterministic_and_move_nothing_else() {
             assert!((m - Point::from(d.map)).norm() < 1e-9);
         }
     }
+    // The most allowed is placed in reasonable time (as many as fit), more
+    // is refused.
+    let start = std::time::Instant::now();
+    let (_, many, _) = collect(&with_decoys(1, 1, 200));
+    assert!(many.decoys.len() >= 30, "{}", many.decoys.len());
+    assert!(start.elapsed().as_secs_f64() < 20.0);
+    assert!(with_decoys(1, 1, 201).validate().is_err());
     // Same seed, same bytes (points and truth), whatever the thread count.
     let p = with_decoys(4, 120_000, 10);
     let (a, ta, _) = collect(&p);
