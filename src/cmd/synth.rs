@@ -49,13 +49,13 @@ pub struct Args {
     #[arg(long)]
     bush_touching: bool,
     /// Map tilt, degrees [default: 0].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     tilt_deg: Option<f64>,
     /// Map yaw relative to the survey frame, degrees [default: 1].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     yaw_deg: Option<f64>,
     /// Map offset relative to the survey frame, "X,Y,Z" m [default: 1.5,-1,0.3].
-    #[arg(long, value_parser = parse_triple)]
+    #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
     offset_m: Option<[f64; 3]>,
     /// LiDAR range noise (1 sigma), m [default: 0.02].
     #[arg(long)]
@@ -63,6 +63,18 @@ pub struct Args {
     /// Noise (1 sigma) added to surveyed positions, m [default: 0].
     #[arg(long)]
     survey_noise_m: Option<f64>,
+    /// Scene-wide decoys (building corners, L boards, cabinets, small Ls,
+    /// pallets) along the road [default: 0].
+    #[arg(long)]
+    decoys: Option<usize>,
+    /// Target layout: road, or square (4 targets at a square's corners, side
+    /// --spread-m, symmetric under 90° rotation) [default: road].
+    #[arg(long, value_parser = ["road", "square"])]
+    layout: Option<String>,
+    /// False origin added to the survey (and truth world) positions, "X,Y,Z" m,
+    /// e.g. 352000,4026000,0 for UTM-size coordinates [default: 0,0,0].
+    #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
+    survey_false_origin_m: Option<[f64; 3]>,
 }
 
 fn parse_list<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
@@ -111,6 +123,15 @@ fn params(a: &Args) -> Result<SynthParams> {
     set!(a.offset_m, p.distortion.offset_m);
     set!(a.range_noise_m, p.lidar.range_noise_m);
     set!(a.survey_noise_m, p.survey_noise_m);
+    set!(a.decoys, p.clutter.decoys);
+    set!(a.survey_false_origin_m, p.survey_false_origin_m);
+    if let Some(l) = &a.layout {
+        p.layout = if l == "square" {
+            synth::Layout::Square
+        } else {
+            synth::Layout::Road
+        };
+    }
     if a.near_clutter_m.is_some() {
         p.clutter.near_target_m = a.near_clutter_m;
     }
@@ -168,6 +189,13 @@ pub fn run(a: Args) -> Result<()> {
         "expected    E_abs {:.4} m, E_rel {:.4} m (true map positions, rigid2d)",
         expected.absolute.mean, expected.relative.mean
     );
+    if p.clutter.decoys > 0 {
+        println!(
+            "decoys      {} placed of {} asked",
+            truth.decoys.len(),
+            p.clutter.decoys
+        );
+    }
     for t in &truth.targets {
         println!(
             "target {:>3}  world ({:9.3}, {:9.3}, {:7.3})  map ({:9.3}, {:9.3}, {:7.3})  {:>6} returns",

@@ -58,6 +58,8 @@ pub fn write_scene(
     let mut llh = String::from("id,lat,lon,alt,antenna_height\n");
     let [lat, lon, alt] = params.origin_llh;
     let origin = Geodetic { lat, lon, alt };
+    // `origin_llh` is the local frame's origin: the false origin comes off first.
+    let [fx, fy, fz] = params.survey_false_origin_m;
     for t in &truth.targets {
         let s = &t.survey;
         let _ = writeln!(
@@ -65,7 +67,7 @@ pub fn write_scene(
             "{},{:.4},{:.4},{:.4},{:.4}",
             t.id, s.x, s.y, s.z, s.antenna_height
         );
-        let g = origin.geodetic_of(&Point::new(s.x, s.y, s.z));
+        let g = origin.geodetic_of(&Point::new(s.x - fx, s.y - fy, s.z - fz));
         let _ = writeln!(
             llh,
             "{},{:.10},{:.10},{:.4},{:.4}",

@@ -11,6 +11,7 @@
 //! Output is deterministic: every ray draws its noise from a hash of
 //! (seed, scan, ray), and scans are emitted in order whatever the thread count.
 
+mod decoys;
 pub mod distort;
 pub mod geometry;
 pub mod lidar;
@@ -18,6 +19,7 @@ mod obstacles;
 mod scene;
 
 use crate::{Error, Point, Result};
+pub use decoys::DecoyTruth;
 use distort::{DistortParams, Distortion};
 use geometry::Ground;
 use lidar::{LidarParams, Pose, Road};
@@ -86,6 +88,58 @@ pub struct ClutterParams {
     pub near_target_m: Option<f64>,
     /// Hard case: a bush touching a plate of target 2 (target 1 when K = 1).
     pub bush_touching: bool,
+    /// Scene-wide decoys (issue 15): objects a map-wide detector could take
+    /// for a target, placed along the road at the targets' distances from it
+    /// (`target_distance_m`), every part at least 4 m from every target's
+    /// corner, off the road, and out of the 45° cone between each target and
+    /// the road so none hides a target. In turn: a building corner, an
+    /// L-shaped board of 0.9–1.2 m arms, a utility cabinet, a small L of
+    /// 0.35–0.45 m arms, a pallet stack (see [`DecoyTruth`]). They draw from
+    /// their own random stream, so targets and other clutter do not move;
+    /// when the scene has no room for one it is left out (truth.json lists
+    /// those placed). 0 (default): none, and truth.json has no `decoys`.
+    ///
+    /// ```toml
+    /// [clutter]
+    /// decoys = 10
+    /// ```
+    #[serde(skip_serializing_if = "is_zero")]
+    pub decoys: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+fn is_origin(v: &[f64; 3]) -> bool {
+    *v == [0.0; 3]
+}
+
+/// How the targets are laid out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Layout {
+    /// Spread along the road, alternating sides, at `target_distance_m`.
+    #[default]
+    Road,
+    /// Four targets at the corners of a square of side `spread_m` (16–60 m),
+    /// its sides parallel to the road's ends, centred on the road's middle so
+    /// the road passes through it; every L opens towards the centre (heading =
+    /// direction from the centre + 135°), so the layout maps onto itself under
+    /// a 90° rotation about the centre: an ambiguous layout for frame matching.
+    /// Corner k (id k + 1) is at direction 45° + 90°·k from the centre. For
+    /// equal corner heights too, set `slope_deg = 0` and `undulation_m = 0`.
+    /// Corners lie side/2 (± the road's curve) off the road, so a side of up
+    /// to ~30 m keeps them at the targets' usual distances; a 60 m square
+    /// puts them ~30 m off, with about a quarter of the returns. Ignores
+    /// `target_distance_m`.
+    Square,
+}
+
+impl Layout {
+    fn is_road(&self) -> bool {
+        *self == Layout::Road
+    }
 }
 
 impl Default for ClutterParams {
@@ -97,6 +151,7 @@ impl Default for ClutterParams {
             wall: true,
             near_target_m: None,
             bush_touching: false,
+            decoys: 0,
         }
     }
 }
@@ -140,6 +195,30 @@ pub struct SynthParams {
     /// Geodetic origin (lat°, lon°, ellipsoidal height m) of the local ENU world
     /// frame, for writing the survey in WGS84.
     pub origin_llh: [f64; 3],
+    /// False origin of the survey frame, metres: the scene is built in a local
+    /// frame L and the survey (world) frame is L + this, so [352000, 4026000, 0]
+    /// gives a UTM-size survey while the map stays where it was. It is added
+    /// to survey.csv and to every position in truth.json except the scene's
+    /// model parameters (see [`Truth`]); survey_llh.csv is unchanged (it is
+    /// the same physical points). Default [0, 0, 0], then left out of the
+    /// printed config and truth.json.
+    ///
+    /// ```toml
+    /// survey_false_origin_m = [352000.0, 4026000.0, 0.0]
+    /// ```
+    #[serde(skip_serializing_if = "is_origin")]
+    pub survey_false_origin_m: [f64; 3],
+    /// Target layout: "road" (default) or "square" (see [`Layout`]).
+    ///
+    /// ```toml
+    /// layout = "square"
+    /// targets = 4
+    /// spread_m = 30.0
+    /// slope_deg = 0.0
+    /// undulation_m = 0.0
+    /// ```
+    #[serde(skip_serializing_if = "Layout::is_road")]
+    pub layout: Layout,
 }
 
 impl Default for SynthParams {
@@ -161,6 +240,8 @@ impl Default for SynthParams {
             distortion: DistortParams::default(),
             survey_noise_m: 0.0,
             origin_llh: [36.3725, 127.3631, 70.0],
+            survey_false_origin_m: [0.0; 3],
+            layout: Layout::Road,
         }
     }
 }
@@ -194,6 +275,19 @@ impl SynthParams {
         if !(self.survey_noise_m >= 0.0 && self.survey_noise_m <= 1.0) {
             return bad("survey_noise_m must be in [0, 1]");
         }
+        if self.survey_false_origin_m.iter().any(|v| !(v.abs() <= 1e8)) {
+            return bad("survey_false_origin_m values must be finite, |v| <= 1e8");
+        }
+        if self.layout == Layout::Square {
+            if self.targets != 4 {
+                return bad("layout = \"square\" needs targets = 4");
+            }
+            if !(10.0..=60.0).contains(&self.spread_m) {
+                return bad(
+                    "layout = \"square\": spread_m (the square's side) must be in [10, 60]",
+                );
+            }
+        }
         let [lat, lon, hgt] = self.origin_llh;
         if !(lat.abs() <= 89.0 && lon.abs() <= 180.0 && hgt.abs() <= 10_000.0) {
             return bad("origin_llh = [lat, lon, h] with |lat| <= 89, |lon| <= 180, |h| <= 10000");
@@ -223,6 +317,10 @@ impl SynthParams {
         if c.poles > 10_000 || c.bushes > 10_000 || c.cars > 10_000 {
             return bad("clutter counts must be <= 10000");
         }
+        // Placement checks every decoy against those placed: quadratic.
+        if c.decoys > 200 {
+            return bad("clutter.decoys must be <= 200");
+        }
         if let Some(d) = c.near_target_m
             && !(0.0..=20.0).contains(&d)
         {
@@ -230,7 +328,13 @@ impl SynthParams {
         }
         self.obstacles.validate()?;
         self.lidar.validate()?;
-        self.distortion.validate()
+        self.distortion.validate()?;
+        if self.layout == Layout::Square {
+            scene::square_layout(self, &scene::road_of(self))
+                .map(|_| ())
+                .map_err(Error::Param)?;
+        }
+        Ok(())
     }
 }
 
@@ -289,6 +393,16 @@ pub struct ClutterInfo {
 }
 
 /// Everything known about a generated scene.
+///
+/// Frames: the scene is built in a local frame L; the world (= survey) frame
+/// is L + `params.survey_false_origin_m` (F, zero by default). Positions carry
+/// F: `targets[].world`, `.survey` (x, y, z), `.ground_z`, `.plate_bottom_z`,
+/// `.plate_top_z`, `.antenna_top_z`; `decoys[].world`, `.ground_z`,
+/// `.bottom_z`, `.top_z`; `clutter[].x`, `.y`; `path[].x`, `.y`, `.z`. The
+/// scene's model parameters stay in L: `ground` (evaluate `Ground::height` at
+/// world − F), `road`, `distortion.centre` and `distortion.drift_x0`.
+/// `distortion.survey_origin` = F, so `distortion.apply(world)` = map holds for
+/// every position above. Map-frame positions (`map`) never include F.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Truth {
     /// Schema tag of this JSON.
@@ -311,6 +425,10 @@ pub struct Truth {
     pub path: Vec<Pose>,
     /// Clutter objects.
     pub clutter: Vec<ClutterInfo>,
+    /// Scene-wide decoys (`clutter.decoys`), in placement order; absent from
+    /// truth.json when there are none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub decoys: Vec<DecoyTruth>,
 }
 
 /// Scans cast per parallel batch (at most); any value gives the same output.
@@ -332,10 +450,10 @@ pub fn generate(
         world,
         road,
         mut targets,
-        clutter,
+        mut clutter,
+        mut decoys,
     } = scene;
     let lidar = &params.lidar;
-    let k = targets.len();
     let distortion = Distortion {
         params: params.distortion.clone(),
         centre: [
@@ -345,8 +463,12 @@ pub fn generate(
         ],
         drift_x0: road.x0,
         drift_length: road.length(),
+        survey_origin: params.survey_false_origin_m,
     };
-    let warp = distortion.applier();
+    // Scanned points are in the local frame L (see `Truth`).
+    let warp = distortion.local_applier();
+    // Returns are counted for every object (targets first, then decoys).
+    let n_obj = world.objects.len();
     let dx_rev = lidar.speed_mps / lidar.rate_hz;
     let usable = (road.length() - dx_rev).max(0.0);
 
@@ -355,7 +477,7 @@ pub fn generate(
         .par_iter()
         .map(|f| {
             let mut out = Vec::new();
-            let mut cnt = vec![0; k];
+            let mut cnt = vec![0; n_obj];
             lidar::scan(
                 &world,
                 &road,
@@ -375,7 +497,7 @@ pub fn generate(
     let station = |i: u64| road.x0 + (i as f64 + 0.5) * spacing;
 
     let mut total = 0u64;
-    let mut counts = vec![0u64; k];
+    let mut counts = vec![0u64; n_obj];
     let mut path = Vec::with_capacity(n_scans.min(1 << 24) as usize);
     let batch_scans = (BATCH_POINTS / per_scan).clamp(1, BATCH);
     let mut first = 0u64;
@@ -385,7 +507,7 @@ pub fn generate(
             .into_par_iter()
             .map(|i| {
                 let mut out = Vec::with_capacity(per_scan as usize + per_scan as usize / 4);
-                let mut cnt = vec![0u64; k];
+                let mut cnt = vec![0u64; n_obj];
                 lidar::scan(
                     &world,
                     &road,
@@ -414,8 +536,8 @@ pub fn generate(
     }
 
     let mut noise = stream(params.seed, 4);
-    for (t, n) in targets.iter_mut().zip(counts) {
-        t.points = n;
+    for (t, n) in targets.iter_mut().zip(&counts) {
+        t.points = *n;
         let m = warp(&Point::from(t.world));
         t.map = [m.x, m.y, m.z];
         if params.survey_noise_m > 0.0 {
@@ -426,7 +548,46 @@ pub fn generate(
             t.survey.z += e();
         }
     }
+    for d in decoys.iter_mut() {
+        d.points = counts[d.object];
+        let m = warp(&Point::from(d.world));
+        d.map = [m.x, m.y, m.z];
+    }
     drop(warp);
+    let f = params.survey_false_origin_m;
+    if f != [0.0; 3] {
+        // Added once, at the end, so the map and every draw are as without it.
+        let xyz = |v: &mut [f64; 3]| {
+            for (a, b) in v.iter_mut().zip(f) {
+                *a += b;
+            }
+        };
+        for t in targets.iter_mut() {
+            xyz(&mut t.world);
+            t.survey.x += f[0];
+            t.survey.y += f[1];
+            t.survey.z += f[2];
+            t.ground_z += f[2];
+            t.plate_bottom_z += f[2];
+            t.plate_top_z += f[2];
+            t.antenna_top_z += f[2];
+        }
+        for d in decoys.iter_mut() {
+            xyz(&mut d.world);
+            d.ground_z += f[2];
+            d.bottom_z += f[2];
+            d.top_z += f[2];
+        }
+        for c in clutter.iter_mut() {
+            c.x += f[0];
+            c.y += f[1];
+        }
+        for q in path.iter_mut() {
+            q.x += f[0];
+            q.y += f[1];
+            q.z += f[2];
+        }
+    }
     Ok(Truth {
         schema: "mapgauge.synth_truth/1".into(),
         params: params.clone(),
@@ -438,6 +599,7 @@ pub fn generate(
         road,
         path,
         clutter,
+        decoys,
     })
 }
 

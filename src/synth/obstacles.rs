@@ -2,9 +2,9 @@
 //! clutter"). Every one is off by default, so scenes without them are
 //! unchanged; each draws from its own random stream.
 
-use super::geometry::{Ground, Object, Plate, Prim};
+use super::geometry::{Ground, Object, Prim};
 use super::lidar::Road;
-use super::scene::{build_target, stream, yaw_box};
+use super::scene::{build_target, l_plate, stream, yaw_box};
 use super::{ClutterInfo, SurveyPoint, SynthParams, TargetShape, TargetTruth};
 use crate::{Error, Result};
 use nalgebra::Vector3;
@@ -335,18 +335,13 @@ fn decoy(
         3 => {
             let z0 = gz + shape.plate_bottom_m;
             let plate = |a: f64| {
-                Prim::Plate(Plate {
-                    x: v.x,
-                    y: v.y,
-                    u: (a.cos(), a.sin()),
-                    z0,
-                    w: shape.plate_width_m,
-                    h: shape.plate_height_m,
-                    frame: shape.frame_m,
-                    pitch: shape.mesh_pitch_m,
-                    hole: shape.mesh_hole_m,
-                    keep: 1.0,
-                })
+                l_plate(
+                    shape,
+                    (v.x, v.y, z0),
+                    a,
+                    (shape.plate_width_m, shape.plate_height_m),
+                    true,
+                )
             };
             (
                 "an L of 110°",

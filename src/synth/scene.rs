@@ -3,7 +3,7 @@
 
 use super::geometry::{self, Ground, Object, Plate, Prim, Wave, World};
 use super::lidar::Road;
-use super::{ClutterInfo, SurveyPoint, SynthParams, TargetShape, TargetTruth};
+use super::{ClutterInfo, DecoyTruth, Layout, SurveyPoint, SynthParams, TargetShape, TargetTruth};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -14,6 +14,7 @@ pub(super) struct Scene {
     pub(super) road: Road,
     pub(super) targets: Vec<TargetTruth>,
     pub(super) clutter: Vec<ClutterInfo>,
+    pub(super) decoys: Vec<DecoyTruth>,
 }
 
 /// Independent random streams, so enabling one feature does not move the rest.
@@ -61,6 +62,93 @@ pub(super) fn yaw_box(c: Vector3<f64>, size: [f64; 3], yaw: f64) -> Prim {
     }
 }
 
+/// One vertical plate of an L (a target's or a decoy's) starting at the
+/// corner line `at` (x, y, bottom z), along heading `a`, `size` = (width,
+/// height): meshed like `shape`'s grill, or solid when `grill` is false.
+pub(super) fn l_plate(
+    shape: &TargetShape,
+    at: (f64, f64, f64),
+    a: f64,
+    size: (f64, f64),
+    grill: bool,
+) -> Prim {
+    Prim::Plate(Plate {
+        x: at.0,
+        y: at.1,
+        u: (a.cos(), a.sin()),
+        z0: at.2,
+        w: size.0,
+        h: size.1,
+        frame: shape.frame_m,
+        pitch: shape.mesh_pitch_m,
+        hole: if grill { shape.mesh_hole_m } else { 0.0 },
+        keep: 1.0,
+    })
+}
+
+/// A box of `size` (along `yaw`, across, tall) standing on the ground at
+/// (x, y): its bottom 5 cm below the lowest ground under its corners, its top
+/// `size[2]` above the ground at (x, y). Returns the box, the ground height at
+/// (x, y) and the top.
+pub(super) fn box_on_ground(
+    g: &Ground,
+    x: f64,
+    y: f64,
+    size: [f64; 3],
+    yaw: f64,
+) -> (Prim, f64, f64) {
+    let (c, s) = (yaw.cos(), yaw.sin());
+    let gz = g.height(x, y);
+    let mut low = gz;
+    for (a, b) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+        let (u, v) = (a * size[0] / 2.0, b * size[1] / 2.0);
+        low = low.min(g.height(x + u * c - v * s, y + u * s + v * c));
+    }
+    let bottom = low - 0.05;
+    let top = gz + size[2];
+    let prim = yaw_box(
+        Vector3::new(x, y, (bottom + top) / 2.0),
+        [size[0], size[1], top - bottom],
+        yaw,
+    );
+    (prim, gz, top)
+}
+
+/// The road the sensor drives: the spread plus a 30 m lead at either end.
+pub(super) fn road_of(p: &SynthParams) -> Road {
+    let lead = 30.0;
+    Road {
+        x0: -lead,
+        x1: p.spread_m + lead,
+        amp: p.road_curve_m,
+        wavelength: (p.spread_m + 2.0 * lead).max(40.0),
+    }
+}
+
+/// The square layout's corners (x, y, heading rad), ids 1..4: the square's
+/// sides parallel to x, centred on the road's middle, corner k at direction
+/// 45° + 90°·k from the centre, heading that direction + 135° (the L opens to
+/// the centre). Errs when a corner is under 4 m from the road centre line.
+pub(super) fn square_layout(p: &SynthParams, road: &Road) -> Result<[(f64, f64, f64); 4], String> {
+    let half = p.spread_m / 2.0;
+    let (cx, cy) = (p.spread_m / 2.0, road.y(p.spread_m / 2.0));
+    let signs = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)];
+    let mut out = [(0.0, 0.0, 0.0); 4];
+    for (k, (sx, sy)) in signs.into_iter().enumerate() {
+        let (x, y) = (cx + sx * half, cy + sy * half);
+        let d = (y - road.y(x)).abs();
+        if d < 4.0 {
+            return Err(format!(
+                "layout = \"square\": corner {} lies {d:.1} m from the road (needs >= 4 m); widen spread_m or reduce road_curve_m",
+                k + 1
+            ));
+        }
+        let heading = (45.0 + 90.0 * k as f64 + 135.0).to_radians();
+        out[k] = (x, y, heading);
+    }
+    Ok(out)
+}
+
 /// The primitives of one L-target with its corner line at (x, y).
 pub(super) fn build_target(
     g: &Ground,
@@ -75,18 +163,13 @@ pub(super) fn build_target(
     let post_top = z1 + shape.post_above_m;
     let ant_top = post_top + shape.antenna_height_m;
     let plate = |a: f64| {
-        Prim::Plate(Plate {
-            x,
-            y,
-            u: (a.cos(), a.sin()),
-            z0,
-            w: shape.plate_width_m,
-            h: shape.plate_height_m,
-            frame: shape.frame_m,
-            pitch: shape.mesh_pitch_m,
-            hole: shape.mesh_hole_m,
-            keep: 1.0,
-        })
+        l_plate(
+            shape,
+            (x, y, z0),
+            a,
+            (shape.plate_width_m, shape.plate_height_m),
+            true,
+        )
     };
     let mut prims = vec![plate(heading), plate(heading + std::f64::consts::FRAC_PI_2)];
     // The corner post, centred on the corner line, from the ground to above the plates.
@@ -118,39 +201,53 @@ pub(super) fn build_target(
     (Object::new(prims), [gz, z0, z1, ant_top])
 }
 
+/// Target `i` of the road layout: along the road, alternating sides, at a
+/// random distance in `target_distance_m`, random heading. Returns (x, y,
+/// heading rad, distance from the road).
+fn road_side(p: &SynthParams, road: &Road, rng: &mut Pcg64, i: usize) -> (f64, f64, f64, f64) {
+    let k = p.targets;
+    let [dmin, dmax] = p.target_distance_m;
+    let tx = if k > 1 {
+        p.spread_m * i as f64 / (k - 1) as f64 + rng.random_range(-2.0..2.0)
+    } else {
+        p.spread_m / 2.0
+    };
+    let side = if i % 2 == 0 { -1.0 } else { 1.0 };
+    let dist = if dmax > dmin {
+        rng.random_range(dmin..dmax)
+    } else {
+        dmin
+    };
+    // Perpendicular to the road's local heading.
+    let h = road.heading(tx);
+    let (cx, cy) = (
+        tx - side * dist * h.sin(),
+        road.y(tx) + side * dist * h.cos(),
+    );
+    let heading = rng.random_range(0.0..std::f64::consts::TAU);
+    (cx, cy, heading, dist)
+}
+
 pub(super) fn build_scene(p: &SynthParams) -> Scene {
     let ground = build_ground(p);
     let k = p.targets;
-    let lead = 30.0;
-    let road = Road {
-        x0: -lead,
-        x1: p.spread_m + lead,
-        amp: p.road_curve_m,
-        wavelength: (p.spread_m + 2.0 * lead).max(40.0),
-    };
+    let road = road_of(p);
     let mut objects = Vec::new();
     let mut targets = Vec::new();
     let mut rng = stream(p.seed, 2);
-    let [dmin, dmax] = p.target_distance_m;
+    // Validated before: the square's corners are clear of the road.
+    let square = match p.layout {
+        Layout::Square => square_layout(p, &road).ok(),
+        Layout::Road => None,
+    };
     for i in 0..k {
-        let tx = if k > 1 {
-            p.spread_m * i as f64 / (k - 1) as f64 + rng.random_range(-2.0..2.0)
-        } else {
-            p.spread_m / 2.0
+        let (cx, cy, heading, dist) = match &square {
+            Some(corners) => {
+                let (x, y, heading) = corners[i];
+                (x, y, heading, (y - road.y(x)).abs())
+            }
+            None => road_side(p, &road, &mut rng, i),
         };
-        let side = if i % 2 == 0 { -1.0 } else { 1.0 };
-        let dist = if dmax > dmin {
-            rng.random_range(dmin..dmax)
-        } else {
-            dmin
-        };
-        // Perpendicular to the road's local heading.
-        let h = road.heading(tx);
-        let (cx, cy) = (
-            tx - side * dist * h.sin(),
-            road.y(tx) + side * dist * h.cos(),
-        );
-        let heading = rng.random_range(0.0..std::f64::consts::TAU);
         let (obj, [gz, z0, z1, ant]) = build_target(&ground, &p.target, cx, cy, heading);
         objects.push(obj);
         let zc = (z0 + z1) / 2.0;
@@ -345,11 +442,13 @@ pub(super) fn build_scene(p: &SynthParams) -> Scene {
         });
     }
     super::obstacles::add(p, &ground, &road, &mut objects, &mut targets, &mut clutter);
+    let decoys = super::decoys::add(p, &ground, &road, &mut objects, &targets, &clutter);
     Scene {
         world: World { ground, objects },
         road,
         targets,
         clutter,
+        decoys,
     }
 }
 
