@@ -252,18 +252,24 @@ pub fn detect_map(
     })
 }
 
-/// The first clause of a tight-crop error, without its numbers, so that
-/// rejections can be counted by kind.
+/// A tight-crop error as a kind, without its numbers, so that rejections can
+/// be counted.
 fn short_reason(e: &str) -> String {
-    if let Some(i) = e.find("closest thing seen: ") {
-        let s = &e[i + 20..];
-        // "a 0.38 × 0.46 m L (...)" → "a … L"; keep the words only.
-        let words: Vec<&str> = s
-            .split_whitespace()
-            .filter(|w| !w.chars().any(|c| c.is_ascii_digit()) && *w != "×" && *w != "m")
-            .take(6)
-            .collect();
-        return words.join(" ");
+    let kinds = [
+        (" m L (plates", "an L of another size than the target's"),
+        ("continuing", "a plane going on past the corner"),
+        ("tall", "an L taller than a plate"),
+        ("T or a cross", "a T or a cross"),
+        ("faces going on", "faces going on past a plate's edge"),
+        ("nothing stands above", "nothing above the ground"),
+    ];
+    for (k, v) in kinds {
+        if e.contains(k) {
+            return v.into();
+        }
+    }
+    if e.starts_with("no target-shaped object") {
+        return "no L of two perpendicular plates".into();
     }
     e.split(['(', ';']).next().unwrap_or(e).trim().to_string()
 }

@@ -3,6 +3,7 @@
 //! ids fix the 2D transform; more are fitted by least squares, and a hint that
 //! disagrees with the others by more than a metre is an error, not an average.
 
+use crate::cloud::RigidMotion;
 use crate::survey::{Survey, SurveyOptions, read_survey};
 use crate::{Error, Point, Result};
 use std::path::Path;
@@ -22,16 +23,22 @@ pub struct HintFrame {
 }
 
 /// Reads `path` and fits the map → survey transform from the ids it shares
-/// with `survey`.
-pub fn read_hints(path: &Path, survey: &Survey) -> Result<HintFrame> {
+/// with `survey`. Hints are in the map's own frame; `motion` (the levelling)
+/// moves them into the frame the transform is for (a hint without a height
+/// is taken at the centre of rotation's).
+pub fn read_hints(path: &Path, survey: &Survey, motion: &RigidMotion) -> Result<HintFrame> {
     let hints = read_survey(path, &SurveyOptions::default())?;
     let pairs: Vec<(Point, Point, bool)> = hints
         .targets
         .iter()
         .filter_map(|h| {
+            let mut p = h.position;
+            if !h.has_z {
+                p.z = motion.origin.z;
+            }
             survey
                 .get(&h.id)
-                .map(|s| (h.position, s.reference(), h.has_z && s.has_z))
+                .map(|s| (motion.apply(&p), s.reference(), h.has_z && s.has_z))
         })
         .collect();
     if pairs.len() < 2 {

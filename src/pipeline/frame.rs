@@ -97,14 +97,18 @@ pub struct FrameFound {
 
 /// The first guess at the transform before any target is located: what the
 /// user gave, or the survey frame (auto mode tries it first).
-pub(super) fn given(survey: &Survey, cfg: &Config) -> Result<(FrameHow, [f64; 3], f64)> {
+pub(super) fn given(
+    survey: &Survey,
+    cfg: &Config,
+    motion: &RigidMotion,
+) -> Result<(FrameHow, [f64; 3], f64)> {
     if let Some(init) = cfg.frame.init {
         return Ok((FrameHow::Init, init, 0.0));
     }
     if let Some(path) = &cfg.frame.hints
         && matches!(cfg.frame.mode, FrameMode::Auto | FrameMode::Hints)
     {
-        let h = read_hints(path, survey)?;
+        let h = read_hints(path, survey, motion)?;
         return Ok((
             FrameHow::Hints {
                 used: h.used,

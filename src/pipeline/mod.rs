@@ -156,14 +156,16 @@ fn evaluate(
     };
     let ground = crate::frame::ground_level(source, None, |b| progress(b, total))?;
     let mut motion = ground.levelling(cfg.frame.level_above_deg);
-    let (mut how, mut init, mut dz) = frame::given(survey, cfg)?;
+    let (mut how, mut init, mut dz) = frame::given(survey, cfg, &motion)?;
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {
         (how, init, dz, unmatched) =
             frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress)?;
     }
-    let first = |init: &[f64; 3], dz: f64, map: &mut MapStats, progress: &mut _| {
-        let expected = expected_positions(survey, init, dz);
+    // `--init` and the survey frame are the map's own; hints and detections
+    // were moved into the levelled frame already.
+    let first = |init: &[f64; 3], dz: f64, own: bool, map: &mut MapStats, progress: &mut _| {
+        let expected = expected_positions(survey, init, dz, own.then_some(&motion));
         let crops = read_crops(source, &expected, &crop_params, &motion, map, progress)?;
         let found: Vec<TargetRun> = survey
             .targets
@@ -187,7 +189,8 @@ fn evaluate(
             .collect();
         Result::Ok((expected, found))
     };
-    let (mut expected, mut found) = first(&init, dz, &mut map, &mut progress)?;
+    let own = |h: &FrameHow| matches!(h, FrameHow::Init | FrameHow::Survey);
+    let (mut expected, mut found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
     if cfg.frame.mode == config::FrameMode::Auto
         && how == FrameHow::Survey
         && crops_dir.is_none()
@@ -196,7 +199,7 @@ fn evaluate(
     {
         (how, init, dz, unmatched) =
             frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress)?;
-        (expected, found) = first(&init, dz, &mut map, &mut progress)?;
+        (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
     }
     // The targets' plumb lines refine the vertical, once: each line is a
     // plain plane fit of the target's own points, which turn with the frame,
@@ -406,13 +409,26 @@ fn estimates(found: &[TargetRun]) -> Vec<Estimate> {
 }
 
 /// Where every surveyed target is expected in the (levelled) map.
-fn expected_positions(survey: &Survey, init: &[f64; 3], dz: f64) -> Vec<Point> {
+/// With `level` (a transform in the map's own frame), the positions are moved
+/// by the levelling at the centre of rotation's height: the survey's heights
+/// may sit metres above or below the map's, and the crop is a cylinder.
+fn expected_positions(
+    survey: &Survey,
+    init: &[f64; 3],
+    dz: f64,
+    level: Option<&RigidMotion>,
+) -> Vec<Point> {
     survey
         .targets
         .iter()
         .map(|t| {
             let mut e = expected_in_map(init, &t.reference());
             e.z -= dz;
+            if let Some(m) = level.filter(|m| !m.is_identity()) {
+                let q = m.apply(&Point::new(e.x, e.y, m.origin.z));
+                e.x = q.x;
+                e.y = q.y;
+            }
             e
         })
         .collect()

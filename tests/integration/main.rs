@@ -9,6 +9,7 @@
 mod truth;
 mod util;
 
+mod any_frame;
 mod cli_crop;
 mod cli_formats;
 mod cli_locate;
