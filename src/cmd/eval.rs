@@ -332,6 +332,11 @@ pub fn result_file(
     survey_path: &Path,
 ) -> ResultFile {
     let mut result = ResultFile::from_accuracy(&ev.accuracy, survey);
+    // The pipeline's caveats (levelling, wrong objects rejected) belong in
+    // the file and the report as much as on stderr.
+    result
+        .warnings
+        .extend(ev.warnings.iter().map(|w| w.to_string()));
     result.eval = Some(EvalInfo::from_evaluation(
         ev,
         &survey_path.display().to_string(),

@@ -218,11 +218,21 @@ pub(super) fn plumb(found: &[TargetRun], turned: bool) -> Option<(Plumb, Option<
     let var = axes.iter().map(|a| a.angle(&mean).powi(2)).sum::<f64>() / (n - 1) as f64;
     let se = (var / n as f64).sqrt().to_degrees();
     // Up to 20°: beyond, three targets agreeing is more likely a mistake.
-    let bar = if turned { 0.01 } else { (3.0 * se).max(0.5) };
+    let bar = if turned { 0.005 } else { (3.0 * se).max(0.5) };
     let applied = tilt > bar && tilt <= 20.0;
+    // In a turned frame, the plumb lines and the ground are two estimates of
+    // the vertical: the ground's error is the site's slope (taken as 2°: ramps and roads run steeper than 1°),
+    // the plumb lines' their standard error. The turn is their inverse-variance
+    // mean, so a few noisy plumb lines of a sparse map move the frame little.
+    let weight = if turned {
+        GROUND_SIGMA_DEG.powi(2) / (GROUND_SIGMA_DEG.powi(2) + se * se)
+    } else {
+        1.0
+    };
     let rot = applied
         .then(|| Rotation3::rotation_between(&mean, &Vector3::z()))
-        .flatten();
+        .flatten()
+        .map(|r| Rotation3::from_scaled_axis(r.scaled_axis() * weight));
     Some((
         Plumb {
             tilt_deg: tilt,
@@ -262,6 +272,10 @@ fn plain_axis(tight: &[Point], f: &target::Found) -> Option<Vector3<f64>> {
     let a = if a.z < 0.0 { -a } else { a };
     (a.norm() > 0.5).then(|| a.normalize())
 }
+
+/// How far the ground's vertical may be from the true one: a site's general
+/// slope (degrees).
+const GROUND_SIGMA_DEG: f64 = 2.0;
 
 /// Turns every target's crops by `rot` about `origin` and locates the found
 /// ones again with +z as their vertical.

@@ -11,7 +11,7 @@ pub use build::warning_text;
 mod eval_info;
 
 pub use atomic::{refuse_overwrite, write_atomic};
-pub use eval_info::{EvalInfo, TargetDetail};
+pub use eval_info::{DetectionInfo, EvalInfo, FrameInfo, Levelling, TargetDetail};
 
 use crate::accuracy::Dim;
 use crate::survey::{Geodetic, Role, SurveyFrame};

@@ -99,6 +99,93 @@ fn figure(o: &mut String, f: &Figure, caption: &str) {
     );
 }
 
+/// How the map's frame was found: the transform, its residual, the levelling,
+/// detections left unmatched.
+fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
+    o.push_str("<section id=\"frame\"><h2>Map frame</h2><table class=\"grid\"><tbody>");
+    let mut row = |k: &str, v: String| {
+        let _ = write!(
+            o,
+            "<tr><th>{}</th><td style=\"text-align:left\">{}</td></tr>",
+            escape(k),
+            escape(&v)
+        );
+    };
+    let how = match f.how.as_str() {
+        "survey" => {
+            "the targets were where the survey says: the map is in the survey frame".to_string()
+        }
+        "init" => "given with --init".to_string(),
+        "hints" => "fitted to --hints (approximate map positions of targets)".to_string(),
+        "detect" => match &f.detection {
+            Some(d) => format!(
+                "detected {} target-shaped object(s) map-wide and matched {} to the survey (RMS {:.3} m; the best other frame matched {})",
+                d.detections,
+                d.matched.len(),
+                d.rms,
+                d.runner_up
+            ),
+            None => "detected and matched".to_string(),
+        },
+        other => other.to_string(),
+    };
+    row("how it was found", how);
+    row(
+        "map → survey used to crop",
+        format!(
+            "x {:.3} m, y {:.3} m, yaw {:.3}°, z offset {:.3} m",
+            f.init[0], f.init[1], f.init[2], f.dz
+        ),
+    );
+    let l = &f.levelling;
+    row(
+        "levelling",
+        if l.tilt_deg > 0.0 {
+            format!(
+                "the map was turned upright by {:.2}° about ({:.1}, {:.1}, {:.1}); positions in this report are in that levelled frame",
+                l.tilt_deg, l.origin[0], l.origin[1], l.origin[2]
+            )
+        } else {
+            "none: the map is level".to_string()
+        },
+    );
+    if let (Some(t), Some(s)) = (l.ground_tilt_deg, l.ground_support) {
+        row(
+            "ground",
+            format!(
+                "leans {t:.2}° from the map's +z ({:.0} % of 2 m ground blocks agree)",
+                100.0 * s
+            ),
+        );
+    }
+    if let (Some(t), Some(s)) = (l.plumb_tilt_deg, l.plumb_se_deg) {
+        row(
+            "targets' plumb lines",
+            format!(
+                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}",
+                if l.plumb_applied {
+                    "; the frame was turned to them"
+                } else {
+                    ""
+                }
+            ),
+        );
+    }
+    if let Some(d) = &f.detection
+        && !d.unmatched.is_empty()
+    {
+        row(
+            "detections left unmatched",
+            d.unmatched
+                .iter()
+                .map(|c| format!("({:.2}, {:.2}, {:.2})", c[0], c[1], c[2]))
+                .collect::<Vec<_>>()
+                .join(", "),
+        );
+    }
+    o.push_str("</tbody></table></section>\n");
+}
+
 /// The report page; `figs` are [`Report::figures`] (overview, relative, then
 /// one per target).
 pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
@@ -193,6 +280,10 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
         o.push_str("</ul>");
     }
     o.push_str("</section>\n");
+
+    if let Some(e) = &r.eval {
+        frame_section(&mut o, &e.frame);
+    }
 
     let mut figs = figs.iter();
     if let Some(f) = figs.next() {
