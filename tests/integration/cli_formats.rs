@@ -25,9 +25,14 @@ fn synth_and_eval(dir: &Path, format: &str) -> Found {
         "synth {format}: {}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let map = scene.join(format!("map.{format}"));
+    let ext = match format {
+        "pcd-xyzi" | "pcd-fastlio" => "pcd",
+        "ply-f32" => "ply",
+        f => f,
+    };
+    let map = scene.join(format!("map.{ext}"));
     let head = std::fs::read(&map).unwrap();
-    let magic: &[u8] = match format {
+    let magic: &[u8] = match ext {
         "pcd" => b"# .PCD",
         "ply" => b"ply",
         _ => b"LASF",
@@ -93,6 +98,29 @@ fn pcd_ply_and_las_maps_find_the_same_targets() {
     }
 }
 
+#[test]
+fn float32_slam_layouts_find_the_same_targets() {
+    // LIO-SAM's, FAST-LIO2's and GLIM's float32 layouts of the same scene:
+    // the map's own coordinates rounded to f32 (micrometres here), so the
+    // same targets within a fraction of a millimetre of the double map's.
+    let dir = tempdir();
+    let pcd = synth_and_eval(dir.path(), "pcd");
+    for format in ["pcd-xyzi", "pcd-fastlio", "ply-f32"] {
+        let got = synth_and_eval(dir.path(), format);
+        assert_eq!(
+            pcd.iter().map(|(k, v)| (k, &v.0)).collect::<Vec<_>>(),
+            got.iter().map(|(k, v)| (k, &v.0)).collect::<Vec<_>>(),
+            "{format}"
+        );
+        for (id, (_, p)) in &pcd {
+            if let (Some(a), Some(b)) = (p, &got[id].1) {
+                let d = (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max);
+                assert!(d < 3e-4, "{format} target {id}: pcd {a:?}, {b:?}");
+            }
+        }
+    }
+}
+
 /// Point count of every crop file `mapgauge crop` wrote (its stdout table).
 fn crop_counts(map: &Path, survey: &Path, out: &Path) -> Vec<u64> {
     let o = bin()
@@ -138,6 +166,9 @@ fn convert_to_every_format_keeps_the_crops() {
         ("pcd-compressed", "pcd", true),
         ("pcd-ascii", "pcd", false),
         ("pcd-f32", "pcd", false),
+        ("pcd-xyzi", "pcd", false),
+        ("pcd-fastlio", "pcd", false),
+        ("ply-f32", "ply", false),
         ("las", "las", false),
         ("laz", "laz", false),
     ] {
