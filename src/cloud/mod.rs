@@ -81,6 +81,23 @@ pub trait PointReader: Send {
     fn stats(&self) -> ReadStats;
     /// Bytes of the file consumed so far (for progress bars).
     fn bytes_read(&self) -> u64;
+    /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
+    /// cloud has an `intensity` field and the reader reads it (binary PCD,
+    /// fixed-size binary PLY, uncompressed LAS).
+    fn has_intensity(&self) -> bool {
+        false
+    }
+    /// [`PointReader::next_chunk`], with the intensity of each point in
+    /// `intensity` (cleared first; left empty when
+    /// [`PointReader::has_intensity`] is false).
+    fn next_chunk_intensity(
+        &mut self,
+        buf: &mut Vec<Point>,
+        intensity: &mut Vec<f32>,
+    ) -> Result<bool> {
+        intensity.clear();
+        self.next_chunk(buf)
+    }
     /// The next stretch of the cloud as a [`Batch`] of pieces that threads can
     /// read, decode and consume independently (so each piece is used while it
     /// is in the cache), or `None` once the cloud is exhausted. `buf` is the
@@ -296,6 +313,9 @@ pub enum OutFormat {
     /// the source has it (GLIM's maps). Float32 limits as for `pcd-f32`.
     #[serde(rename = "ply-f32")]
     PlyF32,
+    /// XYZ text: `x y z` lines to the micrometre (6 decimals), plus the
+    /// intensity when the source has it; no header.
+    Xyz,
 }
 
 impl OutFormat {
@@ -303,7 +323,7 @@ impl OutFormat {
     pub fn holds_intensity(self) -> bool {
         matches!(
             self,
-            OutFormat::PcdXyzi | OutFormat::PcdFastlio | OutFormat::PlyF32
+            OutFormat::PcdXyzi | OutFormat::PcdFastlio | OutFormat::PlyF32 | OutFormat::Xyz
         )
     }
 
@@ -319,6 +339,7 @@ impl OutFormat {
             | OutFormat::PcdFastlio => "pcd",
             OutFormat::Las => "las",
             OutFormat::Laz => "laz",
+            OutFormat::Xyz => "xyz",
         }
     }
 }
@@ -346,8 +367,8 @@ impl CloudWriter {
     }
 
     /// Starts writing `path` in `format`, with an intensity field where the
-    /// format has an optional one (`ply-f32`) when `intensity`; give the
-    /// values with [`CloudWriter::write_intensity`].
+    /// format has an optional one (`ply-f32`, `xyz`) when `intensity`; give
+    /// the values with [`CloudWriter::write_intensity`].
     pub fn create_with(path: &Path, format: OutFormat, intensity: bool) -> Result<Self> {
         let sink: Box<dyn Sink> = match format {
             OutFormat::Ply => write::ply_sink(path)?,
@@ -360,6 +381,7 @@ impl CloudWriter {
             OutFormat::PcdXyzi => write::pcd_xyzi_sink(path)?,
             OutFormat::PcdFastlio => write::pcd_fastlio_sink(path)?,
             OutFormat::PlyF32 => write::ply_f32_sink(path, intensity)?,
+            OutFormat::Xyz => write::xyz_sink(path, intensity)?,
         };
         Ok(CloudWriter { sink })
     }

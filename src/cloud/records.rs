@@ -48,6 +48,8 @@ pub(super) struct Layout {
     pub big_endian: bool,
     /// LAS: `value = scale * raw + offset` per coordinate.
     pub transform: Option<[(f64, f64); 3]>,
+    /// Where the point's intensity is, when it has one (for `convert`).
+    pub intensity: Option<Coord>,
 }
 
 /// A streaming reader of fixed-size records.
@@ -72,7 +74,7 @@ impl Records {
         if lay.stride == 0 {
             return Err(Error::format(path, "point records have zero size"));
         }
-        for c in &lay.coords {
+        for c in lay.coords.iter().chain(&lay.intensity) {
             if c.offset
                 .checked_add(c.kind.size())
                 .is_none_or(|e| e > lay.stride)
@@ -80,7 +82,7 @@ impl Records {
                 return Err(Error::format(
                     path,
                     format!(
-                        "a coordinate at byte {} does not fit in a {}-byte record",
+                        "a field at byte {} does not fit in a {}-byte record",
                         c.offset, lay.stride
                     ),
                 ));
@@ -468,6 +470,52 @@ impl PointReader for Records {
         Ok(!buf.is_empty())
     }
 
+    fn has_intensity(&self) -> bool {
+        self.lay.intensity.is_some()
+    }
+
+    /// One thread, a record at a time: the path of `convert`, not of the
+    /// crop, so kept simple.
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        let Some(ic) = self.lay.intensity else {
+            inten.clear();
+            return self.next_chunk(buf);
+        };
+        buf.clear();
+        inten.clear();
+        let lay = self.lay.clone();
+        let mut bytes = self
+            .pool
+            .lock()
+            .ok()
+            .and_then(|mut p| p.pop())
+            .unwrap_or_default();
+        while buf.is_empty() && self.next < lay.count {
+            let n = (lay.count - self.next).min(self.piece * 8) as usize;
+            self.read(self.next, n, &mut bytes)?;
+            let mut finite = 0u64;
+            for r in bytes[..n * lay.stride].chunks_exact(lay.stride) {
+                let v = [0, 1, 2].map(|i| {
+                    let c = lay.coords[i];
+                    let v = c.kind.read_at(r, c.offset, lay.big_endian);
+                    lay.transform.map_or(v, |t| t[i].0 * v + t[i].1)
+                });
+                if v.iter().all(|c| c.is_finite()) {
+                    finite += 1;
+                    buf.push(Point::new(v[0], v[1], v[2]));
+                    inten.push(ic.kind.read_at(r, ic.offset, lay.big_endian) as f32);
+                }
+            }
+            self.points.fetch_add(finite, Ordering::Relaxed);
+            self.skipped.fetch_add(n as u64 - finite, Ordering::Relaxed);
+            self.next += n as u64;
+        }
+        if let Ok(mut p) = self.pool.lock() {
+            p.push(bytes);
+        }
+        Ok(!buf.is_empty())
+    }
+
     fn next_batch<'a>(
         &'a mut self,
         _buf: &'a mut Vec<Point>,
@@ -520,6 +568,7 @@ mod tests {
             }),
             big_endian: false,
             transform: None,
+            intensity: None,
         }
     }
 

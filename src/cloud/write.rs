@@ -39,6 +39,11 @@ enum Kind {
     PlyF32 {
         intensity: bool,
     },
+    /// `x y z` text lines (micrometres), plus intensity when the writer was
+    /// created with intensity; no header.
+    Xyz {
+        intensity: bool,
+    },
 }
 
 impl Kind {
@@ -48,7 +53,7 @@ impl Kind {
             Kind::PcdF32 | Kind::PlyF32 { intensity: false } => Some(3),
             Kind::PcdXyzi | Kind::PlyF32 { intensity: true } => Some(4),
             Kind::PcdFastlio => Some(8),
-            Kind::Ply | Kind::Pcd | Kind::PcdAscii => None,
+            Kind::Ply | Kind::Pcd | Kind::PcdAscii | Kind::Xyz { .. } => None,
         }
     }
 }
@@ -73,6 +78,8 @@ fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
         Kind::PcdAscii => pcd_header(n, &pad, 8, "ascii"),
         Kind::PcdF32 => pcd_header(n, &pad, 4, "binary"),
         Kind::PcdXyzi => pcd_f32_header(n, &pad, &["x", "y", "z", "intensity"]),
+        // Nothing to fix up: no header.
+        Kind::Xyz { .. } => String::new(),
         Kind::PcdFastlio => pcd_f32_header(
             n,
             &pad,
@@ -204,10 +211,18 @@ impl Sink for XyzSink {
             // Binary records overwrite every byte of `scratch[..len]`: it is
             // grown (zero-filled) once, never cleared, so no block pays a
             // memset (3 % of a crop's instructions when it did).
-            let len = if self.kind == Kind::PcdAscii {
+            let len = if let Kind::PcdAscii | Kind::Xyz { .. } = self.kind {
                 self.scratch.clear();
-                for p in block {
-                    let _ = writeln!(self.scratch, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
+                let inten = intensity
+                    .filter(|_| self.kind == Kind::Xyz { intensity: true })
+                    .map(|i| &i[b << 14..(b << 14) + block.len()]);
+                for (j, p) in block.iter().enumerate() {
+                    let _ = write!(self.scratch, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
+                    if self.kind == (Kind::Xyz { intensity: true }) {
+                        // Shortest text that reads back as the same f32.
+                        let _ = write!(self.scratch, " {}", inten.map_or(0.0, |i| i[j]));
+                    }
+                    self.scratch.push(b'\n');
                 }
                 self.scratch.len()
             } else if let Some(k) = self.kind.f32_fields() {
@@ -315,6 +330,11 @@ pub(super) fn pcd_xyzi_sink(path: &Path) -> Result<Box<dyn Sink>> {
 /// Starts a binary PCD writer of FAST-LIO2's eight floats.
 pub(super) fn pcd_fastlio_sink(path: &Path) -> Result<Box<dyn Sink>> {
     Ok(Box::new(XyzSink::create(path, Kind::PcdFastlio)?))
+}
+
+/// Starts an XYZ text writer (x y z, plus intensity if `intensity`).
+pub(super) fn xyz_sink(path: &Path, intensity: bool) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::Xyz { intensity })?))
 }
 
 /// Starts a binary float PLY writer (x y z, plus intensity if `intensity`).
@@ -513,6 +533,7 @@ mod tests {
             Kind::PcdFastlio,
             Kind::PlyF32 { intensity: false },
             Kind::PlyF32 { intensity: true },
+            Kind::Xyz { intensity: true },
         ] {
             let len = fixed_header(kind, 0).len();
             for n in [1, 9, 10, 12345, u64::MAX / 3, u64::MAX] {

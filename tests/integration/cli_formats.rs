@@ -205,3 +205,75 @@ fn convert_to_every_format_keeps_the_crops() {
         .unwrap();
     assert!(!o.status.success());
 }
+
+#[test]
+fn convert_keeps_intensity_where_the_output_holds_it() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let o = bin()
+        .args([
+            "synth", "--points", "100000", "--seed", "5", "--format", "pcd-xyzi", "--out",
+        ])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let map = scene.join("map.pcd");
+    let bytes = std::fs::read(&map).unwrap();
+    let head = bytes
+        .windows(12)
+        .position(|w| w == b"DATA binary\n")
+        .unwrap()
+        + 12;
+    let f = |k: usize, c: usize| {
+        let o = head + 16 * k + 4 * c;
+        f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap())
+    };
+    let n = (bytes.len() - head) / 16;
+    let convert = |out: &Path, extra: &[&str]| {
+        let o = bin()
+            .args(["convert", "--map"])
+            .arg(&map)
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    // XYZ text, by extension and by `--to`: x y z intensity, every point.
+    for (name, extra) in [("a.xyz", &[][..]), ("b.txt", &["--to", "xyz"][..])] {
+        let out = dir.path().join(name);
+        let said = convert(&out, extra);
+        assert!(
+            said.contains(&format!("{n} points")) && said.contains("with intensity"),
+            "{said}"
+        );
+        let text = std::fs::read_to_string(&out).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), n);
+        for k in [0, 1, n / 2, n - 1] {
+            let v: Vec<f64> = lines[k].split(' ').map(|t| t.parse().unwrap()).collect();
+            assert_eq!(v.len(), 4, "{}", lines[k]);
+            for c in 0..3 {
+                assert!((v[c] - f64::from(f(k, c))).abs() <= 5e-7, "{}", lines[k]);
+            }
+            assert_eq!(v[3] as f32, f(k, 3), "{}", lines[k]);
+        }
+    }
+    // Float PLY: an intensity property with the same values.
+    let out = dir.path().join("c.ply");
+    convert(&out, &["--format", "ply-f32"]);
+    let ply = std::fs::read(&out).unwrap();
+    let text = String::from_utf8_lossy(&ply[..400]);
+    assert!(
+        text.contains("property float intensity\nend_header\n"),
+        "{text}"
+    );
+    let body = &ply[text.find("end_header\n").unwrap() + 11..];
+    assert_eq!(body, &bytes[head..]);
+    // Double PLY has no intensity field: dropped, and said so by omission.
+    let said = convert(&dir.path().join("d.ply"), &[]);
+    assert!(!said.contains("intensity"), "{said}");
+}

@@ -283,3 +283,83 @@ fn float_ply_with_colour_bytes_is_read_exactly() {
         .collect();
     assert_eq!(kept, want);
 }
+
+/// Every point and intensity through `next_chunk_intensity`.
+fn read_intensity(path: &Path) -> (Vec<Point>, Vec<f32>) {
+    let mut r = cloud::open(path).unwrap();
+    assert!(r.has_intensity(), "{}", path.display());
+    let (mut buf, mut inten) = (Vec::new(), Vec::new());
+    let (mut pts, mut all) = (Vec::new(), Vec::new());
+    while r.next_chunk_intensity(&mut buf, &mut inten).unwrap() {
+        assert_eq!(buf.len(), inten.len());
+        pts.extend_from_slice(&buf);
+        all.extend_from_slice(&inten);
+    }
+    (pts, all)
+}
+
+#[test]
+fn intensity_is_read_beside_its_point_and_written_where_it_fits() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts = points(30_000);
+    // A ROS layout with `_` before intensity, and points without a return:
+    // each intensity stays with its point.
+    let fields: &[F] = &[
+        ("x", 'F', 4, 1),
+        ("y", 'F', 4, 1),
+        ("z", 'F', 4, 1),
+        ("_", 'U', 1, 4),
+        ("Intensity", 'U', 2, 1),
+        ("ring", 'U', 2, 1),
+    ];
+    let mut bytes = header(fields, pts.len() as u64, 1, "binary").into_bytes();
+    let (mut want, mut want_i) = (Vec::new(), Vec::new());
+    for (i, p) in pts.iter().enumerate() {
+        let mut c = [p.x as f32, p.y as f32, p.z as f32];
+        if i % 777 == 3 {
+            c[1] = f32::INFINITY;
+        } else {
+            want.push(*p);
+            want_i.push((i % 60_000) as f32);
+        }
+        let mut rest = vec![0xff; 4];
+        rest.extend_from_slice(&((i % 60_000) as u16).to_le_bytes());
+        rest.extend_from_slice(&[5, 0]);
+        bytes.extend(record(c, &rest));
+    }
+    let src = file(&dir, "ros.pcd", &bytes);
+    let (got, got_i) = read_intensity(&src);
+    assert_eq!(got, want);
+    assert_eq!(got_i, want_i);
+    // Written by the formats with an intensity field, read back the same.
+    for format in [OutFormat::PcdXyzi, OutFormat::PcdFastlio, OutFormat::PlyF32] {
+        let p = dir
+            .path()
+            .join(format!("i-{format:?}.{}", format.extension()));
+        let mut w = CloudWriter::create_with(&p, format, true).unwrap();
+        w.write_intensity(&got, &got_i).unwrap();
+        w.finish().unwrap();
+        let (back, back_i) = read_intensity(&p);
+        assert_eq!(back, want, "{format:?}");
+        assert_eq!(back_i, want_i, "{format:?}");
+    }
+    // XYZ text: a fourth column.
+    let p = dir.path().join("i.xyz");
+    let mut w = CloudWriter::create_with(&p, OutFormat::Xyz, true).unwrap();
+    w.write_intensity(&got[..3], &got_i[..3]).unwrap();
+    w.finish().unwrap();
+    let text = std::fs::read_to_string(&p).unwrap();
+    let first = format!("{:.6} {:.6} {:.6} 0\n", got[0].x, got[0].y, got[0].z);
+    assert!(text.starts_with(&first), "{text}");
+    assert_eq!(text.lines().count(), 3);
+    assert_eq!(cloud::read_all(&p).unwrap().len(), 3);
+    // A cloud without intensity says so, and gives none.
+    let p = dir.path().join("plain.pcd");
+    cloud::write(&p, OutFormat::Pcd, &got[..10]).unwrap();
+    let mut r = cloud::open(&p).unwrap();
+    assert!(!r.has_intensity());
+    let (mut buf, mut inten) = (Vec::new(), vec![1.0]);
+    assert!(r.next_chunk_intensity(&mut buf, &mut inten).unwrap());
+    assert_eq!(buf.len(), 10);
+    assert!(inten.is_empty());
+}
