@@ -294,10 +294,10 @@ pub enum OutFormat {
     /// Binary PCD v0.7 with float32 x, y, z, for readers that misread double
     /// PCD (Open3D 0.20's legacy reader returns zeros). Coordinates are
     /// written as they are, with no offset (as SLAM tools write their maps):
-    /// f32 keeps 24 bits, so they round by at most 4 µm within 100 m of the
-    /// origin, 0.06 mm within 1 km, 0.5 mm within 8 km; beyond ±32 768 m
-    /// they would round by 1 mm or more and are refused (UTM-size maps: keep
-    /// `pcd`).
+    /// f32 keeps 24 bits, so they round by at most 4 µm within 128 m of the
+    /// origin, 0.03 mm within 1 024 m, 0.25 mm within 8 192 m, under 1 mm
+    /// within 32 768 m; beyond that they would round by 1 mm or more and are
+    /// refused (UTM-size maps: keep `pcd`).
     #[serde(rename = "pcd-f32")]
     PcdF32,
     /// Binary PCD of float x y z intensity, 16 bytes a point: LIO-SAM's

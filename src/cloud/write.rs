@@ -61,9 +61,9 @@ impl Kind {
 /// Largest coordinate magnitude written as f32. Coordinates are written as
 /// they are (the map's own frame, no offset, as SLAM tools write them): f32
 /// has a 24-bit significand, so a value in [2^k, 2^(k+1)) m is rounded to a
-/// multiple of 2^(k-23) m, by at most half that: ≤ 4 µm within 100 m of the
-/// origin, ≤ 0.06 mm within 1 km, ≤ 0.5 mm within 8 km and < 1 mm below
-/// 2^15 m. Beyond, a point would move by a millimetre or more: refused.
+/// multiple of 2^(k-23) m, by at most half that: ≤ 4 µm within 128 m of the
+/// origin, ≤ 0.03 mm within 1 024 m, ≤ 0.25 mm within 8 192 m and < 1 mm
+/// below 2^15 m. Beyond, a point would move by a millimetre or more: refused.
 pub(super) const F32_LIMIT: f64 = 32768.0;
 
 /// The header for `n` points; `pad` trailing spaces go on the comment line.
