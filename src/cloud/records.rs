@@ -286,9 +286,10 @@ fn f32_front<const S: usize>(
 }
 
 /// Whether the first three f32 words (x, y, z) of every `S`-byte record are
-/// finite. One accumulator per word of the record, so the loop is a vector
-/// operation per record whatever the other fields hold (a packed `rgb` with
-/// alpha 255 is a NaN as a float, and must not count).
+/// finite, whatever the other fields hold (a packed `rgb` with alpha 255 is a
+/// NaN as a float, and must not count). One accumulator per word of the
+/// record's first 16 bytes and no branch: a loop the compiler vectorises
+/// (~6 instructions a record against ~20 for the per-record fold).
 #[inline(never)]
 fn f32_front_finite<const S: usize>(bytes: &[u8]) -> bool {
     const { assert!(S % 4 == 0 && S >= 12) };
@@ -301,8 +302,7 @@ fn f32_front_finite<const S: usize>(bytes: &[u8]) -> bool {
         }
         return acc == 0;
     }
-    // The record's first 16 bytes as one vector (x, y, z and the next
-    // field): one subtraction and one or per record.
+    // x, y, z and the word after them; that lane is dropped at the end.
     let mut acc = [0u32; 4];
     for r in bytes.chunks_exact(S) {
         let head = get::<16>(r, 0);
