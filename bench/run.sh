@@ -160,7 +160,7 @@ for N in "${SIZES[@]}"; do
     for f in $FORMATS; do
         MAP=${FILE[$f]:-}
         [[ -n $MAP && -f $MAP ]] || continue
-        MB=$(( $(stat -c %s "$MAP") / 1000000 ))
+        MB=$(( $(stat -L -c %s "$MAP") / 1000000 ))
         cat "$MAP" >/dev/null   # warm the page cache
         [[ -f ${PCLFILE[$f]:-/nonexistent} && ${PCLFILE[$f]} != "$MAP" ]] && cat "${PCLFILE[$f]}" >/dev/null
         tools=()
