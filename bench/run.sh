@@ -12,6 +12,9 @@
 # Env:   DIR      data directory, outside the repo   (default /tmp/mapgauge-bench)
 #        RUNS     rounds per measurement, odd        (default 3)
 #        FORMATS  subset of: pcd pcd-ascii pcd-compressed ply las laz
+#                 pcd-xyzi pcd-fastlio ply-f32 (the float32 SLAM layouts:
+#                 LIO-SAM's x y z intensity, FAST-LIO2's eight floats, GLIM's
+#                 float PLY; synthesised directly in that layout)
 #        TOOLS    subset of: cat crop eval open3d pcl
 #        BASELINE_MAX_POINTS  largest map given to Open3D and PCL (default 50000000:
 #                 they hold the whole map in memory, ~10 GB at 200 M points)
@@ -23,7 +26,7 @@ set -euo pipefail
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 DIR=${DIR:-/tmp/mapgauge-bench}
 RUNS=${RUNS:-3}
-FORMATS=${FORMATS:-"pcd pcd-ascii pcd-compressed ply las laz"}
+FORMATS=${FORMATS:-"pcd pcd-ascii pcd-compressed ply las laz pcd-xyzi pcd-fastlio ply-f32"}
 TOOLS=${TOOLS:-"cat crop eval open3d pcl"}
 BASELINE_MAX_POINTS=${BASELINE_MAX_POINTS:-50000000}
 SIZES=("$@")
@@ -118,9 +121,25 @@ for N in "${SIZES[@]}"; do
     fi
     NPTS=$(grep -a -m1 '^POINTS ' "$S/map.pcd" | awk '{print $2}')
     declare -A FILE=([pcd]="$S/map.pcd" [pcd-ascii]="$S/map-ascii.pcd" [pcd-compressed]="$S/map-compressed.pcd"
-                     [ply]="$S/map.ply" [las]="$S/map.las" [laz]="$S/map.laz")
+                     [ply]="$S/map.ply" [las]="$S/map.las" [laz]="$S/map.laz"
+                     [pcd-xyzi]="$S/pcd-xyzi/map.pcd" [pcd-fastlio]="$S/pcd-fastlio/map.pcd" [ply-f32]="$S/ply-f32/map.ply")
+    # The survey of every layout: the scene (and so the survey) does not
+    # depend on the format the map is written in.
+    declare -A SURVEY=()
     for f in $FORMATS; do
         [[ -n ${FILE[$f]:-} ]] || { note "unknown format $f"; continue; }
+        SURVEY[$f]="$S/survey.csv"
+        if [[ $f == pcd-xyzi || $f == pcd-fastlio || $f == ply-f32 ]]; then
+            # float32 layouts carry intensity (and FAST-LIO2's normals): a
+            # conversion from the double map could not fill them, so synth
+            # writes them directly.
+            SURVEY[$f]="$S/$f/survey.csv"
+            if [[ ! -f ${FILE[$f]} || ! -f ${SURVEY[$f]} ]]; then
+                echo "synthesising $N points as $f ..." >&2
+                "$BIN" synth --points "$N" --format "$f" --out "$S/$f" >/dev/null
+            fi
+            continue
+        fi
         if [[ ! -f ${FILE[$f]} ]]; then
             if [[ $f == pcd-compressed ]] && (( NPTS * 24 > 4294967295 )); then
                 note "$N points: binary_compressed PCD skipped: the format's 32-bit sizes cannot hold $NPTS double points"
@@ -131,7 +150,8 @@ for N in "${SIZES[@]}"; do
         fi
     done
     # PCL's filters read fields as float32: give them float32 copies.
-    declare -A PCLFILE=([pcd]="$S/map-f32.pcd" [pcd-ascii]="$S/map-f32-ascii.pcd" [pcd-compressed]="$S/map-f32-compressed.pcd")
+    declare -A PCLFILE=([pcd]="$S/map-f32.pcd" [pcd-ascii]="$S/map-f32-ascii.pcd" [pcd-compressed]="$S/map-f32-compressed.pcd"
+                        [pcd-xyzi]="${FILE[pcd-xyzi]}" [pcd-fastlio]="${FILE[pcd-fastlio]}")
     if [[ " $TOOLS " == *" pcl "* && $have_pcl == 1 ]] && (( NPTS <= BASELINE_MAX_POINTS )); then
         [[ -f ${PCLFILE[pcd]} ]] || python3 "$REPO/bench/pcd_f32.py" "$S/map.pcd" "${PCLFILE[pcd]}"
         [[ -f ${PCLFILE[pcd-ascii]} ]] || pcl_convert_pcd_ascii_binary "${PCLFILE[pcd]}" "${PCLFILE[pcd-ascii]}" 0 >/dev/null
@@ -140,9 +160,9 @@ for N in "${SIZES[@]}"; do
     for f in $FORMATS; do
         MAP=${FILE[$f]:-}
         [[ -n $MAP && -f $MAP ]] || continue
-        MB=$(( $(stat -c %s "$MAP") / 1000000 ))
+        MB=$(( $(stat -L -c %s "$MAP") / 1000000 ))
         cat "$MAP" >/dev/null   # warm the page cache
-        [[ -f ${PCLFILE[$f]:-/nonexistent} ]] && cat "${PCLFILE[$f]}" >/dev/null
+        [[ -f ${PCLFILE[$f]:-/nonexistent} && ${PCLFILE[$f]} != "$MAP" ]] && cat "${PCLFILE[$f]}" >/dev/null
         tools=()
         for t in $TOOLS; do
             case $t in
@@ -162,10 +182,10 @@ for N in "${SIZES[@]}"; do
                 echo "  $N $f $t run $i" >&2
                 case $t in
                     cat)    run_one "$key" sh -c "cat '$MAP' >/dev/null" ;;
-                    crop)   run_one "$key" "$BIN" crop --map "$MAP" --survey "$S/survey.csv" --out "$S/out-$t" ;;
-                    eval)   run_one "$key" "$BIN" eval --map "$MAP" --survey "$S/survey.csv" --out "$S/out-$t" ;;
-                    open3d) run_one "$key" python3 "$REPO/bench/open3d_crop.py" "$MAP" "$S/survey.csv" "$S/out-$t" ;;
-                    pcl)    run_one "$key" bash -c "pcl_crop '${PCLFILE[$f]}' '$S/survey.csv' '$S/out-$t'" ;;
+                    crop)   run_one "$key" "$BIN" crop --map "$MAP" --survey "${SURVEY[$f]}" --out "$S/out-$t" ;;
+                    eval)   run_one "$key" "$BIN" eval --map "$MAP" --survey "${SURVEY[$f]}" --out "$S/out-$t" ;;
+                    open3d) run_one "$key" python3 "$REPO/bench/open3d_crop.py" "$MAP" "${SURVEY[$f]}" "$S/out-$t" ;;
+                    pcl)    run_one "$key" bash -c "pcl_crop '${PCLFILE[$f]}' '${SURVEY[$f]}' '$S/out-$t'" ;;
                 esac
             done
         done
@@ -179,7 +199,7 @@ for N in "${SIZES[@]}"; do
             rc=$(awk -v a="$c" -v b="$catc" 'BEGIN{ if (b+0 > 0 && a != "nan") printf "%.2f", a/b; else print "-" }')
             ro=$(awk -v a="$o3w" -v b="$w" 'BEGIN{ if (a != "nan" && b+0 > 0) printf "%.1f", a/b; else print "-" }')
             mb=$MB; name=$t
-            if [[ $t == pcl ]]; then mb="$(( $(stat -c %s "${PCLFILE[$f]}") / 1000000 ))"; name="pcl (float32 copy)"; fi
+            if [[ $t == pcl && ${PCLFILE[$f]} != "$MAP" ]]; then mb="$(( $(stat -c %s "${PCLFILE[$f]}") / 1000000 ))"; name="pcl (float32 copy)"; fi
             echo "| $NPTS | $f | $mb | $name | $w | $c | $r | $rw | $rc | $ro |" >>"$OUT"
             echo "$NPTS $f $t: wall ${WALL[$key]}cpu ${CPU[$key]}rss ${RSS[$key]}" >&2
         done

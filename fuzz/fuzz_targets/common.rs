@@ -34,5 +34,35 @@ pub fn read_map(data: &[u8], ext: &str, format: mapgauge::cloud::Format) {
         }
         assert!(n <= r.stats().points);
     }
+    // `convert`'s path: one intensity per point.
+    if let Ok(mut r) = mapgauge::cloud::open_as(&path, format) {
+        let (mut buf, mut inten) = (Vec::new(), Vec::new());
+        let with = r.has_intensity();
+        while let Ok(true) = r.next_chunk_intensity(&mut buf, &mut inten) {
+            assert_eq!(inten.len(), if with { buf.len() } else { 0 });
+        }
+    }
+    // The loose crop's path: pieces filtered by a region around the origin.
+    if let Ok(mut r) = mapgauge::cloud::open_as(&path, format) {
+        let reg = mapgauge::cloud::Region::discs(&[[0.0, 0.0], [1.0, -2.0]], 5.0)
+            .expect("a valid region");
+        let mut buf = Vec::new();
+        let mut scratch = mapgauge::cloud::Scratch::default();
+        while let Ok(Some(b)) = r.next_batch(&mut buf) {
+            let mut failed = false;
+            for i in 0..b.pieces() {
+                match b.piece_within(i, &mut scratch, &reg) {
+                    Ok(p) => assert!(
+                        p.iter()
+                            .all(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite())
+                    ),
+                    Err(_) => failed = true,
+                }
+            }
+            if failed {
+                break;
+            }
+        }
+    }
     let _ = mapgauge::cloud::detect(&path);
 }

@@ -86,6 +86,23 @@ pub trait PointReader: Send {
     fn stats(&self) -> ReadStats;
     /// Bytes of the file consumed so far (for progress bars).
     fn bytes_read(&self) -> u64;
+    /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
+    /// cloud has an `intensity` field and the reader reads it (binary PCD,
+    /// fixed-size binary PLY, uncompressed LAS).
+    fn has_intensity(&self) -> bool {
+        false
+    }
+    /// [`PointReader::next_chunk`], with the intensity of each point in
+    /// `intensity` (cleared first; left empty when
+    /// [`PointReader::has_intensity`] is false).
+    fn next_chunk_intensity(
+        &mut self,
+        buf: &mut Vec<Point>,
+        intensity: &mut Vec<f32>,
+    ) -> Result<bool> {
+        intensity.clear();
+        self.next_chunk(buf)
+    }
     /// The next stretch of the cloud as a [`Batch`] of pieces that threads can
     /// read, decode and consume independently (so each piece is used while it
     /// is in the cache), or `None` once the cloud is exhausted. `buf` is the
@@ -282,23 +299,54 @@ pub enum OutFormat {
     /// LAZ (LASzip-compressed LAS 1.2, point format 0, millimetre scale).
     Laz,
     /// Binary PCD v0.7 with float32 x, y, z, for readers that misread double
-    /// PCD (Open3D 0.20's legacy reader returns zeros). f32 keeps ~7
-    /// significant digits: coordinates beyond ±32 768 m would round by over
-    /// 1 mm and are refused (UTM-size maps: keep `pcd`).
+    /// PCD (Open3D 0.20's legacy reader returns zeros). Coordinates are
+    /// written as they are, with no offset (as SLAM tools write their maps):
+    /// f32 keeps 24 bits, so they round by at most 4 µm within 128 m of the
+    /// origin, 0.03 mm within 1 024 m, 0.25 mm within 8 192 m, under 1 mm
+    /// within 32 768 m; beyond that they would round by 1 mm or more and are
+    /// refused (UTM-size maps: keep `pcd`).
     #[serde(rename = "pcd-f32")]
     PcdF32,
+    /// Binary PCD of float x y z intensity, 16 bytes a point: LIO-SAM's
+    /// `PointXYZI` maps. Float32 limits as for `pcd-f32`.
+    #[serde(rename = "pcd-xyzi")]
+    PcdXyzi,
+    /// Binary PCD of FAST-LIO2's `PointXYZINormal`: float x y z intensity
+    /// normal_x normal_y normal_z curvature, 32 bytes a point (normals and
+    /// curvature 0, as FAST-LIO2 saves them). Float32 limits as for `pcd-f32`.
+    #[serde(rename = "pcd-fastlio")]
+    PcdFastlio,
+    /// Binary little-endian PLY of float x y z, plus float intensity when
+    /// the source has it (GLIM's maps). Float32 limits as for `pcd-f32`.
+    #[serde(rename = "ply-f32")]
+    PlyF32,
+    /// XYZ text: `x y z` lines to the micrometre (6 decimals), plus the
+    /// intensity when the source has it; no header.
+    Xyz,
 }
 
 impl OutFormat {
+    /// Whether the format has an intensity field.
+    pub fn holds_intensity(self) -> bool {
+        matches!(
+            self,
+            OutFormat::PcdXyzi | OutFormat::PcdFastlio | OutFormat::PlyF32 | OutFormat::Xyz
+        )
+    }
+
     /// File extension without the dot.
     pub fn extension(self) -> &'static str {
         match self {
-            OutFormat::Ply => "ply",
-            OutFormat::Pcd | OutFormat::PcdAscii | OutFormat::PcdCompressed | OutFormat::PcdF32 => {
-                "pcd"
-            }
+            OutFormat::Ply | OutFormat::PlyF32 => "ply",
+            OutFormat::Pcd
+            | OutFormat::PcdAscii
+            | OutFormat::PcdCompressed
+            | OutFormat::PcdF32
+            | OutFormat::PcdXyzi
+            | OutFormat::PcdFastlio => "pcd",
             OutFormat::Las => "las",
             OutFormat::Laz => "laz",
+            OutFormat::Xyz => "xyz",
         }
     }
 }
@@ -313,13 +361,22 @@ pub struct CloudWriter {
 
 /// One output format's encoder (implemented in `write.rs` and `las/sink.rs`).
 trait Sink: Send {
-    fn write(&mut self, points: &[Point]) -> Result<()>;
+    /// Appends points, with one intensity each when given (formats without
+    /// an intensity field ignore it; those with one write 0 without it).
+    fn write(&mut self, points: &[Point], intensity: Option<&[f32]>) -> Result<()>;
     fn finish(self: Box<Self>) -> Result<u64>;
 }
 
 impl CloudWriter {
     /// Starts writing `path` in `format`.
     pub fn create(path: &Path, format: OutFormat) -> Result<Self> {
+        Self::create_with(path, format, false)
+    }
+
+    /// Starts writing `path` in `format`, with an intensity field where the
+    /// format has an optional one (`ply-f32`, `xyz`) when `intensity`; give
+    /// the values with [`CloudWriter::write_intensity`].
+    pub fn create_with(path: &Path, format: OutFormat, intensity: bool) -> Result<Self> {
         let sink: Box<dyn Sink> = match format {
             OutFormat::Ply => write::ply_sink(path)?,
             OutFormat::Pcd => write::pcd_sink(path)?,
@@ -328,12 +385,21 @@ impl CloudWriter {
             OutFormat::PcdAscii => write::pcd_ascii_sink(path)?,
             OutFormat::PcdCompressed => write::pcd_compressed_sink(path)?,
             OutFormat::PcdF32 => write::pcd_f32_sink(path)?,
+            OutFormat::PcdXyzi => write::pcd_xyzi_sink(path)?,
+            OutFormat::PcdFastlio => write::pcd_fastlio_sink(path)?,
+            OutFormat::PlyF32 => write::ply_f32_sink(path, intensity)?,
+            OutFormat::Xyz => write::xyz_sink(path, intensity)?,
         };
         Ok(CloudWriter { sink })
     }
     /// Appends points.
     pub fn write(&mut self, points: &[Point]) -> Result<()> {
-        self.sink.write(points)
+        self.sink.write(points, None)
+    }
+    /// Appends points with one intensity each (`intensity.len() ==
+    /// points.len()`), kept by the formats that have an intensity field.
+    pub fn write_intensity(&mut self, points: &[Point], intensity: &[f32]) -> Result<()> {
+        self.sink.write(points, Some(intensity))
     }
     /// Completes the header and moves the file into place. Returns the point count.
     pub fn finish(self) -> Result<u64> {

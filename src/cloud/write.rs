@@ -28,11 +28,43 @@ enum Kind {
     PcdAscii,
     /// Binary PCD with float (f32) x, y, z.
     PcdF32,
+    /// Binary PCD, float x y z intensity (LIO-SAM's `PointXYZI`).
+    PcdXyzi,
+    /// Binary PCD, float x y z intensity normal_x normal_y normal_z curvature
+    /// (FAST-LIO2's `PointXYZINormal`; normals and curvature written as 0, as
+    /// FAST-LIO2 saves its maps).
+    PcdFastlio,
+    /// Binary little-endian PLY, float x y z, and float intensity when the
+    /// writer was created with intensity (GLIM's maps).
+    PlyF32 {
+        intensity: bool,
+    },
+    /// `x y z` text lines (micrometres), plus intensity when the writer was
+    /// created with intensity; no header.
+    Xyz {
+        intensity: bool,
+    },
 }
 
-/// Largest coordinate magnitude written as f32: below 2^15 m the f32 spacing
-/// is at most 2^-9 m, so rounding moves a point by under 1 mm.
-const F32_LIMIT: f64 = 32768.0;
+impl Kind {
+    /// Float32 values per record, or `None` for the double and ascii kinds.
+    fn f32_fields(self) -> Option<usize> {
+        match self {
+            Kind::PcdF32 | Kind::PlyF32 { intensity: false } => Some(3),
+            Kind::PcdXyzi | Kind::PlyF32 { intensity: true } => Some(4),
+            Kind::PcdFastlio => Some(8),
+            Kind::Ply | Kind::Pcd | Kind::PcdAscii | Kind::Xyz { .. } => None,
+        }
+    }
+}
+
+/// Largest coordinate magnitude written as f32. Coordinates are written as
+/// they are (the map's own frame, no offset, as SLAM tools write them): f32
+/// has a 24-bit significand, so a value in [2^k, 2^(k+1)) m is rounded to a
+/// multiple of 2^(k-23) m, by at most half that: ≤ 4 µm within 128 m of the
+/// origin, ≤ 0.03 mm within 1 024 m, ≤ 0.25 mm within 8 192 m and < 1 mm
+/// below 2^15 m. Beyond, a point would move by a millimetre or more: refused.
+pub(super) const F32_LIMIT: f64 = 32768.0;
 
 /// The header for `n` points; `pad` trailing spaces go on the comment line.
 fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
@@ -45,8 +77,48 @@ fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
         Kind::Pcd => pcd_header(n, &pad, 8, "binary"),
         Kind::PcdAscii => pcd_header(n, &pad, 8, "ascii"),
         Kind::PcdF32 => pcd_header(n, &pad, 4, "binary"),
+        Kind::PcdXyzi => pcd_f32_header(n, &pad, &["x", "y", "z", "intensity"]),
+        // Nothing to fix up: no header.
+        Kind::Xyz { .. } => String::new(),
+        Kind::PcdFastlio => pcd_f32_header(
+            n,
+            &pad,
+            &[
+                "x",
+                "y",
+                "z",
+                "intensity",
+                "normal_x",
+                "normal_y",
+                "normal_z",
+                "curvature",
+            ],
+        ),
+        Kind::PlyF32 { intensity } => format!(
+            "ply\nformat binary_little_endian 1.0\ncomment written by mapgauge{pad}\n\
+             element vertex {n}\nproperty float x\nproperty float y\nproperty float z\n{}end_header\n",
+            if intensity {
+                "property float intensity\n"
+            } else {
+                ""
+            }
+        ),
     };
     s.into_bytes()
+}
+
+/// A binary PCD header with the float32 `fields` (x, y, z first).
+fn pcd_f32_header(n: u64, pad: &str, fields: &[&str]) -> String {
+    let k = fields.len();
+    format!(
+        "# .PCD v0.7 - Point Cloud Data file format{pad}\nVERSION 0.7\nFIELDS {}\n\
+         SIZE {}\nTYPE {}\nCOUNT {}\nWIDTH {n}\nHEIGHT 1\n\
+         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n",
+        fields.join(" "),
+        vec!["4"; k].join(" "),
+        vec!["F"; k].join(" "),
+        vec!["1"; k].join(" "),
+    )
 }
 
 /// A PCD header with `size`-byte float x, y, z.
@@ -61,7 +133,11 @@ fn pcd_header(n: u64, pad: &str, size: u8, data: &str) -> String {
 /// The header for `n` points, padded to the length reserved at creation.
 fn fixed_header(kind: Kind, n: u64) -> Vec<u8> {
     let digits = n.to_string().len();
-    let per_count = if kind == Kind::Ply { 1 } else { 2 };
+    let per_count = if matches!(kind, Kind::Ply | Kind::PlyF32 { .. }) {
+        1
+    } else {
+        2
+    };
     header(kind, n, (COUNT_WIDTH - digits) * per_count)
 }
 
@@ -120,41 +196,84 @@ impl XyzSink {
 }
 
 impl Sink for XyzSink {
-    fn write(&mut self, points: &[Point]) -> Result<()> {
-        for block in points.chunks(1 << 14) {
-            self.scratch.clear();
-            if self.kind == Kind::PcdAscii {
-                for p in block {
-                    let _ = writeln!(self.scratch, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
+    fn write(&mut self, points: &[Point], intensity: Option<&[f32]>) -> Result<()> {
+        if let Some(i) = intensity
+            && i.len() != points.len()
+        {
+            return Err(Error::Input(format!(
+                "{}: {} intensities for {} points",
+                self.dest.display(),
+                i.len(),
+                points.len()
+            )));
+        }
+        for (b, block) in points.chunks(1 << 14).enumerate() {
+            // Binary records overwrite every byte of `scratch[..len]`: it is
+            // grown (zero-filled) once, never cleared, so no block pays a
+            // memset (3 % of a crop's instructions when it did).
+            let len = if let Kind::PcdAscii | Kind::Xyz { .. } = self.kind {
+                self.scratch.clear();
+                let inten = intensity
+                    .filter(|_| self.kind == Kind::Xyz { intensity: true })
+                    .map(|i| &i[b << 14..(b << 14) + block.len()]);
+                for (j, p) in block.iter().enumerate() {
+                    let _ = write!(self.scratch, "{:.6} {:.6} {:.6}", p.x, p.y, p.z);
+                    if self.kind == (Kind::Xyz { intensity: true }) {
+                        // Shortest text that reads back as the same f32.
+                        let _ = write!(self.scratch, " {}", inten.map_or(0.0, |i| i[j]));
+                    }
+                    self.scratch.push(b'\n');
                 }
-            } else if self.kind == Kind::PcdF32 {
-                self.scratch.resize(12 * block.len(), 0);
-                for (k, (r, p)) in self.scratch.chunks_exact_mut(12).zip(block).enumerate() {
+                self.scratch.len()
+            } else if let Some(k) = self.kind.f32_fields() {
+                let inten = intensity.map(|i| &i[b << 14..(b << 14) + block.len()]);
+                let rec = 4 * k;
+                let len = rec * block.len();
+                if self.scratch.len() < len {
+                    self.scratch.resize(len, 0);
+                }
+                for (j, (r, p)) in self.scratch[..len]
+                    .chunks_exact_mut(rec)
+                    .zip(block)
+                    .enumerate()
+                {
                     for (c, v) in [p.x, p.y, p.z].into_iter().enumerate() {
                         if v.is_finite() && v.abs() >= F32_LIMIT {
-                            return Err(f32_refusal(&self.dest, self.count + k as u64, v));
+                            return Err(f32_refusal(&self.dest, self.count + j as u64, v));
                         }
                         r[4 * c..4 * c + 4].copy_from_slice(&(v as f32).to_le_bytes());
+                    }
+                    if k > 3 {
+                        // Intensity (0 when the source has none); the rest
+                        // (FAST-LIO2's normals and curvature) is 0.
+                        let v = inten.map_or(0.0, |i| i[j]);
+                        r[12..16].copy_from_slice(&v.to_le_bytes());
+                        r[16..].fill(0);
                     }
                 }
                 // `count` advances per block, so a refusal names the right point.
                 self.count += block.len() as u64;
+                len
             } else {
-                // Sized once and filled record by record: the crop writer's
-                // inner loop (a push per coordinate cost a capacity check each).
-                self.scratch.resize(24 * block.len(), 0);
-                for (r, p) in self.scratch.chunks_exact_mut(24).zip(block) {
+                // Filled record by record: the crop writer's inner loop (a
+                // push per coordinate cost a capacity check each).
+                let len = 24 * block.len();
+                if self.scratch.len() < len {
+                    self.scratch.resize(len, 0);
+                }
+                for (r, p) in self.scratch[..len].chunks_exact_mut(24).zip(block) {
                     r[..8].copy_from_slice(&p.x.to_le_bytes());
                     r[8..16].copy_from_slice(&p.y.to_le_bytes());
                     r[16..].copy_from_slice(&p.z.to_le_bytes());
                 }
-            }
+                len
+            };
             let scratch = std::mem::take(&mut self.scratch);
-            let res = self.out_mut()?.write_all(&scratch);
+            let res = self.out_mut()?.write_all(&scratch[..len]);
             self.scratch = scratch;
             res.map_err(|e| Error::io(self.tmp_path(), e))?;
         }
-        if self.kind != Kind::PcdF32 {
+        if self.kind.f32_fields().is_none() {
             self.count += points.len() as u64;
         }
         Ok(())
@@ -203,6 +322,26 @@ pub(super) fn pcd_f32_sink(path: &Path) -> Result<Box<dyn Sink>> {
     Ok(Box::new(XyzSink::create(path, Kind::PcdF32)?))
 }
 
+/// Starts a binary PCD writer of float x y z intensity (LIO-SAM).
+pub(super) fn pcd_xyzi_sink(path: &Path) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::PcdXyzi)?))
+}
+
+/// Starts a binary PCD writer of FAST-LIO2's eight floats.
+pub(super) fn pcd_fastlio_sink(path: &Path) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::PcdFastlio)?))
+}
+
+/// Starts an XYZ text writer (x y z, plus intensity if `intensity`).
+pub(super) fn xyz_sink(path: &Path, intensity: bool) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::Xyz { intensity })?))
+}
+
+/// Starts a binary float PLY writer (x y z, plus intensity if `intensity`).
+pub(super) fn ply_f32_sink(path: &Path, intensity: bool) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::PlyF32 { intensity })?))
+}
+
 /// Why a coordinate cannot be written as f32: the error it would carry.
 fn f32_refusal(dest: &Path, point: u64, v: f64) -> Error {
     let err = (v - f64::from(v as f32)).abs();
@@ -210,7 +349,7 @@ fn f32_refusal(dest: &Path, point: u64, v: f64) -> Error {
     Error::Input(format!(
         "{}: point {point} has a coordinate of {v} m, which float32 PCD cannot hold to the millimetre \
          (f32 keeps ~7 significant digits: spacing {ulp} m here, this one would move {err:.4} m; \
-         the limit is ±{F32_LIMIT} m); write double PCD (--format pcd) or move the map to a local frame first",
+         the limit is ±{F32_LIMIT} m); write a double format (--format pcd or ply) or move the map to a local frame first",
         dest.display()
     ))
 }
@@ -269,7 +408,7 @@ pub(super) fn pcd_compressed_sink(path: &Path) -> Result<Box<dyn Sink>> {
 }
 
 impl Sink for PcdCompressedSink {
-    fn write(&mut self, points: &[Point]) -> Result<()> {
+    fn write(&mut self, points: &[Point], _intensity: Option<&[f32]>) -> Result<()> {
         for (c, (p, w)) in self.cols.iter_mut().enumerate() {
             for q in points {
                 w.write_all(&q[c].to_le_bytes())
@@ -385,7 +524,17 @@ mod tests {
 
     #[test]
     fn header_length_is_fixed_for_every_count() {
-        for kind in [Kind::Ply, Kind::Pcd, Kind::PcdAscii, Kind::PcdF32] {
+        for kind in [
+            Kind::Ply,
+            Kind::Pcd,
+            Kind::PcdAscii,
+            Kind::PcdF32,
+            Kind::PcdXyzi,
+            Kind::PcdFastlio,
+            Kind::PlyF32 { intensity: false },
+            Kind::PlyF32 { intensity: true },
+            Kind::Xyz { intensity: true },
+        ] {
             let len = fixed_header(kind, 0).len();
             for n in [1, 9, 10, 12345, u64::MAX / 3, u64::MAX] {
                 assert_eq!(fixed_header(kind, n).len(), len, "{kind:?} {n}");

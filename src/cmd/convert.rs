@@ -14,10 +14,12 @@ pub struct Args {
     /// Output file.
     #[arg(long)]
     out: PathBuf,
-    /// Output format [default: from the output's extension: .ply, .pcd (binary), .las, .laz].
-    /// `pcd-f32` is for readers that misread double PCD (Open3D 0.20): it
-    /// refuses coordinates beyond ±32 768 m, where f32 rounds by over 1 mm.
-    #[arg(long, value_enum)]
+    /// Output format [default: from the output's extension: .ply, .pcd (binary), .las, .laz, .xyz].
+    /// `pcd-f32` is for readers that misread double PCD (Open3D 0.20); it and
+    /// the other float32 layouts refuse coordinates beyond ±32 768 m, where
+    /// f32 rounds by over 1 mm. The input's intensity (binary PCD, binary PLY,
+    /// LAS) is kept by `pcd-xyzi`, `pcd-fastlio`, `ply-f32` and `xyz`.
+    #[arg(long, visible_alias = "to", value_enum)]
     format: Option<OutFormat>,
 }
 
@@ -37,6 +39,7 @@ pub fn run(a: Args) -> Result<()> {
                 "pcd" => OutFormat::Pcd,
                 "las" => OutFormat::Las,
                 "laz" => OutFormat::Laz,
+                "xyz" => OutFormat::Xyz,
                 _ => {
                     return Err(Error::Param(format!(
                         "{}: cannot tell the output format from the extension; give --format",
@@ -48,14 +51,23 @@ pub fn run(a: Args) -> Result<()> {
     };
     refuse_overwrite(&a.out, &[&a.map])?;
     let mut reader = cloud::open(&a.map)?;
-    let mut writer = CloudWriter::create(&a.out, format)?;
-    let mut buf = Vec::new();
-    while reader.next_chunk(&mut buf)? {
-        writer.write(&buf)?;
+    // Intensity goes through when both ends have it.
+    let keep = reader.has_intensity() && format.holds_intensity();
+    let mut writer = CloudWriter::create_with(&a.out, format, keep)?;
+    let (mut buf, mut inten) = (Vec::new(), Vec::new());
+    if keep {
+        while reader.next_chunk_intensity(&mut buf, &mut inten)? {
+            writer.write_intensity(&buf, &inten)?;
+        }
+    } else {
+        while reader.next_chunk(&mut buf)? {
+            writer.write(&buf)?;
+        }
     }
     let n = writer.finish()?;
     let st = reader.stats();
-    println!("{n} points written to {}", a.out.display());
+    let with = if keep { " with intensity" } else { "" };
+    println!("{n} points written to {}{with}", a.out.display());
     if st.skipped_nonfinite > 0 {
         eprintln!("{} non-finite points skipped", st.skipped_nonfinite);
     }

@@ -50,9 +50,7 @@ pub fn write_scene(
         survey_llh: dir.join("survey_llh.csv"),
         truth: dir.join("truth.json"),
     };
-    let mut writer = CloudWriter::create(&files.map, format)?;
-    let truth = generate(params, &mut |pts| writer.write(pts))?;
-    writer.finish()?;
+    let truth = write_map(&files.map, params, format)?;
 
     let mut local = String::from("id,x,y,z,antenna_height\n");
     let mut llh = String::from("id,lat,lon,alt,antenna_height\n");
@@ -94,6 +92,37 @@ pub fn write_scene(
     .map_err(|e| Error::Input(e.to_string()))?;
     write_atomic(&files.truth, (json + "\n").as_bytes())?;
     Ok((files, truth, expected))
+}
+
+/// Generates the scene's map into `path`. Formats with an intensity field
+/// get [`synthetic_intensity`]; float32 formats hold the map's own
+/// coordinates (a local frame within a few hundred metres of the origin, so
+/// rounded by a few micrometres; see `OutFormat::PcdF32`).
+fn write_map(path: &Path, params: &SynthParams, format: OutFormat) -> Result<Truth> {
+    let with = format.holds_intensity();
+    let mut writer = CloudWriter::create_with(path, format, with)?;
+    let mut inten = Vec::new();
+    let truth = generate(params, &mut |pts| {
+        if with {
+            inten.clear();
+            inten.extend(pts.iter().map(synthetic_intensity));
+            writer.write_intensity(pts, &inten)
+        } else {
+            writer.write(pts)
+        }
+    })?;
+    writer.finish()?;
+    Ok(truth)
+}
+
+/// A stand-in for a return's intensity: an integer in 0..=255 (the range
+/// LIO-SAM and FAST-LIO2 maps hold) from a hash of the point's coordinates,
+/// so the same seed gives the same bytes in any thread count. Nothing reads
+/// it back; it is there so the files have the real layouts' bytes.
+fn synthetic_intensity(p: &Point) -> f32 {
+    let h = (p.x.to_bits() ^ p.y.to_bits().rotate_left(21) ^ p.z.to_bits().rotate_left(42))
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    (h >> 56) as f32
 }
 
 impl Truth {

@@ -25,9 +25,14 @@ fn synth_and_eval(dir: &Path, format: &str) -> Found {
         "synth {format}: {}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let map = scene.join(format!("map.{format}"));
+    let ext = match format {
+        "pcd-xyzi" | "pcd-fastlio" => "pcd",
+        "ply-f32" => "ply",
+        f => f,
+    };
+    let map = scene.join(format!("map.{ext}"));
     let head = std::fs::read(&map).unwrap();
-    let magic: &[u8] = match format {
+    let magic: &[u8] = match ext {
         "pcd" => b"# .PCD",
         "ply" => b"ply",
         _ => b"LASF",
@@ -93,6 +98,29 @@ fn pcd_ply_and_las_maps_find_the_same_targets() {
     }
 }
 
+#[test]
+fn float32_slam_layouts_find_the_same_targets() {
+    // LIO-SAM's, FAST-LIO2's and GLIM's float32 layouts of the same scene:
+    // the map's own coordinates rounded to f32 (micrometres here), so the
+    // same targets within a fraction of a millimetre of the double map's.
+    let dir = tempdir();
+    let pcd = synth_and_eval(dir.path(), "pcd");
+    for format in ["pcd-xyzi", "pcd-fastlio", "ply-f32"] {
+        let got = synth_and_eval(dir.path(), format);
+        assert_eq!(
+            pcd.iter().map(|(k, v)| (k, &v.0)).collect::<Vec<_>>(),
+            got.iter().map(|(k, v)| (k, &v.0)).collect::<Vec<_>>(),
+            "{format}"
+        );
+        for (id, (_, p)) in &pcd {
+            if let (Some(a), Some(b)) = (p, &got[id].1) {
+                let d = (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max);
+                assert!(d < 3e-4, "{format} target {id}: pcd {a:?}, {b:?}");
+            }
+        }
+    }
+}
+
 /// Point count of every crop file `mapgauge crop` wrote (its stdout table).
 fn crop_counts(map: &Path, survey: &Path, out: &Path) -> Vec<u64> {
     let o = bin()
@@ -138,6 +166,9 @@ fn convert_to_every_format_keeps_the_crops() {
         ("pcd-compressed", "pcd", true),
         ("pcd-ascii", "pcd", false),
         ("pcd-f32", "pcd", false),
+        ("pcd-xyzi", "pcd", false),
+        ("pcd-fastlio", "pcd", false),
+        ("ply-f32", "ply", false),
         ("las", "las", false),
         ("laz", "laz", false),
     ] {
@@ -173,4 +204,76 @@ fn convert_to_every_format_keeps_the_crops() {
         .output()
         .unwrap();
     assert!(!o.status.success());
+}
+
+#[test]
+fn convert_keeps_intensity_where_the_output_holds_it() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let o = bin()
+        .args([
+            "synth", "--points", "100000", "--seed", "5", "--format", "pcd-xyzi", "--out",
+        ])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let map = scene.join("map.pcd");
+    let bytes = std::fs::read(&map).unwrap();
+    let head = bytes
+        .windows(12)
+        .position(|w| w == b"DATA binary\n")
+        .unwrap()
+        + 12;
+    let f = |k: usize, c: usize| {
+        let o = head + 16 * k + 4 * c;
+        f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap())
+    };
+    let n = (bytes.len() - head) / 16;
+    let convert = |out: &Path, extra: &[&str]| {
+        let o = bin()
+            .args(["convert", "--map"])
+            .arg(&map)
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    // XYZ text, by extension and by `--to`: x y z intensity, every point.
+    for (name, extra) in [("a.xyz", &[][..]), ("b.txt", &["--to", "xyz"][..])] {
+        let out = dir.path().join(name);
+        let said = convert(&out, extra);
+        assert!(
+            said.contains(&format!("{n} points")) && said.contains("with intensity"),
+            "{said}"
+        );
+        let text = std::fs::read_to_string(&out).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), n);
+        for k in [0, 1, n / 2, n - 1] {
+            let v: Vec<f64> = lines[k].split(' ').map(|t| t.parse().unwrap()).collect();
+            assert_eq!(v.len(), 4, "{}", lines[k]);
+            for c in 0..3 {
+                assert!((v[c] - f64::from(f(k, c))).abs() <= 5e-7, "{}", lines[k]);
+            }
+            assert_eq!(v[3] as f32, f(k, 3), "{}", lines[k]);
+        }
+    }
+    // Float PLY: an intensity property with the same values.
+    let out = dir.path().join("c.ply");
+    convert(&out, &["--format", "ply-f32"]);
+    let ply = std::fs::read(&out).unwrap();
+    let text = String::from_utf8_lossy(&ply[..400]);
+    assert!(
+        text.contains("property float intensity\nend_header\n"),
+        "{text}"
+    );
+    let body = &ply[text.find("end_header\n").unwrap() + 11..];
+    assert_eq!(body, &bytes[head..]);
+    // Double PLY has no intensity field: dropped, and said so by omission.
+    let said = convert(&dir.path().join("d.ply"), &[]);
+    assert!(!said.contains("intensity"), "{said}");
 }

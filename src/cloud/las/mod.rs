@@ -248,6 +248,11 @@ fn open_records(path: &Path, file: &File, file_bytes: u64) -> Result<Option<Box<
             (t.y.scale, t.y.offset),
             (t.z.scale, t.z.offset),
         ]),
+        // Intensity follows X, Y, Z in every point format.
+        intensity: Some(super::records::Coord {
+            kind: super::scalar::Scalar::U16,
+            offset: 12,
+        }),
     };
     Ok(Some(Box::new(super::records::Records::new(
         file, path, info, lay,

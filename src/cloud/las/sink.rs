@@ -126,7 +126,7 @@ impl LasSink {
 }
 
 impl Sink for LasSink {
-    fn write(&mut self, points: &[Point]) -> Result<()> {
+    fn write(&mut self, points: &[Point], _intensity: Option<&[f32]>) -> Result<()> {
         if points.is_empty() {
             return Ok(());
         }

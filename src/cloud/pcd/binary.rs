@@ -73,8 +73,28 @@ pub(super) fn open(
         }),
         big_endian: false,
         transform: None,
+        intensity: intensity_field(&header),
     };
     Ok(Box::new(records::Records::new(file, path, info, lay)?))
+}
+
+/// The `intensity` field (exact name first, then any case), when it holds
+/// one value.
+fn intensity_field(header: &Header) -> Option<records::Coord> {
+    let f = header
+        .fields
+        .iter()
+        .find(|f| f.name == "intensity")
+        .or_else(|| {
+            header
+                .fields
+                .iter()
+                .find(|f| f.name.eq_ignore_ascii_case("intensity"))
+        })?;
+    (f.count == 1).then_some(records::Coord {
+        kind: f.kind,
+        offset: f.offset,
+    })
 }
 
 /// PCL's page sizes: 4 KiB (x86-64), 16 KiB (Apple silicon), 64 KiB (some

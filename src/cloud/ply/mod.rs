@@ -141,6 +141,30 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
                         })
                         .sum();
                 }
+                // A scalar `intensity` (any case), for `convert`.
+                let intensity = vertex
+                    .props
+                    .iter()
+                    .position(|(n, _)| n == "intensity")
+                    .or_else(|| {
+                        vertex
+                            .props
+                            .iter()
+                            .position(|(n, _)| n.eq_ignore_ascii_case("intensity"))
+                    })
+                    .and_then(|i| match vertex.props[i].1 {
+                        Prop::Scalar(t) => Some(records::Coord {
+                            kind: t,
+                            offset: vertex.props[..i]
+                                .iter()
+                                .map(|(_, p)| match p {
+                                    Prop::Scalar(t) => t.size(),
+                                    Prop::List(..) => 0,
+                                })
+                                .sum(),
+                        }),
+                        Prop::List(..) => None,
+                    });
                 drop(map);
                 let lay = records::Layout {
                     start: pos as u64,
@@ -152,6 +176,7 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
                     }),
                     big_endian: be,
                     transform: None,
+                    intensity,
                 };
                 let info = CloudInfo {
                     format: Format::Ply,

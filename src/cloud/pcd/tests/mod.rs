@@ -207,5 +207,6 @@ impl PipeRead for PathBuf {
 mod errors;
 mod pcl;
 mod reading;
+mod slam;
 mod streaming;
 mod writers;
