@@ -104,7 +104,9 @@ pub struct FrameConfig {
     pub tilt_redo_deg: f64,
     /// The map is levelled (read rotated so that its ground's vertical is +z)
     /// when its ground leans more than this (degrees); the targets' plumb line
-    /// refines it afterwards.
+    /// refines it afterwards. Below it, a site's own slope could be most of
+    /// the lean, and the map is read as it is (the plumb lines may still turn
+    /// it when they lean significantly).
     pub level_above_deg: f64,
 }
 
@@ -120,7 +122,7 @@ impl Default for FrameConfig {
             second_pass_min_shift: 0.5,
             max_tilt_deg: 3.0,
             tilt_redo_deg: 0.25,
-            level_above_deg: 2.5,
+            level_above_deg: 5.0,
         }
     }
 }

@@ -200,7 +200,10 @@ pub(super) fn detect_and_match(
 /// standard errors and half a degree: a level map must not be turned by the
 /// plumb lines' noise (a 0.2° turn moves targets 2 m apart in height by 7 mm).
 pub(super) fn plumb(found: &[TargetRun], turned: bool) -> Option<(Plumb, Option<Rotation3<f64>>)> {
-    let axes: Vec<Vector3<f64>> = found
+    // Each line weighs as its weaker plate's points: a plate's normal is
+    // known to about 1/√(points), so a target seen with 50 returns counts
+    // far less than one seen with 500.
+    let axes: Vec<(Vector3<f64>, f64)> = found
         .iter()
         .filter_map(|r| {
             r.outcome
@@ -213,10 +216,21 @@ pub(super) fn plumb(found: &[TargetRun], turned: bool) -> Option<(Plumb, Option<
     if n < 3 {
         return None;
     }
-    let mean = axes.iter().fold(Vector3::zeros(), |s, a| s + a).normalize();
+    let sw: f64 = axes.iter().map(|a| a.1).sum();
+    let sw2: f64 = axes.iter().map(|a| a.1 * a.1).sum();
+    let mean = axes
+        .iter()
+        .fold(Vector3::zeros(), |s, (a, w)| s + a * *w)
+        .normalize();
     let tilt = mean.angle(&Vector3::z()).to_degrees();
-    let var = axes.iter().map(|a| a.angle(&mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-    let se = (var / n as f64).sqrt().to_degrees();
+    let var = axes
+        .iter()
+        .map(|(a, w)| w * a.angle(&mean).powi(2))
+        .sum::<f64>()
+        / sw
+        * n as f64
+        / (n - 1) as f64;
+    let se = (var * sw2 / (sw * sw)).sqrt().to_degrees();
     // Up to 20°: beyond, three targets agreeing is more likely a mistake.
     let bar = if turned { 0.005 } else { (3.0 * se).max(0.5) };
     let applied = tilt > bar && tilt <= 20.0;
@@ -247,7 +261,7 @@ pub(super) fn plumb(found: &[TargetRun], turned: bool) -> Option<(Plumb, Option<
 /// A target's plumb line from plain least-squares planes through the points
 /// near each located plate: the locator's own axis comes from a sample that
 /// passed its verticality gate, which leans it towards the "up" it was given.
-fn plain_axis(tight: &[Point], f: &target::Found) -> Option<Vector3<f64>> {
+fn plain_axis(tight: &[Point], f: &target::Found) -> Option<(Vector3<f64>, f64)> {
     let c = f.located.corner;
     let q: Vec<Vector3<f64>> = tight.iter().map(|p| p - c).collect();
     let mut n = [
@@ -255,7 +269,9 @@ fn plain_axis(tight: &[Point], f: &target::Found) -> Option<Vector3<f64>> {
         Vector3::from(f.located.plates[1].normal),
     ];
     let mut off = [0.0, 0.0];
+    let mut weak = usize::MAX;
     for _ in 0..2 {
+        weak = usize::MAX;
         for k in 0..2 {
             let idx: Vec<u32> = (0..q.len() as u32)
                 .filter(|&i| (n[k].dot(&q[i as usize]) - off[k]).abs() < 0.02)
@@ -263,6 +279,7 @@ fn plain_axis(tight: &[Point], f: &target::Found) -> Option<Vector3<f64>> {
             if idx.len() < 20 {
                 return None;
             }
+            weak = weak.min(idx.len());
             let p = crate::geom::plane::fit(&q, &idx)?;
             n[k] = p.normal;
             off[k] = p.offset;
@@ -270,7 +287,7 @@ fn plain_axis(tight: &[Point], f: &target::Found) -> Option<Vector3<f64>> {
     }
     let a = n[0].cross(&n[1]);
     let a = if a.z < 0.0 { -a } else { a };
-    (a.norm() > 0.5).then(|| a.normalize())
+    (a.norm() > 0.5).then(|| (a.normalize(), weak as f64))
 }
 
 /// How far the ground's vertical may be from the true one: a site's general

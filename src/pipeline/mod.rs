@@ -156,6 +156,7 @@ fn evaluate(
     };
     let ground = crate::frame::ground_level(source, None, |b| progress(b, total))?;
     let mut motion = ground.levelling(cfg.frame.level_above_deg);
+    let ground_up = ground.level.as_ref().map(|l| l.up);
     let (mut how, mut init, mut dz) = frame::given(survey, cfg, &motion)?;
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {
@@ -181,7 +182,7 @@ fn evaluate(
                     crops_dir,
                     cfg,
                     Pass::First,
-                    motion.rotation * nalgebra::Vector3::z(),
+                    &more_ups(&motion, ground_up),
                 );
                 r.loose_thinned_from = thinned;
                 r
@@ -249,6 +250,7 @@ fn evaluate(
             &opts,
             &mut found,
             &motion,
+            ground_up,
             &far,
             &mut progress,
         )?;
@@ -278,7 +280,9 @@ fn evaluate(
     let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
     let need = cfg.metrics.align.min_points().max(2);
     if n_found < need {
-        return Err(too_few_found(&found, survey, n_found, need, cfg, &map.name));
+        return Err(too_few_found(
+            &found, survey, n_found, need, cfg, &map.name, &how,
+        ));
     }
     let covariances = found
         .iter()
@@ -353,6 +357,7 @@ fn too_few_found(
     need: usize,
     cfg: &Config,
     map: &str,
+    how: &FrameHow,
 ) -> Error {
     let why: Vec<String> = found
         .iter()
@@ -374,6 +379,11 @@ fn too_few_found(
         msg += &format!(
             ". The survey has {} target(s): {need} are needed to align",
             survey.targets.len()
+        );
+    } else if let FrameHow::Detected { matched, .. } = how {
+        msg += &format!(
+            ". The map's frame was found by matching {} detected targets to the survey, but they could not be located there (see the reasons above)",
+            matched.len()
         );
     } else if n_found < survey.targets.len()
         && !found
@@ -406,6 +416,19 @@ fn estimates(found: &[TargetRun]) -> Vec<Estimate> {
             has_z: true,
         })
         .collect()
+}
+
+/// The "ups" tried after the crop's own: the map's own +z and the ground's
+/// map-wide vertical, in the frame `motion` reads the map into.
+fn more_ups(
+    motion: &RigidMotion,
+    ground_up: Option<nalgebra::Vector3<f64>>,
+) -> Vec<nalgebra::Vector3<f64>> {
+    let mut v = vec![motion.rotation * nalgebra::Vector3::z()];
+    if let Some(g) = ground_up {
+        v.push(motion.rotation * g);
+    }
+    v
 }
 
 /// Where every surveyed target is expected in the (levelled) map.

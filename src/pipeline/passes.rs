@@ -25,6 +25,7 @@ pub(super) fn second_pass(
     opts: &ScoreOptions,
     found: &mut [TargetRun],
     motion: &RigidMotion,
+    ground_up: Option<Vector3<f64>>,
     narrow: &[(usize, f64, f64)],
     progress: &mut impl FnMut(u64, u64),
 ) -> Result<()> {
@@ -74,7 +75,7 @@ pub(super) fn second_pass(
     // wrong object cannot be found again.
     // The radius grows with the error, so that a target of a badly distorted
     // map is still found where it is, while the wrong object stays outside.
-    let map_up = motion.rotation * Vector3::z();
+    let ups = super::more_ups(motion, ground_up);
     for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
         let thinned = (offered > pts.len() as u64).then_some(offered);
         let mut close = cfg.clone();
@@ -88,7 +89,7 @@ pub(super) fn second_pass(
             None,
             &close,
             Pass::Second,
-            map_up,
+            &ups,
         );
         r.loose_thinned_from = thinned;
         if r.outcome.is_ok() {

@@ -112,9 +112,10 @@ impl TargetRun {
 }
 
 /// Steps 4–5 for one target: tight crop (hand-made from `crops_dir`, else
-/// automatic from `loose`), then localisation. `map_up` is the map's own +z in
-/// the frame the points are in: the last "up" tried, in case levelling by the
-/// ground turned a level map on a slope.
+/// automatic from `loose`), then localisation. `more_ups` are the last "ups"
+/// tried, in the frame the points are in: the map's own +z (in case levelling
+/// by the ground turned a level map on a slope) and the ground's map-wide
+/// vertical (for a map leaning a few degrees that was not levelled).
 pub(crate) fn locate_target(
     id: &str,
     expected: Point,
@@ -122,7 +123,7 @@ pub(crate) fn locate_target(
     crops_dir: Option<&Path>,
     cfg: &Config,
     pass: Pass,
-    map_up: Vector3<f64>,
+    more_ups: &[Vector3<f64>],
 ) -> TargetRun {
     let mut run = TargetRun {
         id: id.to_string(),
@@ -157,7 +158,7 @@ pub(crate) fn locate_target(
                     run.tight = t.points;
                     // A fallback "up" in case the ground normal misleads the gates.
                     let mut ups = vec![up];
-                    for u in [Vector3::z(), map_up] {
+                    for &u in std::iter::once(&Vector3::z()).chain(more_ups) {
                         if !ups.contains(&u) {
                             ups.push(u);
                         }
