@@ -4,6 +4,33 @@
 //! arrive in scan order, mostly in the tile of the previous one).
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// A multiply-rotate hash for tile keys: SipHash (std's default, built to
+/// resist crafted keys) was a third of a whole-map pass, and tile keys come
+/// from coordinates, not from an adversary choosing hash collisions.
+#[derive(Default)]
+pub(crate) struct TileHasher(u64);
+
+impl Hasher for TileHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_i64(&mut self, i: i64) {
+        self.write_u64(i as u64);
+    }
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// A hash map keyed by tile or cell.
+pub(crate) type TileMap<K, V> = HashMap<K, V, BuildHasherDefault<TileHasher>>;
 
 /// Cells per tile side.
 const TILE: i64 = 64;
@@ -14,7 +41,7 @@ pub(crate) struct CellGrid<T> {
     pub(crate) cell: f64,
     pub(crate) origin: [f64; 2],
     empty: T,
-    index: HashMap<(i64, i64), usize>,
+    index: TileMap<(i64, i64), usize>,
     tiles: Vec<((i64, i64), Box<[T]>)>,
     last: Option<((i64, i64), usize)>,
 }
@@ -29,7 +56,7 @@ impl<T: Copy> CellGrid<T> {
             cell,
             origin,
             empty,
-            index: HashMap::new(),
+            index: TileMap::default(),
             tiles: Vec::new(),
             last: None,
         }
