@@ -192,8 +192,10 @@ fn evaluate(
     };
     let own = |h: &FrameHow| matches!(h, FrameHow::Init | FrameHow::Survey);
     let (mut expected, mut found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
+    // A guess that finds too few targets (the survey frame, or an `--init`
+    // or hints too far off) gives way to detection in auto mode.
     if cfg.frame.mode == config::FrameMode::Auto
-        && how == FrameHow::Survey
+        && !matches!(how, FrameHow::Detected { .. })
         && crops_dir.is_none()
         && survey.targets.len() >= 3
         && !frame::targets_there(&found)

@@ -334,3 +334,111 @@ fn detect_lists_the_targets_and_not_the_decoys() {
     let ply = std::fs::read_to_string(dir.path().join("det/detections.ply")).unwrap();
     assert!(ply.starts_with("ply\n") && ply.contains("element vertex 300\n"));
 }
+
+/// A WGS84 survey whose local frame (about its first target) is not the
+/// map's: found by detection, with the same errors as the local survey.
+#[test]
+fn a_wgs84_survey_needs_no_origin() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    synth(
+        &scene,
+        &[
+            "--seed",
+            "26",
+            "--targets",
+            "6",
+            "--points",
+            "2000000",
+            "--yaw-deg",
+            "150",
+            "--offset-m",
+            "80,-40,5",
+            "--decoys",
+            "5",
+        ],
+    );
+    let run = |survey: &str, out: &str| {
+        let res = dir.path().join(out);
+        let o = bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(scene.join("map.pcd"))
+            .arg("--survey")
+            .arg(scene.join(survey))
+            .arg("--out")
+            .arg(&res)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{survey}: {}", stderr(&o));
+        result(&res)
+    };
+    let (w, l) = (run("survey_llh.csv", "wgs84"), run("survey.csv", "local"));
+    assert_eq!(w["eval"]["frame"]["how"], "detect");
+    assert_eq!(w["absolute"]["n"], 6);
+    let (ew, el) = (
+        w["absolute"]["mean"].as_f64().unwrap(),
+        l["absolute"]["mean"].as_f64().unwrap(),
+    );
+    assert!((ew - el).abs() < 1e-3, "E_abs {ew} (WGS84) vs {el} (local)");
+}
+
+/// A rough `--init` (about 3.6 m off) beside target-like objects that are not
+/// the target: every target is found where it is, or not found; never a wrong
+/// object reported "ok". (An `--init` too far off for any target gives way to
+/// detection: the last lines.)
+#[test]
+fn a_rough_init_among_decoys_never_reports_a_wrong_object() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let cfg = dir.path().join("scene.toml");
+    std::fs::write(
+        &cfg,
+        "seed = 27\ntargets = 6\npoints = 2000000\n[clutter]\ndecoys = 8\n[obstacles]\ndecoys = 5\n",
+    )
+    .unwrap();
+    let truth = synth(&scene, &["--config", cfg.to_str().unwrap()]);
+    let res = dir.path().join("res");
+    let out = eval(&scene, &res, &["--init=-4.8,2.5,0"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = result(&res);
+    let mut ok = 0;
+    for ((id, c), t) in corners(&r)
+        .into_iter()
+        .zip(r["targets"].as_array().unwrap())
+    {
+        let tt = truth["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|x| x["id"] == id.as_str())
+            .unwrap();
+        if t["status"] != "ok" {
+            continue;
+        }
+        ok += 1;
+        // Level map: positions are the map's own when no levelling applied.
+        let c = c.unwrap_or_else(|| {
+            let m = &t["map"];
+            [
+                m["x"].as_f64().unwrap(),
+                m["y"].as_f64().unwrap(),
+                m["z"].as_f64().unwrap(),
+            ]
+        });
+        let d =
+            (c[0] - tt["map"][0].as_f64().unwrap()).hypot(c[1] - tt["map"][1].as_f64().unwrap());
+        assert!(
+            d < 0.05,
+            "target {id} reported ok {d:.2} m from the true target"
+        );
+    }
+    assert!(ok >= 5, "only {ok} of 6 found");
+    assert_eq!(r["eval"]["frame"]["how"], "init");
+    let far = dir.path().join("far");
+    let out = eval(&scene, &far, &["--init=40,-30,20"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = result(&far);
+    assert_eq!(r["eval"]["frame"]["how"], "detect");
+    assert_eq!(r["absolute"]["n"], 6);
+}
