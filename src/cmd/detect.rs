@@ -94,7 +94,7 @@ pub fn run(a: Args) -> Result<()> {
         )?;
         write_atomic(
             &out.join("detections.ply"),
-            ply(&found.detections, &tight).as_bytes(),
+            ply(&found.detections, &tight, &motion).as_bytes(),
         )?;
         println!(
             "wrote {} and {}",
@@ -154,8 +154,9 @@ fn csv(d: &[Detection]) -> String {
     s
 }
 
-/// Each detection as a red L: its two arms at mid-height, in the map's frame.
-fn ply(d: &[Detection], t: &TightParams) -> String {
+/// Each detection as a red L: its two arms at mid-height, drawn in the
+/// levelled frame and moved back into the map's own.
+fn ply(d: &[Detection], t: &TightParams, motion: &mapgauge::cloud::RigidMotion) -> String {
     let mut v = Vec::new();
     for (i, d) in d.iter().enumerate() {
         let h = d.heading_deg.to_radians();
@@ -168,7 +169,7 @@ fn ply(d: &[Detection], t: &TightParams) -> String {
                 let r = t.plate_width * k as f64 / 24.0;
                 let c = d.corner;
                 let p = nalgebra::Point3::new(c.x + r * a.cos(), c.y + r * a.sin(), c.z);
-                v.push((d.corner_map + (p - c), i + 1));
+                v.push((motion.invert(&p), i + 1));
             }
         }
     }

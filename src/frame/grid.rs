@@ -46,8 +46,9 @@ pub(crate) struct CellGrid<T> {
     last: Option<((i64, i64), usize)>,
 }
 
-/// Farthest cell index accepted; a point beyond (10⁷ cells: thousands of
-/// kilometres) is not part of any site and is left out.
+/// Farthest distance from the origin accepted (metres): a point beyond (more
+/// than the Earth's radius away, however the first point fell) is not part
+/// of any site and is left out.
 const FAR: f64 = 1e7;
 
 impl<T: Copy> CellGrid<T> {
@@ -65,9 +66,13 @@ impl<T: Copy> CellGrid<T> {
     /// The cell holding (x, y), or `None` when absurdly far from the origin.
     #[inline]
     pub(crate) fn key(&self, x: f64, y: f64) -> Option<(i64, i64)> {
-        let fx = ((x - self.origin[0]) / self.cell).floor();
-        let fy = ((y - self.origin[1]) / self.cell).floor();
-        (fx.abs() < FAR && fy.abs() < FAR).then_some((fx as i64, fy as i64))
+        let (dx, dy) = (x - self.origin[0], y - self.origin[1]);
+        (dx.abs() < FAR && dy.abs() < FAR).then(|| {
+            (
+                (dx / self.cell).floor() as i64,
+                (dy / self.cell).floor() as i64,
+            )
+        })
     }
 
     /// Centre of cell `k`.

@@ -62,6 +62,9 @@ pub struct MapGround {
     pub level: Option<GroundLevel>,
     /// Finite points read.
     pub points: u64,
+    /// A point near the map's middle (whole metres): the centre of
+    /// rotation for any turn of the map, whether or not a vertical was found.
+    pub centre: Point,
     pub(crate) lowest: CellGrid<f32>,
     pub(crate) z0: f64,
 }
@@ -73,8 +76,7 @@ impl MapGround {
     pub fn levelling(&self, above_deg: f64) -> RigidMotion {
         match &self.level {
             Some(l) if l.tilt_deg > above_deg => l.motion(),
-            Some(l) => RigidMotion::identity_at(l.centre),
-            None => RigidMotion::identity_at(Point::origin()),
+            _ => RigidMotion::identity_at(self.centre),
         }
     }
 
@@ -114,7 +116,9 @@ struct Lowest {
     grid: CellGrid<f32>,
     z0: f64,
     count: u64,
-    sum: [f64; 3],
+    /// Sums of the offsets from the origin in whole millimetres: integers, so
+    /// the centre does not depend on the order threads add them in.
+    sum: [i128; 3],
 }
 
 /// Streams the map once and estimates its vertical from the ground. `None`
@@ -139,6 +143,7 @@ pub fn ground_level(
                 return Ok(MapGround {
                     level: None,
                     points: 0,
+                    centre: Point::origin(),
                     lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
                     z0: 0.0,
                 });
@@ -152,13 +157,14 @@ pub fn ground_level(
         grid: CellGrid::new(CELL, origin, f32::INFINITY),
         z0,
         count: 0,
-        sum: [0.0; 3],
+        sum: [0; 3],
     };
     let low = fold_points(
         reader.as_mut(),
         new,
         |acc, pts| {
-            let mut s = [0.0; 3];
+            let mut s = [0i128; 3];
+            let mut n = 0;
             for p in pts {
                 if let Some(k) = acc.grid.key(p.x, p.y) {
                     let z = (p.z - acc.z0) as f32;
@@ -166,12 +172,14 @@ pub fn ground_level(
                     if z < *c {
                         *c = z;
                     }
-                    s[0] += p.x - origin[0];
-                    s[1] += p.y - origin[1];
-                    s[2] += p.z - z0;
+                    let mm = |v: f64| (v * 1000.0).round() as i128;
+                    s[0] += mm(p.x - origin[0]);
+                    s[1] += mm(p.y - origin[1]);
+                    s[2] += mm(p.z - z0);
+                    n += 1;
                 }
             }
-            acc.count += pts.len() as u64;
+            acc.count += n;
             for k in 0..3 {
                 acc.sum[k] += s[k];
             }
@@ -189,11 +197,11 @@ pub fn ground_level(
         },
         progress,
     )?;
-    let n = low.count.max(1) as f64;
+    let n = low.count.max(1) as f64 * 1000.0;
     let centre = Point::new(
-        origin[0] + (low.sum[0] / n).round(),
-        origin[1] + (low.sum[1] / n).round(),
-        z0 + (low.sum[2] / n).round(),
+        origin[0] + (low.sum[0] as f64 / n).round(),
+        origin[1] + (low.sum[1] as f64 / n).round(),
+        z0 + (low.sum[2] as f64 / n).round(),
     );
     let level = estimate(&low.grid).map(|(up, blocks, support)| {
         let tilt_deg = up.angle(&Vector3::z()).to_degrees();
@@ -209,6 +217,7 @@ pub fn ground_level(
     });
     Ok(MapGround {
         level,
+        centre,
         points: low.count,
         lowest: low.grid,
         z0,

@@ -333,6 +333,11 @@ impl FrameConfig {
                 "frame.mode = hints needs frame.hints (a CSV id,x,y[,z] of map positions)".into(),
             ));
         }
+        if self.mode == FrameMode::Hints && self.init.is_some() {
+            return Err(Error::Param(
+                "frame.mode = hints fits the transform to the hints: leave frame.init unset".into(),
+            ));
+        }
         if self.mode == FrameMode::Detect && self.init.is_some() {
             return Err(Error::Param(
                 "frame.mode = detect finds the transform itself: leave frame.init unset".into(),

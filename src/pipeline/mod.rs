@@ -58,6 +58,9 @@ pub enum Warning {
     /// Objects located for these targets were far from where the others put
     /// them and were rejected (the targets are not found).
     WrongObjects(Vec<String>),
+    /// Few targets were found where expected, and detection could not find
+    /// another frame; the first guess was kept.
+    DetectionFailed(String),
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
         /// Total tilt corrected (degrees).
@@ -80,6 +83,10 @@ impl std::fmt::Display for Warning {
                 f,
                 "objects located for {} were far from where the other targets place them and nothing target-shaped stands there: reported as not found",
                 ids.join(", ")
+            ),
+            Warning::DetectionFailed(e) => write!(
+                f,
+                "few targets were found where expected and detection found no other frame ({e}); the expected frame was kept"
             ),
             Warning::Levelled { tilt_deg } => write!(
                 f,
@@ -155,7 +162,14 @@ fn evaluate(
         MapSource::Points(_) => 0,
     };
     let ground = crate::frame::ground_level(source, None, |b| progress(b, total))?;
-    let mut motion = ground.levelling(cfg.frame.level_above_deg);
+    // `--align none` scores the map in the survey frame as it is: nothing
+    // may turn it.
+    let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
+    let mut motion = if no_turn {
+        RigidMotion::identity_at(ground.centre)
+    } else {
+        ground.levelling(cfg.frame.level_above_deg)
+    };
     let ground_up = ground.level.as_ref().map(|l| l.up);
     let (mut how, mut init, mut dz) = frame::given(survey, cfg, &motion)?;
     let mut unmatched = Vec::new();
@@ -200,29 +214,40 @@ fn evaluate(
         && survey.targets.len() >= 3
         && !frame::targets_there(&found)
     {
-        (how, init, dz, unmatched) =
-            frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress)?;
-        (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
+        let enough = found.iter().filter(|r| r.outcome.is_ok()).count()
+            >= cfg.metrics.align.min_points().max(2);
+        match frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress) {
+            Ok(d) => {
+                (how, init, dz, unmatched) = d;
+                (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
+            }
+            // The first guess found enough to align: keep it, and say why
+            // detection did not take over.
+            Err(e) if enough => warnings.push(Warning::DetectionFailed(e.to_string())),
+            Err(e) => return Err(e),
+        }
     }
     // The targets' plumb lines refine the vertical, once: each line is a
     // plain plane fit of the target's own points, which turn with the frame,
     // so a second look would see the same lines (plus the noise of the
     // planes' point selection, which is not worth chasing).
     let turned = !motion.is_identity();
-    let plumb = frame::plumb(&found, turned).map(|(p, rot)| {
-        if let Some(rot) = rot {
-            frame::turn_targets(&mut found, &rot, motion.origin, cfg);
-            let m = RigidMotion {
-                origin: motion.origin,
-                rotation: rot,
-            };
-            for e in expected.iter_mut() {
-                *e = m.apply(e);
+    let plumb = frame::plumb(&found, turned)
+        .filter(|_| !no_turn)
+        .map(|(p, rot)| {
+            if let Some(rot) = rot {
+                frame::turn_targets(&mut found, &rot, motion.origin, cfg);
+                let m = RigidMotion {
+                    origin: motion.origin,
+                    rotation: rot,
+                };
+                for e in expected.iter_mut() {
+                    *e = m.apply(e);
+                }
+                motion = motion.then(&rot);
             }
-            motion = motion.then(&rot);
-        }
-        p
-    });
+            p
+        });
     let tilt = motion.tilt_deg();
     if tilt > 0.0 {
         warnings.push(Warning::Levelled { tilt_deg: tilt });
@@ -453,6 +478,7 @@ fn expected_positions(
                 let q = m.apply(&Point::new(e.x, e.y, m.origin.z));
                 e.x = q.x;
                 e.y = q.y;
+                e.z += q.z - m.origin.z;
             }
             e
         })

@@ -80,7 +80,7 @@ pub(super) fn second_pass(
         let thinned = (offered > pts.len() as u64).then_some(offered);
         let mut close = cfg.clone();
         if let Some((_, error, _)) = is_narrow(i) {
-            close.tight.search_radius = (0.5 * error).clamp(1.0, cfg.tight.search_radius);
+            close.tight.search_radius = (0.5 * error).max(1.0).min(cfg.tight.search_radius);
         }
         let mut r = target::locate_target(
             &survey.targets[i].id,

@@ -50,7 +50,9 @@ pub struct FrameInfo {
     /// `survey` (the map is in the survey frame), `init`, `hints` or `detect`.
     pub how: String,
     /// Map → survey `[tx, ty, yaw_deg]` used to place the crops (survey =
-    /// R(yaw)·map + t, levelled frame).
+    /// R(yaw)·map + t): in the map's own frame for `survey` and `init`, in the
+    /// ground-levelled frame for `hints` and `detect`; a rough guess either
+    /// way (the alignment is the measured transform).
     pub init: [f64; 3],
     /// Survey z minus map z used to place the crops (m).
     pub dz: f64,

@@ -442,3 +442,27 @@ fn a_rough_init_among_decoys_never_reports_a_wrong_object() {
     assert_eq!(r["eval"]["frame"]["how"], "detect");
     assert_eq!(r["absolute"]["n"], 6);
 }
+
+/// Too few targets where the survey says, and too few to detect another
+/// frame: the survey frame is kept (two targets align) with a warning, not
+/// replaced by a detection error.
+#[test]
+fn a_failed_detection_keeps_a_frame_that_aligns() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let cfg = dir.path().join("scene.toml");
+    std::fs::write(
+        &cfg,
+        "seed = 28\ntargets = 3\npoints = 1000000\n[obstacles]\ntarget1_absent = true\n",
+    )
+    .unwrap();
+    synth(&scene, &["--config", cfg.to_str().unwrap()]);
+    let res = dir.path().join("res");
+    let out = eval(&scene, &res, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = result(&res);
+    assert_eq!(r["eval"]["frame"]["how"], "survey");
+    assert_eq!(r["absolute"]["n"], 2);
+    let w = r["warnings"].to_string();
+    assert!(w.contains("detection found no other frame"), "{w}");
+}
