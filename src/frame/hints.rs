@@ -73,38 +73,26 @@ pub fn read_hints(path: &Path, survey: &Survey, motion: &RigidMotion) -> Result<
 
 /// 2D rigid least squares, map → survey: (`[tx, ty, yaw_deg]`, worst residual).
 pub(crate) fn fit2d(map: &[Point], sur: &[Point]) -> ([f64; 3], f64) {
-    let n = map.len() as f64;
+    // Local coordinates about each side's first point.
     let (o_m, o_s) = (map[0], sur[0]);
-    let mm = map.iter().fold([0.0; 2], |a, p| {
-        [a[0] + (p.x - o_m.x) / n, a[1] + (p.y - o_m.y) / n]
-    });
-    let ms = sur.iter().fold([0.0; 2], |a, p| {
-        [a[0] + (p.x - o_s.x) / n, a[1] + (p.y - o_s.y) / n]
-    });
-    let (mut c, mut s) = (0.0, 0.0);
-    for (a, b) in map.iter().zip(sur) {
-        let (ax, ay) = (a.x - o_m.x - mm[0], a.y - o_m.y - mm[1]);
-        let (bx, by) = (b.x - o_s.x - ms[0], b.y - o_s.y - ms[1]);
-        c += ax * bx + ay * by;
-        s += ax * by - ay * bx;
-    }
-    let yaw = s.atan2(c);
-    let (sn, cs) = yaw.sin_cos();
-    // survey = R·map + t, with t taken at the centroids.
-    let (cmx, cmy) = (o_m.x + mm[0], o_m.y + mm[1]);
-    let (csx, csy) = (o_s.x + ms[0], o_s.y + ms[1]);
-    let tx = csx - (cs * cmx - sn * cmy);
-    let ty = csy - (sn * cmx + cs * cmy);
-    let worst = map
+    let pairs: Vec<([f64; 2], [f64; 2])> = map
         .iter()
         .zip(sur)
-        .map(|(a, b)| {
-            let (dx, dy) = (a.x - cmx, a.y - cmy);
-            let px = csx + cs * dx - sn * dy;
-            let py = csy + sn * dx + cs * dy;
-            (px - b.x).hypot(py - b.y)
+        .map(|(a, b)| ([a.x - o_m.x, a.y - o_m.y], [b.x - o_s.x, b.y - o_s.y]))
+        .collect();
+    let (yaw, t) = super::rigid2d(&pairs);
+    let (sn, cs) = yaw.sin_cos();
+    let worst = pairs
+        .iter()
+        .map(|(f, g)| {
+            let px = cs * f[0] - sn * f[1] + t[0];
+            let py = sn * f[0] + cs * f[1] + t[1];
+            (px - g[0]).hypot(py - g[1])
         })
         .fold(0.0, f64::max);
+    // survey = R·(map − o_m) + t + o_s = R·map + (t + o_s − R·o_m).
+    let tx = t[0] + o_s.x - (cs * o_m.x - sn * o_m.y);
+    let ty = t[1] + o_s.y - (sn * o_m.x + cs * o_m.y);
     ([tx, ty, yaw.to_degrees().rem_euclid(360.0)], worst)
 }
 

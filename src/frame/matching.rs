@@ -300,26 +300,8 @@ fn refine(
     let mut yaw = 0.0;
     let mut t = [0.0; 2];
     for _ in 0..2 {
-        let n = m.len() as f64;
-        let ms = m.iter().fold([0.0; 2], |a, &(i, _, _)| {
-            [a[0] + s[i][0] / n, a[1] + s[i][1] / n]
-        });
-        let md = m.iter().fold([0.0; 2], |a, &(_, j, _)| {
-            [a[0] + d[j][0] / n, a[1] + d[j][1] / n]
-        });
-        let (mut sxx, mut sxy) = (0.0, 0.0);
-        for &(i, j, _) in &m {
-            let (ax, ay) = (d[j][0] - md[0], d[j][1] - md[1]);
-            let (bx, by) = (s[i][0] - ms[0], s[i][1] - ms[1]);
-            sxx += ax * bx + ay * by;
-            sxy += ax * by - ay * bx;
-        }
-        yaw = sxy.atan2(sxx);
-        let (sn, cs) = yaw.sin_cos();
-        t = [
-            ms[0] - (cs * md[0] - sn * md[1]),
-            ms[1] - (sn * md[0] + cs * md[1]),
-        ];
+        let pairs: Vec<([f64; 2], [f64; 2])> = m.iter().map(|&(i, j, _)| (d[j], s[i])).collect();
+        (yaw, t) = super::rigid2d(&pairs);
         let again = score(s, index, d, yaw, t, tol);
         if again.len() < m.len() {
             break;

@@ -134,12 +134,9 @@ pub(super) fn detect_and_match(
     ground: &MapGround,
     motion: &RigidMotion,
     cfg: &Config,
+    total: u64,
     progress: &mut impl FnMut(u64, u64),
 ) -> Result<(FrameHow, [f64; 3], f64, Vec<Detection>)> {
-    let total = match source {
-        MapSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
-        MapSource::Points(_) => 0,
-    };
     let found = detect_map(
         source,
         ground,

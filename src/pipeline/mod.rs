@@ -175,7 +175,7 @@ fn evaluate(
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {
         (how, init, dz, unmatched) =
-            frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress)?;
+            frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress)?;
     }
     // `--init` and the survey frame are the map's own; hints and detections
     // were moved into the levelled frame already.
@@ -216,7 +216,7 @@ fn evaluate(
     {
         let enough = found.iter().filter(|r| r.outcome.is_ok()).count()
             >= cfg.metrics.align.min_points().max(2);
-        match frame::detect_and_match(source, survey, &ground, &motion, cfg, &mut progress) {
+        match frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress) {
             Ok(d) => {
                 (how, init, dz, unmatched) = d;
                 (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
