@@ -187,8 +187,10 @@ fn evaluate(
             .par_iter()
             .zip(&expected)
             .zip(crops)
-            .map(|((t, e), (pts, offered))| {
+            .enumerate()
+            .map(|(i, ((t, e), (pts, offered)))| {
                 let thinned = (offered > pts.len() as u64).then_some(offered);
+                let others = others_than(&expected, i);
                 let mut r = target::locate_target(
                     &t.id,
                     *e,
@@ -197,6 +199,7 @@ fn evaluate(
                     cfg,
                     Pass::First,
                     &more_ups(&motion, ground_up),
+                    &others,
                 );
                 r.loose_thinned_from = thinned;
                 r
@@ -295,8 +298,12 @@ fn evaluate(
             found[i].outcome = Err(Failure::FarFromOthers { at, error, median });
         }
     }
+    target::one_object_each(&mut found, cfg.tight.plate_width);
     for (i, r) in found.iter().enumerate() {
-        if matches!(r.outcome, Err(Failure::FarFromOthers { .. })) {
+        if matches!(
+            r.outcome,
+            Err(Failure::FarFromOthers { .. } | Failure::SameObject { .. })
+        ) {
             wrong.push(survey.targets[i].id.clone());
         }
     }
@@ -443,6 +450,13 @@ fn estimates(found: &[TargetRun]) -> Vec<Estimate> {
             has_z: true,
         })
         .collect()
+}
+
+/// Every position but the `i`-th.
+fn others_than(positions: &[Point], i: usize) -> Vec<Point> {
+    let mut v = positions.to_vec();
+    v.remove(i);
+    v
 }
 
 /// The "ups" tried after the crop's own: the map's own +z and the ground's

@@ -76,6 +76,10 @@ pub(super) fn second_pass(
     // The radius grows with the error, so that a target of a badly distorted
     // map is still found where it is, while the wrong object stays outside.
     let ups = super::more_ups(motion, ground_up);
+    // The other targets: where they were found, else where they were expected.
+    let placed: Vec<Point> = (0..found.len())
+        .map(|j| found[j].corner().unwrap_or(expected[j]))
+        .collect();
     for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
         let thinned = (offered > pts.len() as u64).then_some(offered);
         let mut close = cfg.clone();
@@ -90,6 +94,7 @@ pub(super) fn second_pass(
             &close,
             Pass::Second,
             &ups,
+            &super::others_than(&placed, i),
         );
         r.loose_thinned_from = thinned;
         if r.outcome.is_ok() {

@@ -49,6 +49,14 @@ pub enum Failure {
         /// The median of the same error over the targets (m).
         median: f64,
     },
+    /// The object located is the one another target was located at, and
+    /// that target was expected nearer to it: no object serves two targets.
+    SameObject {
+        /// The other target's id.
+        other: String,
+        /// Where the object was (evaluation frame).
+        at: Point,
+    },
 }
 
 impl Failure {
@@ -58,7 +66,7 @@ impl Failure {
             Failure::NoLoosePoints => "loose",
             Failure::HandCrop(_) | Failure::Tight(_) => "tight",
             Failure::Locate(_) => "locate",
-            Failure::FarFromOthers { .. } => "check",
+            Failure::FarFromOthers { .. } | Failure::SameObject { .. } => "check",
         }
     }
 }
@@ -78,6 +86,11 @@ impl std::fmt::Display for Failure {
                 at.x,
                 at.y,
                 median * 1e3
+            ),
+            Failure::SameObject { other, at } => write!(
+                f,
+                "the object located at ({:.2}, {:.2}) is target {other}'s, which was expected nearer to it",
+                at.x, at.y
             ),
         }
     }
@@ -112,7 +125,8 @@ impl TargetRun {
 }
 
 /// Steps 4–5 for one target: tight crop (hand-made from `crops_dir`, else
-/// automatic from `loose`), then localisation. `more_ups` are the last "ups"
+/// automatic from `loose`, leaving objects nearer the other targets' expected
+/// positions `others` to them), then localisation. `more_ups` are the last "ups"
 /// tried, in the frame the points are in: the map's own +z (in case levelling
 /// by the ground turned a level map on a slope) and the ground's map-wide
 /// vertical (for a map leaning a few degrees that was not levelled).
@@ -124,6 +138,7 @@ pub(crate) fn locate_target(
     cfg: &Config,
     pass: Pass,
     more_ups: &[Vector3<f64>],
+    others: &[Point],
 ) -> TargetRun {
     let mut run = TargetRun {
         id: id.to_string(),
@@ -151,7 +166,7 @@ pub(crate) fn locate_target(
             if run.loose.is_empty() {
                 return run;
             }
-            match crop::tight_crop(&run.loose, &expected, &cfg.tight) {
+            match crop::tight_crop_among(&run.loose, &expected, others, &cfg.tight) {
                 Ok(t) => {
                     run.ground_normal = Some(Vector3::from(t.ground_normal));
                     let up = Vector3::from(t.up);
@@ -238,4 +253,28 @@ fn hand_crop(dir: &Path, id: &str, plate_width: f64) -> Result<Vec<Point>> {
         "no tight crop {}/{stem}.ply|pcd|las|laz|xyz|e57",
         dir.display()
     )))
+}
+
+/// No object serves two targets: when two located corners are closer than a
+/// plate's width, the target expected farther from the object loses it.
+pub(super) fn one_object_each(found: &mut [TargetRun], plate_width: f64) {
+    let n = found.len();
+    for i in 0..n {
+        for j in 0..n {
+            let (Some(a), Some(b)) = (found[i].corner(), found[j].corner()) else {
+                continue;
+            };
+            if i == j || (a - b).xy().norm() >= plate_width {
+                continue;
+            }
+            let di = (a - found[i].expected).xy().norm();
+            let dj = (b - found[j].expected).xy().norm();
+            if di > dj || (di == dj && i > j) {
+                found[i].outcome = Err(Failure::SameObject {
+                    other: found[j].id.clone(),
+                    at: a,
+                });
+            }
+        }
+    }
 }

@@ -15,7 +15,8 @@
 //!    and the faces stop where a plate stops (a car's or a cabinet's go on).
 //! 4. **Choice.** Among windows scoring at least a quarter of the best (solid
 //!    clutter returns more points than a mesh plate), the one whose corner is
-//!    nearest the expected position wins.
+//!    nearest the expected position wins, unless it is nearer another
+//!    target's expected position (`tight_crop_among`).
 //! 5. **Crop.** Points near either plate plane, on the plate's side of the
 //!    corner, inside the plates' height band (the post below and the antenna
 //!    above are dropped, so the corner height is the plates' mean height).
@@ -143,6 +144,18 @@ pub fn tight_crop(
     expected: &Point,
     params: &TightParams,
 ) -> Result<TightCrop, TightError> {
+    tight_crop_among(points, expected, &[], params)
+}
+
+/// [`tight_crop`] when other targets are expected nearby (`others`, the same
+/// frame): an L nearer another target's expected position than this one's is
+/// that target's, so two targets a metre or two apart each keep their own.
+pub fn tight_crop_among(
+    points: &[Point],
+    expected: &Point,
+    others: &[Point],
+    params: &TightParams,
+) -> Result<TightCrop, TightError> {
     if points.is_empty() {
         return Err(TightError::NoPoints);
     }
@@ -170,7 +183,8 @@ pub fn tight_crop(
         Vector3::z()
     };
     let ap: Vec<Vector3<f64>> = above.iter().map(|&i| q[i]).collect();
-    let (best, candidates, best_score, seen) = detect_l(&ap, &up, params);
+    let others: Vec<Vector3<f64>> = others.iter().map(|o| o - expected).collect();
+    let (best, candidates, best_score, seen) = detect_l(&ap, &up, params, &others);
     let Some(l) = best else {
         return Err(TightError::NoTargetShape {
             radius: params.search_radius,
