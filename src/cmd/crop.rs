@@ -127,6 +127,7 @@ pub fn run(a: Args) -> Result<()> {
         survey.targets.len() - empty,
         survey.targets.len()
     );
+    super::print_tile_stats(reader.as_ref());
     Ok(())
 }
 
@@ -153,6 +154,7 @@ fn write_tight(
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
+    super::print_tile_stats(reader.as_ref());
     std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
     let tight_params = mapgauge::crop::TightParams::default();
     println!("{:<12} {:>10}  file", "id", "points");

@@ -296,10 +296,7 @@ pub fn evaluate(
         .map(|[lat, lon, alt]| Geodetic { lat, lon, alt });
     let survey = read_survey(survey_path, &SurveyOptions { origin })?;
     super::check_origin_used(&survey, origin, survey_path)?;
-    let pb = progress_bar(
-        std::fs::metadata(map).map(|m| m.len()).unwrap_or(0),
-        "reading map",
-    );
+    let pb = progress_bar(cloud::map_bytes(map), "reading map");
     let progress = |b, _| {
         if let Some(pb) = &pb {
             pb.set_position(b)

@@ -158,7 +158,7 @@ fn evaluate(
     };
     // The ground pass: the map's vertical (and, for detection, its ground).
     let total = match source {
-        MapSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
+        MapSource::File(p) => crate::cloud::map_bytes(p),
         MapSource::Points(_) => 0,
     };
     let ground = crate::frame::ground_level(source, None, |b| progress(b, total))?;
