@@ -110,10 +110,17 @@ fn a_region_hint_opens_only_the_tiles_within_reach() {
     let b = loose_crop(w.as_mut(), &centres, &params, |_| {}).unwrap();
     assert!(a.points == b.points);
     assert!(a.points.iter().all(|p| p.len() > 300), "{:?}", a.offered);
-    // A radius reaching a cell's edge exactly takes the cell.
+    // A radius reaching a cell's edge exactly takes the cell (the four
+    // neighbours, not the diagonal ones 14.1 m away).
     let mut r = cloud::open(&tiled).unwrap();
     r.hint_discs(&[[30.0, 30.0]], 10.0);
-    assert_eq!(r.tile_stats().unwrap().selected, 9);
+    assert_eq!(r.tile_stats().unwrap().selected, 5);
+    r.hint_discs(&[[30.0, 30.0]], 14.2);
+    assert_eq!(
+        r.tile_stats().unwrap().selected,
+        5,
+        "later hints only narrow"
+    );
     // A hint after reading began changes nothing.
     let mut r = cloud::open(&tiled).unwrap();
     let mut buf = Vec::new();
