@@ -29,7 +29,7 @@ mod records;
 mod region;
 mod scalar;
 mod source;
-mod tiles;
+pub(crate) mod tiles;
 mod write;
 mod xyz;
 
@@ -196,6 +196,16 @@ pub fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         return tiles::open(path);
     }
     open_as(path, detect(path)?)
+}
+
+/// The projection file of the map at `path`: a tiled map's
+/// `map_projector_info.yaml`, if it has one.
+pub fn map_projector(path: &Path) -> Result<Option<std::path::PathBuf>> {
+    if is_tiled(path) {
+        Ok(TiledMap::discover(path)?.projector)
+    } else {
+        Ok(None)
+    }
 }
 
 /// Size of the map at `path` in bytes (a tiled map's tiles together), for

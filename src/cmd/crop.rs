@@ -5,7 +5,7 @@ use mapgauge::cloud::{self, OutFormat};
 use mapgauge::crop::{LooseParams, Shape, loose_crop_each};
 use mapgauge::pipeline::expected_in_map;
 use mapgauge::record::refuse_overwrite;
-use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey};
+use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey_for_map};
 use mapgauge::{Point, Result};
 use std::path::PathBuf;
 
@@ -53,7 +53,13 @@ pub fn run(a: Args) -> Result<()> {
         )));
     }
     super::check_out_dir(&a.out)?;
-    let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
+    let projector = cloud::map_projector(&a.map)?;
+    let survey = read_survey_for_map(
+        &a.survey,
+        &SurveyOptions { origin: a.origin },
+        projector.as_deref(),
+    )?;
+    super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, a.origin, &a.survey)?;
     let init = a.init.unwrap_or([0.0; 3]);
     let centres: Vec<Point> = survey

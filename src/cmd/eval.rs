@@ -9,7 +9,7 @@ use mapgauge::pipeline::{self, Config, Evaluation};
 use mapgauge::record::{EvalInfo, ResultFile, refuse_overwrite};
 use mapgauge::render::{self, OutputFormat, TableFormat};
 use mapgauge::report::{self, HashedInputs};
-use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey};
+use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey_for_map};
 use mapgauge::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -294,7 +294,9 @@ pub fn evaluate(
         .frame
         .origin
         .map(|[lat, lon, alt]| Geodetic { lat, lon, alt });
-    let survey = read_survey(survey_path, &SurveyOptions { origin })?;
+    let projector = cloud::map_projector(map)?;
+    let survey = read_survey_for_map(survey_path, &SurveyOptions { origin }, projector.as_deref())?;
+    super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, origin, survey_path)?;
     let pb = progress_bar(cloud::map_bytes(map), "reading map");
     let progress = |b, _| {

@@ -116,3 +116,13 @@ pub fn print_tile_stats(reader: &dyn mapgauge::cloud::PointReader) {
         );
     }
 }
+
+/// Says on stderr when a WGS84 survey was placed by the map's projection.
+pub fn say_projected(survey: &mapgauge::survey::Survey, projector: Option<&std::path::Path>) {
+    if let (mapgauge::survey::SurveyFrame::Wgs84Map, Some(p)) = (survey.frame, projector) {
+        eprintln!(
+            "the WGS84 survey is placed in the map frame by {}",
+            p.display()
+        );
+    }
+}
