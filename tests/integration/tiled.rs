@@ -3,7 +3,9 @@
 //! opens only the tiles near the targets.
 
 use crate::util::{bin, stderr, stdout_ok, tempdir};
+use mapgauge::Point;
 use mapgauge::cloud::{self, OutFormat, TiledMap};
+use mapgauge::survey::{Geodetic, Projector, SurveyOptions, read_survey};
 use std::path::Path;
 
 /// A synthetic scene's map written whole (in tile order) and as tiles;
@@ -137,4 +139,141 @@ fn a_crop_of_a_tiled_map_opens_only_the_near_tiles() {
     }
     assert_eq!(files[0].len(), 5);
     assert!(files[0] == files[1], "crops differ");
+}
+
+/// The WGS84 position that `p` projects to `target` (Newton's method on the
+/// projection, to 1e-8 m).
+fn invert(p: &Projector, target: &Point, start: Geodetic) -> Geodetic {
+    let mut g = start;
+    for _ in 0..50 {
+        let f = p.forward(&g);
+        let r = [target.x - f.x, target.y - f.y];
+        g.alt += target.z - f.z;
+        if r[0].abs() < 1e-8 && r[1].abs() < 1e-8 {
+            return g;
+        }
+        let h = 1e-7;
+        let fx = p.forward(&Geodetic {
+            lat: g.lat + h,
+            ..g
+        });
+        let fy = p.forward(&Geodetic {
+            lon: g.lon + h,
+            ..g
+        });
+        let j = [
+            [(fx.x - f.x) / h, (fy.x - f.x) / h],
+            [(fx.y - f.y) / h, (fy.y - f.y) / h],
+        ];
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        g.lat += (j[1][1] * r[0] - j[0][1] * r[1]) / det;
+        g.lon += (-j[1][0] * r[0] + j[0][0] * r[1]) / det;
+    }
+    panic!("no convergence for {target}");
+}
+
+#[test]
+fn a_wgs84_survey_is_placed_by_the_maps_projector_info() {
+    let dir = tempdir();
+    let s = dir.path().join("scene");
+    // The map in the survey frame: the projection is all it takes.
+    stdout_ok(
+        bin()
+            .args([
+                "synth", "--points", "300000", "--format", "pcd", "--seed", "2",
+            ])
+            .args(["--yaw-deg", "0", "--offset-m", "0,0,0", "--out"])
+            .arg(&s),
+    );
+    let pts = cloud::read_all(&s.join("map.pcd")).unwrap();
+    let map = dir.path().join("map");
+    cloud::write_tiles(&pts, &map, 20.0, OutFormat::Pcd).unwrap();
+    let local = read_survey(&s.join("survey.csv"), &SurveyOptions::default()).unwrap();
+    let origin = "map_origin:\n  latitude: 35.68\n  longitude: 139.76\n  altitude: 30.0\n";
+    let start = Geodetic {
+        lat: 35.68,
+        lon: 139.76,
+        alt: 30.0,
+    };
+    let eval = |survey: &Path, map: &Path, out: &Path| {
+        let o = bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(map)
+            .arg("--survey")
+            .arg(survey)
+            .arg("--out")
+            .arg(out)
+            .arg("--no-report")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "eval: {}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap())
+                .unwrap();
+        (v, stderr(&o))
+    };
+    let (want, _) = eval(&s.join("survey.csv"), &map, &dir.path().join("local"));
+    assert_eq!(want["eval"]["frame"]["how"], "survey");
+    for (k, yaml) in [
+        format!("projector_type: LocalCartesianUTM\nvertical_datum: WGS84\n{origin}"),
+        format!("projector_type: LocalCartesian\n{origin}"),
+        format!("projector_type: TransverseMercator\n{origin}"),
+        "projector_type: MGRS\nvertical_datum: WGS84\nmgrs_grid: 54SUE\n".to_string(),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let pf = map.join("map_projector_info.yaml");
+        std::fs::write(&pf, yaml).unwrap();
+        let proj = Projector::read(&pf, true).unwrap();
+        // MGRS coordinates count from the square's corner: the survey sits
+        // 50 km into it.
+        let shift = if k == 3 { 50_000.0 } else { 0.0 };
+        let mut csv = String::from("id,lat,lon,alt,antenna_height\n");
+        for t in &local.targets {
+            let q = Point::new(t.position.x + shift, t.position.y + shift, t.position.z);
+            let g = invert(&proj, &q, start);
+            csv += &format!(
+                "{},{:.12},{:.12},{:.6},{}\n",
+                t.id, g.lat, g.lon, g.alt, t.antenna_height
+            );
+        }
+        let survey = dir.path().join(format!("wgs84-{k}.csv"));
+        std::fs::write(&survey, csv).unwrap();
+        let (map_k, pts_k);
+        if k == 3 {
+            // The MGRS map: the same points 50 km into the square.
+            pts_k = pts
+                .iter()
+                .map(|p| Point::new(p.x + shift, p.y + shift, p.z))
+                .collect::<Vec<_>>();
+            map_k = dir.path().join("mgrs");
+            cloud::write_tiles(&pts_k, &map_k, 20.0, OutFormat::Pcd).unwrap();
+            std::fs::copy(&pf, map_k.join("map_projector_info.yaml")).unwrap();
+        } else {
+            map_k = map.clone();
+        }
+        let (got, err) = eval(&survey, &map_k, &dir.path().join(format!("out{k}")));
+        assert!(err.contains("placed in the map frame by"), "{err}");
+        assert_eq!(got["survey_frame"], "wgs84_map", "{yaml}");
+        assert_eq!(got["eval"]["frame"]["how"], "survey", "{yaml}");
+        let errors = |v: &serde_json::Value| -> Vec<f64> {
+            v["targets"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|t| t["abs_error"].as_f64().unwrap_or(f64::NAN))
+                .collect()
+        };
+        let (a, b) = (errors(&want), errors(&got));
+        assert_eq!(a.len(), b.len());
+        assert!(a.iter().filter(|e| e.is_finite()).count() >= 3, "{a:?}");
+        for (x, y) in a.iter().zip(&b) {
+            assert!(
+                (x - y).abs() < 1e-6 || (x.is_nan() && y.is_nan()),
+                "{yaml}: {a:?} vs {b:?}"
+            );
+        }
+    }
 }
