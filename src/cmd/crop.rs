@@ -12,7 +12,8 @@ use std::path::PathBuf;
 /// Cut the map around every surveyed target (one pass over the map).
 #[derive(clap::Args)]
 pub struct Args {
-    /// Map file (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    /// Map file (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content), or an
+    /// Autoware tiled map: a folder of PCD tiles or its `*metadata*.yaml`.
     #[arg(long)]
     map: PathBuf,
     /// Survey CSV (id,x,y[,z] or id,lat,lon[,alt]).

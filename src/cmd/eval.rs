@@ -17,7 +17,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// Measure a map's accuracy: crop, locate every target, align, report.
 #[derive(clap::Args, Clone)]
 pub struct Args {
-    /// Map file (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    /// Map file (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content), or an
+    /// Autoware tiled map: a folder of PCD tiles or its `*metadata*.yaml`.
     #[arg(long, required_unless_present = "print_config")]
     pub map: Option<PathBuf>,
     /// Survey CSV (id,x,y[,z][,antenna_height][,role] or id,lat,lon[,alt]...).
