@@ -14,7 +14,9 @@ pub use region::Region;
 pub use source::{MapSource, MemoryReader};
 use std::io::Read;
 use std::path::Path;
-pub use tiles::{PROJECTOR_FILE, Tile, TileStats, TiledMap, is_tiled, read_metadata, write_tiles};
+pub use tiles::{
+    MetadataTiles, PROJECTOR_FILE, Tile, TileStats, TiledMap, is_tiled, read_metadata, write_tiles,
+};
 
 mod e57;
 mod fold;

@@ -312,9 +312,8 @@ pub(crate) fn parse_metadata(text: &str) -> std::result::Result<Metadata, yaml::
     for t in &tiles {
         // A cell's far edge must be a number the grid can tell from its
         // near edge.
-        if !((t.min[0] + x).is_finite() && t.min[0] + x > t.min[0])
-            || !((t.min[1] + y).is_finite() && t.min[1] + y > t.min[1])
-        {
+        let apart = |lo: f64, size: f64| (lo + size).is_finite() && lo + size > lo;
+        if !(apart(t.min[0], x) && apart(t.min[1], y)) {
             return Err((
                 t.line,
                 format!("`{}`: cell too far out for its size", t.name),
@@ -334,8 +333,12 @@ fn corner(e: &Entry) -> std::result::Result<[f64; 2], yaml::Fail> {
     }
 }
 
+/// A metadata file's contents: cell size `[x, y]`, and each tile's file name
+/// and cell corner `[min_x, min_y]` in file order.
+pub type MetadataTiles = ([f64; 2], Vec<(String, [f64; 2])>);
+
 /// Reads the metadata file at `path` (for fuzzing and tools).
-pub fn read_metadata(path: &Path) -> Result<([f64; 2], Vec<(String, [f64; 2])>)> {
+pub fn read_metadata(path: &Path) -> Result<MetadataTiles> {
     let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let text = String::from_utf8(text)
         .map_err(|_| Error::format(path, "not UTF-8 text (a YAML file is expected)"))?;
@@ -523,11 +526,9 @@ impl PointReader for TiledReader {
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
         loop {
-            if self.cur.is_none() || self.ended {
-                if !self.advance()? {
-                    buf.clear();
-                    return Ok(false);
-                }
+            if (self.cur.is_none() || self.ended) && !self.advance()? {
+                buf.clear();
+                return Ok(false);
             }
             let Some((r, t)) = self.cur.as_mut() else {
                 return Ok(false);

@@ -247,7 +247,7 @@ fn float32_tiles_at_the_cell_edge_are_inside() {
     let d = dir.path();
     // 1019.99999 rounds to 1020.0 in float32: on the far edge.
     let pts = vec![
-        Point::new(1019.999_99, 5.0, 0.0),
+        Point::new(1_019.999_99, 5.0, 0.0),
         Point::new(1000.0, 19.999_999, 0.0),
     ];
     cloud::write(&d.join("A.pcd"), OutFormat::PcdF32, &pts).unwrap();
