@@ -15,8 +15,9 @@
 //!
 //! Tiles are looked up beside the metadata, or in a sub-folder of it (Autoware
 //! puts `pointcloud_map_metadata.yaml` beside a `pointcloud_map.pcd/`
-//! folder). A folder without metadata is read as every `.pcd` in it, sorted
-//! by name.
+//! folder; given that tile folder, the metadata beside it is used when all
+//! its tiles are in the folder). A folder without metadata is read as every
+//! `.pcd` in it, sorted by name.
 
 pub(crate) mod yaml;
 
@@ -112,7 +113,12 @@ impl TiledMap {
                 .filter(|p| p.is_file() && is_metadata_name(p))
                 .collect();
             match metas.as_slice() {
-                [] => (path.to_path_buf(), None),
+                [] => {
+                    if let Some(m) = parent_metadata(path) {
+                        return Ok(m);
+                    }
+                    (path.to_path_buf(), None)
+                }
                 [one] => (path.to_path_buf(), Some(one.clone())),
                 more => {
                     let names: Vec<String> = more.iter().map(|p| p.display().to_string()).collect();
@@ -236,6 +242,27 @@ impl TiledMap {
     pub fn bytes(&self) -> u64 {
         self.tiles.iter().map(|t| t.bytes).sum()
     }
+}
+
+/// Autoware's layout seen from the tile folder (`map/pointcloud_map.pcd/`):
+/// the one metadata file of the parent folder, when every tile it lists is
+/// in `dir`.
+fn parent_metadata(dir: &Path) -> Option<TiledMap> {
+    let here = dir.canonicalize().ok()?;
+    let parent = here.parent()?;
+    let metas: Vec<PathBuf> = sorted_entries(parent)
+        .ok()?
+        .into_iter()
+        .filter(|p| p.is_file() && is_metadata_name(p))
+        .collect();
+    let [meta] = metas.as_slice() else {
+        return None;
+    };
+    let m = TiledMap::discover(meta).ok()?;
+    m.tiles
+        .iter()
+        .all(|t| t.path.canonicalize().is_ok_and(|p| p.starts_with(&here)))
+        .then_some(m)
 }
 
 fn file_size(p: &Path) -> Result<u64> {

@@ -172,12 +172,32 @@ fn autoware_layout_metadata_beside_the_tile_folder() {
     std::fs::write(d.join("lanelet2_map.osm"), "<osm/>").unwrap();
     std::fs::write(d.join(PROJECTOR_FILE), "projector_type: Local\n").unwrap();
     let m = TiledMap::discover(d).unwrap();
+    assert_eq!(m.files()[0], d.join("pointcloud_map_metadata.yaml"));
     assert_eq!(m.projector, Some(d.join(PROJECTOR_FILE)));
     assert_eq!(m.tiles[0].cell, Some([20.0, 0.0, 40.0, 20.0]));
     assert_eq!(m.tiles[0].line, 3);
     let (got, _) = read(d);
-    assert_eq!(got, [b, a].concat(), "metadata order");
-    assert_eq!(m.files()[0], d.join("pointcloud_map_metadata.yaml"));
+    assert_eq!(got, [b.clone(), a.clone()].concat(), "metadata order");
+    // Given the tile folder, the metadata beside it is found.
+    let from_tiles = TiledMap::discover(&d.join("pointcloud_map.pcd")).unwrap();
+    assert_eq!(
+        from_tiles.metadata,
+        m.metadata.as_ref().map(|p| p.canonicalize().unwrap())
+    );
+    assert_eq!(from_tiles.tiles.len(), 2);
+    assert!(from_tiles.projector.is_some());
+    let (got, _) = read(&d.join("pointcloud_map.pcd"));
+    assert_eq!(got, [b.clone(), a.clone()].concat());
+    // Not when the metadata lists a tile elsewhere: every .pcd of the folder.
+    cloud::write(&d.join("C.pcd"), OutFormat::Pcd, &a).unwrap();
+    std::fs::write(
+        d.join("pointcloud_map_metadata.yaml"),
+        "x_resolution: 20.0\ny_resolution: 20.0\nB.pcd: [20, 0]\nA.pcd: [0, 0]\nC.pcd: [0, 0]\n",
+    )
+    .unwrap();
+    let (got, st) = read(&d.join("pointcloud_map.pcd"));
+    assert_eq!(got, [a, b].concat(), "by name");
+    assert_eq!(st.unwrap().tiles, 2);
 }
 
 #[test]
