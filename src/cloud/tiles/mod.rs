@@ -463,6 +463,8 @@ pub(crate) struct TiledReader {
     counts: TileStats,
     /// Reading has begun: a region hint comes too late.
     started: bool,
+    /// Whether every tile to read has an intensity field (looked up once).
+    intensity: std::sync::OnceLock<bool>,
 }
 
 impl TiledReader {
@@ -489,6 +491,7 @@ impl TiledReader {
                 ..TileStats::default()
             },
             started: false,
+            intensity: std::sync::OnceLock::new(),
         }
     }
 
@@ -549,6 +552,41 @@ fn check_cell(tile: &Tile, meta: Option<&Path>, pts: &[Point]) -> Result<()> {
 impl PointReader for TiledReader {
     fn info(&self) -> &CloudInfo {
         &self.info
+    }
+
+    fn has_intensity(&self) -> bool {
+        // Every tile to read must have it; known only from their headers.
+        *self.intensity.get_or_init(|| {
+            self.order
+                .iter()
+                .all(|&t| super::open(&self.map.tiles[t].path).is_ok_and(|r| r.has_intensity()))
+        })
+    }
+
+    fn next_chunk_intensity(
+        &mut self,
+        buf: &mut Vec<Point>,
+        intensity: &mut Vec<f32>,
+    ) -> Result<bool> {
+        loop {
+            if (self.cur.is_none() || self.ended) && !self.advance()? {
+                buf.clear();
+                intensity.clear();
+                return Ok(false);
+            }
+            let Some((r, t)) = self.cur.as_mut() else {
+                return Ok(false);
+            };
+            if r.next_chunk_intensity(buf, intensity)? {
+                check_cell(&self.map.tiles[*t], self.map.metadata.as_deref(), buf)?;
+                if !self.has_intensity() {
+                    // Some tile lacks it: none is given (the trait's promise).
+                    intensity.clear();
+                }
+                return Ok(true);
+            }
+            self.ended = true;
+        }
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {

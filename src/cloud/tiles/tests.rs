@@ -280,3 +280,32 @@ fn float32_tiles_at_the_cell_edge_are_inside() {
     assert_eq!(got.len(), 2);
     assert_eq!(got[0].x, 1020.0);
 }
+
+#[test]
+fn intensity_goes_through_when_every_tile_has_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let a = vec![Point::new(1.0, 2.0, 3.0); 10];
+    let b = vec![Point::new(25.0, 5.0, 6.0); 20];
+    let ia: Vec<f32> = (0..10).map(|i| i as f32).collect();
+    let ib: Vec<f32> = (0..20).map(|i| 100.0 + i as f32).collect();
+    for (name, pts, inten) in [("A.pcd", &a, &ia), ("B.pcd", &b, &ib)] {
+        let mut w = cloud::CloudWriter::create(&d.join(name), OutFormat::PcdXyzi).unwrap();
+        w.write_intensity(pts, inten).unwrap();
+        w.finish().unwrap();
+    }
+    let read_i = |d: &Path| {
+        let mut r = cloud::open(d).unwrap();
+        let has = r.has_intensity();
+        let (mut buf, mut inten, mut all) = (Vec::new(), Vec::new(), Vec::new());
+        while r.next_chunk_intensity(&mut buf, &mut inten).unwrap() {
+            assert_eq!(inten.len(), if has { buf.len() } else { 0 });
+            all.extend_from_slice(&inten);
+        }
+        (has, all)
+    };
+    assert_eq!(read_i(d), (true, [ia.clone(), ib].concat()));
+    // One tile without intensity: none is given.
+    cloud::write(&d.join("B.pcd"), OutFormat::Pcd, &b).unwrap();
+    assert_eq!(read_i(d), (false, Vec::new()));
+}
