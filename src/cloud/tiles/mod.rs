@@ -381,7 +381,7 @@ pub fn read_metadata(path: &Path) -> Result<MetadataTiles> {
 /// `floor(x / resolution)`, as `pointcloud_divider` cuts), in `format`, and
 /// `pointcloud_map_metadata.yaml`. Tiles are ordered by cell row then
 /// column, each with its points in their given order; the returned map
-/// lists them in that order, so [`open`] on `dir` reads exactly
+/// lists them in that order, so [`crate::cloud::open`] on `dir` reads exactly
 /// [`TiledMap::order_points`] of `points`.
 pub fn write_tiles(
     points: &[Point],
