@@ -188,12 +188,13 @@ impl PySurvey {
     fn has_z(&self) -> bool {
         self.inner.has_z()
     }
-    /// `local` or `wgs84_enu`.
+    /// `local`, `wgs84_enu` or `wgs84_map`.
     #[getter]
     fn frame(&self) -> &'static str {
         match self.inner.frame {
             SurveyFrame::Local => "local",
             SurveyFrame::Wgs84Enu => "wgs84_enu",
+            SurveyFrame::Wgs84Map => "wgs84_map",
         }
     }
     /// The survey as result.json names it: the file as given, or `<memory>`.

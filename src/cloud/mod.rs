@@ -14,6 +14,9 @@ pub use region::Region;
 pub use source::{MapSource, MemoryReader};
 use std::io::Read;
 use std::path::Path;
+pub use tiles::{
+    MetadataTiles, PROJECTOR_FILE, Tile, TileStats, TiledMap, is_tiled, read_metadata, write_tiles,
+};
 
 mod e57;
 mod fold;
@@ -28,6 +31,7 @@ mod records;
 mod region;
 mod scalar;
 mod source;
+pub(crate) mod tiles;
 mod write;
 mod xyz;
 
@@ -118,6 +122,18 @@ pub trait PointReader: Send {
             Ok(None)
         }
     }
+    /// Tells the reader, before its first read, that the consumer keeps only
+    /// points within `radius` (horizontally) of one of `centres`: a reader
+    /// that can skip whole parts of the map unread (a tiled map's far tiles)
+    /// does. Later calls, and readers without such parts, ignore it; the
+    /// consumer still applies its exact test.
+    fn hint_discs(&mut self, centres: &[[f64; 2]], radius: f64) {
+        let _ = (centres, radius);
+    }
+    /// What a tiled map's reader opened (`None` for a single file).
+    fn tile_stats(&self) -> Option<TileStats> {
+        None
+    }
 }
 
 /// Consecutive pieces of a cloud, in file order, each decodable on any thread.
@@ -175,9 +191,33 @@ impl Batch for Decoded<'_> {
     }
 }
 
-/// Opens a map of any supported format, recognised from its content.
+/// Opens a map of any supported format, recognised from its content; a
+/// folder or a `*metadata*.yaml` is a tiled map ([`TiledMap`]).
 pub fn open(path: &Path) -> Result<Box<dyn PointReader>> {
+    if is_tiled(path) {
+        return tiles::open(path);
+    }
     open_as(path, detect(path)?)
+}
+
+/// The projection file of the map at `path`: a tiled map's
+/// `map_projector_info.yaml`, if it has one.
+pub fn map_projector(path: &Path) -> Result<Option<std::path::PathBuf>> {
+    if is_tiled(path) {
+        Ok(TiledMap::discover(path)?.projector)
+    } else {
+        Ok(None)
+    }
+}
+
+/// Size of the map at `path` in bytes (a tiled map's tiles together), for
+/// progress; 0 when it cannot be told.
+pub fn map_bytes(path: &Path) -> u64 {
+    if is_tiled(path) {
+        TiledMap::discover(path).map_or(0, |m| m.bytes())
+    } else {
+        std::fs::metadata(path).map_or(0, |m| m.len())
+    }
 }
 
 /// Opens a map as `format` whatever its content says (for callers that know

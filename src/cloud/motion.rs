@@ -87,6 +87,12 @@ impl PointReader for Moved<'_> {
     fn bytes_read(&self) -> u64 {
         self.inner.bytes_read()
     }
+    // No `hint_discs`: the hint is in the moved frame, and a tilted map's
+    // points move sideways with their height, which no tile tells before it
+    // is read; every tile is read.
+    fn tile_stats(&self) -> Option<super::TileStats> {
+        self.inner.tile_stats()
+    }
     fn next_batch<'a>(
         &'a mut self,
         buf: &'a mut Vec<Point>,

@@ -5,14 +5,15 @@ use mapgauge::cloud::{self, OutFormat};
 use mapgauge::crop::{LooseParams, Shape, loose_crop_each};
 use mapgauge::pipeline::expected_in_map;
 use mapgauge::record::refuse_overwrite;
-use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey};
+use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey_for_map};
 use mapgauge::{Point, Result};
 use std::path::PathBuf;
 
 /// Cut the map around every surveyed target (one pass over the map).
 #[derive(clap::Args)]
 pub struct Args {
-    /// Map file (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    /// Map file (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content), or an
+    /// Autoware tiled map: a folder of PCD tiles or its `*metadata*.yaml`.
     #[arg(long)]
     map: PathBuf,
     /// Survey CSV (id,x,y[,z] or id,lat,lon[,alt]).
@@ -53,7 +54,13 @@ pub fn run(a: Args) -> Result<()> {
         )));
     }
     super::check_out_dir(&a.out)?;
-    let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
+    let projector = cloud::map_projector(&a.map)?;
+    let survey = read_survey_for_map(
+        &a.survey,
+        &SurveyOptions { origin: a.origin },
+        projector.as_deref(),
+    )?;
+    super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, a.origin, &a.survey)?;
     let init = a.init.unwrap_or([0.0; 3]);
     let centres: Vec<Point> = survey
@@ -127,6 +134,7 @@ pub fn run(a: Args) -> Result<()> {
         survey.targets.len() - empty,
         survey.targets.len()
     );
+    super::print_tile_stats(reader.as_ref());
     Ok(())
 }
 
@@ -153,6 +161,7 @@ fn write_tight(
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
+    super::print_tile_stats(reader.as_ref());
     std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
     let tight_params = mapgauge::crop::TightParams::default();
     println!("{:<12} {:>10}  file", "id", "points");

@@ -13,7 +13,8 @@ use std::path::PathBuf;
 /// configured size meeting at a vertical edge) anywhere in the map.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The map (PCD, PLY, LAS/LAZ, E57, XYZ, PTS).
+    /// The map (PCD, PLY, LAS/LAZ, E57, XYZ, PTS), or an Autoware tiled map
+    /// (a folder of PCD tiles or its `*metadata*.yaml`).
     #[arg(long)]
     map: PathBuf,
     /// Directory for detections.csv and detections.ply (corners and the L's

@@ -9,7 +9,7 @@ use mapgauge::pipeline::{self, Config, Evaluation};
 use mapgauge::record::{EvalInfo, ResultFile, refuse_overwrite};
 use mapgauge::render::{self, OutputFormat, TableFormat};
 use mapgauge::report::{self, HashedInputs};
-use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey};
+use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey_for_map};
 use mapgauge::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -17,7 +17,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// Measure a map's accuracy: crop, locate every target, align, report.
 #[derive(clap::Args, Clone)]
 pub struct Args {
-    /// Map file (PCD, PLY, LAS/LAZ, E57, XYZ; recognised from its content).
+    /// Map file (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content), or an
+    /// Autoware tiled map: a folder of PCD tiles or its `*metadata*.yaml`.
     #[arg(long, required_unless_present = "print_config")]
     pub map: Option<PathBuf>,
     /// Survey CSV (id,x,y[,z][,antenna_height][,role] or id,lat,lon[,alt]...).
@@ -294,12 +295,11 @@ pub fn evaluate(
         .frame
         .origin
         .map(|[lat, lon, alt]| Geodetic { lat, lon, alt });
-    let survey = read_survey(survey_path, &SurveyOptions { origin })?;
+    let projector = cloud::map_projector(map)?;
+    let survey = read_survey_for_map(survey_path, &SurveyOptions { origin }, projector.as_deref())?;
+    super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, origin, survey_path)?;
-    let pb = progress_bar(
-        std::fs::metadata(map).map(|m| m.len()).unwrap_or(0),
-        "reading map",
-    );
+    let pb = progress_bar(cloud::map_bytes(map), "reading map");
     let progress = |b, _| {
         if let Some(pb) = &pb {
             pb.set_position(b)

@@ -103,3 +103,26 @@ pub fn check_origin_used(
     }
     Ok(())
 }
+
+/// For a tiled map, how many tiles (and bytes) a read opened, on stderr.
+pub fn print_tile_stats(reader: &dyn mapgauge::cloud::PointReader) {
+    if let Some(t) = reader.tile_stats() {
+        eprintln!(
+            "tiles: {} of {} opened ({:.1} of {:.1} MB)",
+            t.opened,
+            t.tiles,
+            t.bytes_opened as f64 / 1e6,
+            t.bytes as f64 / 1e6
+        );
+    }
+}
+
+/// Says on stderr when a WGS84 survey was placed by the map's projection.
+pub fn say_projected(survey: &mapgauge::survey::Survey, projector: Option<&std::path::Path>) {
+    if let (mapgauge::survey::SurveyFrame::Wgs84Map, Some(p)) = (survey.frame, projector) {
+        eprintln!(
+            "the WGS84 survey is placed in the map frame by {}",
+            p.display()
+        );
+    }
+}

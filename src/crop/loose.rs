@@ -261,10 +261,10 @@ pub fn loose_crop_each(
     let grid = CentreIndex::new(centres, params.radius);
     // Handed to the reader so that it drops most of the map before building
     // points; the exact test below still decides.
-    let region = Region::discs(
-        &centres.iter().map(|c| [c.x, c.y]).collect::<Vec<_>>(),
-        params.radius,
-    );
+    let discs: Vec<[f64; 2]> = centres.iter().map(|c| [c.x, c.y]).collect();
+    // A tiled map opens only the tiles within reach of a centre.
+    reader.hint_discs(&discs, params.radius);
+    let region = Region::discs(&discs, params.radius);
     let r2 = params.radius * params.radius;
     let sphere = params.shape == Shape::Sphere;
     let inside = |p: &Point, c: &Point| {

@@ -62,6 +62,9 @@ pub struct MapGround {
     pub level: Option<GroundLevel>,
     /// Finite points read.
     pub points: u64,
+    /// The reader's counters over the whole map (finite points, non-finite
+    /// ones skipped).
+    pub read: crate::cloud::ReadStats,
     /// A point near the map's middle (whole metres): the centre of
     /// rotation for any turn of the map, whether or not a vertical was found.
     pub centre: Point,
@@ -143,6 +146,7 @@ pub fn ground_level(
                 return Ok(MapGround {
                     level: None,
                     points: 0,
+                    read: r.stats(),
                     centre: Point::origin(),
                     lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
                     z0: 0.0,
@@ -219,6 +223,7 @@ pub fn ground_level(
         level,
         centre,
         points: low.count,
+        read: reader.stats(),
         lowest: low.grid,
         z0,
     })

@@ -158,10 +158,14 @@ fn evaluate(
     };
     // The ground pass: the map's vertical (and, for detection, its ground).
     let total = match source {
-        MapSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
+        MapSource::File(p) => crate::cloud::map_bytes(p),
         MapSource::Points(_) => 0,
     };
     let ground = crate::frame::ground_level(source, None, |b| progress(b, total))?;
+    // The whole map's counts; a crop of a tiled map reads only some tiles.
+    map.bytes = total;
+    map.points = ground.read.points;
+    map.skipped_nonfinite = ground.read.skipped_nonfinite;
     // `--align none` scores the map in the survey frame as it is: nothing
     // may turn it.
     let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
@@ -520,9 +524,15 @@ fn read_crops(
 ) -> Result<Vec<(Vec<Point>, u64)>> {
     let mut reader = source.open_moved(Some(motion))?;
     let total = reader.info().file_bytes;
-    map.bytes = total;
+    if reader.tile_stats().is_none() {
+        map.bytes = total;
+    }
     let crop = crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?;
-    map.points = crop.map_points;
-    map.skipped_nonfinite = crop.skipped_nonfinite;
+    // A tiled map's crop opened only the tiles near the targets: its counts
+    // are not the map's (the ground pass's are kept).
+    if reader.tile_stats().is_none_or(|t| t.selected == t.tiles) {
+        map.points = crop.map_points;
+        map.skipped_nonfinite = crop.skipped_nonfinite;
+    }
     Ok(crop.points.into_iter().zip(crop.offered).collect())
 }

@@ -65,20 +65,33 @@ impl InputFile {
         path: &Path,
         stop: &std::sync::atomic::AtomicBool,
     ) -> Result<Option<InputFile>> {
-        let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        // A tiled map is its metadata and tiles, hashed as one stream in
+        // reading order.
+        let files: Vec<std::path::PathBuf> = if crate::cloud::is_tiled(path) {
+            crate::cloud::TiledMap::discover(path)?
+                .files()
+                .into_iter()
+                .map(Path::to_path_buf)
+                .collect()
+        } else {
+            vec![path.to_path_buf()]
+        };
         let mut h = Sha256::new();
         let mut buf = vec![0u8; 1 << 20];
         let mut bytes = 0u64;
-        loop {
-            if stop.load(std::sync::atomic::Ordering::Relaxed) {
-                return Ok(None);
+        for file in &files {
+            let mut f = std::fs::File::open(file).map_err(|e| Error::io(file, e))?;
+            loop {
+                if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    return Ok(None);
+                }
+                let n = f.read(&mut buf).map_err(|e| Error::io(file, e))?;
+                if n == 0 {
+                    break;
+                }
+                h.update(&buf[..n]);
+                bytes += n as u64;
             }
-            let n = f.read(&mut buf).map_err(|e| Error::io(path, e))?;
-            if n == 0 {
-                break;
-            }
-            h.update(&buf[..n]);
-            bytes += n as u64;
         }
         let sha256 = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
         Ok(Some(InputFile {

@@ -4,8 +4,10 @@
 //! reported with its file and line, so a 200-target survey can be fixed quickly.
 
 mod geodesy;
+mod projection;
 
 pub use geodesy::{Geodetic, WGS84_A, WGS84_E2, WGS84_F};
+pub use projection::Projector;
 
 use crate::{Error, Point, Result};
 use serde::{Deserialize, Serialize};
@@ -20,6 +22,9 @@ pub enum SurveyFrame {
     Local,
     /// `lat, lon[, alt]` in WGS84, converted to ENU about [`Survey::origin`].
     Wgs84Enu,
+    /// `lat, lon[, alt]` in WGS84, placed in the map's own frame by the map's
+    /// projection (an Autoware map's `map_projector_info.yaml`).
+    Wgs84Map,
 }
 
 /// Whether a target may be used to fit the alignment or only to check it.
@@ -311,6 +316,20 @@ const ALT: &[&str] = &["alt", "altitude", "h", "ellipsoidal_height"];
 /// (WGS84 degrees, converted to ENU about `opts.origin` or the first target);
 /// optional `role` (control|check) and `antenna_height`.
 pub fn read_survey(path: &Path, opts: &SurveyOptions) -> Result<Survey> {
+    read_survey_for_map(path, opts, None)
+}
+
+/// [`read_survey`] for a map with a projection file (an Autoware map's
+/// `map_projector_info.yaml`, see [`crate::cloud::TiledMap::projector`]): a
+/// WGS84 survey is placed in the map's frame through it
+/// ([`SurveyFrame::Wgs84Map`]), so the map needs no fitted frame. A local
+/// survey is read as it is. `opts.origin` is refused with a projection: the
+/// map says where its origin is.
+pub fn read_survey_for_map(
+    path: &Path,
+    opts: &SurveyOptions,
+    projector: Option<&Path>,
+) -> Result<Survey> {
     let t = Table::read(path)?;
     let id_c = t.require(ID)?;
     let (xy, ll) = ((t.col(X), t.col(Y)), (t.col(LAT), t.col(LON)));
@@ -414,6 +433,28 @@ pub fn read_survey(path: &Path, opts: &SurveyOptions) -> Result<Survey> {
     }
     if targets.is_empty() {
         return Err(Error::table(path, 0, "no targets in survey"));
+    }
+    if let (true, Some(pf)) = (geodetic, projector) {
+        if opts.origin.is_some() {
+            return Err(Error::Param(format!(
+                "--origin: the map's {} places the survey; drop --origin",
+                pf.display()
+            )));
+        }
+        let proj = Projector::read(pf, targets.iter().any(|t| t.has_z))?;
+        for (t, g) in targets.iter_mut().zip(&geo) {
+            let p = proj.forward(g);
+            t.position = if t.has_z {
+                p
+            } else {
+                Point::new(p.x, p.y, 0.0)
+            };
+        }
+        return Ok(Survey {
+            targets,
+            frame: SurveyFrame::Wgs84Map,
+            origin: None,
+        });
     }
     let (frame, origin) = if geodetic {
         let origin = opts.origin.unwrap_or(geo[0]);

@@ -24,4 +24,5 @@ mod locate_acceptance;
 mod pipeline;
 mod report_cli;
 mod synth_cli;
+mod tiled;
 mod uncertainty;

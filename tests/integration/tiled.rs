@@ -1,0 +1,279 @@
+//! Autoware tiled maps end to end: the same map whole and as 20 m tiles gives
+//! the same results from `eval` and the same crops from `crop`, and the crop
+//! opens only the tiles near the targets.
+
+use crate::util::{bin, stderr, stdout_ok, tempdir};
+use mapgauge::Point;
+use mapgauge::cloud::{self, OutFormat, TiledMap};
+use mapgauge::survey::{Geodetic, Projector, SurveyOptions, read_survey};
+use std::path::Path;
+
+/// A synthetic scene's map written whole (in tile order) and as tiles;
+/// returns (whole map, tile folder, survey).
+fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
+    let s = dir.join("scene");
+    stdout_ok(
+        bin()
+            .args([
+                "synth", "--points", "400000", "--format", "pcd", "--seed", "1", "--out",
+            ])
+            .arg(&s),
+    );
+    let pts = cloud::read_all(&s.join("map.pcd")).unwrap();
+    let tiles = dir.join("pointcloud_map");
+    let m = cloud::write_tiles(&pts, &tiles, 20.0, OutFormat::Pcd).unwrap();
+    assert!(m.tiles.len() > 20, "{} tiles", m.tiles.len());
+    let whole = dir.join("whole.pcd");
+    cloud::write(
+        &whole,
+        OutFormat::Pcd,
+        &TiledMap::order_points(&pts, 20.0).unwrap(),
+    )
+    .unwrap();
+    (whole, tiles, s.join("survey.csv"))
+}
+
+/// result.json without its `eval.map` and `eval.map_bytes` lines (the path
+/// given, and the bytes of one file against the tiles with their headers).
+fn result_without_map(out: &Path) -> String {
+    std::fs::read_to_string(out.join("result.json"))
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("\"map\": \"") && !l.contains("\"map_bytes\""))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn whole_and_tiled_maps_give_identical_results() {
+    let dir = tempdir();
+    let (whole, tiles, survey) = scene(dir.path());
+    let meta = tiles.join("pointcloud_map_metadata.yaml");
+    let mut outs = Vec::new();
+    for (k, map) in [&whole, &tiles, &meta].into_iter().enumerate() {
+        let out = dir.path().join(format!("out{k}"));
+        let o = bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(map)
+            .arg("--survey")
+            .arg(&survey)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "eval {}: {}", map.display(), stderr(&o));
+        outs.push(out);
+    }
+    let targets = std::fs::read_to_string(outs[0].join("targets.csv")).unwrap();
+    assert_eq!(
+        targets.lines().filter(|l| l.contains(",ok,")).count(),
+        5,
+        "{targets}"
+    );
+    let want = result_without_map(&outs[0]);
+    let full = std::fs::read_to_string(outs[0].join("result.json")).unwrap();
+    assert_eq!(
+        full.lines().count(),
+        want.lines().count() + 2,
+        "two lines dropped"
+    );
+    for out in &outs[1..] {
+        assert_eq!(result_without_map(out), want, "{}", out.display());
+        for f in ["targets.csv", "pairs.csv"] {
+            assert_eq!(
+                std::fs::read(out.join(f)).unwrap(),
+                std::fs::read(outs[0].join(f)).unwrap(),
+                "{f}"
+            );
+        }
+        // The report hashes the metadata and every tile.
+        let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+        assert!(html.contains("pointcloud_map"), "report names the map");
+    }
+}
+
+#[test]
+fn a_crop_of_a_tiled_map_opens_only_the_near_tiles() {
+    let dir = tempdir();
+    let (whole, tiles, survey) = scene(dir.path());
+    let n_tiles = TiledMap::discover(&tiles).unwrap().tiles.len();
+    let mut files = Vec::new();
+    for (k, map) in [&whole, &tiles].into_iter().enumerate() {
+        let out = dir.path().join(format!("crop{k}"));
+        let o = bin()
+            .arg("crop")
+            .arg("--map")
+            .arg(map)
+            .arg("--survey")
+            .arg(&survey)
+            .arg("--out")
+            .arg(&out)
+            .args(["--radius", "3", "--format", "pcd"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "crop: {}", stderr(&o));
+        let err = stderr(&o);
+        let line = err.lines().find(|l| l.starts_with("tiles: "));
+        if k == 0 {
+            assert!(line.is_none(), "{err}");
+        } else {
+            // Five targets 3 m wide: each reaches at most four 20 m tiles.
+            let line = line.unwrap_or_else(|| panic!("no tile line: {err}"));
+            let f: Vec<&str> = line.split_whitespace().collect();
+            let (opened, total): (usize, usize) = (f[1].parse().unwrap(), f[3].parse().unwrap());
+            assert_eq!(total, n_tiles, "{line}");
+            assert!((5..=20).contains(&opened) && opened * 2 < total, "{line}");
+        }
+        let mut names: Vec<_> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        names.sort();
+        files.push(
+            names
+                .iter()
+                .map(|p| (p.file_name().unwrap().to_owned(), std::fs::read(p).unwrap()))
+                .collect::<Vec<_>>(),
+        );
+    }
+    assert_eq!(files[0].len(), 5);
+    assert!(files[0] == files[1], "crops differ");
+}
+
+/// The WGS84 position that `p` projects to `target` (Newton's method on the
+/// projection, to 1e-8 m).
+fn invert(p: &Projector, target: &Point, start: Geodetic) -> Geodetic {
+    let mut g = start;
+    for _ in 0..50 {
+        let f = p.forward(&g);
+        let r = [target.x - f.x, target.y - f.y];
+        g.alt += target.z - f.z;
+        if r[0].abs() < 1e-8 && r[1].abs() < 1e-8 {
+            return g;
+        }
+        let h = 1e-7;
+        let fx = p.forward(&Geodetic {
+            lat: g.lat + h,
+            ..g
+        });
+        let fy = p.forward(&Geodetic {
+            lon: g.lon + h,
+            ..g
+        });
+        let j = [
+            [(fx.x - f.x) / h, (fy.x - f.x) / h],
+            [(fx.y - f.y) / h, (fy.y - f.y) / h],
+        ];
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        g.lat += (j[1][1] * r[0] - j[0][1] * r[1]) / det;
+        g.lon += (-j[1][0] * r[0] + j[0][0] * r[1]) / det;
+    }
+    panic!("no convergence for {target}");
+}
+
+#[test]
+fn a_wgs84_survey_is_placed_by_the_maps_projector_info() {
+    let dir = tempdir();
+    let s = dir.path().join("scene");
+    // The map in the survey frame: the projection is all it takes.
+    stdout_ok(
+        bin()
+            .args([
+                "synth", "--points", "300000", "--format", "pcd", "--seed", "2",
+            ])
+            .args(["--yaw-deg", "0", "--offset-m", "0,0,0", "--out"])
+            .arg(&s),
+    );
+    let pts = cloud::read_all(&s.join("map.pcd")).unwrap();
+    let map = dir.path().join("map");
+    cloud::write_tiles(&pts, &map, 20.0, OutFormat::Pcd).unwrap();
+    let local = read_survey(&s.join("survey.csv"), &SurveyOptions::default()).unwrap();
+    let origin = "map_origin:\n  latitude: 35.68\n  longitude: 139.76\n  altitude: 30.0\n";
+    let start = Geodetic {
+        lat: 35.68,
+        lon: 139.76,
+        alt: 30.0,
+    };
+    let eval = |survey: &Path, map: &Path, out: &Path| {
+        let o = bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(map)
+            .arg("--survey")
+            .arg(survey)
+            .arg("--out")
+            .arg(out)
+            .arg("--no-report")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "eval: {}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap())
+                .unwrap();
+        (v, stderr(&o))
+    };
+    let (want, _) = eval(&s.join("survey.csv"), &map, &dir.path().join("local"));
+    assert_eq!(want["eval"]["frame"]["how"], "survey");
+    for (k, yaml) in [
+        format!("projector_type: LocalCartesianUTM\nvertical_datum: WGS84\n{origin}"),
+        format!("projector_type: LocalCartesian\n{origin}"),
+        format!("projector_type: TransverseMercator\n{origin}"),
+        "projector_type: MGRS\nvertical_datum: WGS84\nmgrs_grid: 54SUE\n".to_string(),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let pf = map.join("map_projector_info.yaml");
+        std::fs::write(&pf, yaml).unwrap();
+        let proj = Projector::read(&pf, true).unwrap();
+        // MGRS coordinates count from the square's corner: the survey sits
+        // 50 km into it.
+        let shift = if k == 3 { 50_000.0 } else { 0.0 };
+        let mut csv = String::from("id,lat,lon,alt,antenna_height\n");
+        for t in &local.targets {
+            let q = Point::new(t.position.x + shift, t.position.y + shift, t.position.z);
+            let g = invert(&proj, &q, start);
+            csv += &format!(
+                "{},{:.12},{:.12},{:.6},{}\n",
+                t.id, g.lat, g.lon, g.alt, t.antenna_height
+            );
+        }
+        let survey = dir.path().join(format!("wgs84-{k}.csv"));
+        std::fs::write(&survey, csv).unwrap();
+        let (map_k, pts_k);
+        if k == 3 {
+            // The MGRS map: the same points 50 km into the square.
+            pts_k = pts
+                .iter()
+                .map(|p| Point::new(p.x + shift, p.y + shift, p.z))
+                .collect::<Vec<_>>();
+            map_k = dir.path().join("mgrs");
+            cloud::write_tiles(&pts_k, &map_k, 20.0, OutFormat::Pcd).unwrap();
+            std::fs::copy(&pf, map_k.join("map_projector_info.yaml")).unwrap();
+        } else {
+            map_k = map.clone();
+        }
+        let (got, err) = eval(&survey, &map_k, &dir.path().join(format!("out{k}")));
+        assert!(err.contains("placed in the map frame by"), "{err}");
+        assert_eq!(got["survey_frame"], "wgs84_map", "{yaml}");
+        assert_eq!(got["eval"]["frame"]["how"], "survey", "{yaml}");
+        let errors = |v: &serde_json::Value| -> Vec<f64> {
+            v["targets"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|t| t["abs_error"].as_f64().unwrap_or(f64::NAN))
+                .collect()
+        };
+        let (a, b) = (errors(&want), errors(&got));
+        assert_eq!(a.len(), b.len());
+        assert!(a.iter().filter(|e| e.is_finite()).count() >= 3, "{a:?}");
+        for (x, y) in a.iter().zip(&b) {
+            assert!(
+                (x - y).abs() < 1e-6 || (x.is_nan() && y.is_nan()),
+                "{yaml}: {a:?} vs {b:?}"
+            );
+        }
+    }
+}
