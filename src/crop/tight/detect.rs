@@ -512,7 +512,7 @@ const STRIP: (f64, f64) = (0.04, 0.12);
 /// A plate narrower than this share of the configured width (from the 95th
 /// percentile of its points' distance from the corner) is not the target's:
 /// the grill's frame returns at the far edge, so a whole plate reaches ~0.97.
-const MIN_WIDTH_SHARE: f64 = 0.85;
+const MIN_WIDTH_SHARE: f64 = 0.8;
 
 /// A plate wider than this share of the configured width is not the
 /// target's either (a 0.8 m cabinet side); the range noise along a plate
@@ -571,12 +571,10 @@ fn is_bounded(
         (l.corner.x / step).floor() as i64,
         (l.corner.y / step).floor() as i64,
     );
-    // Counts within 3 cm of the plane, less those 3–6 cm off: a surface in
-    // the plane itself (σ ≈ 1–2 cm) counts almost whole, the noise tail of a
-    // surface standing parallel 0.1 m behind (a wall seen past the plate's
-    // edge) or a volume of foliage counts nothing.
-    let mut beyond = [0i64; 2];
-    let mut support = [0i64; 2];
+    // Within the plates' band, points near each plate's plane: signed
+    // distance from it, for those past its far edge and those on it.
+    let mut past: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    let mut on: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     for dy in -r..=r {
         for dx in -r..=r {
             let Some(ids) = cells.get(&(cx + dx, cy + dy)) else {
@@ -589,23 +587,44 @@ fn is_bounded(
                     continue;
                 }
                 for k in 0..2 {
-                    let d = (l.n[k].dot(&v) - l.off[k]).abs();
-                    if d >= 0.06 {
+                    let d = l.n[k].dot(&v) - l.off[k];
+                    if d.abs() >= 0.15 {
                         continue;
                     }
-                    let vote = if d < 0.03 { 1 } else { -1 };
                     let t = l.along[k].dot(&(v - l.corner));
                     if t > w + 0.15 && t < reach {
-                        beyond[k] += vote;
+                        past[k].push(d);
                     } else if t > 0.1 * w && t < w {
-                        support[k] += vote;
+                        on[k].push(d);
                     }
                 }
             }
         }
     }
-    let min = p.min_plate_points as i64;
-    (0..2).all(|k| support[k] >= min && 4 * beyond[k] <= support[k])
+    let beyond = past.map(|d| going_on(&d));
+    let support = on.map(|d| going_on(&d));
+    (0..2).all(|k| 4 * beyond[k] <= support[k])
+}
+
+/// How many of these points (signed distances from a plate's plane, within
+/// 0.15 m) make a surface in that plane. When most lie near the plane (a face
+/// going on, perhaps a few degrees off the plate's heading), every point
+/// within 6 cm counts; when they centre on a surface standing parallel a
+/// decimetre or more away (a wall seen past the plate's edge), only those
+/// within 3 cm beyond the ones 3–6 cm off count, which its noise tail does not
+/// give.
+fn going_on(d: &[f64]) -> i64 {
+    if d.is_empty() {
+        return 0;
+    }
+    let mut s = d.to_vec();
+    s.sort_by(f64::total_cmp);
+    let near = |a: f64, b: f64| d.iter().filter(|x| x.abs() >= a && x.abs() < b).count() as i64;
+    if s[s.len() / 2].abs() < 0.05 {
+        near(0.0, 0.06)
+    } else {
+        near(0.0, 0.03) - near(0.03, 0.06)
+    }
 }
 
 /// Largest count in three consecutive bins, and the centre of those bins.
