@@ -240,12 +240,6 @@ fn fit_l(
 
 /// Whether the planes `n·x = off` (at one heading) are an L of the configured
 /// size in this window; else the score and what the points looked like.
-///
-/// The plates' height band is chosen first: the densest band of a plate's
-/// height, among those with clear space above and below in the plates'
-/// planes (a grill plate is a band; a stack under it, a cabinet or a car side
-/// goes on). Every other check looks inside that band only, so an object at
-/// the target's feet or foliage below the plates cannot make it "too tall".
 fn check_l(
     win: &[Vector3<f64>],
     up: &Vector3<f64>,
@@ -255,127 +249,70 @@ fn check_l(
     score: usize,
 ) -> Result<LShape, (usize, String)> {
     let no = |s: String| Err((score, s));
-    let w = p.plate_width;
     let corner = na * oa + nb * ob;
+    let tol = 0.04;
     let mut along = [Vector3::zeros(); 2];
     let mut width = [0.0; 2];
-    // Each plate's near points: (distance from the plane, along the plate
-    // from the corner, height). The side of the corner the plate lies on is
-    // the side most of its slab points near the corner are.
-    let mut near: [Vec<Near>; 2] = [Vec::new(), Vec::new()];
+    let mut inl_h: Vec<f64> = Vec::new();
     for (k, (n, off, dir)) in [(na, oa, nb), (nb, ob, na)].into_iter().enumerate() {
-        let pts: Vec<Near> = win
+        let ts: Vec<f64> = win
             .iter()
-            .filter_map(|v| {
-                let d = n.dot(v) - off;
-                (d.abs() < SHELL.1).then(|| Near {
-                    d,
-                    t: dir.dot(&(*v - corner)),
-                    z: up.dot(v),
-                })
-            })
+            .filter(|v| (n.dot(v) - off).abs() < tol)
+            .map(|v| dir.dot(&(*v - corner)))
             .collect();
-        // Points spread along the plane, less its densest 0.12 m: a surface
-        // standing across the plane (a wall behind the other plate) puts
-        // many points at one distance from the corner, a plate spreads them.
-        let side = |lo: f64, hi: f64| {
-            let mut t: Vec<f64> = pts
-                .iter()
-                .filter(|q| q.d.abs() < SLAB && q.t > lo && q.t < hi)
-                .map(|q| q.t)
-                .collect();
-            t.sort_by(f64::total_cmp);
-            t.len() - densest_run(&t, 0.12)
+        let pos = ts.iter().filter(|&&t| t > 0.05).count();
+        let neg = ts.iter().filter(|&&t| t < -0.05).count();
+        // An L: the plate lies on one side of the corner.
+        let (sign, major, minor) = if pos >= neg {
+            (1.0, pos, neg)
+        } else {
+            (-1.0, neg, pos)
         };
-        let (pos, neg) = (side(0.05, w + 0.15), side(-w - 0.15, -0.05));
-        let sign = if pos >= neg { 1.0 } else { -1.0 };
-        if pos.max(neg) < p.min_plate_points {
-            return no(String::new());
-        }
-        along[k] = dir * sign;
-        near[k] = pts
-            .into_iter()
-            .map(|q| Near { t: q.t * sign, ..q })
-            .collect();
-    }
-    let Some((lo, hi)) = plate_band(&near, p) else {
-        let mut z: Vec<f64> = near
-            .iter()
-            .flatten()
-            .filter(|q| q.d.abs() < SLAB && q.t > 0.1 * w && q.t < w)
-            .map(|q| q.z)
-            .collect();
-        if z.len() < 2 * p.min_plate_points {
-            return no(String::new());
-        }
-        z.sort_by(f64::total_cmp);
-        let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
-        return no(format!(
-            "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
-        ));
-    };
-    let in_band = |q: &&Near| q.z > lo - 0.05 && q.z < hi + 0.05 && q.d.abs() < SLAB;
-    let mut planar = [0usize; 2];
-    for k in 0..2 {
-        let ts: Vec<f64> = near[k].iter().filter(in_band).map(|q| q.t).collect();
-        let major = ts.iter().filter(|&&t| t > 0.05).count();
         if major < p.min_plate_points {
             return no(String::new());
         }
-        // An L: the plate lies on one side of the corner. Behind the corner,
-        // this plate's plane crosses whatever stands parallel behind the
-        // other plate (a wall seen through its grill): those points sit at
-        // one distance, while a plate going on spreads along its plane.
-        let mut behind: Vec<f64> = ts.iter().copied().filter(|&t| t < -0.05).collect();
-        behind.sort_by(f64::total_cmp);
-        let minor = behind.len() - densest_run(&behind, 0.12);
         if minor * 3 > major {
             return no("a plane running through the corner (a T or a cross)".into());
         }
-        let mut ext: Vec<f64> = ts.into_iter().filter(|&t| t > 0.0).collect();
+        along[k] = dir * sign;
+        let mut ext: Vec<f64> = ts.iter().map(|t| t * sign).filter(|&t| t > 0.0).collect();
         ext.sort_by(f64::total_cmp);
         let far = ext[(ext.len() * 9) / 10];
-        if far > w + 0.15 {
+        if far > p.plate_width + 0.15 {
             return no(format!("a plane continuing {far:.1} m past the corner"));
         }
         // A plate is as wide as a plate: occlusion from below or foliage
         // thins it but leaves its top edge whole.
         width[k] = ext[(ext.len() * 19) / 20];
-        // ... and its points reach from the corner to that edge: a plane
-        // crossing a wall obliquely holds a strip of wall at one distance.
-        let first = ext[ext.len() / 10];
-        if first > 0.35 * w {
-            return no(format!(
-                "plate {}'s points start {first:.2} m from the corner, not at it",
-                k + 1
-            ));
-        }
-        // A plate is thin: points spread through a volume (foliage, a bush)
-        // fill the shells beside the plane as much as the slab.
-        let (slab, excess) = planar_count(&near[k], 0.1 * w, w, lo, hi);
-        if 2 * excess < slab {
-            return no(format!(
-                "points spread through a volume, not a plate (foliage?): {} of {slab} in plate {}'s plane stand out from their surroundings",
-                excess,
-                k + 1
-            ));
-        }
-        planar[k] = excess;
+        inl_h.extend(
+            win.iter()
+                .filter(|v| {
+                    (n.dot(v) - off).abs() < tol
+                        && (dir * sign).dot(&(*v - corner)) > 0.1 * p.plate_width
+                })
+                .map(|v| up.dot(v)),
+        );
     }
-    if planar[0].min(planar[1]) < p.min_plate_points {
+    if inl_h.len() < 2 * p.min_plate_points {
         return no(String::new());
     }
+    inl_h.sort_by(f64::total_cmp);
+    let lo = inl_h[inl_h.len() / 50];
+    let hi = inl_h[inl_h.len() - 1 - inl_h.len() / 50];
     let narrow = width[0].min(width[1]);
-    let wide = width[0].max(width[1]);
-    if narrow < MIN_WIDTH_SHARE * w || wide > MAX_WIDTH_SHARE * w {
+    if narrow < MIN_WIDTH_SHARE * p.plate_width {
         return no(format!(
             "a {:.2} × {:.2} m L (plates {:.2} and {:.2} m wide, {} m expected)",
             narrow,
             hi - lo,
             width[0],
             width[1],
-            w
+            p.plate_width
         ));
+    }
+    if hi - lo > p.plate_height + 0.25 {
+        // taller than a plate: a wall, a cabinet, a tree
+        return no(format!("an L {:.1} m tall", hi - lo));
     }
     Ok(LShape {
         n: [na, nb],
@@ -383,146 +320,20 @@ fn check_l(
         along,
         corner,
         band: (lo, hi),
-        score: planar[0].min(planar[1]),
+        score,
         widths: width,
     })
 }
 
-/// The most values of sorted `v` within any `span`.
-fn densest_run(v: &[f64], span: f64) -> usize {
-    let mut best = 0;
-    let mut j = 0;
-    for i in 0..v.len() {
-        while v[i] - v[j] > span {
-            j += 1;
-        }
-        best = best.max(i + 1 - j);
-    }
-    best
-}
-
-/// A point near one plate's plane, in that plate's terms.
-#[derive(Clone, Copy)]
-struct Near {
-    /// Signed distance from the plane (m).
-    d: f64,
-    /// Distance along the plate from the corner (m; positive on the plate).
-    t: f64,
-    /// Height along "up" (m).
-    z: f64,
-}
-
-/// Half-width of the slab that holds a plate's points (2 σ of the range
-/// noise a survey-grade map has, and the plate's own 1–2 cm).
-const SLAB: f64 = 0.04;
-
-/// The shells beside a slab (distance from the plane): as wide as half the
-/// slab, so twice the emptier shell is what a volume of points puts in it.
-const SHELL: (f64, f64) = (0.05, 0.09);
-
-/// Points of one plate's slab in `t0..t1` along it and `z0..z1` up, and how
-/// many of them stand out as a surface: the slab's count less what the
-/// emptier of the two shells beside it says a volume would put there. A wall
-/// behind the grill fills one shell only; foliage fills both.
-fn planar_count(near: &[Near], t0: f64, t1: f64, z0: f64, z1: f64) -> (usize, usize) {
-    let (mut slab, mut front, mut back) = (0usize, 0usize, 0usize);
-    for q in near {
-        if q.t <= t0 || q.t >= t1 || q.z <= z0 || q.z >= z1 {
-            continue;
-        }
-        let a = q.d.abs();
-        if a < SLAB {
-            slab += 1;
-        } else if a > SHELL.0 && a < SHELL.1 {
-            if q.d > 0.0 {
-                front += 1;
-            } else {
-                back += 1;
-            }
-        }
-    }
-    (slab, slab.saturating_sub(2 * front.min(back)))
-}
-
-/// The plates' height band: of the bands a plate's height tall (2 cm steps,
-/// plus the noise), the best supported whose planes are clear just above and
-/// below it on both plates; its 2nd–98th percentile heights (a plate hidden
-/// from below shows only its upper part). `None` when every band's faces go on.
-fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
-    let w = p.plate_width;
-    let on_plate = |q: &&Near| q.d.abs() < SLAB && q.t > 0.1 * w && q.t < w;
-    let mut z: Vec<f64> = near
-        .iter()
-        .flatten()
-        .filter(on_plate)
-        .map(|q| q.z)
-        .collect();
-    if z.len() < 2 * p.min_plate_points {
-        return None;
-    }
-    z.sort_by(f64::total_cmp);
-    let h = p.plate_height + 0.04;
-    let count = |a: f64, b: f64| z.partition_point(|&x| x < b) - z.partition_point(|&x| x < a);
-    let mut bands: Vec<(usize, f64)> = Vec::new();
-    let mut s = z[0] - 0.02;
-    while s + h < z[z.len() - 1] + 0.04 {
-        bands.push((count(s, s + h), s));
-        s += 0.02;
-    }
-    if bands.is_empty() {
-        bands.push((z.len(), z[0]));
-    }
-    bands.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
-    for (n, s) in bands {
-        if n < 2 * p.min_plate_points {
-            break;
-        }
-        let inside: Vec<f64> = z.iter().copied().filter(|&x| x >= s && x < s + h).collect();
-        let (lo, hi) = (
-            inside[inside.len() / 50],
-            inside[inside.len() - 1 - inside.len() / 50],
-        );
-        if near.iter().all(|pl| clear_beside(pl, lo, hi, w)) {
-            return Some((lo, hi));
-        }
-    }
-    None
-}
-
-/// Whether a plate's plane is clear in the strips just below and above its
-/// band (away from the post): a surface there at more than 40 % of the
-/// plate's own density means the face goes on (a cabinet, a car, a wall),
-/// while a gap, then an object (a stack at the target's feet), is allowed.
-fn clear_beside(near: &[Near], lo: f64, hi: f64, w: f64) -> bool {
-    let (t0, t1) = (0.15 * w, w);
-    let (_, plate) = planar_count(near, t0, t1, lo, hi);
-    let density = plate as f64 / (hi - lo).max(0.05);
-    [(lo - STRIP.1, lo - STRIP.0), (hi + STRIP.0, hi + STRIP.1)]
-        .into_iter()
-        .all(|(z0, z1)| {
-            let (_, n) = planar_count(near, t0, t1, z0, z1);
-            n <= 1 || (n as f64) / (z1 - z0) <= 0.4 * density
-        })
-}
-
-/// The strips beside a plate's band checked for a face going on: this far
-/// below and above it (m). A stack 0.15 m under the plates leaves it clear.
-const STRIP: (f64, f64) = (0.04, 0.12);
-
 /// A plate narrower than this share of the configured width (from the 95th
 /// percentile of its points' distance from the corner) is not the target's:
 /// the grill's frame returns at the far edge, so a whole plate reaches ~0.97.
-const MIN_WIDTH_SHARE: f64 = 0.85;
+const MIN_WIDTH_SHARE: f64 = 0.8;
 
-/// A plate wider than this share of the configured width is not the
-/// target's either (a 0.8 m cabinet side); the range noise along a plate
-/// seen at a grazing angle moves its far edge by a few centimetres.
-const MAX_WIDTH_SHARE: f64 = 1.12;
-
-/// Peaks tried per histogram: a wall or a container behind a plate makes a
-/// peak of its own, often the highest, so the plate may be the second or the
-/// third. Foliage makes peaks too; `check_l`'s thinness test refuses them.
-const MAX_PEAKS: usize = 3;
+/// Peaks tried per histogram. One (the strongest, as before issue 16): with
+/// more, a wall behind a plate paired the other way, but foliage through the
+/// plates made false Ls (see docs/algorithm.md).
+const MAX_PEAKS: usize = 1;
 
 /// Peaks (count of three bins ≥ `min`, centre) of a histogram, strongest
 /// first, at most `MAX_PEAKS`, each at least 4 bins (8 cm) from a stronger one.
@@ -553,8 +364,8 @@ fn strong_peaks(h: &[u32], base: i64, bin: f64, min: usize) -> Vec<(usize, f64)>
 }
 
 /// A plate ends where the target ends: along each plate's plane, beyond its far
-/// edge within its height band, there must be little (above and below the band
-/// is `clear_beside`'s). A car, a box or a building corner is L-shaped too, but its faces go
+/// edge and above or below its height band (away from the post), there must be
+/// little. A car, a box or a building corner is L-shaped too, but its faces go
 /// on; this is what tells them apart.
 fn is_bounded(
     l: &LShape,
@@ -565,18 +376,16 @@ fn is_bounded(
     p: &TightParams,
 ) -> bool {
     let w = p.plate_width;
+    let h = l.band.1 - l.band.0;
     let reach = w + 0.9;
     let r = (reach / step).ceil() as i64 + 1;
     let (cx, cy) = (
         (l.corner.x / step).floor() as i64,
         (l.corner.y / step).floor() as i64,
     );
-    // Counts within 3 cm of the plane, less those 3–6 cm off: a surface in
-    // the plane itself (σ ≈ 1–2 cm) counts almost whole, the noise tail of a
-    // surface standing parallel 0.1 m behind (a wall seen past the plate's
-    // edge) or a volume of foliage counts nothing.
-    let mut beyond = [0i64; 2];
-    let mut support = [0i64; 2];
+    let tol = 0.05;
+    let mut beyond = [0usize; 2];
+    let mut support = [0usize; 2];
     for dy in -r..=r {
         for dx in -r..=r {
             let Some(ids) = cells.get(&(cx + dx, cy + dy)) else {
@@ -585,27 +394,37 @@ fn is_bounded(
             for &i in ids {
                 let v = ap[i as usize];
                 let z = up.dot(&v);
-                if z <= l.band.0 - 0.03 || z >= l.band.1 + 0.03 {
-                    continue;
-                }
                 for k in 0..2 {
                     let d = (l.n[k].dot(&v) - l.off[k]).abs();
-                    if d >= 0.06 {
+                    let t = l.along[k].dot(&(v - l.corner));
+                    let in_band = z > l.band.0 - 0.03 && z < l.band.1 + 0.03;
+                    // Past the plate's end, look in a 15° wedge, not only the
+                    // slab: a face the Hough vote saw a few degrees off still
+                    // shows there.
+                    // A surface parallel behind the plate (0.1 m or more) is
+                    // background seen through the grill, not the plate going on.
+                    let wedge = (tol + 0.27 * (t - w)).min(0.08);
+                    if in_band && t > w + 0.15 && t < reach && d < wedge {
+                        beyond[k] += 1;
                         continue;
                     }
-                    let vote = if d < 0.03 { 1 } else { -1 };
-                    let t = l.along[k].dot(&(v - l.corner));
-                    if t > w + 0.15 && t < reach {
-                        beyond[k] += vote;
-                    } else if t > 0.1 * w && t < w {
-                        support[k] += vote;
+                    if d >= tol {
+                        continue;
+                    }
+                    if in_band && t > 0.1 * w && t < w {
+                        support[k] += 1;
+                    } else if t > 0.15 * w
+                        && t < w
+                        && (z > l.band.1 + 0.15 && z < l.band.1 + 0.15 + h
+                            || z < l.band.0 - 0.15 && z > l.band.0 - 0.15 - h)
+                    {
+                        beyond[k] += 1;
                     }
                 }
             }
         }
     }
-    let min = p.min_plate_points as i64;
-    (0..2).all(|k| support[k] >= min && 4 * beyond[k] <= support[k])
+    (0..2).all(|k| 4 * beyond[k] <= support[k])
 }
 
 /// Largest count in three consecutive bins, and the centre of those bins.
