@@ -15,7 +15,7 @@ fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf, std::path::Path
     stdout_ok(
         bin()
             .args([
-                "synth", "--points", "1000000", "--format", "pcd", "--seed", "1", "--out",
+                "synth", "--points", "400000", "--format", "pcd", "--seed", "1", "--out",
             ])
             .arg(&s),
     );
@@ -180,7 +180,7 @@ fn a_wgs84_survey_is_placed_by_the_maps_projector_info() {
     stdout_ok(
         bin()
             .args([
-                "synth", "--points", "1000000", "--format", "pcd", "--seed", "2",
+                "synth", "--points", "300000", "--format", "pcd", "--seed", "2",
             ])
             .args(["--yaw-deg", "0", "--offset-m", "0,0,0", "--out"])
             .arg(&s),

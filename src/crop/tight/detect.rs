@@ -278,6 +278,8 @@ fn check_l(
         // Points spread along the plane, less its densest 0.12 m: a surface
         // standing across the plane (a wall behind the other plate) puts
         // many points at one distance from the corner, a plate spreads them.
+        // (The count itself is checked whole: a sparse plate's frame edge
+        // may hold a third of its points.)
         let side = |lo: f64, hi: f64| {
             let mut t: Vec<f64> = pts
                 .iter()
@@ -285,11 +287,15 @@ fn check_l(
                 .map(|q| q.t)
                 .collect();
             t.sort_by(f64::total_cmp);
-            t.len() - densest_run(&t, 0.12)
+            (t.len() - densest_run(&t, 0.12), t.len())
         };
         let (pos, neg) = (side(0.05, w + 0.15), side(-w - 0.15, -0.05));
-        let sign = if pos >= neg { 1.0 } else { -1.0 };
-        if pos.max(neg) < p.min_plate_points {
+        let (sign, count) = if pos.0 >= neg.0 {
+            (1.0, pos.1)
+        } else {
+            (-1.0, neg.1)
+        };
+        if count < p.min_plate_points {
             return no(String::new());
         }
         along[k] = dir * sign;
@@ -316,6 +322,7 @@ fn check_l(
     };
     let in_band = |q: &&Near| q.z > lo - 0.05 && q.z < hi + 0.05 && q.d.abs() < SLAB;
     let mut planar = [0usize; 2];
+    let mut counts = [0usize; 2];
     for k in 0..2 {
         let ts: Vec<f64> = near[k].iter().filter(in_band).map(|q| q.t).collect();
         let major = ts.iter().filter(|&&t| t > 0.05).count();
@@ -341,6 +348,7 @@ fn check_l(
         // A plate is as wide as a plate: occlusion from below or foliage
         // thins it but leaves its top edge whole.
         width[k] = ext[(ext.len() * 19) / 20];
+        counts[k] = ext.len();
         // ... and its points reach from the corner to that edge: a plane
         // crossing a wall obliquely holds a strip of wall at one distance.
         let first = ext[ext.len() / 10];
@@ -362,12 +370,13 @@ fn check_l(
         }
         planar[k] = excess;
     }
-    if planar[0].min(planar[1]) < p.min_plate_points {
-        return no(String::new());
-    }
+    // The 95th percentile of n points spread over a plate scatters by about
+    // 0.22 w / √n: a sparse plate (20 points) is allowed two of those.
+    let slack = |k: usize| 2.0 * 0.22 * w / (counts[k].max(1) as f64).sqrt();
+    let short = (0..2).any(|k| width[k] < MIN_WIDTH_SHARE * w - slack(k));
+    let long = (0..2).any(|k| width[k] > MAX_WIDTH_SHARE * w + slack(k));
     let narrow = width[0].min(width[1]);
-    let wide = width[0].max(width[1]);
-    if narrow < MIN_WIDTH_SHARE * w || wide > MAX_WIDTH_SHARE * w {
+    if short || long {
         return no(format!(
             "a {:.2} × {:.2} m L (plates {:.2} and {:.2} m wide, {} m expected)",
             narrow,
@@ -512,7 +521,7 @@ const STRIP: (f64, f64) = (0.04, 0.12);
 /// A plate narrower than this share of the configured width (from the 95th
 /// percentile of its points' distance from the corner) is not the target's:
 /// the grill's frame returns at the far edge, so a whole plate reaches ~0.97.
-const MIN_WIDTH_SHARE: f64 = 0.8;
+const MIN_WIDTH_SHARE: f64 = 0.85;
 
 /// A plate wider than this share of the configured width is not the
 /// target's either (a 0.8 m cabinet side); the range noise along a plate
@@ -603,7 +612,8 @@ fn is_bounded(
     }
     let beyond = past.map(|d| going_on(&d));
     let support = on.map(|d| going_on(&d));
-    (0..2).all(|k| 4 * beyond[k] <= support[k])
+    let min = p.min_plate_points as i64;
+    (0..2).all(|k| support[k] >= min && 4 * beyond[k] <= support[k])
 }
 
 /// How many of these points (signed distances from a plate's plane, within
