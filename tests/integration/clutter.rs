@@ -158,9 +158,10 @@ fn max(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::NAN, f64::max)
 }
 
+/// The issue's far case: 30–34 m from the path, 150–300 returns per plate.
 fn far(p: &mut SynthParams) {
     p.target_distance_m = [30.0, 34.0];
-    p.points = 2_000_000;
+    p.points = 6_000_000;
     p.lidar.max_range_m = 60.0;
 }
 
@@ -331,49 +332,44 @@ fn wall_half_a_metre_behind() {
 }
 
 #[test]
-#[ignore = "issue 16: not found in 4 of 4 seeds (the wall's peak outvotes the plate; the pair through the wall runs through the corner or is 2 m tall)"]
 fn wall_a_tenth_behind() {
     check("wall 0.1 m behind");
 }
 
 #[test]
-#[ignore = "issue 16: not found in 4 of 4 seeds (before: 2 of 4, median 2.31 mm); see the table"]
 fn wall_a_third_behind() {
     check("wall 0.3 m behind");
 }
 
 #[test]
-#[ignore = "issue 16: not found in 4 of 4 seeds (the stack's faces under the plates make 'an L 1.2 m tall')"]
 fn stack_inside_the_l() {
     check("stack 0.65 m inside the L");
 }
 
 #[test]
-#[ignore = "issue 16: found in 1 of 4 seeds (5.0 mm); elsewhere the barrier in front reads as 'a plane continuing 1 m past the corner' or 'a T'"]
+#[ignore = "issue 16: found 4 of 4 (before: 1 of 4), but median 4.59 mm > 3 mm (max 5.03; open 2.40 / 4.50): the upper 60 % of the plates locates less well"]
 fn lower_plates_hidden() {
     check("lower 40 % hidden");
 }
 
 #[test]
-#[ignore = "issue 16: found 4 of 4 but max 13.1 mm > 10 mm (median 2.96 mm; open max 4.5 mm)"]
+#[ignore = "issue 16: 3 of 4 (max 3.79 mm, before 13.1): in seed 2 the crop is right but only 8 of 2000 localisation attempts pass the perpendicularity gates (10 needed)"]
 fn one_plate_a_quarter() {
     check("plate 2 a quarter");
 }
 
 #[test]
-#[ignore = "issue 16: not found in 4 of 4 seeds (foliage in the plates' slabs: 'an L 1.2 m tall')"]
+#[ignore = "issue 16: found 4 of 4 (before: 0 of 4), max 3.65 mm, but median 3.11 mm > 3 mm (open 2.40)"]
 fn grass_through_the_plates() {
     check("grass through lower plates");
 }
 
 #[test]
-#[ignore = "issue 16: 8 of 8 found but one seed takes the other target (max 1503 mm): the nearer L to the expected position wins"]
 fn second_target_close_by() {
     check("second target 1.5 m");
 }
 
 #[test]
-#[ignore = "issue 16: found in 3 of 4 seeds (median 4.5, max 11.1 mm with 116-178 target returns)"]
 fn seen_only_from_afar() {
     check("seen from 30+ m");
 }
@@ -383,6 +379,6 @@ fn seen_only_from_afar() {
 /// Before issue 16's width check the small L was located in 14 of 20 seeds.
 #[test]
 fn decoys_are_never_located() {
-    let (located, n) = decoys(100..120);
+    let (located, n) = decoys(100..200);
     assert_eq!(located, 0, "a decoy was located in {located} of {n} seeds");
 }

@@ -620,7 +620,7 @@ fn is_bounded(
 /// 0.15 m) make a surface in that plane. When most lie near the plane (a face
 /// going on, perhaps a few degrees off the plate's heading), every point
 /// within 6 cm counts; when they centre on a surface standing parallel a
-/// decimetre or more away (a wall seen past the plate's edge), only those
+/// decimetre or more away, or spread evenly (a surface across the plane) (a wall seen past the plate's edge), only those
 /// within 3 cm beyond the ones 3–6 cm off count, which its noise tail does not
 /// give.
 fn going_on(d: &[f64]) -> i64 {
@@ -630,7 +630,10 @@ fn going_on(d: &[f64]) -> i64 {
     let mut s = d.to_vec();
     s.sort_by(f64::total_cmp);
     let near = |a: f64, b: f64| d.iter().filter(|x| x.abs() >= a && x.abs() < b).count() as i64;
-    if s[s.len() / 2].abs() < 0.05 {
+    // A surface standing across the plane (a barrier the plane runs into)
+    // spreads its points evenly over the ±0.15 m; a face keeps them close.
+    let face = near(0.0, 0.06) >= 3 * near(0.06, 0.15);
+    if s[s.len() / 2].abs() < 0.05 && face {
         near(0.0, 0.06)
     } else {
         near(0.0, 0.03) - near(0.03, 0.06)
