@@ -371,8 +371,8 @@ fn check_l(
         planar[k] = excess;
     }
     // The 95th percentile of n points spread over a plate scatters by about
-    // 0.22 w / √n: a sparse plate (20 points) is allowed two of those.
-    let slack = |k: usize| 2.0 * 0.22 * w / (counts[k].max(1) as f64).sqrt();
+    // 0.22 w / √n: a plate is allowed one of those (3 cm with 20 points).
+    let slack = |k: usize| 0.22 * w / (counts[k].max(1) as f64).sqrt();
     let short = (0..2).any(|k| width[k] < MIN_WIDTH_SHARE * w - slack(k));
     let long = (0..2).any(|k| width[k] > MAX_WIDTH_SHARE * w + slack(k));
     let narrow = width[0].min(width[1]);
