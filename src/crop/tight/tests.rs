@@ -189,3 +189,26 @@ fn reports_why_nothing_was_found() {
     let e = tight_crop(&flat, &Point::new(4.0, 2.0, 0.0), &TightParams::default()).unwrap_err();
     assert!(matches!(e, TightError::NothingAboveGround { .. }), "{e}");
 }
+
+#[test]
+fn an_l_nearer_another_target_is_left_to_it() {
+    let sc = scene(7, 1.0, 0.7, &[]);
+    let expected = sc.corner + Vector3::new(1.2, 0.0, 0.0);
+    let p = TightParams::default();
+    // Alone, the target 1.2 m away is this one's.
+    let t = tight_crop_among(&sc.pts, &expected, &[], &p).unwrap();
+    assert!((t.corner_guess - sc.corner).xy().norm() < 0.06);
+    // Another target expected 0.3 m from it: it is that target's, and this
+    // one is not found (with the reason), not given the other's object.
+    let other = sc.corner + Vector3::new(-0.3, 0.0, 0.0);
+    match tight_crop_among(&sc.pts, &expected, &[other], &p) {
+        Err(TightError::NoTargetShape { seen: Some(s), .. }) => {
+            assert!(s.contains("nearer another surveyed target"), "{s}")
+        }
+        r => panic!("{r:?}"),
+    }
+    // An other target farther away than this one changes nothing.
+    let far = sc.corner + Vector3::new(0.0, 3.0, 0.0);
+    let t = tight_crop_among(&sc.pts, &expected, &[far], &p).unwrap();
+    assert!((t.corner_guess - sc.corner).xy().norm() < 0.06);
+}
