@@ -10,7 +10,7 @@
 //! - **Wrong objects.** A located object far from where all the others put it
 //!   is searched for again at the predicted position, and otherwise not found.
 
-use super::target::{self, Failure, TargetRun};
+use super::target::{self, Failure, FarBy, TargetRun};
 use super::{Config, FrameMode};
 use crate::cloud::{MapSource, RigidMotion};
 use crate::detect::{DetectParams, Detection, detect_map};
@@ -316,30 +316,170 @@ pub(super) fn turn_targets(
     });
 }
 
-/// Found targets whose error under a fit without them is far beyond the
-/// others' (> 5 × the median and > 0.3 m): (index, that error, the median).
+/// Found targets far from where the others place them: (index, error, the
+/// targets' median of it, which error). Two measures, each > 5 × the median
+/// and > 0.3 m: the error under a fit without the target, and (with 4 or
+/// more found) the median misfit of its distances to the others against the
+/// survey's. The second needs no alignment, so a wrong object that pulls
+/// every fit it enters (4 targets, each 1-2 m off) is still singled out.
 pub(super) fn far_from_others(
     found: &[TargetRun],
     survey: &Survey,
     opts: &crate::accuracy::ScoreOptions,
-) -> Vec<(usize, f64, f64)> {
-    let Ok(acc) = crate::accuracy::score(survey, &super::estimates(found), opts) else {
-        return Vec::new();
-    };
-    let errs: Vec<(usize, f64)> = acc
-        .targets
+) -> Vec<(usize, f64, f64, FarBy)> {
+    let mut far = Vec::new();
+    let corners: Vec<(usize, Point)> = found
         .iter()
         .enumerate()
-        .filter_map(|(i, t)| t.loo_error.map(|e| (i, e)))
+        .filter_map(|(i, r)| r.corner().map(|c| (i, c)))
         .collect();
-    if errs.len() < 4 {
+    let surveyed: Vec<(Point, bool)> = corners
+        .iter()
+        .map(|&(i, _)| (survey.targets[i].reference(), survey.targets[i].has_z))
+        .collect();
+    let map: Vec<Point> = corners.iter().map(|c| c.1).collect();
+    for (k, e, median) in misfit_by_distances(&map, &surveyed) {
+        far.push((corners[k].0, e, median, FarBy::Distances));
+    }
+    if let Ok(acc) = crate::accuracy::score(survey, &super::estimates(found), opts) {
+        let errs: Vec<(usize, f64)> = acc
+            .targets
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| t.loo_error.map(|e| (i, e)))
+            .collect();
+        if errs.len() >= 4 {
+            let mut v: Vec<f64> = errs.iter().map(|e| e.1).collect();
+            v.sort_by(f64::total_cmp);
+            let median = v[v.len() / 2];
+            for (i, e) in errs {
+                if e > 5.0 * median && e > 0.3 && !far.iter().any(|f| f.0 == i) {
+                    far.push((i, e, median, FarBy::LeaveOneOut));
+                }
+            }
+        }
+    }
+    far.sort_by_key(|f| f.0);
+    far
+}
+
+/// Positions (in the map) whose distances to the others disagree with the
+/// survey's: (index, its median misfit, the median of that over all), when
+/// the misfit is > 5 × that median and > 0.3 m. Distances are 3D where both
+/// survey heights are known, else horizontal; a common scale (a projection's
+/// grid scale, a map's scale drift) is taken out first, so that long pairs
+/// do not condemn their ends. Needs 4 positions: with 3, a wrong one and a
+/// right one share as many bad pairs.
+fn misfit_by_distances(map: &[Point], survey: &[(Point, bool)]) -> Vec<(usize, f64, f64)> {
+    let n = map.len();
+    if n < 4 {
         return Vec::new();
     }
-    let mut v: Vec<f64> = errs.iter().map(|e| e.1).collect();
-    v.sort_by(f64::total_cmp);
-    let median = v[v.len() / 2];
-    errs.into_iter()
-        .filter(|&(_, e)| e > 5.0 * median && e > 0.3)
-        .map(|(i, e)| (i, e, median))
+    // Differences first, so UTM-sized coordinates are never squared.
+    let dist = |a: &Point, b: &Point, z: bool| {
+        let d = a - b;
+        if z { d.norm() } else { d.xy().norm() }
+    };
+    let mut pairs = vec![vec![(0.0, 0.0); n]; n];
+    let mut scales = Vec::new();
+    for i in 0..n {
+        for j in i + 1..n {
+            let z = survey[i].1 && survey[j].1;
+            let (dm, ds) = (
+                dist(&map[i], &map[j], z),
+                dist(&survey[i].0, &survey[j].0, z),
+            );
+            pairs[i][j] = (dm, ds);
+            pairs[j][i] = (dm, ds);
+            if ds > 1.0 {
+                scales.push(dm / ds);
+            }
+        }
+    }
+    scales.sort_by(f64::total_cmp);
+    // Clamped to the ±0.5 % a projection or a drifting map gives: with four
+    // targets, half the pairs may be a wrong object's.
+    let scale = scales
+        .get(scales.len() / 2)
+        .copied()
+        .unwrap_or(1.0)
+        .clamp(0.995, 1.005);
+    let misfit: Vec<f64> = (0..n)
+        .map(|i| {
+            let mut m: Vec<f64> = (0..n)
+                .filter(|&j| j != i)
+                .map(|j| (pairs[i][j].0 - scale * pairs[i][j].1).abs())
+                .collect();
+            m.sort_by(f64::total_cmp);
+            m[m.len() / 2]
+        })
+        .collect();
+    let mut sorted = misfit.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[n / 2];
+    (0..n)
+        .filter(|&i| misfit[i] > 5.0 * median && misfit[i] > 0.3)
+        .map(|i| (i, misfit[i], median))
         .collect()
+}
+
+#[cfg(test)]
+mod distance_tests {
+    use super::misfit_by_distances;
+    use crate::Point;
+
+    /// Five targets over ~300 m; the map is the survey turned, moved and
+    /// scaled by `scale`, with target `wrong` (if any) moved 1.5 m.
+    fn scene(scale: f64, wrong: Option<usize>) -> (Vec<Point>, Vec<(Point, bool)>) {
+        let s = [
+            (352_000.0, 4_026_000.0, 50.0),
+            (352_120.0, 4_026_030.0, 51.0),
+            (352_200.0, 4_026_210.0, 49.5),
+            (351_950.0, 4_026_280.0, 50.5),
+            (352_060.0, 4_026_120.0, 50.2),
+        ];
+        let (c, sn) = (1.1f64.cos(), 1.1f64.sin());
+        let map = s
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y, z))| {
+                let (x, y) = (x - 352_000.0, y - 4_026_000.0);
+                let mut p = Point::new(
+                    scale * (c * x - sn * y) + 10.0,
+                    scale * (sn * x + c * y) - 5.0,
+                    z - 48.0,
+                );
+                if wrong == Some(i) {
+                    p.x += 1.2;
+                    p.y -= 0.9;
+                }
+                p
+            })
+            .collect();
+        let survey = s
+            .iter()
+            .map(|&(x, y, z)| (Point::new(x, y, z), true))
+            .collect();
+        (map, survey)
+    }
+
+    #[test]
+    fn a_wrong_object_is_singled_out_by_its_distances() {
+        let (map, survey) = scene(1.0, Some(2));
+        let far = misfit_by_distances(&map, &survey);
+        assert_eq!(far.len(), 1, "{far:?}");
+        assert_eq!(far[0].0, 2);
+        assert!(far[0].1 > 0.5 && far[0].2 < 0.05, "{far:?}");
+        // Four targets are enough; three are not.
+        assert_eq!(misfit_by_distances(&map[1..], &survey[1..])[0].0, 1);
+        assert!(misfit_by_distances(&map[2..], &survey[2..]).is_empty());
+    }
+
+    #[test]
+    fn a_right_map_or_a_scaled_one_condemns_nothing() {
+        for scale in [1.0, 0.9996, 1.003] {
+            let (map, survey) = scene(scale, None);
+            assert!(misfit_by_distances(&map, &survey).is_empty(), "{scale}");
+        }
+    }
 }

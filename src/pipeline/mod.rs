@@ -23,7 +23,7 @@ mod target;
 
 pub use config::{Config, FrameConfig, FrameMode, MetricsConfig};
 pub use frame::{FrameFound, FrameHow, Plumb};
-pub use target::{Failure, Found, Pass, TargetRun};
+pub use target::{Failure, FarBy, Found, Pass, TargetRun};
 
 use crate::accuracy::{self, Accuracy, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};
@@ -294,12 +294,17 @@ fn evaluate(
     let mut wrong = Vec::new();
     // (A target found again close to the prediction is the object there:
     // its error is the map's or the survey's, and stays in the result.)
-    for (i, error, median) in frame::far_from_others(&found, survey, &opts) {
+    for (i, error, median, by) in frame::far_from_others(&found, survey, &opts) {
         if far.iter().any(|f| f.0 == i) && found[i].pass == Pass::Second {
             continue;
         }
         if let Some(at) = found[i].corner() {
-            found[i].outcome = Err(Failure::FarFromOthers { at, error, median });
+            found[i].outcome = Err(Failure::FarFromOthers {
+                at,
+                error,
+                median,
+                by,
+            });
         }
     }
     target::one_object_each(&mut found, cfg.tight.plate_width);

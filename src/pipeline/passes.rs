@@ -26,7 +26,7 @@ pub(super) fn second_pass(
     found: &mut [TargetRun],
     motion: &RigidMotion,
     ground_up: Option<Vector3<f64>>,
-    narrow: &[(usize, f64, f64)],
+    narrow: &[(usize, f64, f64, target::FarBy)],
     progress: &mut impl FnMut(u64, u64),
 ) -> Result<()> {
     let is_narrow = |i: usize| narrow.iter().find(|n| n.0 == i).copied();
@@ -38,7 +38,7 @@ pub(super) fn second_pass(
     }
     // Targets searched again narrowly are left out of the fit that predicts.
     let mut est = super::estimates(found);
-    for &(i, _, _) in narrow {
+    for &(i, ..) in narrow {
         est[i].status = crate::survey::EstimateStatus::NotFound {
             reason: String::new(),
         };
@@ -83,7 +83,7 @@ pub(super) fn second_pass(
     for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
         let thinned = (offered > pts.len() as u64).then_some(offered);
         let mut close = cfg.clone();
-        if let Some((_, error, _)) = is_narrow(i) {
+        if let Some((_, error, ..)) = is_narrow(i) {
             close.tight.search_radius = (0.5 * error).max(1.0).min(cfg.tight.search_radius);
         }
         let mut r = target::locate_target(
@@ -99,12 +99,17 @@ pub(super) fn second_pass(
         r.loose_thinned_from = thinned;
         if r.outcome.is_ok() {
             found[i] = r;
-        } else if let Some((_, error, median)) = is_narrow(i)
+        } else if let Some((_, error, median, by)) = is_narrow(i)
             && let Ok(f) = &found[i].outcome
         {
             let at = f.located.corner;
             found[i] = r;
-            found[i].outcome = Err(target::Failure::FarFromOthers { at, error, median });
+            found[i].outcome = Err(target::Failure::FarFromOthers {
+                at,
+                error,
+                median,
+                by,
+            });
         }
     }
     Ok(())

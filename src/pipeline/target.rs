@@ -48,6 +48,8 @@ pub enum Failure {
         error: f64,
         /// The median of the same error over the targets (m).
         median: f64,
+        /// Which error condemned it.
+        by: FarBy,
     },
     /// The object located is the one another target was located at, and
     /// that target was expected nearer to it: no object serves two targets.
@@ -71,6 +73,17 @@ impl Failure {
     }
 }
 
+/// What showed an object to be far from where the other targets place it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FarBy {
+    /// Its error under an alignment of the other targets.
+    LeaveOneOut,
+    /// Its distances to the other targets against the survey's, which no
+    /// alignment enters: one wrong object among four pulls every
+    /// leave-one-out fit that includes it, but not the others' distances.
+    Distances,
+}
+
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -80,9 +93,26 @@ impl std::fmt::Display for Failure {
             Failure::HandCrop(e) => write!(f, "{e}"),
             Failure::Tight(e) => write!(f, "{e}"),
             Failure::Locate(e) => write!(f, "localisation failed: {e}"),
-            Failure::FarFromOthers { at, error, median } => write!(
+            Failure::FarFromOthers {
+                at,
+                error,
+                median,
+                by: FarBy::LeaveOneOut,
+            } => write!(
                 f,
                 "the object located at ({:.2}, {:.2}) is {error:.2} m from where the other targets place it (their median {:.0} mm), and nothing target-shaped stands at that place: not this target",
+                at.x,
+                at.y,
+                median * 1e3
+            ),
+            Failure::FarFromOthers {
+                at,
+                error,
+                median,
+                by: FarBy::Distances,
+            } => write!(
+                f,
+                "the object located at ({:.2}, {:.2}) is {error:.2} m off in its distances to the other targets (median over them, against the survey's; the targets' median {:.0} mm), and nothing target-shaped stands where they place it: not this target",
                 at.x,
                 at.y,
                 median * 1e3

@@ -466,3 +466,49 @@ fn a_failed_detection_keeps_a_frame_that_aligns() {
     let w = r["warnings"].to_string();
     assert!(w.contains("detection found no other frame"), "{w}");
 }
+
+/// Target 1 is absent, and an unsurveyed target stands 1.5 m from where it
+/// should be: it is target-shaped, so only the other targets can tell. With
+/// four targets it pulls every leave-one-out fit it enters (before the
+/// distance check all four were "ok", E_abs 548 mm); its distances to the
+/// others do not match the survey's, so it is `not_found`, with the reason.
+#[test]
+fn a_target_shaped_object_where_one_is_missing_is_not_reported_ok() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let cfg = dir.path().join("scene.toml");
+    std::fs::write(
+        &cfg,
+        "seed = 31\ntargets = 4\npoints = 1500000\n[obstacles]\ntarget1_absent = true\nsecond_target_m = 1.5\n",
+    )
+    .unwrap();
+    synth(&scene, &["--config", cfg.to_str().unwrap()]);
+    // The neighbour (id 5) is left out of the survey.
+    let csv = std::fs::read_to_string(scene.join("survey.csv")).unwrap();
+    let kept: String = csv
+        .lines()
+        .filter(|l| !l.starts_with("5,"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(scene.join("survey.csv"), kept).unwrap();
+    let res = dir.path().join("res");
+    let out = eval(&scene, &res, &["--frame", "survey"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = result(&res);
+    let t1 = &r["targets"][0];
+    assert_eq!(t1["id"], "1");
+    assert_eq!(t1["status"], "not_found", "{t1}");
+    let why = t1["reason"].to_string();
+    assert!(why.contains("distances to the other targets"), "{why}");
+    assert_eq!(r["absolute"]["n"], 3);
+    assert!(
+        r["absolute"]["mean"].as_f64().unwrap() < 0.05,
+        "{}",
+        r["absolute"]
+    );
+    assert!(
+        r["warnings"]
+            .to_string()
+            .contains("far from where the other targets")
+    );
+}
