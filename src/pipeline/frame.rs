@@ -304,11 +304,26 @@ pub(super) fn turn_targets(
         rotation: *rot,
     };
     found.par_iter_mut().for_each(|r| {
+        let z = r.expected.z;
         r.expected = m.apply(&r.expected);
         for p in r.loose.iter_mut().chain(r.tight.iter_mut()) {
             *p = m.apply(p);
         }
         r.ground_normal = r.ground_normal.map(|n| rot * n);
+        // What the crop saw stays drawn where its points are.
+        if let Err(Failure::Tight(crate::crop::TightError::NoTargetShape {
+            seen: Some(s), ..
+        })) = &mut r.outcome
+        {
+            let turn = |xy: &mut [f64; 2]| {
+                let p = m.apply(&Point::new(xy[0], xy[1], z));
+                *xy = [p.x, p.y];
+            };
+            turn(&mut s.at);
+            if let Some(f) = s.faces.as_mut() {
+                f.iter_mut().for_each(turn);
+            }
+        }
         if let Ok(f) = &r.outcome {
             let ups = [Vector3::z(), rot * f.up];
             r.outcome = target::locate_with(&r.tight, &ups, cfg).map_err(Failure::Locate);

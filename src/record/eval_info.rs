@@ -42,6 +42,10 @@ pub struct TargetDetail {
     /// (positions elsewhere are in the levelled frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corner_in_map: Option<[f64; 3]>,
+    /// When the tight crop found no target: the object it saw and refused,
+    /// and where (the report draws it on the loose crop).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seen: Option<crate::crop::Seen>,
 }
 
 /// How the map's frame was found (the `frame` key of the `eval` section).
@@ -224,7 +228,16 @@ fn detail(t: &TargetRun) -> TargetDetail {
             d.spread = Some(f.located.std);
             d.plate_angle_deg = Some(f.located.plate_angle_deg);
         }
-        Err(e) => d.failed_stage = Some(e.stage().into()),
+        Err(e) => {
+            d.failed_stage = Some(e.stage().into());
+            if let crate::pipeline::Failure::Tight(crate::crop::TightError::NoTargetShape {
+                seen: Some(s),
+                ..
+            }) = e
+            {
+                d.seen = Some(s.clone());
+            }
+        }
     }
     d
 }

@@ -512,3 +512,50 @@ fn a_target_shaped_object_where_one_is_missing_is_not_reported_ok() {
             .contains("far from where the other targets")
     );
 }
+
+/// A surveyed target that is absent, with objects that look like it nearby:
+/// it is `not_found`, and the reason and result.json say what was seen
+/// instead and where, for the report's panel to draw (issue 16 item 3).
+#[test]
+fn what_stood_where_a_target_was_not_found_is_named_and_placed() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let cfg = dir.path().join("scene.toml");
+    std::fs::write(
+        &cfg,
+        "seed = 33\ntargets = 4\npoints = 1500000\n[obstacles]\ntarget1_absent = true\ndecoys = 5\n",
+    )
+    .unwrap();
+    synth(&scene, &["--config", cfg.to_str().unwrap()]);
+    let res = dir.path().join("res");
+    let out = eval(&scene, &res, &["--frame", "survey"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = result(&res);
+    assert_eq!(r["targets"][0]["status"], "not_found");
+    let why = r["targets"][0]["reason"].as_str().unwrap();
+    assert!(
+        why.contains("closest thing seen") && why.contains("m from the expected position"),
+        "{why}"
+    );
+    let d = &r["eval"]["targets"][0];
+    let seen = &d["seen"];
+    let at = [
+        seen["at"][0].as_f64().unwrap(),
+        seen["at"][1].as_f64().unwrap(),
+    ];
+    let e = [
+        d["expected"][0].as_f64().unwrap(),
+        d["expected"][1].as_f64().unwrap(),
+    ];
+    let from = (at[0] - e[0]).hypot(at[1] - e[1]);
+    assert!((from - seen["from_expected"].as_f64().unwrap()).abs() < 1e-9);
+    assert!(from < 4.5, "{seen}");
+    assert!(why.contains(seen["what"].as_str().unwrap()));
+    // Both faces drawn a plate's width (0.6 m) from its corner.
+    for f in seen["faces"].as_array().unwrap() {
+        let l = (f[0].as_f64().unwrap() - at[0]).hypot(f[1].as_f64().unwrap() - at[1]);
+        assert!((l - 0.6).abs() < 1e-6, "{seen}");
+    }
+    // The other targets have nothing of the kind.
+    assert!(r["eval"]["targets"][1].get("seen").is_none());
+}

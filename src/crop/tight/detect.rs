@@ -51,6 +51,31 @@ impl LShape {
     }
 }
 
+/// A window that held an L-like pair of planes the checks refused: why, and
+/// where (window-local), so the user can be shown what stood there.
+#[derive(Debug, Clone)]
+pub(super) struct Rejected {
+    /// Weaker plate's support.
+    score: usize,
+    /// What it looked like; empty when it was not worth naming.
+    pub(super) why: String,
+    /// Its corner (x, y), local coordinates.
+    pub(super) corner: Vector3<f64>,
+    /// Direction from the corner along each face (zero when not decided).
+    pub(super) along: [Vector3<f64>; 2],
+}
+
+impl Rejected {
+    fn unnamed(score: usize) -> Self {
+        Rejected {
+            score,
+            why: String::new(),
+            corner: Vector3::zeros(),
+            along: [Vector3::zeros(); 2],
+        }
+    }
+}
+
 /// Hough over headings in windows centred on occupied cells. Returns the chosen
 /// L, the number of windows that passed, the best score seen, and (when none
 /// passed) what the best-supported rejected window looked like.
@@ -59,7 +84,7 @@ pub(super) fn detect_l(
     up: &Vector3<f64>,
     params: &TightParams,
     others: &[Vector3<f64>],
-) -> (Option<LShape>, usize, usize, Option<String>) {
+) -> (Option<LShape>, usize, usize, Option<Rejected>) {
     let w = params.plate_width;
     let step = 0.25_f64.min(w / 2.0);
     let rw = 0.47 * w / 0.6 * 1.0 + step * 0.75;
@@ -76,7 +101,7 @@ pub(super) fn detect_l(
     let mut found: Vec<LShape> = Vec::new();
     let mut best_score = 0;
     let mut window: Vec<Vector3<f64>> = Vec::new();
-    let mut seen: Option<(usize, String)> = None;
+    let mut seen: Option<Rejected> = None;
     for &(kx, ky) in &keys {
         let centre = Vector3::new((kx as f64 + 0.5) * step, (ky as f64 + 0.5) * step, 0.0);
         window.clear();
@@ -103,9 +128,9 @@ pub(super) fn detect_l(
                     found.push(l);
                 }
             }
-            Err((s, why)) => {
-                if !why.is_empty() && seen.as_ref().is_none_or(|b: &(usize, String)| s > b.0) {
-                    seen = Some((s, why));
+            Err(r) => {
+                if !r.why.is_empty() && seen.as_ref().is_none_or(|b| r.score > b.score) {
+                    seen = Some(r);
                 }
             }
         }
@@ -116,16 +141,21 @@ pub(super) fn detect_l(
             .iter()
             .any(|o| (l.corner - o).xy().norm() < l.corner.xy().norm())
     };
-    let before = found.len();
-    found.retain(|l| !theirs(l));
-    if found.is_empty() && before > 0 {
-        let seen =
-            "only target-shaped objects nearer another surveyed target's position than this one's";
-        return (None, 0, best_score, Some(seen.into()));
+    let (theirs, found): (Vec<LShape>, Vec<LShape>) = found.into_iter().partition(theirs);
+    if found.is_empty()
+        && let Some(l) = theirs.iter().max_by_key(|l| l.score)
+    {
+        let seen = Rejected {
+            score: l.score,
+            why: "only target-shaped objects nearer another surveyed target's position than this one's".into(),
+            corner: l.corner,
+            along: l.along,
+        };
+        return (None, 0, best_score, Some(seen));
     }
     let n = found.len();
     let Some(top) = found.iter().map(|l| l.score).max() else {
-        return (None, 0, best_score, seen.map(|s| s.1));
+        return (None, 0, best_score, seen);
     };
     // Nearest strong candidate to the expected position, then the best-supported
     // window on that same corner.
@@ -153,12 +183,12 @@ fn fit_l(
     up: &Vector3<f64>,
     p: &TightParams,
     bounded: impl Fn(&LShape) -> bool,
-) -> Result<LShape, (usize, String)> {
+) -> Result<LShape, Rejected> {
     // Horizontal basis orthogonal to up.
     let e1 = (Vector3::x() - up * up.x).normalize();
     let e2 = up.cross(&e1);
     let bin = 0.02;
-    let first = *win.first().ok_or((0, String::new()))?;
+    let first = *win.first().ok_or(Rejected::unnamed(0))?;
     // Histograms over a fixed range around the first point (every window point
     // is within two window radii of it, plus what a slightly tilted "up" adds):
     // arrays, not hash maps, since this loop is most of a dense map's crop time.
@@ -189,7 +219,7 @@ fn fit_l(
         }
         deg += 1.5;
     }
-    let (_, deg, _, _) = best.ok_or((0, String::new()))?;
+    let (_, deg, _, _) = best.ok_or(Rejected::unnamed(0))?;
     let th = deg.to_radians();
     let na = e1 * th.cos() + e2 * th.sin();
     let nb = up.cross(&na);
@@ -211,31 +241,27 @@ fn fit_l(
         .flat_map(|a| pb.iter().map(move |b| (a.0.min(b.0), a.1, b.1)))
         .collect();
     pairs.sort_by_key(|x| std::cmp::Reverse(x.0));
-    let mut why = Err((0, String::new()));
+    let mut why = Rejected::unnamed(0);
     for (score, oa, ob) in pairs {
         let checked = check_l(win, up, p, [na, nb], [oa, ob], score).and_then(|l| {
             if bounded(&l) {
                 Ok(l)
             } else {
-                Err((
+                Err(Rejected {
                     score,
-                    "faces going on past a plate's edge (a car, a cabinet, a wall)".into(),
-                ))
+                    why: "faces going on past a plate's edge (a car, a cabinet, a wall)".into(),
+                    corner: l.corner,
+                    along: l.along,
+                })
             }
         });
         match checked {
             Ok(l) => return Ok(l),
-            Err(e)
-                if why
-                    .as_ref()
-                    .is_err_and(|w: &(usize, String)| w.1.is_empty()) =>
-            {
-                why = Err(e)
-            }
+            Err(e) if why.why.is_empty() => why = e,
             Err(_) => {}
         }
     }
-    why
+    Err(why)
 }
 
 /// Whether the planes `n·x = off` (at one heading) are an L of the configured
@@ -253,11 +279,21 @@ fn check_l(
     [na, nb]: [Vector3<f64>; 2],
     [oa, ob]: [f64; 2],
     score: usize,
-) -> Result<LShape, (usize, String)> {
-    let no = |s: String| Err((score, s));
+) -> Result<LShape, Rejected> {
     let w = p.plate_width;
     let corner = na * oa + nb * ob;
     let mut along = [Vector3::zeros(); 2];
+    // Refused, with what was seen and where (the faces as far as decided).
+    macro_rules! no {
+        ($why:expr) => {
+            return Err(Rejected {
+                score,
+                why: $why,
+                corner,
+                along,
+            })
+        };
+    }
     let mut width = [0.0; 2];
     // Each plate's near points: (distance from the plane, along the plate
     // from the corner, height). The side of the corner the plate lies on is
@@ -296,7 +332,7 @@ fn check_l(
             (-1.0, neg.1)
         };
         if count < p.min_plate_points {
-            return no(String::new());
+            no!(String::new());
         }
         along[k] = dir * sign;
         near[k] = pts
@@ -312,11 +348,11 @@ fn check_l(
             .map(|q| q.z)
             .collect();
         if z.len() < 2 * p.min_plate_points {
-            return no(String::new());
+            no!(String::new());
         }
         z.sort_by(f64::total_cmp);
         let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
-        return no(format!(
+        no!(format!(
             "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
         ));
     };
@@ -327,7 +363,7 @@ fn check_l(
         let ts: Vec<f64> = near[k].iter().filter(in_band).map(|q| q.t).collect();
         let major = ts.iter().filter(|&&t| t > 0.05).count();
         if major < p.min_plate_points {
-            return no(String::new());
+            no!(String::new());
         }
         // An L: the plate lies on one side of the corner. Behind the corner,
         // this plate's plane crosses whatever stands parallel behind the
@@ -337,13 +373,13 @@ fn check_l(
         behind.sort_by(f64::total_cmp);
         let minor = behind.len() - densest_run(&behind, 0.12);
         if minor * 3 > major {
-            return no("a plane running through the corner (a T or a cross)".into());
+            no!("a plane running through the corner (a T or a cross)".into());
         }
         let mut ext: Vec<f64> = ts.into_iter().filter(|&t| t > 0.0).collect();
         ext.sort_by(f64::total_cmp);
         let far = ext[(ext.len() * 9) / 10];
         if far > w + 0.15 {
-            return no(format!("a plane continuing {far:.1} m past the corner"));
+            no!(format!("a plane continuing {far:.1} m past the corner"));
         }
         // A plate is as wide as a plate: occlusion from below or foliage
         // thins it but leaves its top edge whole.
@@ -353,7 +389,7 @@ fn check_l(
         // crossing a wall obliquely holds a strip of wall at one distance.
         let first = ext[ext.len() / 10];
         if first > 0.35 * w {
-            return no(format!(
+            no!(format!(
                 "plate {}'s points start {first:.2} m from the corner, not at it",
                 k + 1
             ));
@@ -362,7 +398,7 @@ fn check_l(
         // fill the shells beside the plane as much as the slab.
         let (slab, excess) = planar_count(&near[k], 0.1 * w, w, lo, hi);
         if 2 * excess < slab {
-            return no(format!(
+            no!(format!(
                 "points spread through a volume, not a plate (foliage?): {} of {slab} in plate {}'s plane stand out from their surroundings",
                 excess,
                 k + 1
@@ -377,7 +413,7 @@ fn check_l(
     let long = (0..2).any(|k| width[k] > MAX_WIDTH_SHARE * w + slack(k));
     let narrow = width[0].min(width[1]);
     if short || long {
-        return no(format!(
+        no!(format!(
             "a {:.2} × {:.2} m L (plates {:.2} and {:.2} m wide, {} m expected)",
             narrow,
             hi - lo,

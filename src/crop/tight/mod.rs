@@ -132,10 +132,38 @@ pub enum TightError {
         /// Best weaker-plate support seen in any window.
         best: usize,
         /// What the best-supported rejected window looked like ("a 0.38 ×
-        /// 0.46 m L", "a plane continuing 1.2 m past the corner").
+        /// 0.46 m L", "a plane continuing 1.2 m past the corner"), and where.
         #[serde(skip_serializing_if = "Option::is_none")]
-        seen: Option<String>,
+        seen: Option<Seen>,
     },
+}
+
+/// The object the tight crop saw and refused where a target was expected:
+/// what it looked like and where it stands, so a user (and the report's
+/// panel) can tell a target hidden behind clutter from a target that is not
+/// there.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Seen {
+    /// What it looked like ("a plane continuing 1.2 m past the corner").
+    pub what: String,
+    /// Its corner (x, y), in the frame the crop was made in.
+    pub at: [f64; 2],
+    /// Ends of its two faces (x, y), a plate's width from the corner, when
+    /// the checks got as far as telling which side of the corner each lies on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub faces: Option<[[f64; 2]; 2]>,
+    /// Its distance from the expected position (m, horizontal).
+    pub from_expected: f64,
+}
+
+impl std::fmt::Display for Seen {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} at ({:.2}, {:.2}), {:.1} m from the expected position",
+            self.what, self.at[0], self.at[1], self.from_expected
+        )
+    }
 }
 
 /// Finds the target in `points` (a loose crop) near `expected` (map frame).
@@ -185,6 +213,21 @@ pub fn tight_crop_among(
     let ap: Vec<Vector3<f64>> = above.iter().map(|&i| q[i]).collect();
     let others: Vec<Vector3<f64>> = others.iter().map(|o| o - expected).collect();
     let (best, candidates, best_score, seen) = detect_l(&ap, &up, params, &others);
+    let seen = seen.map(|r| {
+        let at = expected + r.corner;
+        let decided = r.along.iter().all(|a| a.norm() > 0.5);
+        Seen {
+            what: r.why,
+            at: [at.x, at.y],
+            faces: decided.then(|| {
+                r.along.map(|a| {
+                    let e = at + a * params.plate_width;
+                    [e.x, e.y]
+                })
+            }),
+            from_expected: r.corner.xy().norm(),
+        }
+    });
     let Some(l) = best else {
         return Err(TightError::NoTargetShape {
             radius: params.search_radius,

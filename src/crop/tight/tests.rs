@@ -203,7 +203,13 @@ fn an_l_nearer_another_target_is_left_to_it() {
     let other = sc.corner + Vector3::new(-0.3, 0.0, 0.0);
     match tight_crop_among(&sc.pts, &expected, &[other], &p) {
         Err(TightError::NoTargetShape { seen: Some(s), .. }) => {
-            assert!(s.contains("nearer another surveyed target"), "{s}")
+            assert!(s.what.contains("nearer another surveyed target"), "{s}");
+            // It names where the other's object stands.
+            assert!(
+                (s.at[0] - sc.corner.x).hypot(s.at[1] - sc.corner.y) < 0.06,
+                "{s}"
+            );
+            assert!((s.from_expected - 1.2).abs() < 0.06, "{s}");
         }
         r => panic!("{r:?}"),
     }

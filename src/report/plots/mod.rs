@@ -160,4 +160,65 @@ mod tests {
             "the failed target's crops are drawn"
         );
     }
+
+    /// A target not found because of what stood there: the panel draws that
+    /// object's faces where the crop saw them, and names it in the legend.
+    #[test]
+    fn a_refused_object_is_drawn_on_the_loose_crop() {
+        use crate::record::{EvalInfo, TargetDetail};
+        let mut r = crate::report::html::tests::result(&["1", "2", "3", "4"]);
+        let e = r.targets[3].survey;
+        let seen = crate::crop::Seen {
+            what: "a plane continuing 2.1 m past the corner".into(),
+            at: [e.x + 0.8, e.y - 0.3],
+            faces: Some([[e.x + 1.4, e.y - 0.3], [e.x + 0.8, e.y + 0.3]]),
+            from_expected: 0.85,
+        };
+        r.eval = Some(EvalInfo {
+            targets: vec![TargetDetail {
+                id: "4".into(),
+                expected: [e.x, e.y, 0.0],
+                seen: Some(seen),
+                ..Default::default()
+            }],
+            ..Default::default()
+        });
+        let pts: Vec<Point> = (0..400)
+            .map(|i| Point::new(e.x - 2.0 + 0.01 * i as f64, e.y + 1.0, 0.1))
+            .collect();
+        let mut views = vec![crate::report::TargetView::default(); 4];
+        views[3].loose = &pts;
+        let rep = Report {
+            result: &r,
+            alignment: crate::report::alignment_of(&r),
+            targets: views,
+            provenance: Default::default(),
+        };
+        let fig = &figures(&rep)[5];
+        let faces = fig
+            .items
+            .iter()
+            .filter(|it| matches!(it, Item::Line { color, width, .. } if *color == palette::ERROR && *width == 3.0))
+            .count();
+        assert_eq!(faces, 2);
+        let legend = fig
+            .items
+            .iter()
+            .any(|it| matches!(it, Item::Text { text, .. } if text == "object seen and refused"));
+        assert!(legend);
+        // Without it, nothing of the kind is drawn.
+        r.eval.as_mut().unwrap().targets[0].seen = None;
+        let rep = Report {
+            result: &r,
+            alignment: crate::report::alignment_of(&r),
+            targets: {
+                let mut v = vec![crate::report::TargetView::default(); 4];
+                v[3].loose = &pts;
+                v
+            },
+            provenance: Default::default(),
+        };
+        let fig = &figures(&rep)[5];
+        assert!(!fig.items.iter().any(|it| matches!(it, Item::Line { color, width, .. } if *color == palette::ERROR && *width == 3.0)));
+    }
 }

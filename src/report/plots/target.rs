@@ -346,12 +346,12 @@ fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView
 }
 
 fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &TargetView) {
-    let expected = rep
+    let detail = rep
         .result
         .eval
         .as_ref()
-        .and_then(|e| e.targets.iter().find(|d| d.id == t.id).or(e.targets.get(i)))
-        .map(|d| Point::new(d.expected[0], d.expected[1], d.expected[2]));
+        .and_then(|e| e.targets.iter().find(|d| d.id == t.id).or(e.targets.get(i)));
+    let expected = detail.map(|d| Point::new(d.expected[0], d.expected[1], d.expected[2]));
     let c = expected.unwrap_or_else(|| survey_in_map(&rep.alignment, t));
     let loose = view.loose;
     let order = [palette::OUTLIER, palette::TIGHT];
@@ -387,6 +387,20 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         MAX_POINTS_PER_VIEW / 3,
     );
     f.marker(top.map(0.0, 0.0), MarkerKind::Ring, 6.0, palette::ESTIMATE);
+    // The object the crop saw and refused: its faces as thick lines, so the
+    // user sees what stood there (a wall, a cabinet, a neighbour's target).
+    let seen = detail.and_then(|d| d.seen.as_ref());
+    if let Some(s) = seen {
+        let at = (s.at[0] - c.x, s.at[1] - c.y);
+        for e in s.faces.iter().flatten() {
+            if let Some((a, b)) = top.clip(at, (e[0] - c.x, e[1] - c.y)) {
+                f.line(a, b, palette::ERROR, 3.0, false);
+            }
+        }
+        if top.contains(at.0, at.1) {
+            f.marker(top.map(at.0, at.1), MarkerKind::Cross, 7.0, palette::ERROR);
+        }
+    }
     let s = survey_in_map(&rep.alignment, t);
     if top.contains(s.x - c.x, s.y - c.y) {
         f.marker(
@@ -466,6 +480,15 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         palette::SURVEY,
         "survey (aligned into the map)",
     );
+    if seen.is_some() {
+        legend_marker(
+            f,
+            (680.0, y),
+            MarkerKind::Cross,
+            palette::ERROR,
+            "object seen and refused",
+        );
+    }
 }
 
 /// The horizontal 95 % ellipse (χ²₂ = 5.991) of a covariance (m²), as a closed
