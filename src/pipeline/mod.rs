@@ -23,7 +23,7 @@ mod target;
 
 pub use config::{Config, FrameConfig, FrameMode, MetricsConfig};
 pub use frame::{FrameFound, FrameHow, Plumb};
-pub use target::{Failure, FarBy, Found, Pass, TargetRun};
+pub use target::{Failure, FarBy, Found, Pass, TargetRun, locate_with};
 
 use crate::accuracy::{self, Accuracy, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};

@@ -221,8 +221,9 @@ pub(crate) fn locate_target(
     run
 }
 
-/// Step 5 on a tight crop, trying each "up" in turn.
-pub(crate) fn locate_with(
+/// Step 5 on a tight crop, trying each "up" in turn (and each of the
+/// refit and plain draws), as `eval` does.
+pub fn locate_with(
     points: &[Point],
     ups: &[Vector3<f64>],
     cfg: &Config,
@@ -247,20 +248,21 @@ pub(crate) fn locate_with(
         .flat_map(|u| variants.iter().map(move |v| (*u, v)))
     {
         match locate::locate(points, Some(up), params) {
-            Ok(l) => {
-                let axis =
-                    Vector3::from(l.plates[0].normal).cross(&Vector3::from(l.plates[1].normal));
-                let axis = if axis.z < 0.0 { -axis } else { axis };
-                return Ok(Found {
-                    located: l,
-                    up,
-                    axis: axis.normalize(),
-                });
-            }
+            Ok(l) => return Ok(found(l, up)),
             Err(e) => last_err = e,
         }
     }
     Err(last_err)
+}
+
+fn found(l: locate::Located, up: Vector3<f64>) -> Found {
+    let axis = Vector3::from(l.plates[0].normal).cross(&Vector3::from(l.plates[1].normal));
+    let axis = if axis.z < 0.0 { -axis } else { axis };
+    Found {
+        located: l,
+        up,
+        axis: axis.normalize(),
+    }
 }
 
 /// Finds `DIR/<stem>.<ext>` for any readable cloud extension and reads it,

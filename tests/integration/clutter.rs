@@ -5,12 +5,12 @@
 //! horizontal distance (the paper's 2D error) of the located corner from the
 //! true corner in the map frame.
 //!
-//! `cargo test --release --test clutter -- --ignored --nocapture table` prints
-//! the table of every case.
+//! `cargo test --release --test integration clutter::table -- --ignored --nocapture` prints
+//! the table of every case (`CLUTTER_CASE`, `CLUTTER_SEED` narrow it).
 
 use mapgauge::Point;
 use mapgauge::crop::{TightParams, tight_crop};
-use mapgauge::locate::{self, LocateParams};
+use mapgauge::pipeline::{Config, locate_with};
 use mapgauge::synth::{self, ObstacleParams, SynthParams, Truth};
 use nalgebra::Vector3;
 
@@ -67,20 +67,9 @@ fn locate_target(map: &[Point], truth: &Truth, i: usize) -> Result<Point, String
     if up != Vector3::z() {
         ups.push(Vector3::z());
     }
-    let plain = LocateParams {
-        refit_iterations: 0,
-        ..LocateParams::default()
-    };
-    let mut last = String::new();
-    for u in ups {
-        for params in [LocateParams::default(), plain.clone()] {
-            match locate::locate(&tight.points, Some(u), &params) {
-                Ok(l) => return Ok(l.corner),
-                Err(e) => last = format!("localisation failed: {e}"),
-            }
-        }
-    }
-    Err(last)
+    locate_with(&tight.points, &ups, &Config::default())
+        .map(|f| f.located.corner)
+        .map_err(|e| format!("localisation failed: {e}"))
 }
 
 /// Horizontal error (mm) of target `i`, or why it was not found.
