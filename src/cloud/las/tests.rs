@@ -165,3 +165,36 @@ fn sink_dropped_without_finish_leaves_nothing() {
     .to_string();
     assert!(e.contains("point 1"), "{e}");
 }
+
+/// laz 0.13 indexes out of bounds on this chunk table inside its rayon
+/// workers: the panic must happen on reader-named threads (whose panics the
+/// quiet hook keeps from a hook that aborts, libFuzzer's: the `las` fuzz
+/// target depends on it) and come back as the file's error.
+#[test]
+fn laz_decoder_panic_stays_on_reader_threads() {
+    use std::sync::Mutex;
+    static SEEN: Mutex<Vec<Option<String>>> = Mutex::new(Vec::new());
+    // Ours runs first, then the quiet hook (installed now, so it is under ours).
+    super::super::producer::quiet_reader_panics();
+    let prev = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if info.location().is_some_and(|l| l.file().contains("laz-0.")) {
+            let name = std::thread::current().name().map(str::to_string);
+            SEEN.lock().unwrap_or_else(|e| e.into_inner()).push(name);
+        }
+        prev(info);
+    }));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.las");
+    std::fs::write(
+        &path,
+        include_bytes!("../../../fuzz/upstream/laz-decoders-index-out-of-bounds.las"),
+    )
+    .unwrap();
+    let e = read(&path).unwrap_err().to_string();
+    assert!(e.contains("the decoder failed on malformed data"), "{e}");
+    let seen = SEEN.lock().unwrap().clone();
+    assert!(!seen.is_empty(), "the laz crate no longer panics on this file");
+    let reader = Some(super::super::producer::READER_THREAD.to_string());
+    assert!(seen.iter().all(|n| *n == reader), "{seen:?}");
+}
