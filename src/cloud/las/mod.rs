@@ -16,6 +16,7 @@ use std::fs::File;
 use std::io::{BufReader, Seek, SeekFrom};
 use std::path::Path;
 
+mod copc;
 mod laz_check;
 mod sink;
 #[cfg(test)]
@@ -34,8 +35,13 @@ pub(super) fn las_err(path: &Path, e: las::Error) -> Error {
     Error::format(path, format!("LAS: {e}"))
 }
 
-/// Opens a LAS file for streaming.
+/// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
+    open_with(path, true)
+}
+
+/// [`open`]; `copc: false` reads a COPC file as plain LAZ (tests compare).
+fn open_with(path: &Path, copc: bool) -> Result<Box<dyn PointReader>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
     // Before any `las::Reader`: opening a LAZ file already reads its chunk table.
@@ -53,6 +59,11 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     })?;
     if let Some(r) = open_records(path, &file, file_bytes)? {
         return Ok(r);
+    }
+    if copc {
+        if let Some(r) = copc::open(path, &file, file_bytes)? {
+            return Ok(Box::new(r));
+        }
     }
     let p = path.to_path_buf();
     // Sized here, on the caller's thread, so a caller's own pool size holds.
