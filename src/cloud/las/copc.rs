@@ -17,6 +17,7 @@
 
 use super::super::producer::{on_reader_thread, reader_pool};
 use super::super::{CloudInfo, Format, PointReader, ReadStats, TileStats};
+use super::laz_check::{check_layers, layer_words};
 use crate::{Error, Point, Result};
 use laz::record::{LayeredPointRecordDecompressor, RecordDecompressor};
 use rayon::prelude::*;
@@ -53,6 +54,9 @@ pub(super) struct CopcReader {
     order: Vec<usize>,
     next: usize,
     items: Vec<laz::LazItem>,
+    /// Bytes of a chunk's first point, and its layer-size words.
+    first: usize,
+    words: usize,
     record_len: usize,
     transforms: las::Vector<las::Transform>,
     /// How far outside its cube a point may lie (coordinate rounding).
@@ -67,7 +71,7 @@ pub(super) struct CopcReader {
 
 /// Whether the file's first VLR is the COPC info VLR (at byte 375, as the
 /// COPC specification requires).
-fn has_copc_vlr(file: &File) -> bool {
+pub(super) fn has_copc_vlr(file: &File) -> bool {
     let mut head = [0u8; 375 + 54];
     let n = file.read_at(&mut head, 0).unwrap_or(0);
     n == head.len()
@@ -90,12 +94,9 @@ struct Parsed {
     evlr_bytes: u64,
 }
 
-/// Opens `path` as COPC when it is one with a usable hierarchy; `None` sends
-/// it to the plain LAZ path.
+/// Opens `path` (a file with the COPC VLR) as COPC when its hierarchy is
+/// usable; `None` sends it to the plain LAZ path.
 pub(super) fn open(path: &Path, file: &File, file_bytes: u64) -> Result<Option<CopcReader>> {
-    if !has_copc_vlr(file) {
-        return Ok(None);
-    }
     // The las crate parses headers and hierarchy pages; it can panic on
     // malformed data, so on a reader thread (the panic becomes an error).
     let parsed = on_reader_thread(path, || {
@@ -131,6 +132,9 @@ pub(super) fn open(path: &Path, file: &File, file_bytes: u64) -> Result<Option<C
     let Some(nodes) = nodes(&p, file_bytes) else {
         return Ok(None);
     };
+    let Some(words) = layer_words(&p.items) else {
+        return Ok(None);
+    };
     let file = file.try_clone().map_err(|e| Error::io(path, e))?;
     let t = p.transforms;
     let scale = [t.x.scale, t.y.scale, t.z.scale]
@@ -153,6 +157,8 @@ pub(super) fn open(path: &Path, file: &File, file_bytes: u64) -> Result<Option<C
         order: (0..nodes.len()).collect(),
         nodes,
         next: 0,
+        first: p.items.iter().map(|i| usize::from(i.size())).sum(),
+        words,
         items: p.items,
         record_len: usize::from(p.format.len()),
         transforms: t,
@@ -242,6 +248,15 @@ impl CopcReader {
         self.file
             .read_exact_at(&mut raw, n.offset)
             .map_err(|e| e.to_string())?;
+        // The chunk's own head: its layers fit in it, and it holds the points
+        // the hierarchy says.
+        let count = check_layers(&raw, self.first, self.words, n.bytes)?;
+        if u64::from(count) != n.points {
+            return Err(format!(
+                "the hierarchy says {} points, the node's data {count}",
+                n.points
+            ));
+        }
         let mut out = vec![0u8; n.points as usize * self.record_len];
         let mut d = LayeredPointRecordDecompressor::new(std::io::Cursor::new(&raw[..]));
         d.set_fields_from(&self.items).map_err(|e| e.to_string())?;

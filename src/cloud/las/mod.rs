@@ -47,23 +47,31 @@ fn open_with(path: &Path, copc: bool) -> Result<Box<dyn PointReader>> {
     // Before any `las::Reader`: opening a LAZ file already reads its chunk table.
     // On a reader thread: the laz crate's chunk-table decoder can panic on
     // malformed data (index out of bounds: fuzz find).
-    on_reader_thread(path, || {
-        laz_check::check_laz_chunks(&file, file_bytes)
-            .and_then(|()| {
-                (&file)
-                    .seek(SeekFrom::Start(0))
-                    .map(drop)
-                    .map_err(|e| e.to_string())
-            })
-            .map_err(|msg| Error::format(path, msg))
-    })?;
+    let check = |heads: bool| {
+        on_reader_thread(path, || {
+            laz_check::check_laz_chunks(&file, file_bytes, heads)
+                .and_then(|()| {
+                    (&file)
+                        .seek(SeekFrom::Start(0))
+                        .map(drop)
+                        .map_err(|e| e.to_string())
+                })
+                .map_err(|msg| Error::format(path, msg))
+        })
+    };
+    // A COPC reader checks the head of each node it reads, not of every chunk
+    // up front (that would touch the whole file).
+    let is_copc = copc && copc::has_copc_vlr(&file);
+    check(!is_copc)?;
     if let Some(r) = open_records(path, &file, file_bytes)? {
         return Ok(r);
     }
-    if copc {
+    if is_copc {
         if let Some(r) = copc::open(path, &file, file_bytes)? {
             return Ok(Box::new(r));
         }
+        // Read as plain LAZ after all: every chunk's head checked first.
+        check(true)?;
     }
     let p = path.to_path_buf();
     // Sized here, on the caller's thread, so a caller's own pool size holds.

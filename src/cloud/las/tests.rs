@@ -316,5 +316,35 @@ fn copc_truncated_or_corrupt_is_an_error_not_a_panic() {
         res = r.next_chunk(&mut buf);
     }
     let e = res.unwrap_err().to_string();
-    assert!(e.contains("m.copc.laz"), "{e}");
+    assert!(e.contains("m.copc.laz") && e.contains("COPC node"), "{e}");
+    // The plain LAZ path checks every chunk's head when opening.
+    let e = open_with(&path, false).err().unwrap().to_string();
+    assert!(
+        e.contains("layers of") && e.contains("declared in a chunk"),
+        "{e}"
+    );
+}
+
+#[test]
+fn lying_layer_sizes_are_refused_before_allocating() {
+    // Fuzz find: a COPC node (and its LASzip chunk) declaring layers of
+    // gigabytes in 23 KB; the laz crate zero-filled 2 GB before reading.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.copc.laz");
+    std::fs::write(
+        &path,
+        include_bytes!("../../../tests/corpus/fuzz-copc-layer-sizes.copc.laz"),
+    )
+    .unwrap();
+    for copc in [true, false] {
+        let e = open_with(&path, copc)
+            .and_then(|mut r| {
+                let mut buf = Vec::new();
+                while r.next_chunk(&mut buf)? {}
+                Ok(())
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("declared in a chunk of"), "{copc}: {e}");
+    }
 }
