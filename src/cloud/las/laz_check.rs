@@ -23,8 +23,12 @@ pub(super) fn check_laz_chunks(
     // Read the header fields directly: the las crate is more lenient than a
     // strict header parser, and every file it would decompress must be checked.
     let mut head = [0u8; 227];
-    if f.read_exact(&mut head).is_err() || &head[..4] != b"LASF" || head[104] & 0x80 == 0 {
-        return Ok(()); // not a compressed LAS header: the las crate decides
+    if f.read_exact(&mut head).is_err() || &head[..4] != b"LASF" {
+        return Ok(()); // not a LAS header: the las crate decides
+    }
+    check_evlr(file, file_bytes)?;
+    if head[104] & 0x80 == 0 {
+        return Ok(()); // not compressed
     }
     let start = u64::from(u32::from_le_bytes([head[96], head[97], head[98], head[99]]));
     // The laszip VLR lies between the header and the point data; find it by
@@ -120,6 +124,30 @@ pub(super) fn check_laz_chunks(
                 .map_err(|m| bad(&format!("chunk {k}: {m}")))?;
             at += e.byte_count;
         }
+    }
+    Ok(())
+}
+
+/// The `las` crate sizes the first extended VLR's buffer (LAS 1.4) by its
+/// declared length before reading it: a length beyond the file's end is
+/// refused here (fuzz find: 8 GB asked for by a 22 KB file).
+fn check_evlr(file: &File, file_bytes: u64) -> std::result::Result<(), String> {
+    let mut head = [0u8; 247];
+    if file.read_exact_at(&mut head, 0).is_err() || head[24] != 1 || head[25] < 4 {
+        return Ok(());
+    }
+    let start = u64::from_le_bytes(head[235..243].try_into().unwrap_or_default());
+    let count = u32::from_le_bytes(head[243..247].try_into().unwrap_or_default());
+    let mut evlr = [0u8; 60];
+    if start == 0 || count == 0 || file.read_exact_at(&mut evlr, start).is_err() {
+        return Ok(()); // none, or the crate's read fails before allocating
+    }
+    let len = u64::from_le_bytes(evlr[20..28].try_into().unwrap_or_default());
+    if len > file_bytes.saturating_sub(start + 60) {
+        return Err(format!(
+            "LAS: extended VLR at byte {start} declares {len} bytes, the file ends {} bytes after its header",
+            file_bytes.saturating_sub(start + 60)
+        ));
     }
     Ok(())
 }

@@ -348,3 +348,21 @@ fn lying_layer_sizes_are_refused_before_allocating() {
         assert!(e.contains("declared in a chunk of"), "{copc}: {e}");
     }
 }
+
+#[test]
+fn lying_evlr_length_is_refused_before_allocating() {
+    // Fuzz find: an extended VLR declaring 8 GB in a 22 KB file; the las
+    // crate allocated it before reading.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.laz");
+    std::fs::write(
+        &path,
+        include_bytes!("../../../tests/corpus/fuzz-las-evlr-length.copc.laz"),
+    )
+    .unwrap();
+    let e = read(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("extended VLR at byte") && e.contains("declares"),
+        "{e}"
+    );
+}
