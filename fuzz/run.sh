@@ -3,6 +3,7 @@
 # Rust: `cargo fuzz ... --sanitizer none` needs no nightly flag.
 #
 #   fuzz/run.sh [SECONDS] [TARGET...]
+#   fuzz/run.sh --long [TARGET...]      # 600 s each (every target: about 2 h)
 #
 # New inputs that reach new code are added to fuzz/corpus/<target>/ (they are
 # git-ignored; commit only a hand-picked or `cargo fuzz cmin`ed few). Crashes
@@ -14,7 +15,14 @@
 set -uo pipefail
 cd "$(dirname "$0")"
 secs=${1:-60}
+[ "$secs" = --long ] && secs=600
 shift || true
+case $secs in
+    '' | *[!0-9]*)
+        echo "usage: fuzz/run.sh [SECONDS | --long] [TARGET...]" >&2
+        exit 2
+        ;;
+esac
 command -v cargo-fuzz >/dev/null || {
     echo "cargo-fuzz missing: cargo install cargo-fuzz --locked" >&2
     exit 2

@@ -55,7 +55,25 @@ pub(super) struct Producer {
 }
 
 /// Name of the threads that run third-party decoders.
-const READER_THREAD: &str = "mapgauge-reader";
+pub(super) const READER_THREAD: &str = "mapgauge-reader";
+
+/// A rayon pool of reader-named threads, as large as the caller's pool, for a
+/// decoder crate that parallelises on rayon (the `laz` crate): run inside it
+/// (`install`), a panic on one of its workers (laz 0.13 indexes out of bounds
+/// on some malformed chunks) stays quiet like any reader thread's, and rayon
+/// hands it back to the reader thread, where it becomes the file's error. On
+/// the global pool every panic hook sees it first, and a hook that aborts
+/// (libFuzzer's) ends the process before the panic can be caught. One pool
+/// per reader: a shared one could run one reader's whole body inside another's
+/// wait. `None` when threads cannot be started (then decode on the global pool).
+pub(super) fn reader_pool() -> Option<rayon::ThreadPool> {
+    quiet_reader_panics();
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .thread_name(|_| READER_THREAD.into())
+        .build()
+        .ok()
+}
 
 /// Runs `f` on a reader thread and waits for it: a panic inside a third-party
 /// parser becomes `path`'s one-line error instead of ending the process.
@@ -93,7 +111,7 @@ fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
 /// Installs (once) a panic hook that stays silent for reader threads, whose
 /// panics are caught and reported as one-line errors; every other panic is
 /// reported by the previous hook as usual.
-fn quiet_reader_panics() {
+pub(super) fn quiet_reader_panics() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let prev = std::panic::take_hook();

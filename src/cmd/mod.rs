@@ -104,11 +104,13 @@ pub fn check_origin_used(
     Ok(())
 }
 
-/// For a tiled map, how many tiles (and bytes) a read opened, on stderr.
+/// For a tiled map (or a COPC file), how many tiles (nodes) and bytes a read
+/// opened, on stderr.
 pub fn print_tile_stats(reader: &dyn mapgauge::cloud::PointReader) {
     if let Some(t) = reader.tile_stats() {
         eprintln!(
-            "tiles: {} of {} opened ({:.1} of {:.1} MB)",
+            "{}: {} of {} opened ({:.1} of {:.1} MB)",
+            if t.copc { "COPC nodes" } else { "tiles" },
             t.opened,
             t.tiles,
             t.bytes_opened as f64 / 1e6,

@@ -3,12 +3,19 @@
 
 use std::fs::File;
 use std::io::{BufReader, Seek, SeekFrom};
+use std::os::unix::fs::FileExt;
 
 /// Checks a LAZ file's chunk table against the file size before the `laz`
 /// crate sees it: the crate allocates the table from its declared chunk count
 /// and reads each chunk into a buffer of its declared byte count, so a lying
 /// table would make it allocate gigabytes (found by fuzzing). Not LAZ: Ok.
-pub(super) fn check_laz_chunks(file: &File, file_bytes: u64) -> std::result::Result<(), String> {
+/// `heads`: also check the head of every layered chunk (one small read per
+/// chunk; a COPC reader checks the nodes it reads instead).
+pub(super) fn check_laz_chunks(
+    file: &File,
+    file_bytes: u64,
+    heads: bool,
+) -> std::result::Result<(), String> {
     use std::io::Read;
     let mut f = BufReader::new(file);
     let bad = |m: &str| format!("LAZ: {m}");
@@ -16,8 +23,12 @@ pub(super) fn check_laz_chunks(file: &File, file_bytes: u64) -> std::result::Res
     // Read the header fields directly: the las crate is more lenient than a
     // strict header parser, and every file it would decompress must be checked.
     let mut head = [0u8; 227];
-    if f.read_exact(&mut head).is_err() || &head[..4] != b"LASF" || head[104] & 0x80 == 0 {
-        return Ok(()); // not a compressed LAS header: the las crate decides
+    if f.read_exact(&mut head).is_err() || &head[..4] != b"LASF" {
+        return Ok(()); // not a LAS header: the las crate decides
+    }
+    check_evlr(file, file_bytes)?;
+    if head[104] & 0x80 == 0 {
+        return Ok(()); // not compressed
     }
     let start = u64::from(u32::from_le_bytes([head[96], head[97], head[98], head[99]]));
     // The laszip VLR lies between the header and the point data; find it by
@@ -100,5 +111,88 @@ pub(super) fn check_laz_chunks(file: &File, file_bytes: u64) -> std::result::Res
             "chunk table declares {points} points in {data} bytes of point data"
         )));
     }
+    // Layered chunks (point formats 6-10) declare their layers' sizes up front.
+    if let Some(words) = layer_words(vlr.items()).filter(|_| heads) {
+        let first: usize = vlr.items().iter().map(|i| usize::from(i.size())).sum();
+        let mut head = vec![0u8; first + 4 + 4 * words];
+        let mut at = start + 8;
+        for (k, e) in entries.as_ref().iter().enumerate() {
+            let n = (e.byte_count as usize).min(head.len());
+            file.read_exact_at(&mut head[..n], at)
+                .map_err(|_| bad(&format!("chunk {k} lies beyond the end of the file")))?;
+            check_layers(&head[..n], first, words, e.byte_count)
+                .map_err(|m| bad(&format!("chunk {k}: {m}")))?;
+            at += e.byte_count;
+        }
+    }
     Ok(())
+}
+
+/// The `las` crate sizes the first extended VLR's buffer (LAS 1.4) by its
+/// declared length before reading it: a length beyond the file's end is
+/// refused here (fuzz find: 8 GB asked for by a 22 KB file).
+fn check_evlr(file: &File, file_bytes: u64) -> std::result::Result<(), String> {
+    let mut head = [0u8; 247];
+    if file.read_exact_at(&mut head, 0).is_err() || head[24] != 1 || head[25] < 4 {
+        return Ok(());
+    }
+    let start = u64::from_le_bytes(head[235..243].try_into().unwrap_or_default());
+    let count = u32::from_le_bytes(head[243..247].try_into().unwrap_or_default());
+    let mut evlr = [0u8; 60];
+    if start == 0 || count == 0 || file.read_exact_at(&mut evlr, start).is_err() {
+        return Ok(()); // none, or the crate's read fails before allocating
+    }
+    let len = u64::from_le_bytes(evlr[20..28].try_into().unwrap_or_default());
+    if len > file_bytes.saturating_sub(start + 60) {
+        return Err(format!(
+            "LAS: extended VLR at byte {start} declares {len} bytes, the file ends {} bytes after its header",
+            file_bytes.saturating_sub(start + 60)
+        ));
+    }
+    Ok(())
+}
+
+/// How many layer-size words follow a layered chunk's first point and point
+/// count (LAS 1.4 point formats 6-10); `None` for point-wise items (formats
+/// 0-5), whose chunks have no layers.
+pub(super) fn layer_words(items: &[laz::LazItem]) -> Option<usize> {
+    use laz::LazItemType as T;
+    items
+        .iter()
+        .map(|i| match i.item_type() {
+            T::Point14 => Some(9),
+            T::RGB14 | T::WavePacket14 => Some(1),
+            T::RGBNIR14 => Some(2),
+            T::Byte14(n) => Some(usize::from(n)),
+            _ => None,
+        })
+        .sum()
+}
+
+/// Checks the head of a layered chunk of `len` bytes: its first point
+/// (`first` bytes), point count and `words` layer sizes, which must fit in
+/// the chunk. The `laz` crate zero-fills a buffer of each declared size before
+/// reading it, so a lying size would cost gigabytes (fuzz find: 2 GB per
+/// 23 KB file). Returns the chunk's declared point count.
+pub(super) fn check_layers(
+    head: &[u8],
+    first: usize,
+    words: usize,
+    len: u64,
+) -> std::result::Result<u32, String> {
+    let fixed = first + 4 + 4 * words;
+    if head.len() < fixed || (len as usize) < fixed {
+        return Err(format!(
+            "{len} bytes cannot hold a chunk's first point and layer sizes"
+        ));
+    }
+    let word = |o: usize| u32::from_le_bytes([head[o], head[o + 1], head[o + 2], head[o + 3]]);
+    let count = word(first);
+    let layers: u64 = (0..words).map(|w| u64::from(word(first + 4 + 4 * w))).sum();
+    if layers > len - fixed as u64 {
+        return Err(format!(
+            "layers of {layers} bytes declared in a chunk of {len} bytes"
+        ));
+    }
+    Ok(count)
 }

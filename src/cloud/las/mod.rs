@@ -9,13 +9,14 @@
 //! LAS data goes to the `pread` record reader, LAZ through the crate after
 //! its chunk table is checked (`laz_check.rs`); the writer is `sink.rs`.
 
-use super::producer::{Msg, Producer, on_reader_thread};
+use super::producer::{Msg, Producer, Tx, on_reader_thread};
 use super::{CloudInfo, Format, PointReader};
 use crate::{Error, Point, Result};
 use std::fs::File;
 use std::io::{BufReader, Seek, SeekFrom};
 use std::path::Path;
 
+mod copc;
 mod laz_check;
 mod sink;
 #[cfg(test)]
@@ -34,55 +35,84 @@ pub(super) fn las_err(path: &Path, e: las::Error) -> Error {
     Error::format(path, format!("LAS: {e}"))
 }
 
-/// Opens a LAS file for streaming.
+/// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
+    open_with(path, true)
+}
+
+/// [`open`]; `copc: false` reads a COPC file as plain LAZ (tests compare).
+fn open_with(path: &Path, copc: bool) -> Result<Box<dyn PointReader>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
     // Before any `las::Reader`: opening a LAZ file already reads its chunk table.
     // On a reader thread: the laz crate's chunk-table decoder can panic on
     // malformed data (index out of bounds: fuzz find).
-    on_reader_thread(path, || {
-        laz_check::check_laz_chunks(&file, file_bytes)
-            .and_then(|()| {
-                (&file)
-                    .seek(SeekFrom::Start(0))
-                    .map(drop)
-                    .map_err(|e| e.to_string())
-            })
-            .map_err(|msg| Error::format(path, msg))
-    })?;
+    let check = |heads: bool| {
+        on_reader_thread(path, || {
+            laz_check::check_laz_chunks(&file, file_bytes, heads)
+                .and_then(|()| {
+                    (&file)
+                        .seek(SeekFrom::Start(0))
+                        .map(drop)
+                        .map_err(|e| e.to_string())
+                })
+                .map_err(|msg| Error::format(path, msg))
+        })
+    };
+    // A COPC reader checks the head of each node it reads, not of every chunk
+    // up front (that would touch the whole file).
+    let is_copc = copc && copc::has_copc_vlr(&file);
+    check(!is_copc)?;
     if let Some(r) = open_records(path, &file, file_bytes)? {
         return Ok(r);
     }
+    if is_copc {
+        if let Some(r) = copc::open(path, &file, file_bytes)? {
+            return Ok(Box::new(r));
+        }
+        // Read as plain LAZ after all: every chunk's head checked first.
+        check(true)?;
+    }
     let p = path.to_path_buf();
-    let producer = Producer::spawn(path, move |tx| {
-        let mut reader = match las::Reader::new(BufReader::with_capacity(1 << 20, file)) {
-            Ok(r) => r,
-            Err(e) => {
-                tx.send(Msg::Err(las_err(&p, e)));
-                return;
-            }
-        };
-        let header = reader.header();
-        let total = header.number_of_points();
-        let fmt = *header.point_format();
-        let rec = fmt.len() as u64;
-        let t = *header.transforms();
-        let compressed = fmt.is_compressed;
-        if !compressed {
-            // A declared count larger than the data is an error up front.
-            let raw = header.clone().into_raw().ok();
-            let start = raw.as_ref().map_or(0, |r| r.offset_to_point_data as u64);
-            // Point data ends where the extended VLRs (LAS 1.4) start, or at the end.
-            let data_end = raw
-                .as_ref()
-                .and_then(|r| r.evlr)
-                .map(|e| e.start_of_first_evlr)
-                .filter(|&e| e > start && e <= file_bytes)
-                .unwrap_or(file_bytes);
-            let need = total.checked_mul(rec).and_then(|b| b.checked_add(start));
-            if need.is_some_and(|n| rec > 0 && n <= data_end && data_end - n >= rec) {
-                tx.send(Msg::Err(Error::format(
+    // Sized here, on the caller's thread, so a caller's own pool size holds.
+    let pool = super::producer::reader_pool();
+    let producer = Producer::spawn(path, move |tx| match pool {
+        Some(pool) => pool.install(move || read_laz(tx, file, file_bytes, p)),
+        None => read_laz(tx, file, file_bytes, p),
+    })?;
+    Ok(Box::new(producer))
+}
+
+/// The body of the LAZ reader thread: decodes blocks through the `las` crate
+/// and sends them.
+fn read_laz(tx: Tx, file: File, file_bytes: u64, p: std::path::PathBuf) {
+    let mut reader = match las::Reader::new(BufReader::with_capacity(1 << 20, file)) {
+        Ok(r) => r,
+        Err(e) => {
+            tx.send(Msg::Err(las_err(&p, e)));
+            return;
+        }
+    };
+    let header = reader.header();
+    let total = header.number_of_points();
+    let fmt = *header.point_format();
+    let rec = fmt.len() as u64;
+    let t = *header.transforms();
+    let compressed = fmt.is_compressed;
+    if !compressed {
+        // A declared count larger than the data is an error up front.
+        let raw = header.clone().into_raw().ok();
+        let start = raw.as_ref().map_or(0, |r| r.offset_to_point_data as u64);
+        // Point data ends where the extended VLRs (LAS 1.4) start, or at the end.
+        let data_end = raw
+            .as_ref()
+            .and_then(|r| r.evlr)
+            .map(|e| e.start_of_first_evlr)
+            .filter(|&e| e > start && e <= file_bytes)
+            .unwrap_or(file_bytes);
+        let need = total.checked_mul(rec).and_then(|b| b.checked_add(start));
+        if need.is_some_and(|n| rec > 0 && n <= data_end && data_end - n >= rec) {
+            tx.send(Msg::Err(Error::format(
                     &p,
                     format!(
                         "LAS header declares {total} points but the point data holds {} ({} bytes of {rec}-byte records)",
@@ -90,77 +120,75 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
                         data_end - start
                     ),
                 )));
-                return;
-            }
-            if need.is_none_or(|n| n > file_bytes) {
-                tx.send(Msg::Err(Error::format(
+            return;
+        }
+        if need.is_none_or(|n| n > file_bytes) {
+            tx.send(Msg::Err(Error::format(
                     &p,
                     format!(
                         "LAS point data truncated: header declares {total} points of {rec} bytes, the file holds {}",
                         file_bytes.saturating_sub(start) / rec.max(1)
                     ),
                 )));
-                return;
-            }
-        }
-        let format = if compressed { Format::Laz } else { Format::Las };
-        if !tx.send(Msg::Info(CloudInfo {
-            format,
-            declared_points: Some(total),
-            file_bytes,
-        })) {
             return;
         }
-        let mut pd = las::PointDataBuilder::new()
-            .for_header(reader.header())
-            .build();
-        let mut done = 0u64;
-        // LAZ is decompressed in parallel one LASzip chunk (typically 50 000
-        // points) per task: ask for many chunks at a time so every core has one.
-        let block = if compressed { LAZ_CHUNK } else { CHUNK };
-        // The crate's buffer is points x record length, and a header may claim
-        // 64 KiB records: keep a block's raw bytes within 16 MiB (no change
-        // for real records, at most 64 bytes; fuzz find: 17 GB block).
-        let per_fill = block.min((MAX_BLOCK_BYTES / rec.max(1)).max(1));
-        loop {
-            let n = match reader.fill_points(per_fill, &mut pd) {
-                Ok(n) => n,
-                Err(e) => {
-                    tx.send(Msg::Err(Error::format(
-                        &p,
-                        format!("LAS: reading points {done}.. of {total}: {e}"),
-                    )));
-                    return;
-                }
-            };
-            if n == 0 {
-                break;
-            }
-            done += n;
-            let mut out = tx.buffer();
-            out.reserve(n as usize);
-            let mut skipped = 0;
-            for r in pd.raw_bytes().chunks_exact(pd.record_len()) {
-                let i = |o: usize| i32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
-                let q = Point::new(t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8)));
-                if q.x.is_finite() && q.y.is_finite() && q.z.is_finite() {
-                    out.push(q);
-                } else {
-                    skipped += 1;
-                }
-            }
-            let bytes = if total > 0 {
-                file_bytes.saturating_mul(done) / total
-            } else {
-                file_bytes
-            };
-            if !tx.send(Msg::Chunk(out, skipped, bytes)) {
+    }
+    let format = if compressed { Format::Laz } else { Format::Las };
+    if !tx.send(Msg::Info(CloudInfo {
+        format,
+        declared_points: Some(total),
+        file_bytes,
+    })) {
+        return;
+    }
+    let mut pd = las::PointDataBuilder::new()
+        .for_header(reader.header())
+        .build();
+    let mut done = 0u64;
+    // LAZ is decompressed in parallel one LASzip chunk (typically 50 000
+    // points) per task: ask for many chunks at a time so every core has one.
+    let block = if compressed { LAZ_CHUNK } else { CHUNK };
+    // The crate's buffer is points x record length, and a header may claim
+    // 64 KiB records: keep a block's raw bytes within 16 MiB (no change
+    // for real records, at most 64 bytes; fuzz find: 17 GB block).
+    let per_fill = block.min((MAX_BLOCK_BYTES / rec.max(1)).max(1));
+    loop {
+        let n = match reader.fill_points(per_fill, &mut pd) {
+            Ok(n) => n,
+            Err(e) => {
+                tx.send(Msg::Err(Error::format(
+                    &p,
+                    format!("LAS: reading points {done}.. of {total}: {e}"),
+                )));
                 return;
             }
+        };
+        if n == 0 {
+            break;
         }
-        tx.send(Msg::Done(0));
-    })?;
-    Ok(Box::new(producer))
+        done += n;
+        let mut out = tx.buffer();
+        out.reserve(n as usize);
+        let mut skipped = 0;
+        for r in pd.raw_bytes().chunks_exact(pd.record_len()) {
+            let i = |o: usize| i32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
+            let q = Point::new(t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8)));
+            if q.x.is_finite() && q.y.is_finite() && q.z.is_finite() {
+                out.push(q);
+            } else {
+                skipped += 1;
+            }
+        }
+        let bytes = if total > 0 {
+            file_bytes.saturating_mul(done) / total
+        } else {
+            file_bytes
+        };
+        if !tx.send(Msg::Chunk(out, skipped, bytes)) {
+            return;
+        }
+    }
+    tx.send(Msg::Done(0));
 }
 
 /// Uncompressed LAS: every point format stores X, Y, Z as little-endian i32 at

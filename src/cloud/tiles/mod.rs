@@ -70,6 +70,8 @@ pub struct TileStats {
     pub bytes: u64,
     /// Bytes of the tiles opened so far.
     pub bytes_opened: u64,
+    /// The counts are a COPC file's octree nodes (with points), not tiles.
+    pub copc: bool,
 }
 
 /// Whether `path` names a tiled map: a folder, or a `*metadata*.yaml` file.

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# COPC crop against decoding the whole LAZ (issue 21): `mapgauge crop` of 8
+# targets (5 m cylinders) in a random 400 m x 400 m x 20 m cloud written as
+# COPC by copclib (bench/copc_write.py, leaves of about 2 000 points), and of
+# the very same file with its COPC VLR renamed, which mapgauge then reads as
+# plain LAZ (every chunk, in file order). Page-cached files; wall time and
+# peak RSS are the median of RUNS runs; the crops of both must be identical
+# byte for byte (the script fails otherwise).
+#
+# Usage: bench/copc.sh [POINTS]        (default 20000000; 50 M: ~350 MB of disk)
+# Env:   DIR   data directory (default /tmp/mapgauge-copc)
+#        RUNS  runs per measurement, odd (default 3)
+#        PY    a python with copclib and numpy (default: a venv made in DIR
+#              with `pip install copclib==2.6.3 numpy`)
+set -euo pipefail
+
+REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+N=${1:-20000000}
+DIR=${DIR:-/tmp/mapgauge-copc}
+RUNS=${RUNS:-3}
+mkdir -p "$DIR"
+BIN=$REPO/target/release/mapgauge
+(cd "$REPO" && cargo build --release --quiet)
+if [[ -z ${PY:-} ]]; then
+    if [[ ! -x $DIR/venv/bin/python ]]; then
+        python3 -m venv "$DIR/venv"
+        "$DIR/venv/bin/pip" install --quiet copclib==2.6.3 numpy
+    fi
+    PY=$DIR/venv/bin/python
+fi
+copc=$DIR/r$N.copc.laz
+plain=$DIR/r$N.plain.laz
+[[ -s $copc ]] || COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" --random "$N" 3 "$copc"
+if [[ ! -s $plain ]]; then
+    cp "$copc" "$plain"
+    # "copc" -> "xopc" in the first VLR's user id: no longer a COPC file.
+    printf 'x' | dd of="$plain" bs=1 seek=377 conv=notrunc status=none
+fi
+survey=$DIR/survey.csv
+{
+    echo "id,x,y"
+    for i in 0 1 2 3 4 5 6 7; do
+        echo "T$i,$((350050 + i * 41)).5,$((4150060 + i * 37)).25"
+    done
+} >"$survey"
+cat "$copc" "$plain" >/dev/null
+
+median() { sort -n | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
+
+row() { # label map
+    local label=$1 map=$2 times=() rss=() r
+    for ((r = 0; r < RUNS; r++)); do
+        rm -rf "$DIR/out-$label"
+        /usr/bin/time -f '%e %M' -o "$DIR/time-$label" \
+            "$BIN" crop --map "$map" --survey "$survey" --out "$DIR/out-$label" \
+            >/dev/null 2>"$DIR/err-$label"
+        read -r t m <"$DIR/time-$label"
+        times+=("$t")
+        rss+=("$m")
+    done
+    local nodes
+    nodes=$(grep -o 'COPC nodes: .*' "$DIR/err-$label" || echo "every chunk ($(du -m "$map" | cut -f1) MB)")
+    printf '| %s | %s | %s | %s | %s |\n' "$label" "$N" \
+        "$(printf '%s\n' "${times[@]}" | median)" \
+        "$(($(printf '%s\n' "${rss[@]}" | median) / 1024))" "$nodes"
+}
+
+echo "| read | points | wall s | RSS MB | read |"
+echo "| --- | ---: | ---: | ---: | --- |"
+row copc "$copc"
+row plain "$plain"
+diff -r "$DIR/out-copc" "$DIR/out-plain" >/dev/null ||
+    { echo "crops differ between COPC and plain LAZ" >&2; exit 1; }
+echo
+echo "crops identical ($(ls "$DIR/out-copc" | wc -l) files); $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
