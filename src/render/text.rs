@@ -7,7 +7,7 @@
 
 use super::Grid;
 use super::TableFormat;
-use super::tables::{absolute_grid, extra_grid, pairs_grid, relative_grid};
+use super::tables::{absolute_grid, extra_grid, relative_grid};
 use crate::accuracy::Dim;
 use crate::record::ResultFile;
 use std::fmt::Write as _;
@@ -26,6 +26,35 @@ pub(crate) fn mm(m: f64) -> String {
     } else {
         format!("{v:.1}")
     }
+}
+
+/// Every pair for the terminal: distances in metres, errors in millimetres as
+/// everywhere else on the terminal and in the report (`pairs.csv` keeps metres).
+fn pairs_mm(r: &ResultFile) -> Grid {
+    let mut g = Grid {
+        header: [
+            "a",
+            "b",
+            "survey distance m",
+            "map distance m",
+            "error mm",
+            "mm per 100 m",
+        ]
+        .map(String::from)
+        .to_vec(),
+        ..Default::default()
+    };
+    for p in &r.relative.pairs {
+        g.rows.push(vec![
+            p.a.clone(),
+            p.b.clone(),
+            format!("{:.3}", p.survey_distance),
+            format!("{:.3}", p.map_distance),
+            mm(p.error),
+            p.error_per_100m.map(mm).unwrap_or_else(|| "–".into()),
+        ]);
+    }
+    g
 }
 
 /// The terminal report of one run; `verbose` adds every pair.
@@ -165,8 +194,8 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     o.push_str(&extra_grid(r).render(TableFormat::Text));
     o.push('\n');
     if verbose {
-        let _ = writeln!(o, "Pairs (m)");
-        o.push_str(&pairs_grid(r).render(TableFormat::Text));
+        let _ = writeln!(o, "Pairs");
+        o.push_str(&pairs_mm(r).render(TableFormat::Text));
         o.push('\n');
     }
     for l in &r.asprs.nssda_lines {
