@@ -690,6 +690,66 @@ pub(crate) mod tests {
         assert!(html.contains("2026-01-01 00:00:00 UTC") && html.contains("seed = 7"));
     }
 
+    /// Past 6 targets the paper's one-row tables (66 pair columns at 12)
+    /// give way to a pair matrix and a column, and the targets table to mm.
+    #[test]
+    fn many_targets_get_tables_that_fit() {
+        let ids: Vec<String> = (1..=12).map(|i| i.to_string()).collect();
+        let targets: Vec<SurveyTarget> = ids
+            .iter()
+            .enumerate()
+            .map(|(i, id)| SurveyTarget {
+                id: id.clone(),
+                position: Point::new(10.0 * i as f64, (i % 3) as f64 * 7.0, 0.0),
+                has_z: false,
+                role: None,
+                antenna_height: 0.0,
+                line: i as u64 + 2,
+            })
+            .collect();
+        let survey = Survey {
+            targets,
+            frame: SurveyFrame::Local,
+            origin: None,
+        };
+        let est: Vec<Estimate> = survey
+            .targets
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Estimate {
+                id: t.id.clone(),
+                status: EstimateStatus::Found(
+                    t.position + nalgebra::Vector3::new(0.002 * (i % 4) as f64, 0.001, 0.0),
+                ),
+                has_z: false,
+            })
+            .collect();
+        let r = crate::record::ResultFile::from_accuracy(
+            &score(&survey, &est, &ScoreOptions::default()).unwrap(),
+            &survey,
+        );
+        let rep = Report::from_result(&r, Provenance::new(None, None));
+        let html = rep.html();
+        let tables = &html[html.find("<section id=\"tables\">").unwrap()..];
+        assert!(!tables.contains("t1 &amp; t2"), "no 66-column Table I");
+        assert!(tables.contains("Relative error of every pair (mm, 2D)"));
+        // The matrix: 11 rows (t1..t11) under a header t2..t12.
+        let matrix = &tables[..tables.find("Absolute error").unwrap()];
+        assert_eq!(matrix.matches("<tr>").count(), 1 + 11);
+        assert!(matrix.contains("<th>t12</th>") && !matrix.contains("<th>t1</th>"));
+        assert!(
+            !tables.contains("survey_x"),
+            "coordinates stay in targets.csv"
+        );
+        assert!(tables.contains("z is not fitted by a 2D alignment"));
+        // A few targets keep the paper's layout.
+        let few = result(&["1", "2", "3", "4"]);
+        let html = Report::from_result(&few, Provenance::new(None, None)).html();
+        assert!(html.contains("t1 &amp; t2") && html.contains("the paper's Table I"));s Table I")
+                || html.contains("the paper's Table I")
+        );
+    }
+
     #[test]
     fn escape_all_specials() {
         assert_eq!(
