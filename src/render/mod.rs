@@ -10,8 +10,8 @@ pub use summary::{render_csv, render_report, write_outputs};
 pub use tables::{
     absolute_grid, extra_grid, merged_ids, pairs_grid, relative_grid, target_label, targets_grid,
 };
-pub(crate) use text::mm;
 pub use text::render_text;
+pub(crate) use text::{fixed, mm};
 
 use crate::{Error, Result};
 use std::fmt::Write as _;

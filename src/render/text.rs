@@ -28,6 +28,16 @@ pub(crate) fn mm(m: f64) -> String {
     }
 }
 
+/// `v` with `d` decimals, never a negative zero ("-0.000").
+pub(crate) fn fixed(v: f64, d: usize) -> String {
+    let s = format!("{v:.d$}");
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_string()
+    } else {
+        s
+    }
+}
+
 /// Every pair for the terminal: distances in metres, errors in millimetres as
 /// everywhere else on the terminal and in the report (`pairs.csv` keeps metres).
 fn pairs_mm(r: &ResultFile) -> Grid {
@@ -133,11 +143,11 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     }
     let _ = writeln!(
         o,
-        "  alignment map → survey: rotation {:.4}°, translation ({:.3}, {:.3}, {:.3}) m{}",
-        a.rotation_deg,
-        a.translation[0],
-        a.translation[1],
-        a.translation[2],
+        "  alignment map → survey: rotation {}°, translation ({}, {}, {}) m{}",
+        fixed(a.rotation_deg, 4),
+        fixed(a.translation[0], 3),
+        fixed(a.translation[1], 3),
+        fixed(a.translation[2], 3),
         if a.method.starts_with("similarity") {
             format!(", scale {:+.1} ppm", a.scale_ppm)
         } else {
@@ -232,6 +242,8 @@ mod tests {
         assert_eq!(mm(0.01234), "12.3");
         assert_eq!(mm(-0.0021), "-2.1");
         assert_eq!(mm(f64::NAN), "–");
+        assert_eq!(fixed(-0.0001, 3), "0.000");
+        assert_eq!(fixed(-0.0006, 3), "-0.001");
     }
 
     #[test]

@@ -356,10 +356,12 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     card(
         &mut o,
         "Alignment",
-        &format!("{:.3}°", a.rotation_deg),
+        &format!("{}°", crate::render::fixed(a.rotation_deg, 3)),
         &format!(
-            "{} · t = ({:.3}, {:.3}) m",
-            a.method, a.translation[0], a.translation[1]
+            "{} · t = ({}, {}) m",
+            a.method,
+            crate::render::fixed(a.translation[0], 3),
+            crate::render::fixed(a.translation[1], 3)
         ),
     );
     card(

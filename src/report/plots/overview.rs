@@ -84,7 +84,7 @@ pub fn overview(r: &ResultFile) -> Figure {
     // Arrows and rings first, then each label where it covers none of them
     // (nor another label): a fixed offset put labels over arrows pointing
     // up and right.
-    let mut segs: Vec<((f64, f64), (f64, f64))> = Vec::new();
+    let mut segs: Vec<Seg> = Vec::new();
     let mut rings: Vec<(f64, f64)> = Vec::new();
     let mut labels: Vec<((f64, f64), String, crate::report::figure::Color)> = Vec::new();
     for ((t, p), e) in r.targets.iter().zip(&rel).zip(&errs) {
@@ -218,6 +218,8 @@ pub fn overview(r: &ResultFile) -> Figure {
 
 /// A label's box in pixels: left, top, right, bottom.
 type Rect = (f64, f64, f64, f64);
+/// An arrow from tail to head, in pixels.
+type Seg = ((f64, f64), (f64, f64));
 
 /// Where a 12 px label of a marker at `s` goes: the first of eight places
 /// around it that overlaps the fewest arrows, markers, labels already placed
@@ -225,7 +227,7 @@ type Rect = (f64, f64, f64, f64);
 fn place_label(
     s: (f64, f64),
     text: &str,
-    segs: &[((f64, f64), (f64, f64))],
+    segs: &[Seg],
     rings: &[(f64, f64)],
     placed: &[Rect],
     frame: Rect,
