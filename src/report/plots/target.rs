@@ -454,7 +454,8 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
     }
     if loose.is_empty() {
         f.text(
-            (TOP.0 + TOP.2 / 2.0, TOP.1 + TOP.3 / 2.0),
+            // Under the ring of where it was looked for, not over it.
+            (TOP.0 + TOP.2 / 2.0, TOP.1 + TOP.3 / 2.0 + 22.0),
             "no points within the crop radius",
             11.0,
             palette::ERROR,
