@@ -20,7 +20,7 @@ main{max-width:1000px;margin:0 auto;padding:24px 20px 48px}
 h1{font-size:26px;margin:0 0 4px}
 h2{font-size:19px;margin:32px 0 10px;padding-bottom:4px;border-bottom:2px solid var(--line)}
 h3{font-size:16px;margin:0 0 6px}
-p.sub{color:var(--muted);margin:0 0 8px}
+p.sub{color:var(--muted);margin:0 0 8px;overflow-wrap:anywhere}
 .cards{display:flex;flex-wrap:wrap;gap:10px}
 .card{background:var(--card);border:1px solid var(--line);border-radius:8px;padding:10px 14px;min-width:150px;flex:1}
 .card .k{color:var(--muted);font-size:12px;text-transform:uppercase;letter-spacing:.04em}
@@ -45,8 +45,8 @@ table.grid thead th{border-bottom:2px solid #999}
 ul.warn{color:#a04000}
 code,pre{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:12px}
 pre{background:var(--card);border:1px solid var(--line);padding:10px;overflow-x:auto}
-td.hash{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:11px;text-align:left;white-space:normal;word-break:break-all;min-width:24em}
-td.path{text-align:left;white-space:normal;word-break:break-all}
+table.grid td.hash{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:11px;text-align:left;white-space:normal;word-break:break-all;min-width:24em}
+table.grid td.path{text-align:left;white-space:normal;word-break:break-all}
 footer{color:var(--muted);font-size:12px;margin-top:36px}
 @media print{body{background:#fff}.target,figure,.card{break-inside:avoid}}
 ";
