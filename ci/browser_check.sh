@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Renders a report.html in headless Chromium and fails on a console message, a
 # resource that fails to load or comes from outside the page (the report is one
-# self-contained file), a blank page, or a figure count other than the one
-# result.json implies (overview + relative + one per target, found or not).
+# self-contained file), a blank page, a figure count other than the one
+# result.json implies (overview + relative + one per target, found or not), a
+# table that runs off the page at 1280 px, or a plot frame without at least two
+# labelled ticks on each axis.
 # Usage: ci/browser_check.sh REPORT.html [SCREENSHOT.png] [RESULT.json]
 # (RESULT.json defaults to the one beside the report). ci/browser_check_test.sh
 # runs it against deliberately broken pages.
@@ -51,9 +53,55 @@ js = """<script>(function () {
       if (!(im.complete && im.naturalWidth > 0)) failed.push(what(im));
     }
     var loaded = performance.getEntriesByType("resource").map(function (r) { return r.name; });
+    // Layout at the window's width: how far each table reaches past its
+    // section (a table wider than the page is clipped in its scroll box),
+    // and, per figure, each plot frame's numeric tick labels.
+    var layout = {width: document.documentElement.clientWidth,
+                  scrollWidth: document.documentElement.scrollWidth, tables: [], figures: []};
+    var tables = document.querySelectorAll("table");
+    for (var i = 0; i < tables.length; i++) {
+      var t = tables[i], box = t.closest("section") || document.body;
+      var h = t.closest("section"), name = (h && h.id ? h.id : "page") + " table " + (i + 1);
+      var prev = t.closest(".scroll") || t;
+      while (prev && !/^H[1-4]$/.test(prev.tagName)) prev = prev.previousElementSibling;
+      if (prev) name += " (" + prev.textContent.trim() + ")";
+      layout.tables.push({name: name,
+        over: Math.round(t.getBoundingClientRect().right - box.getBoundingClientRect().right)});
+    }
+    var num = /^[-\u2212]?\d+(\.\d+)?$/;
+    var figs = document.querySelectorAll("figure");
+    for (var f = 0; f < figs.length; f++) {
+      var svg = figs[f].querySelector("svg"), frames = [];
+      if (svg) {
+        var texts = Array.prototype.map.call(svg.querySelectorAll("text"), function (e) {
+          return {s: e.textContent.trim(), r: e.getBoundingClientRect()};
+        });
+        var rects = svg.querySelectorAll("rect");
+        for (var k = 0; k < rects.length; k++) {
+          var re = rects[k];
+          if (re.getAttribute("fill") !== "none" || (re.getAttribute("stroke") || "none") === "none") continue;
+          var b = re.getBoundingClientRect(), xs = [], ys = [], overlap = false;
+          texts.forEach(function (x) {
+            if (!num.test(x.s)) return;
+            var cx = (x.r.left + x.r.right) / 2, cy = (x.r.top + x.r.bottom) / 2;
+            if (cx >= b.left - 2 && cx <= b.right + 2 && x.r.top >= b.bottom - 1 && x.r.top <= b.bottom + 24) xs.push(x);
+            if (cy >= b.top - 2 && cy <= b.bottom + 2 && x.r.right <= b.left + 1 && x.r.right >= b.left - 48) ys.push(x);
+          });
+          [xs, ys].forEach(function (v) {
+            for (var a = 0; a < v.length; a++) for (var c = a + 1; c < v.length; c++) {
+              var p = v[a].r, q = v[c].r;
+              if (p.left < q.right && q.left < p.right && p.top < q.bottom && q.top < p.bottom) overlap = true;
+            }
+          });
+          var uniq = function (v) { return v.map(function (x) { return x.s; }).filter(function (s, j, a) { return a.indexOf(s) === j; }).length; };
+          frames.push({x: uniq(xs), y: uniq(ys), overlap: overlap});
+        }
+      }
+      layout.figures.push({id: figs[f].id, frames: frames});
+    }
     var pre = document.createElement("pre");
     pre.id = "mapgauge-load-check";
-    pre.textContent = JSON.stringify({failed: failed, loaded: loaded});
+    pre.textContent = JSON.stringify({failed: failed, loaded: loaded, layout: layout});
     document.body.appendChild(pre);
   });
 })();</script>"""
@@ -78,8 +126,9 @@ timeout 90 /usr/bin/chromium "${flags[@]}" --user-data-dir="$work/profile-shot" 
 }
 # The probe's copy; the virtual-time budget lets every load finish (or fail)
 # before the DOM is written.
+# At 1280 px, the width the report must fit without a table running off it.
 timeout 90 /usr/bin/chromium "${flags[@]}" --user-data-dir="$work/profile-dom" \
-    --virtual-time-budget=10000 --dump-dom "file://$probe" \
+    --window-size=1280,2400 --virtual-time-budget=10000 --dump-dom "file://$probe" \
     >"$work/dom.html" 2>"$work/dom.err" || {
     cat "$work/dom.err" >&2
     echo "browser check: chromium failed to dump the DOM" >&2
@@ -147,6 +196,26 @@ else:
     for u in sorted(set(probe["loaded"])):
         if not u.startswith("data:"):
             fail.append("resource fetched from outside the page: " + u)
+    # 5. At 1280 px no table runs off the page (hidden columns, a clipped
+    # hash), and every plot frame has a scale: at least two distinct numeric
+    # tick labels on each axis, none overlapping another.
+    lay = probe.get("layout") or {}
+    if lay.get("width") != 1280:
+        fail.append(f"the page was laid out {lay.get('width')} px wide, not 1280")
+    if lay.get("scrollWidth", 0) > lay.get("width", 0) + 1:
+        fail.append(f"the page is {lay['scrollWidth']} px wide at {lay.get('width')} px")
+    for t in lay.get("tables", []):
+        if t["over"] > 1:
+            fail.append(f"{t['name']} overflows its section by {t['over']} px at 1280 px")
+    for fig in lay.get("figures", []):
+        if not fig["frames"]:
+            fail.append(f"figure {fig['id']} has no plot frame with axes")
+        for k, fr in enumerate(fig["frames"]):
+            if fr["x"] < 2 or fr["y"] < 2:
+                fail.append(f"figure {fig['id']} panel {k + 1}: {fr['x']} labelled x ticks, "
+                            f"{fr['y']} labelled y ticks (want 2 or more each)")
+            if fr["overlap"]:
+                fail.append(f"figure {fig['id']} panel {k + 1}: tick labels overlap")
 attr = r"""<(?!a[\s>])([a-zA-Z][\w:-]*)[^>]*?\s(?:src|href|xlink:href|srcset|data|poster|background)\s*=\s*["']?([^"'\s>]+)"""
 refs = re.findall(attr, src)
 refs += [("css", u) for u in re.findall(r"""url\(\s*["']?([^"')]+)""", src)]
@@ -217,6 +286,7 @@ if fail:
     for f in fail:
         print("browser check FAILED:", f, file=sys.stderr)
     sys.exit(1)
-print(f"browser check: ok ({n_svg} figures, as result.json implies; no console message; no failed or outside resource)")
+print(f"browser check: ok ({n_svg} figures, as result.json implies, each panel with labelled ticks; "
+      "no table wider than the page at 1280 px; no console message; no failed or outside resource)")
 EOF
 echo "browser check: screenshot at $shot"

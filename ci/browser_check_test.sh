@@ -66,6 +66,28 @@ case_ css-background-http 'outside the page: <css> http://' '
 s = s.replace("</head>", "<style>body { background: url(http://example.invalid/bg.png) }</style></head>", 1)'
 case_ script-error 'console' '
 s = s.replace("</body>", "<script>undefinedFunction()</script></body>", 1)'
+# A table wider than the page at 1280 px (as the paper's Table I of 12 targets was).
+case_ wide-table 'overflows its section' '
+s = s.replace("<h3>Statistics</h3>", "<h3>Wide</h3><div class=\"scroll\"><table class=\"grid\"><tr>" + "<td>0.0123</td>" * 120 + "</tr></table></div><h3>Statistics</h3>", 1)'
+# A figure whose tick labels are gone but one: no scale.
+case_ single-tick 'labelled x ticks' '
+i = s.index("<figure id=\"fig-overview\"")
+j = s.index("</figure>", i)
+k = [0]
+def keep_one(m):
+    k[0] += 1
+    return m.group(0) if k[0] == 1 else ""
+s = s[:i] + re.sub(r"<text[^>]*>-?[0-9.]+</text>", keep_one, s[i:j]) + s[j:]'
+# Two tick labels drawn on top of each other.
+case_ overlapping-ticks 'tick labels overlap' '
+i = s.index("<figure id=\"fig-relative\"")
+j = s.index("</figure>", i)
+m = list(re.finditer(r"<text x=\"([0-9.]+)\"([^>]*)>(-?[0-9.]+)</text>", s[i:j]))
+a, b = m[0], m[1]
+moved = "<text x=\"" + str(float(a.group(1)) + 3) + "\"" + b.group(2) + ">" + b.group(3) + "</text>"
+seg = s[i:j]
+seg = seg[:b.start()] + moved + seg[b.end():]
+s = s[:i] + seg + s[j:]'
 case_ blank-page 'blank page' '
 s = re.sub(r"<body>.*</body>", "<body></body>", s, flags=re.S)'
 

@@ -134,6 +134,12 @@ pub fn run(a: Args) -> Result<()> {
         survey.targets.len() - empty,
         survey.targets.len()
     );
+    // `locate` and `eval --crops` refuse these (ground included): say so here,
+    // where the user decides what to do with them.
+    eprintln!(
+        "these are loose crops (ground and surroundings included), for inspection or hand editing; \
+         `mapgauge locate` and `eval --crops` want tight crops: `mapgauge crop --tight`"
+    );
     super::print_tile_stats(reader.as_ref());
     Ok(())
 }

@@ -170,6 +170,9 @@ pub fn run(a: Args) -> Result<()> {
             refuse_overwrite(&out.join(name), &[map, survey_path])?;
         }
     }
+    if let Some(dir) = &a.plots {
+        super::check_dir_flag(dir, "--plots")?;
+    }
     let mut inputs: Vec<(&str, &Path)> = vec![("map", map), ("survey", survey_path)];
     if let Some(c) = &a.config {
         inputs.push(("config", c));

@@ -79,10 +79,15 @@ pub fn origin(s: &str) -> std::result::Result<mapgauge::survey::Geodetic, String
 /// Refuses an output directory that names an existing file, before any work
 /// is done (a refused output should cost nothing).
 pub fn check_out_dir(out: &std::path::Path) -> mapgauge::Result<()> {
-    if out.exists() && !out.is_dir() {
+    check_dir_flag(out, "--out")
+}
+
+/// [`check_out_dir`] for any flag that names a directory to write into.
+pub fn check_dir_flag(dir: &std::path::Path, flag: &str) -> mapgauge::Result<()> {
+    if dir.exists() && !dir.is_dir() {
         return Err(mapgauge::Error::Input(format!(
-            "{}: exists and is not a directory (--out names the directory to write into)",
-            out.display()
+            "{}: exists and is not a directory ({flag} names the directory to write into)",
+            dir.display()
         )));
     }
     Ok(())

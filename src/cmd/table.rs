@@ -198,6 +198,31 @@ fn survey_mismatches(runs: &[(String, &ResultFile)]) -> Vec<String> {
                 "runs `{first}` and `{name}` were scored against different surveys (targets {} differ): their columns do not compare",
                 differ.join(", ")
             ));
+            continue;
+        }
+        // Same positions but other targets: a different survey too, and the
+        // runs' E_abs and E_rel are means over different targets.
+        let only = |a: &ResultFile, b: &ResultFile| -> Vec<String> {
+            a.targets
+                .iter()
+                .filter(|t| !b.targets.iter().any(|u| u.id == t.id))
+                .map(|t| t.id.clone())
+                .collect()
+        };
+        let (in_first, in_this) = (only(r0, r), only(r, r0));
+        if !in_first.is_empty() || !in_this.is_empty() {
+            let list = |v: &[String]| {
+                if v.is_empty() {
+                    "none".to_string()
+                } else {
+                    v.join(", ")
+                }
+            };
+            out.push(format!(
+                "runs `{first}` and `{name}` were scored against different surveys (only in `{first}`: {}; only in `{name}`: {}): their E_abs and E_rel are over different targets",
+                list(&in_first),
+                list(&in_this)
+            ));
         }
     }
     out

@@ -90,6 +90,8 @@ pub struct FrameConfig {
     pub init: Option<[f64; 3]>,
     /// ENU origin `[lat, lon, alt]` of a WGS84 survey (degrees, metres);
     /// `None` = the survey's first target. Used where the survey is read.
+    /// `[lat, lon]` is read with alt 0, as `--origin lat,lon` is.
+    #[serde(deserialize_with = "origin_2_or_3")]
     pub origin: Option<[f64; 3]>,
     /// Search again for targets not found, around the positions predicted by
     /// the alignment of the ones that were.
@@ -108,6 +110,21 @@ pub struct FrameConfig {
     /// the lean, and the map is read as it is (the plumb lines may still turn
     /// it when they lean significantly).
     pub level_above_deg: f64,
+}
+
+/// `origin = [lat, lon]` or `[lat, lon, alt]` (alt 0 when left out).
+fn origin_2_or_3<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<[f64; 3]>, D::Error> {
+    let v: Vec<f64> = Deserialize::deserialize(d)?;
+    match v[..] {
+        [lat, lon] => Ok(Some([lat, lon, 0.0])),
+        [lat, lon, alt] => Ok(Some([lat, lon, alt])),
+        _ => Err(serde::de::Error::custom(format!(
+            "origin takes [lat, lon] or [lat, lon, alt], got {} numbers",
+            v.len()
+        ))),
+    }
 }
 
 impl Default for FrameConfig {
@@ -196,7 +213,7 @@ impl Config {
         if self.frame.origin.is_none() {
             unset.push((
                 "frame",
-                "# origin = [lat, lon, alt]   # unset: a WGS84 survey's first target",
+                "# origin = [lat, lon, alt]   # unset: a WGS84 survey's first target ([lat, lon]: alt 0)",
             ));
         }
         let mut out = String::new();

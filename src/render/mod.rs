@@ -11,6 +11,7 @@ pub use tables::{
     absolute_grid, extra_grid, merged_ids, pairs_grid, relative_grid, target_label, targets_grid,
 };
 pub use text::render_text;
+pub(crate) use text::{fixed, mm};
 
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -203,20 +204,39 @@ impl Grid {
                 }
             }
             TableFormat::Html => {
+                // Alignment by column, not by cell: a column of numbers aligns
+                // right (the stylesheet's default) even where one cell is a
+                // word; a column of words aligns left, its header too.
+                let number =
+                    |c: &str| c.starts_with(|ch: char| ch.is_ascii_digit() || "+-(".contains(ch));
+                let text_col: Vec<bool> = (0..self.header.len())
+                    .map(|i| {
+                        i > 0
+                            && self
+                                .rows
+                                .iter()
+                                .any(|r| r.get(i).is_some_and(|c| !c.is_empty() && c != "–"))
+                            && !self
+                                .rows
+                                .iter()
+                                .any(|r| r.get(i).is_some_and(|c| number(c)))
+                    })
+                    .collect();
                 o.push_str("<table class=\"grid\">\n<thead><tr>");
-                for h in &self.header {
-                    let _ = write!(o, "<th>{}</th>", escape(h));
+                for (i, h) in self.header.iter().enumerate() {
+                    let class = if text_col[i] { " class=\"t\"" } else { "" };
+                    let _ = write!(o, "<th{class}>{}</th>", escape(h));
                 }
                 o.push_str("</tr></thead>\n<tbody>\n");
                 for r in &self.rows {
                     o.push_str("<tr>");
                     for (i, c) in r.iter().enumerate() {
                         let e = escape(c);
-                        // Numbers align right (the stylesheet's default), words left.
-                        let num = c.is_empty()
-                            || c == "–"
-                            || c.starts_with(|ch: char| ch.is_ascii_digit() || "+-(".contains(ch));
-                        let class = if num || i == 0 { "" } else { " class=\"t\"" };
+                        let class = if text_col.get(i).copied().unwrap_or(false) {
+                            " class=\"t\""
+                        } else {
+                            ""
+                        };
                         if self.bold.contains(&i) && !c.is_empty() && c != "–" {
                             let _ = write!(o, "<td{class}><strong>{e}</strong></td>");
                         } else {

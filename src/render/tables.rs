@@ -14,9 +14,11 @@ pub fn target_label(id: &str) -> String {
     }
 }
 
+/// Four decimals, never "-0.0000" (a tiny negative rotation or z offset).
 pub(crate) fn f4(v: f64) -> String {
     if v.is_finite() {
-        format!("{v:.4}")
+        let s = format!("{v:.4}");
+        if s == "-0.0000" { "0.0000".into() } else { s }
     } else {
         "–".into()
     }
@@ -231,16 +233,14 @@ pub fn extra_grid(r: &ResultFile) -> Grid {
     let mut add = |k: &str, v: String, u: &str| rows.push(vec![k.to_string(), v, u.to_string()]);
     let a = &r.alignment;
     add("alignment", format!("{} (n={})", a.method, a.n_used), "");
-    add(
-        "rotation (map→survey)",
-        format!("{:.4}", a.rotation_deg),
-        "deg",
-    );
+    add("rotation (map→survey)", f4(a.rotation_deg), "deg");
     add(
         "translation",
         format!(
-            "({:.4}, {:.4}, {:.4})",
-            a.translation[0], a.translation[1], a.translation[2]
+            "({}, {}, {})",
+            f4(a.translation[0]),
+            f4(a.translation[1]),
+            f4(a.translation[2])
         ),
         "m",
     );
@@ -351,6 +351,8 @@ mod tests {
             "{html}"
         );
         assert_eq!(target_label("T3"), "T3");
+        assert_eq!(f4(-0.00001), "0.0000");
+        assert_eq!(f4(-0.00006), "-0.0001");
     }
 
     fn run(ids: &[&str], found: &[&str]) -> ResultFile {

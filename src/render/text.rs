@@ -7,7 +7,7 @@
 
 use super::Grid;
 use super::TableFormat;
-use super::tables::{absolute_grid, extra_grid, pairs_grid, relative_grid};
+use super::tables::{absolute_grid, extra_grid, relative_grid};
 use crate::accuracy::Dim;
 use crate::record::ResultFile;
 use std::fmt::Write as _;
@@ -26,6 +26,45 @@ pub(crate) fn mm(m: f64) -> String {
     } else {
         format!("{v:.1}")
     }
+}
+
+/// `v` with `d` decimals, never a negative zero ("-0.000").
+pub(crate) fn fixed(v: f64, d: usize) -> String {
+    let s = format!("{v:.d$}");
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_string()
+    } else {
+        s
+    }
+}
+
+/// Every pair for the terminal: distances in metres, errors in millimetres as
+/// everywhere else on the terminal and in the report (`pairs.csv` keeps metres).
+fn pairs_mm(r: &ResultFile) -> Grid {
+    let mut g = Grid {
+        header: [
+            "a",
+            "b",
+            "survey distance m",
+            "map distance m",
+            "error mm",
+            "mm per 100 m",
+        ]
+        .map(String::from)
+        .to_vec(),
+        ..Default::default()
+    };
+    for p in &r.relative.pairs {
+        g.rows.push(vec![
+            p.a.clone(),
+            p.b.clone(),
+            format!("{:.3}", p.survey_distance),
+            format!("{:.3}", p.map_distance),
+            mm(p.error),
+            p.error_per_100m.map(mm).unwrap_or_else(|| "–".into()),
+        ]);
+    }
+    g
 }
 
 /// The terminal report of one run; `verbose` adds every pair.
@@ -104,11 +143,11 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     }
     let _ = writeln!(
         o,
-        "  alignment map → survey: rotation {:.4}°, translation ({:.3}, {:.3}, {:.3}) m{}",
-        a.rotation_deg,
-        a.translation[0],
-        a.translation[1],
-        a.translation[2],
+        "  alignment map → survey: rotation {}°, translation ({}, {}, {}) m{}",
+        fixed(a.rotation_deg, 4),
+        fixed(a.translation[0], 3),
+        fixed(a.translation[1], 3),
+        fixed(a.translation[2], 3),
         if a.method.starts_with("similarity") {
             format!(", scale {:+.1} ppm", a.scale_ppm)
         } else {
@@ -165,8 +204,8 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     o.push_str(&extra_grid(r).render(TableFormat::Text));
     o.push('\n');
     if verbose {
-        let _ = writeln!(o, "Pairs (m)");
-        o.push_str(&pairs_grid(r).render(TableFormat::Text));
+        let _ = writeln!(o, "Pairs");
+        o.push_str(&pairs_mm(r).render(TableFormat::Text));
         o.push('\n');
     }
     for l in &r.asprs.nssda_lines {
@@ -203,6 +242,8 @@ mod tests {
         assert_eq!(mm(0.01234), "12.3");
         assert_eq!(mm(-0.0021), "-2.1");
         assert_eq!(mm(f64::NAN), "–");
+        assert_eq!(fixed(-0.0001, 3), "0.000");
+        assert_eq!(fixed(-0.0006, 3), "-0.001");
     }
 
     #[test]

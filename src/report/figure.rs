@@ -323,25 +323,27 @@ impl Panel {
             fill: Some(Color(0xff, 0xff, 0xff)),
             stroke: None,
         });
-        for v in nice_ticks(self.x.0, self.x.1, (w / 50.0).clamp(3.0, 8.0) as usize) {
+        let xt = nice_ticks(self.x.0, self.x.1, (w / 50.0).clamp(3.0, 8.0) as usize);
+        for &v in &xt {
             let (px, _) = self.map(v, self.y.0);
             f.line((px, t), (px, t + h), palette::GRID, 1.0, false);
             f.line((px, t + h), (px, t + h + 4.0), palette::INK, 1.0, false);
             f.text(
                 (px, t + h + 13.0),
-                &tick_label(v, self.x),
+                &tick_label(v, &xt),
                 10.0,
                 palette::INK,
                 Anchor::Middle,
             );
         }
-        for v in nice_ticks(self.y.0, self.y.1, (h / 50.0).clamp(3.0, 8.0) as usize) {
+        let yt = nice_ticks(self.y.0, self.y.1, (h / 50.0).clamp(3.0, 8.0) as usize);
+        for &v in &yt {
             let (_, py) = self.map(self.x.0, v);
             f.line((l, py), (l + w, py), palette::GRID, 1.0, false);
             f.line((l - 4.0, py), (l, py), palette::INK, 1.0, false);
             f.text(
                 (l - 6.0, py),
-                &tick_label(v, self.y),
+                &tick_label(v, &yt),
                 10.0,
                 palette::INK,
                 Anchor::End,
@@ -380,7 +382,15 @@ pub fn nice_ticks(a: f64, b: f64, n: usize) -> Vec<f64> {
     if !(b > a) || !a.is_finite() || !b.is_finite() {
         return Vec::new();
     }
-    let step = nice_step((b - a) / n.max(1) as f64);
+    let mut step = nice_step((b - a) / n.max(1) as f64);
+    // A step rounded up can leave one tick, or none, in the range: no scale.
+    // Finer steps (5 → 2 → 1 → 0.5 …) until at least 3 ticks fall inside.
+    for _ in 0..6 {
+        if ((b / step).floor() - (a / step).ceil()) >= 2.0 {
+            break;
+        }
+        step = finer_step(step);
+    }
     let first = (a / step).ceil() as i64;
     let last = (b / step).floor() as i64;
     (first..=last)
@@ -390,6 +400,19 @@ pub fn nice_ticks(a: f64, b: f64, n: usize) -> Vec<f64> {
             if v.abs() < step * 1e-9 { 0.0 } else { v }
         })
         .collect()
+}
+
+/// The next 1, 2, 5 × 10^k step below `step` (itself such a step).
+fn finer_step(step: f64) -> f64 {
+    let e = 10f64.powf(step.log10().floor());
+    let m = (step / e).round();
+    if m >= 5.0 {
+        2.0 * e
+    } else if m >= 2.0 {
+        e
+    } else {
+        0.5 * e
+    }
 }
 
 /// The nearest of 1, 2, 5 × 10^k at or above `raw`.
@@ -428,10 +451,27 @@ pub fn nice_floor(raw: f64) -> f64 {
     m * e
 }
 
-fn tick_label(v: f64, range: (f64, f64)) -> String {
-    let step = nice_step((range.1 - range.0) / 5.0);
-    let decimals = (-step.log10().floor()).clamp(0.0, 6.0) as usize;
-    format!("{v:.decimals$}")
+/// A tick's label with as many decimals as the ticks' own step needs (0.5
+/// steps get one decimal, 0.25 would get two), never "-0".
+fn tick_label(v: f64, ticks: &[f64]) -> String {
+    let step = match ticks {
+        [a, b, ..] => b - a,
+        _ => v.abs().max(1.0),
+    };
+    let mut decimals = 0usize;
+    while decimals < 6 {
+        let x = step * 10f64.powi(decimals as i32);
+        if (x - x.round()).abs() < 1e-6 * x.abs().max(1.0) {
+            break;
+        }
+        decimals += 1;
+    }
+    let s = format!("{v:.decimals$}");
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_string()
+    } else {
+        s
+    }
 }
 
 /// Every `k`-th index so that at most `max` of `n` remain: a deterministic
@@ -455,6 +495,31 @@ mod tests {
         assert_eq!(nice_floor(230.0), 200.0);
         assert_eq!(nice_floor(0.7), 0.5);
         assert!(nice_ticks(1.0, 1.0, 5).is_empty());
+        // A step rounded up to 5 left only "0" in ±4.4 (the 100-samples
+        // panels' single tick): finer steps until 3 ticks show a scale.
+        for (a, b, n) in [
+            (-4.4, 4.4, 4),
+            (-44.0, 44.0, 4),
+            (0.1, 0.9, 3),
+            (-0.6, 0.6, 5),
+        ] {
+            let t = nice_ticks(a, b, n);
+            assert!(t.len() >= 3, "{a}..{b}: {t:?}");
+            let labels: Vec<String> = t.iter().map(|&v| tick_label(v, &t)).collect();
+            let mut unique = labels.clone();
+            unique.dedup();
+            assert_eq!(unique, labels, "labels must differ: {labels:?}");
+        }
+        assert_eq!(
+            nice_ticks(-4.4, 4.4, 4)
+                .iter()
+                .map(|&v| tick_label(v, &nice_ticks(-4.4, 4.4, 4)))
+                .collect::<Vec<_>>(),
+            vec!["-4", "-2", "0", "2", "4"]
+        );
+        let t = nice_ticks(0.1, 0.9, 3);
+        assert_eq!(tick_label(t[1], &t), "0.4", "{t:?}");
+        assert_eq!(tick_label(-0.00001, &[0.0, 1.0]), "0");
         assert_eq!(thin(10, 3).collect::<Vec<_>>(), vec![0, 4, 8]);
         assert_eq!(thin(3, 3000).count(), 3);
         assert!(thin(10_001, 3000).count() <= 3000);

@@ -6,9 +6,7 @@ use super::figure::Figure;
 use super::plots::{fmt_len, survey_in_map};
 use super::{Report, svg};
 use crate::accuracy::Dim;
-use crate::render::{
-    TableFormat, absolute_grid, extra_grid, relative_grid, target_label, targets_grid,
-};
+use crate::render::{Grid, TableFormat, absolute_grid, extra_grid, relative_grid, target_label};
 use std::fmt::Write as _;
 
 pub use crate::render::escape;
@@ -22,7 +20,7 @@ main{max-width:1000px;margin:0 auto;padding:24px 20px 48px}
 h1{font-size:26px;margin:0 0 4px}
 h2{font-size:19px;margin:32px 0 10px;padding-bottom:4px;border-bottom:2px solid var(--line)}
 h3{font-size:16px;margin:0 0 6px}
-p.sub{color:var(--muted);margin:0 0 8px}
+p.sub{color:var(--muted);margin:0 0 8px;overflow-wrap:anywhere}
 .cards{display:flex;flex-wrap:wrap;gap:10px}
 .card{background:var(--card);border:1px solid var(--line);border-radius:8px;padding:10px 14px;min-width:150px;flex:1}
 .card .k{color:var(--muted);font-size:12px;text-transform:uppercase;letter-spacing:.04em}
@@ -40,13 +38,15 @@ figcaption{color:var(--muted);font-size:13px;margin-top:4px}
 .reason{color:var(--bad);font-weight:bold}
 table.grid{border-collapse:collapse;margin:8px 0 16px;background:var(--card);font-size:13px}
 table.grid th,table.grid td{border-bottom:1px solid var(--line);padding:4px 10px;text-align:right;white-space:nowrap}
-table.grid th:first-child,table.grid td:first-child,table.grid td.t{text-align:left}
+table.grid th:first-child,table.grid td:first-child,table.grid td.t,table.grid th.t{text-align:left}
+table.grid td.t,table.grid td.w{white-space:normal;min-width:8em}
 table.grid thead th{border-bottom:2px solid #999}
 .scroll{overflow-x:auto}
 ul.warn{color:#a04000}
 code,pre{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:12px}
 pre{background:var(--card);border:1px solid var(--line);padding:10px;overflow-x:auto}
-td.hash{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:11px;text-align:left}
+table.grid td.hash{font-family:'DejaVu Sans Mono',Menlo,Consolas,monospace;font-size:11px;text-align:left;white-space:normal;word-break:break-all;min-width:24em}
+table.grid td.path{text-align:left;white-space:normal;word-break:break-all}
 footer{color:var(--muted);font-size:12px;margin-top:36px}
 @media print{body{background:#fff}.target,figure,.card{break-inside:avoid}}
 ";
@@ -106,7 +106,7 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
     let mut row = |k: &str, v: String| {
         let _ = write!(
             o,
-            "<tr><th>{}</th><td style=\"text-align:left\">{}</td></tr>",
+            "<tr><th>{}</th><td class=\"w\" style=\"text-align:left\">{}</td></tr>",
             escape(k),
             escape(&v)
         );
@@ -186,6 +186,117 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
     o.push_str("</tbody></table></section>\n");
 }
 
+/// Up to this many targets the report shows the paper's one-row Tables I and
+/// II (as the terminal does); beyond, a pair matrix and a column.
+const PAPER_TABLES_UP_TO: usize = 6;
+
+/// Millimetres with one decimal for a table cell, "–" when absent.
+fn mm_cell(v: Option<f64>) -> String {
+    v.map(crate::render::mm).unwrap_or_else(|| "–".into())
+}
+
+/// Every pair's relative error (mm) as an upper-triangular matrix: row `a`,
+/// column `b`; n − 1 columns instead of the n(n−1)/2 of Table I.
+fn pair_matrix(r: &crate::record::ResultFile) -> Grid {
+    let ids: Vec<&str> = r.targets.iter().map(|t| t.id.as_str()).collect();
+    let mut g = Grid {
+        header: std::iter::once(String::new())
+            .chain(ids[1..].iter().map(|i| target_label(i)))
+            .collect(),
+        ..Default::default()
+    };
+    for (i, a) in ids[..ids.len().saturating_sub(1)].iter().enumerate() {
+        let mut row = vec![target_label(a)];
+        for (j, b) in ids[1..].iter().enumerate() {
+            if j < i {
+                row.push(String::new());
+                continue;
+            }
+            let e = r
+                .relative
+                .pairs
+                .iter()
+                .find(|p| (p.a == *a && p.b == *b) || (p.a == *b && p.b == *a))
+                .map(|p| p.error);
+            row.push(mm_cell(e));
+        }
+        g.rows.push(row);
+    }
+    g
+}
+
+/// Table II turned on its side: E_abs, σ_abs, then one row per target (mm).
+fn absolute_column(r: &crate::record::ResultFile) -> Grid {
+    let mut g = Grid {
+        header: vec![String::new(), "this run".into()],
+        bold: vec![],
+        ..Default::default()
+    };
+    g.rows
+        .push(vec!["E_abs".into(), mm_cell(Some(r.absolute.mean))]);
+    g.rows
+        .push(vec!["σ_abs".into(), mm_cell(Some(r.absolute.std))]);
+    for t in &r.targets {
+        g.rows.push(vec![target_label(&t.id), mm_cell(t.abs_error)]);
+    }
+    g
+}
+
+/// The per-target table of the report: errors and uncertainties in mm, the
+/// reason wrapped; the coordinates stay in targets.csv (17 columns of metres
+/// to six decimals do not fit a page).
+fn targets_mm(r: &crate::record::ResultFile) -> Grid {
+    let mut g = Grid {
+        header: [
+            "id",
+            "status",
+            "error",
+            "leave-one-out",
+            "σx, σy, σz",
+            "aligned − survey",
+            "reason",
+        ]
+        .map(String::from)
+        .to_vec(),
+        ..Default::default()
+    };
+    let z_fitted = r
+        .alignment
+        .method
+        .parse::<crate::align::AlignMethod>()
+        .is_ok_and(|m| m.uses_z());
+    for t in &r.targets {
+        let sigma = t.map_covariance.map(|c| {
+            (0..3)
+                .map(|i| crate::render::mm(c[i][i].max(0.0).sqrt()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        });
+        let d = t.aligned.filter(|_| t.abs_error.is_some()).map(|a| {
+            let mut v = vec![
+                crate::render::mm(a.x - t.survey.x),
+                crate::render::mm(a.y - t.survey.y),
+            ];
+            // Heights only where the alignment fitted them (a 2D fit leaves
+            // the map's own height offset in z).
+            if let (true, Some(az), Some(sz)) = (z_fitted, a.z, t.survey.z) {
+                v.push(crate::render::mm(az - sz));
+            }
+            format!("({})", v.join(", "))
+        });
+        g.rows.push(vec![
+            t.id.clone(),
+            t.status.replace('_', " "),
+            mm_cell(t.abs_error),
+            mm_cell(t.loo_error),
+            sigma.unwrap_or_else(|| "–".into()),
+            d.unwrap_or_else(|| "–".into()),
+            t.reason.clone().unwrap_or_default(),
+        ]);
+    }
+    g
+}
+
 /// The report page; `figs` are [`Report::figures`] (overview, relative, then
 /// one per target).
 pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
@@ -245,10 +356,12 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     card(
         &mut o,
         "Alignment",
-        &format!("{:.3}°", a.rotation_deg),
+        &format!("{}°", crate::render::fixed(a.rotation_deg, 3)),
         &format!(
-            "{} · t = ({:.3}, {:.3}) m",
-            a.method, a.translation[0], a.translation[1]
+            "{} · t = ({}, {}) m",
+            a.method,
+            crate::render::fixed(a.translation[0], 3),
+            crate::render::fixed(a.translation[1], 3)
         ),
     );
     card(
@@ -375,16 +488,34 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     // Tables.
     let runs = [("this run".to_string(), r)];
     o.push_str("<section id=\"tables\"><h2>Tables</h2>");
-    let _ = write!(
-        o,
-        "<h3>Relative error (m, {dim}) — the paper's Table I</h3><div class=\"scroll\">{}</div>",
-        relative_grid(&runs).render(TableFormat::Html)
-    );
-    let _ = write!(
-        o,
-        "<h3>Absolute error (m, {dim}) — the paper's Table II</h3><div class=\"scroll\">{}</div>",
-        absolute_grid(&runs).render(TableFormat::Html)
-    );
+    if r.targets.len() <= PAPER_TABLES_UP_TO {
+        let _ = write!(
+            o,
+            "<h3>Relative error (m, {dim}) — the paper's Table I</h3><div class=\"scroll\">{}</div>",
+            relative_grid(&runs).render(TableFormat::Html)
+        );
+        let _ = write!(
+            o,
+            "<h3>Absolute error (m, {dim}) — the paper's Table II</h3><div class=\"scroll\">{}</div>",
+            absolute_grid(&runs).render(TableFormat::Html)
+        );
+    } else {
+        // The paper's one-row tables have n(n−1)/2 and n columns: past a few
+        // targets they run off the page. The same numbers, in a shape that fits.
+        let _ = write!(
+            o,
+            "<h3>Relative error of every pair (mm, {dim})</h3><p class=\"facts\">E_rel {} · σ_rel {} over {} pairs. The paper's Table I layout: <code>mapgauge table --format markdown|latex result.json</code>; every pair with its distances: <code>pairs.csv</code>.</p><div class=\"scroll\">{}</div>",
+            mm(r.relative.mean),
+            mm(r.relative.std),
+            r.relative.n,
+            pair_matrix(r).render(TableFormat::Html)
+        );
+        let _ = write!(
+            o,
+            "<h3>Absolute error (mm, {dim})</h3><p class=\"facts\">The paper's Table II, one row per target: <code>mapgauge table --format markdown|latex result.json</code>.</p><div class=\"scroll\">{}</div>",
+            absolute_column(r).render(TableFormat::Html)
+        );
+    }
     let _ = write!(
         o,
         "<h3>Statistics</h3><div class=\"scroll\">{}</div>",
@@ -392,8 +523,13 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     );
     let _ = write!(
         o,
-        "<h3>Targets</h3><div class=\"scroll\">{}</div>",
-        targets_grid(r).render(TableFormat::Html)
+        "<h3>Targets</h3><p class=\"facts\">Errors in mm (aligned − survey: x, y{}); every coordinate (survey, map, aligned) is in <code>targets.csv</code> and <code>result.json</code>.</p><div class=\"scroll\">{}</div>",
+        if rep.alignment.method.uses_z() {
+            ", z"
+        } else {
+            "; z is not fitted by a 2D alignment"
+        },
+        targets_mm(r).render(TableFormat::Html)
     );
     if !r.asprs.nssda_lines.is_empty() {
         o.push_str("<ul>");
@@ -409,7 +545,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     let mut row = |k: &str, v: &str| {
         let _ = write!(
             o,
-            "<tr><th>{}</th><td style=\"text-align:left\">{}</td></tr>",
+            "<tr><th>{}</th><td class=\"w\" style=\"text-align:left\">{}</td></tr>",
             escape(k),
             escape(v)
         );
@@ -436,11 +572,11 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     }
     o.push_str("</tbody></table>");
     if !p.inputs.is_empty() {
-        o.push_str("<h3>Input files</h3><div class=\"scroll\"><table class=\"grid\"><thead><tr><th>role</th><th>file</th><th>bytes</th><th>SHA-256</th></tr></thead><tbody>");
+        o.push_str("<h3>Input files</h3><div class=\"scroll\"><table class=\"grid\"><thead><tr><th>role</th><th class=\"t\">file</th><th>bytes</th><th class=\"t\">SHA-256</th></tr></thead><tbody>");
         for f in &p.inputs {
             let _ = write!(
                 o,
-                "<tr><td>{}</td><td style=\"text-align:left\">{}</td><td>{}</td><td class=\"hash\">{}</td></tr>",
+                "<tr><td>{}</td><td class=\"path\">{}</td><td>{}</td><td class=\"hash\">{}</td></tr>",
                 escape(&f.role),
                 escape(&f.path),
                 f.bytes,
@@ -554,6 +690,64 @@ pub(crate) mod tests {
             crate::report::tests::check_xmlish(&svg::render(f));
         }
         assert!(html.contains("2026-01-01 00:00:00 UTC") && html.contains("seed = 7"));
+    }
+
+    /// Past 6 targets the paper's one-row tables (66 pair columns at 12)
+    /// give way to a pair matrix and a column, and the targets table to mm.
+    #[test]
+    fn many_targets_get_tables_that_fit() {
+        let ids: Vec<String> = (1..=12).map(|i| i.to_string()).collect();
+        let targets: Vec<SurveyTarget> = ids
+            .iter()
+            .enumerate()
+            .map(|(i, id)| SurveyTarget {
+                id: id.clone(),
+                position: Point::new(10.0 * i as f64, (i % 3) as f64 * 7.0, 0.0),
+                has_z: false,
+                role: None,
+                antenna_height: 0.0,
+                line: i as u64 + 2,
+            })
+            .collect();
+        let survey = Survey {
+            targets,
+            frame: SurveyFrame::Local,
+            origin: None,
+        };
+        let est: Vec<Estimate> = survey
+            .targets
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Estimate {
+                id: t.id.clone(),
+                status: EstimateStatus::Found(
+                    t.position + nalgebra::Vector3::new(0.002 * (i % 4) as f64, 0.001, 0.0),
+                ),
+                has_z: false,
+            })
+            .collect();
+        let r = crate::record::ResultFile::from_accuracy(
+            &score(&survey, &est, &ScoreOptions::default()).unwrap(),
+            &survey,
+        );
+        let rep = Report::from_result(&r, Provenance::new(None, None));
+        let html = rep.html();
+        let tables = &html[html.find("<section id=\"tables\">").unwrap()..];
+        assert!(!tables.contains("t1 &amp; t2"), "no 66-column Table I");
+        assert!(tables.contains("Relative error of every pair (mm, 2D)"));
+        // The matrix: 11 rows (t1..t11) under a header t2..t12.
+        let matrix = &tables[..tables.find("Absolute error").unwrap()];
+        assert_eq!(matrix.matches("<tr>").count(), 1 + 11);
+        assert!(matrix.contains("<th>t12</th>") && !matrix.contains("<th>t1</th>"));
+        assert!(
+            !tables.contains("survey_x"),
+            "coordinates stay in targets.csv"
+        );
+        assert!(tables.contains("z is not fitted by a 2D alignment"));
+        // A few targets keep the paper's layout.
+        let few = result(&["1", "2", "3", "4"]);
+        let html = Report::from_result(&few, Provenance::new(None, None)).html();
+        assert!(html.contains("t1 &amp; t2") && html.contains("the paper's Table I"));
     }
 
     #[test]

@@ -54,6 +54,23 @@ fn crop_tight_then_locate_works_and_a_loose_crop_is_named() {
         "{}",
         stderr(&o)
     );
+    // The loose crop says what it wrote, and what locate wants instead.
+    let o = bin()
+        .args(["crop", "--map"])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&survey)
+        .arg("--out")
+        .arg(d.path().join("loose2"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("these are loose crops (ground and surroundings included)")
+            && stderr(&o).contains("`mapgauge crop --tight`"),
+        "{}",
+        stderr(&o)
+    );
     let tight = d.path().join("tight");
     stdout_ok(
         bin()
@@ -228,5 +245,167 @@ fn messages_name_the_remedy() {
     assert!(
         e.contains("The survey has 1 target(s)") && !e.contains("; ."),
         "{e}"
+    );
+}
+
+/// `--plots` naming an existing file: refused before any work, as `--out` is.
+#[test]
+fn plots_naming_a_file_is_refused_before_any_work() {
+    let d = tempdir();
+    let (map, survey) = scene(d.path());
+    let f = d.path().join("plots-file");
+    std::fs::write(&f, "keep").unwrap();
+    let out = d.path().join("out");
+    let o = bin()
+        .args(["eval", "--map"])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&survey)
+        .arg("--out")
+        .arg(&out)
+        .arg("--plots")
+        .arg(&f)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o).trim_end(),
+        format!(
+            "error: {}: exists and is not a directory (--plots names the directory to write into)",
+            f.display()
+        )
+    );
+    assert!(o.stdout.is_empty(), "nothing evaluated, nothing printed");
+    assert!(!out.join("result.json").exists(), "nothing written");
+    assert_eq!(std::fs::read_to_string(&f).unwrap(), "keep");
+}
+
+/// `--verbose` pairs are in millimetres like the rest of the terminal (and the
+/// report's slope in mm per 100 m); pairs.csv keeps metres.
+#[test]
+fn verbose_pairs_are_in_millimetres() {
+    let d = tempdir();
+    let survey = d.path().join("s.csv");
+    let est = d.path().join("e.csv");
+    std::fs::write(&survey, "id,x,y\n1,0,0\n2,100,0\n3,0,50\n").unwrap();
+    std::fs::write(&est, "id,x,y\n1,0,0\n2,100.02,0\n3,0,50\n").unwrap();
+    let out = stdout_ok(
+        bin()
+            .args(["errors", "-v", "--survey"])
+            .arg(&survey)
+            .arg("--estimates")
+            .arg(&est)
+            .arg("--out")
+            .arg(d.path().join("o")),
+    );
+    let pairs = out
+        .split("\nPairs\n")
+        .nth(1)
+        .unwrap_or_else(|| panic!("{out}"));
+    let mut lines = pairs.lines();
+    let head = lines.next().unwrap();
+    assert!(
+        head.contains("error mm") && head.contains("mm per 100 m"),
+        "{head}"
+    );
+    // Pair 1 & 2: 20 mm over 100 m: 20.0 mm, 20.0 mm per 100 m.
+    let row: Vec<&str> = lines
+        .find(|l| l.starts_with("1 ") && l.split_whitespace().nth(1) == Some("2"))
+        .unwrap()
+        .split_whitespace()
+        .collect();
+    assert_eq!(&row[2..], ["100.000", "100.020", "20.0", "20.0"], "{pairs}");
+    let csv = std::fs::read_to_string(d.path().join("o/pairs.csv")).unwrap();
+    assert!(
+        csv.contains("1,2,100.000000,100.020000,0.020000,0.020000"),
+        "{csv}"
+    );
+}
+
+/// `table` over runs scored against different surveys says so, whether a
+/// target moved or the target sets differ.
+#[test]
+fn table_warns_about_different_surveys() {
+    let d = tempdir();
+    let est = d.path().join("e.csv");
+    std::fs::write(&est, "id,x,y\n1,0,0\n2,10,0.01\n3,0,10\n4,10,10\n").unwrap();
+    let mut results = Vec::new();
+    for (name, text) in [
+        ("a", "id,x,y\n1,0,0\n2,10,0\n3,0,10\n"),
+        ("b", "id,x,y\n1,0,0\n2,10,0\n3,0,10\n4,10,10\n"),
+        ("c", "id,x,y\n1,0,0\n2,10,0\n3,0,10.5\n"),
+    ] {
+        let sv = d.path().join(format!("{name}.csv"));
+        std::fs::write(&sv, text).unwrap();
+        let out = d.path().join(name);
+        let o = bin()
+            .args(["errors", "--survey"])
+            .arg(&sv)
+            .arg("--estimates")
+            .arg(&est)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        results.push(out.join("result.json"));
+    }
+    let table = |r: &[&std::path::PathBuf]| {
+        let o = bin().arg("table").args(r).output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    assert_eq!(
+        table(&[&results[0], &results[0]]),
+        "",
+        "same survey: no warning"
+    );
+    let e = table(&[&results[0], &results[1]]);
+    assert!(
+        e.contains(
+            "runs `a` and `b` were scored against different surveys (only in `a`: none; only in `b`: 4)"
+        ),
+        "{e}"
+    );
+    let e = table(&[&results[0], &results[2]]);
+    assert!(
+        e.contains("runs `a` and `c` were scored against different surveys (targets 3 differ)"),
+        "{e}"
+    );
+}
+
+/// `origin` in TOML as `--origin` takes it: `[lat, lon]` (alt 0) or
+/// `[lat, lon, alt]`; another count names the file's line.
+#[test]
+fn toml_origin_takes_two_or_three_numbers() {
+    let d = tempdir();
+    let c = d.path().join("c.toml");
+    std::fs::write(&c, "[frame]\norigin = [36.5, 127.25]\n").unwrap();
+    let out = stdout_ok(bin().args(["eval", "--print-config", "--config"]).arg(&c));
+    let compact: String = out.split_whitespace().collect();
+    assert!(compact.contains("origin=[36.5,127.25,0.0,]"), "{out}");
+    std::fs::write(&c, "[frame]\norigin = [1, 2, 3, 4]\n").unwrap();
+    let o = bin()
+        .args(["eval", "--print-config", "--config"])
+        .arg(&c)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).starts_with(&format!("error: {}:2: ", c.display()))
+            && stderr(&o).contains("origin takes [lat, lon] or [lat, lon, alt], got 4 numbers"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::write(&c, "[frame]\norigin = [95, 2]\n").unwrap();
+    let o = bin()
+        .args(["eval", "--print-config", "--config"])
+        .arg(&c)
+        .output()
+        .unwrap();
+    assert!(
+        stderr(&o).starts_with(&format!("error: {}:2: frame.origin = 95", c.display())),
+        "{}",
+        stderr(&o)
     );
 }

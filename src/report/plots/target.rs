@@ -81,6 +81,8 @@ fn pad(r: (f64, f64), p: f64) -> (f64, f64) {
 const TOP: (f64, f64, f64, f64) = (60.0, 40.0, 250.0, 250.0);
 const SIDE: (f64, f64, f64, f64) = (380.0, 40.0, 250.0, 250.0);
 const THIRD: (f64, f64, f64, f64) = (700.0, 40.0, 220.0, 220.0);
+/// The legend row under the views (below the notes under the panels).
+const LEGEND_Y: f64 = 354.0;
 
 pub(super) fn target_figure(rep: &Report, i: usize, t: &TargetOut, stem: &str) -> Figure {
     let empty = TargetView::default();
@@ -96,7 +98,7 @@ pub(super) fn target_figure(rep: &Report, i: usize, t: &TargetOut, stem: &str) -
             format!("{} — loose crop", t.status.replace('_', " "))
         }
     );
-    let mut f = Figure::new(stem, &title, 950.0, 350.0);
+    let mut f = Figure::new(stem, &title, 950.0, 366.0);
     if located {
         located_panels(&mut f, rep, t, view);
     } else {
@@ -226,8 +228,23 @@ fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView
     }
     f.marker(side.map(0.0, 0.0), MarkerKind::Plus, 8.0, palette::ESTIMATE);
     let su = u.dot(&Vector2::new(ds.0, ds.1));
+    // A 2D alignment fits no height: the survey's z in the map frame is off by
+    // the map's own height offset, so only its position across the L is drawn.
+    let z_fitted = rep.alignment.method.uses_z();
+    if t.survey.z.is_some() && !z_fitted {
+        f.text(
+            (SIDE.0, SIDE.1 + SIDE.3 + 44.0),
+            &format!(
+                "survey: across-L position only ({} fits no height)",
+                rep.alignment.method
+            ),
+            10.0,
+            palette::SURVEY,
+            Anchor::Start,
+        );
+    }
     match t.survey.z {
-        Some(_) if side.contains(su, s.z - c.z) => f.marker(
+        Some(_) if z_fitted && side.contains(su, s.z - c.z) => f.marker(
             side.map(su, s.z - c.z),
             MarkerKind::Diamond,
             6.0,
@@ -297,18 +314,13 @@ fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView
             color: palette::SURVEY,
             width: 1.5,
         });
-        let below = if head.1 < THIRD.1 + 20.0 { 14.0 } else { -12.0 };
-        let anchor = if e.0 > 0.0 {
-            Anchor::End
-        } else {
-            Anchor::Start
-        };
+        // Its distance under the panel, where it covers no sample.
         f.text(
-            (head.0, head.1 + below),
-            &format!("survey at {l:.0} mm"),
+            (THIRD.0, THIRD.1 + THIRD.3 + 58.0),
+            &format!("survey off scale, {l:.0} mm away (red arrow)"),
             10.0,
             palette::SURVEY,
-            anchor,
+            Anchor::Start,
         );
     }
     f.text(
@@ -324,7 +336,7 @@ fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: &TargetView
     );
 
     // One legend line under the views.
-    let y = 338.0;
+    let y = LEGEND_Y;
     legend_dot(f, (60.0, y), palette::PLATE1, "plate 1");
     legend_dot(f, (140.0, y), palette::PLATE2, "plate 2");
     legend_dot(f, (220.0, y), palette::OUTLIER, "outlier");
@@ -456,14 +468,15 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
     }
     if loose.is_empty() {
         f.text(
-            (TOP.0 + TOP.2 / 2.0, TOP.1 + TOP.3 / 2.0),
+            // Under the ring of where it was looked for, not over it.
+            (TOP.0 + TOP.2 / 2.0, TOP.1 + TOP.3 / 2.0 + 22.0),
             "no points within the crop radius",
             11.0,
             palette::ERROR,
             Anchor::Middle,
         );
     }
-    let y = 338.0;
+    let y = LEGEND_Y;
     legend_dot(f, (60.0, y), palette::OUTLIER, "loose crop");
     legend_dot(f, (170.0, y), palette::TIGHT, "tight crop");
     legend_marker(
