@@ -348,9 +348,14 @@ pub(super) fn far_from_others(
         .enumerate()
         .filter_map(|(i, r)| r.corner().map(|c| (i, c)))
         .collect();
+    // Heights enter only a 3D score: a 2D run leaves vertical drift unscored.
+    let d3 = opts.dim == crate::accuracy::Dim::D3;
     let surveyed: Vec<(Point, bool)> = corners
         .iter()
-        .map(|&(i, _)| (survey.targets[i].reference(), survey.targets[i].has_z))
+        .map(|&(i, _)| {
+            let t = &survey.targets[i];
+            (t.reference(), d3 && t.has_z)
+        })
         .collect();
     let map: Vec<Point> = corners.iter().map(|c| c.1).collect();
     for (k, e, median) in misfit_by_distances(&map, &surveyed) {
@@ -378,13 +383,18 @@ pub(super) fn far_from_others(
     far
 }
 
-/// Positions (in the map) whose distances to the others disagree with the
-/// survey's: (index, its median misfit, the median of that over all), when
-/// the misfit is > 5 × that median and > 0.3 m. Distances are 3D where both
-/// survey heights are known, else horizontal; a common scale (a projection's
-/// grid scale, a map's scale drift) is taken out first, so that long pairs
-/// do not condemn their ends. Needs 4 positions: with 3, a wrong one and a
-/// right one share as many bad pairs.
+/// The position (in the map) whose distances to the others disagree with
+/// the survey's: (index, its median misfit, the others' median misfit), when
+/// its misfit is > 5 × the others' and > 0.3 m. Each position is tried as the
+/// suspect: the common scale (a projection's grid scale, a map's scale drift,
+/// within ±0.5 %) is the median ratio over the pairs without it, and the
+/// suspect is the one whose removal leaves the others agreeing best (least
+/// sum of squared pair misfits). A scale taken over every pair may be the
+/// wrong object's own: with four targets, half the pairs are its. One wrong
+/// object per run is singled out this way (two among five may not be; the
+/// leave-one-out check still runs). Distances are 3D where both flags say
+/// so, else horizontal. Needs 4 positions: with 3, a wrong one and a right
+/// one share as many bad pairs.
 fn misfit_by_distances(map: &[Point], survey: &[(Point, bool)]) -> Vec<(usize, f64, f64)> {
     let n = map.len();
     if n < 4 {
@@ -396,46 +406,59 @@ fn misfit_by_distances(map: &[Point], survey: &[(Point, bool)]) -> Vec<(usize, f
         if z { d.norm() } else { d.xy().norm() }
     };
     let mut pairs = vec![vec![(0.0, 0.0); n]; n];
-    let mut scales = Vec::new();
     for i in 0..n {
         for j in i + 1..n {
             let z = survey[i].1 && survey[j].1;
-            let (dm, ds) = (
+            let p = (
                 dist(&map[i], &map[j], z),
                 dist(&survey[i].0, &survey[j].0, z),
             );
-            pairs[i][j] = (dm, ds);
-            pairs[j][i] = (dm, ds);
-            if ds > 1.0 {
-                scales.push(dm / ds);
-            }
+            pairs[i][j] = p;
+            pairs[j][i] = p;
         }
     }
-    scales.sort_by(f64::total_cmp);
-    // Clamped to the ±0.5 % a projection or a drifting map gives: with four
-    // targets, half the pairs may be a wrong object's.
-    let scale = scales
-        .get(scales.len() / 2)
-        .copied()
-        .unwrap_or(1.0)
-        .clamp(0.995, 1.005);
-    let misfit: Vec<f64> = (0..n)
-        .map(|i| {
-            let mut m: Vec<f64> = (0..n)
-                .filter(|&j| j != i)
-                .map(|j| (pairs[i][j].0 - scale * pairs[i][j].1).abs())
-                .collect();
-            m.sort_by(f64::total_cmp);
-            m[m.len() / 2]
-        })
-        .collect();
-    let mut sorted = misfit.clone();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted[n / 2];
-    (0..n)
-        .filter(|&i| misfit[i] > 5.0 * median && misfit[i] > 0.3)
-        .map(|i| (i, misfit[i], median))
-        .collect()
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[(v.len() - 1) / 2]
+    };
+    // Suspect k: the scale and the misfits of the pairs without it; the
+    // suspect whose pairs' squared misfits sum least leaves the others
+    // agreeing best.
+    let without = |k: usize| {
+        let rest: Vec<(f64, f64)> = (0..n)
+            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+            .filter(|&(i, j)| i != k && j != k)
+            .map(|(i, j)| pairs[i][j])
+            .collect();
+        let ratios: Vec<f64> = rest
+            .iter()
+            .filter(|p| p.1 > 1.0)
+            .map(|p| p.0 / p.1)
+            .collect();
+        let scale = if ratios.is_empty() {
+            1.0
+        } else {
+            median(ratios).clamp(0.995, 1.005)
+        };
+        let res: Vec<f64> = rest.iter().map(|p| (p.0 - scale * p.1).abs()).collect();
+        let score: f64 = res.iter().map(|r| r * r).sum();
+        let own = median(
+            (0..n)
+                .filter(|&j| j != k)
+                .map(|j| (pairs[k][j].0 - scale * pairs[k][j].1).abs())
+                .collect(),
+        );
+        (score, median(res), own)
+    };
+    let (k, (_, others, own)) = (0..n)
+        .map(|k| (k, without(k)))
+        .min_by(|a, b| a.1.0.total_cmp(&b.1.0).then(a.0.cmp(&b.0)))
+        .expect("n >= 4");
+    if own > 5.0 * others && own > 0.3 {
+        vec![(k, own, others)]
+    } else {
+        Vec::new()
+    }
 }
 
 #[cfg(test)]
@@ -488,6 +511,34 @@ mod distance_tests {
         // Four targets are enough; three are not.
         assert_eq!(misfit_by_distances(&map[1..], &survey[1..])[0].0, 1);
         assert!(misfit_by_distances(&map[2..], &survey[2..]).is_empty());
+    }
+
+    /// Layouts where a scale taken over every pair is the wrong object's own
+    /// (found in review): the wrong one must be the one singled out.
+    #[test]
+    fn a_wrong_object_does_not_set_the_scale() {
+        let check = |survey: &[(f64, f64)], wrong: usize, shift: (f64, f64)| {
+            let s: Vec<(Point, bool)> = survey
+                .iter()
+                .map(|&(x, y)| (Point::new(x, y, 0.0), false))
+                .collect();
+            let mut m: Vec<Point> = s.iter().map(|p| p.0).collect();
+            m[wrong].x += shift.0;
+            m[wrong].y += shift.1;
+            let far = misfit_by_distances(&m, &s);
+            assert_eq!(far.len(), 1, "{far:?}");
+            assert_eq!(far[0].0, wrong, "{far:?}");
+        };
+        check(
+            &[(314.8, 76.6), (320.9, 76.5), (32.6, 342.1), (344.5, 350.6)],
+            2,
+            (-1.87, -0.47),
+        );
+        check(
+            &[(0.0, 0.0), (250.0, 0.0), (250.0, 250.0), (0.0, 250.0)],
+            2,
+            (1.0, 1.0),
+        );
     }
 
     #[test]

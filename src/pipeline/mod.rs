@@ -290,6 +290,32 @@ fn evaluate(
         )?;
     }
     passes::common_vertical(&mut found, cfg);
+    // Far only now (the second pass found enough targets for a check to run):
+    // searched for again at the prediction too, before anything is condemned.
+    let mut far = far;
+    if crops_dir.is_none() {
+        let late: Vec<_> = frame::far_from_others(&found, survey, &opts)
+            .into_iter()
+            .filter(|l| !far.iter().any(|f| f.0 == l.0))
+            .collect();
+        if !late.is_empty() {
+            passes::second_pass(
+                source,
+                survey,
+                &expected,
+                &crop_params,
+                cfg,
+                &opts,
+                &mut found,
+                &motion,
+                ground_up,
+                &late,
+                &mut progress,
+            )?;
+            passes::common_vertical(&mut found, cfg);
+            far.extend(late);
+        }
+    }
     // What is still far after the search is not the target.
     let mut wrong = Vec::new();
     // (A target found again close to the prediction is the object there:
