@@ -88,6 +88,17 @@ fn is_metadata_name(path: &Path) -> bool {
     name.contains("metadata") && (name.ends_with(".yaml") || name.ends_with(".yml"))
 }
 
+/// A metadata key naming a tile: the text itself ends in `.pcd` (a path's
+/// extension would also accept `a.pcd/`, which names a folder; found by the
+/// `tiles` fuzz target) and holds no NUL.
+fn is_tile_name(name: &str) -> bool {
+    name.len() > 4
+        && !name.contains('\0')
+        && name
+            .get(name.len() - 4..)
+            .is_some_and(|e| e.eq_ignore_ascii_case(".pcd"))
+}
+
 fn has_ext(path: &Path, ext: &str) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
@@ -307,7 +318,7 @@ pub(crate) fn parse_metadata(text: &str) -> std::result::Result<Metadata, yaml::
                 }
                 res[usize::from(k == "y_resolution")] = Some(v);
             }
-            name if has_ext(Path::new(name), "pcd") => {
+            name if is_tile_name(name) => {
                 tiles.push(TileEntry {
                     name: name.to_string(),
                     min: corner(e)?,

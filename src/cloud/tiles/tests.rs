@@ -243,6 +243,12 @@ fn bad_maps_are_refused_naming_the_file_and_line() {
         e.starts_with(&format!("{m}:3: unexpected key `foo`")),
         "{e}"
     );
+    // A key naming a folder (found by the fuzzer) is no tile.
+    let e = case("x_resolution: 20\ny_resolution: 20\nA.pcd/: [0, 0]\n");
+    assert!(
+        e.starts_with(&format!("{m}:3: unexpected key `A.pcd/`")),
+        "{e}"
+    );
     // Points outside the declared cell (x = 1 in a cell from 20).
     let e = case("x_resolution: 20\ny_resolution: 20\nA.pcd: [20, 0]\n");
     let a_path = d.join("A.pcd").display().to_string();
