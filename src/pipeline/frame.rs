@@ -390,15 +390,32 @@ pub(super) fn far_from_others(
 /// within ±0.5 %) is the median ratio over the pairs without it, and the
 /// suspect is the one whose removal leaves the others agreeing best (least
 /// sum of squared pair misfits). A scale taken over every pair may be the
-/// wrong object's own: with four targets, half the pairs are its. One wrong
-/// object per run is singled out this way (two among five may not be; the
-/// leave-one-out check still runs). Distances are 3D where both flags say
-/// so, else horizontal. Needs 4 positions: with 3, a wrong one and a right
-/// one share as many bad pairs.
+/// wrong object's own: with four targets, half the pairs are its. Once one
+/// is singled out it is set aside and the rest are tried again, while 4
+/// remain: the others' misfits are a lower median, so with two wrong among
+/// six the first pass still sees the good pairs. Distances are 3D where both
+/// flags say so, else horizontal. Needs 4 positions: with 3, a wrong one and
+/// a right one share as many bad pairs.
 fn misfit_by_distances(map: &[Point], survey: &[(Point, bool)]) -> Vec<(usize, f64, f64)> {
+    let mut left: Vec<usize> = (0..map.len()).collect();
+    let mut out = Vec::new();
+    while left.len() >= 4 {
+        let m: Vec<Point> = left.iter().map(|&i| map[i]).collect();
+        let s: Vec<(Point, bool)> = left.iter().map(|&i| survey[i]).collect();
+        let Some((k, own, others)) = one_by_distances(&m, &s) else {
+            break;
+        };
+        out.push((left.remove(k), own, others));
+    }
+    out.sort_by_key(|f| f.0);
+    out
+}
+
+/// One round of [`misfit_by_distances`]: the worst position, if it stands out.
+fn one_by_distances(map: &[Point], survey: &[(Point, bool)]) -> Option<(usize, f64, f64)> {
     let n = map.len();
     if n < 4 {
-        return Vec::new();
+        return None;
     }
     // Differences first, so UTM-sized coordinates are never squared.
     let dist = |a: &Point, b: &Point, z: bool| {
@@ -454,11 +471,7 @@ fn misfit_by_distances(map: &[Point], survey: &[(Point, bool)]) -> Vec<(usize, f
         .map(|k| (k, without(k)))
         .min_by(|a, b| a.1.0.total_cmp(&b.1.0).then(a.0.cmp(&b.0)))
         .expect("n >= 4");
-    if own > 5.0 * others && own > 0.3 {
-        vec![(k, own, others)]
-    } else {
-        Vec::new()
-    }
+    (own > 5.0 * others && own > 0.3).then_some((k, own, others))
 }
 
 #[cfg(test)]
@@ -469,13 +482,23 @@ mod distance_tests {
     /// Five targets over ~300 m; the map is the survey turned, moved and
     /// scaled by `scale`, with target `wrong` (if any) moved 1.5 m.
     fn scene(scale: f64, wrong: Option<usize>) -> (Vec<Point>, Vec<(Point, bool)>) {
-        let s = [
-            (352_000.0, 4_026_000.0, 50.0),
-            (352_120.0, 4_026_030.0, 51.0),
-            (352_200.0, 4_026_210.0, 49.5),
-            (351_950.0, 4_026_280.0, 50.5),
-            (352_060.0, 4_026_120.0, 50.2),
-        ];
+        scene_of(&SURVEY[..5], scale, wrong)
+    }
+
+    const SURVEY: [(f64, f64, f64); 6] = [
+        (352_000.0, 4_026_000.0, 50.0),
+        (352_120.0, 4_026_030.0, 51.0),
+        (352_200.0, 4_026_210.0, 49.5),
+        (351_950.0, 4_026_280.0, 50.5),
+        (352_060.0, 4_026_120.0, 50.2),
+        (352_150.0, 4_026_330.0, 50.0),
+    ];
+
+    fn scene_of(
+        s: &[(f64, f64, f64)],
+        scale: f64,
+        wrong: Option<usize>,
+    ) -> (Vec<Point>, Vec<(Point, bool)>) {
         let (c, sn) = (1.1f64.cos(), 1.1f64.sin());
         let map = s
             .iter()
@@ -538,6 +561,24 @@ mod distance_tests {
             &[(0.0, 0.0), (250.0, 0.0), (250.0, 250.0), (0.0, 250.0)],
             2,
             (1.0, 1.0),
+        );
+    }
+
+    /// Two wrong objects among six (the hole left by one suspect per run).
+    #[test]
+    fn two_wrong_objects_among_six_are_both_singled_out() {
+        let (mut map, survey) = scene_of(&SURVEY, 1.0, Some(1));
+        map[4].x -= 1.8;
+        let far = misfit_by_distances(&map, &survey);
+        let which: Vec<usize> = far.iter().map(|f| f.0).collect();
+        assert_eq!(which, vec![1, 4], "{far:?}");
+        // One wrong among six: only that one.
+        let (map, survey) = scene_of(&SURVEY, 1.0, Some(3));
+        let far = misfit_by_distances(&map, &survey);
+        assert_eq!(
+            far.iter().map(|f| f.0).collect::<Vec<_>>(),
+            vec![3],
+            "{far:?}"
         );
     }
 

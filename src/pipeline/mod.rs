@@ -81,7 +81,7 @@ impl std::fmt::Display for Warning {
             ),
             Warning::WrongObjects(ids) => write!(
                 f,
-                "objects located for {} were far from where the other targets place them and nothing target-shaped stands there: reported as not found",
+                "objects located for {} are not those targets (far from where the other targets place them, or another target's object): reported as not found, each with its reason",
                 ids.join(", ")
             ),
             Warning::DetectionFailed(e) => write!(
@@ -321,7 +321,8 @@ fn evaluate(
     // (A target found again close to the prediction is the object there:
     // its error is the map's or the survey's, and stays in the result.)
     for (i, error, median, by) in frame::far_from_others(&found, survey, &opts) {
-        if far.iter().any(|f| f.0 == i) && found[i].pass == Pass::Second {
+        let searched = far.iter().any(|f| f.0 == i);
+        if searched && found[i].pass == Pass::Second {
             continue;
         }
         if let Some(at) = found[i].corner() {
@@ -330,6 +331,7 @@ fn evaluate(
                 error,
                 median,
                 by,
+                searched,
             });
         }
     }

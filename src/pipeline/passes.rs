@@ -109,6 +109,7 @@ pub(super) fn second_pass(
                 error,
                 median,
                 by,
+                searched: true,
             });
         }
     }

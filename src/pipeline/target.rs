@@ -50,6 +50,9 @@ pub enum Failure {
         median: f64,
         /// Which error condemned it.
         by: FarBy,
+        /// Whether the target was searched for again where the others place
+        /// it (not with hand crops, nor for a target flagged only at the end).
+        searched: bool,
     },
     /// The object located is the one another target was located at, and
     /// that target was expected nearer to it: no object serves two targets.
@@ -97,26 +100,34 @@ impl std::fmt::Display for Failure {
                 at,
                 error,
                 median,
-                by: FarBy::LeaveOneOut,
-            } => write!(
-                f,
-                "the object located at ({:.2}, {:.2}) is {error:.2} m from where the other targets place it (their median {:.0} mm), and nothing target-shaped stands at that place: not this target",
-                at.x,
-                at.y,
-                median * 1e3
-            ),
-            Failure::FarFromOthers {
-                at,
-                error,
-                median,
-                by: FarBy::Distances,
-            } => write!(
-                f,
-                "the object located at ({:.2}, {:.2}) is {error:.2} m off in its distances to the other targets (median over them, against the survey's; the targets' median {:.0} mm), and nothing target-shaped stands where they place it: not this target",
-                at.x,
-                at.y,
-                median * 1e3
-            ),
+                by,
+                searched,
+            } => {
+                write!(
+                    f,
+                    "the object located at ({:.2}, {:.2}) is {error:.2} m ",
+                    at.x, at.y
+                )?;
+                match by {
+                    FarBy::LeaveOneOut => write!(
+                        f,
+                        "from where the other targets place it (their median {:.0} mm)",
+                        median * 1e3
+                    )?,
+                    FarBy::Distances => write!(
+                        f,
+                        "off in its distances to the other targets (median over them, against the survey's; the targets' median {:.0} mm)",
+                        median * 1e3
+                    )?,
+                }
+                if *searched {
+                    f.write_str(
+                        ", and nothing target-shaped stands where they place it: not this target",
+                    )
+                } else {
+                    f.write_str(": not this target, or a map or survey error (it was not searched for where they place it; with hand crops, check this target's crop)")
+                }
+            }
             Failure::SameObject { other, at } => write!(
                 f,
                 "the object located at ({:.2}, {:.2}) is target {other}'s, which was expected nearer to it",
@@ -308,5 +319,38 @@ pub(super) fn one_object_each(found: &mut [TargetRun], plate_width: f64) {
                 });
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A target condemned without a search (hand crops) must not claim that
+    /// nothing stands where the others place it.
+    #[test]
+    fn a_far_object_names_whether_it_was_searched_for() {
+        let far = |searched| Failure::FarFromOthers {
+            at: Point::new(1.0, 2.0, 0.0),
+            error: 1.5,
+            median: 0.01,
+            by: FarBy::Distances,
+            searched,
+        };
+        let yes = far(true).to_string();
+        let no = far(false).to_string();
+        assert!(
+            yes.contains("nothing target-shaped stands where they place it"),
+            "{yes}"
+        );
+        assert!(!no.contains("nothing target-shaped"), "{no}");
+        assert!(
+            no.contains("not searched for") && no.contains("hand crops"),
+            "{no}"
+        );
+        assert!(
+            no.starts_with("the object located at (1.00, 2.00) is 1.50 m off in its distances"),
+            "{no}"
+        );
     }
 }

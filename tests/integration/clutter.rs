@@ -16,11 +16,19 @@ use nalgebra::Vector3;
 
 const SEEDS: [u64; 4] = [1, 2, 3, 4];
 
+/// Points of a scene: a target 4–8 m from the path gets 1.7–4.6 k returns,
+/// fewer than a 16-ring LiDAR passing at walking pace leaves (thousands per
+/// plate) and several times the issue's far case (150–300 per plate). At 1 M
+/// points it got 0.6–1.5 k, close to the far case, and the open target's
+/// median over 12 seeds was 3.3 mm: a sparse scene, not clutter, set the error.
+const POINTS: u64 = 3_000_000;
+
 /// A one-target local scene.
 fn params(seed: u64, obstacles: ObstacleParams) -> SynthParams {
     let mut p = SynthParams {
         seed,
-        points: 1_000_000,
+        points: std::env::var("CLUTTER_POINTS")
+            .map_or(POINTS, |s| s.parse().expect("CLUTTER_POINTS is a count")),
         targets: 1,
         spread_m: 0.0,
         obstacles,
@@ -96,9 +104,13 @@ impl Case {
             open: Vec::new(),
             points: Vec::new(),
         };
-        let seeds: Vec<u64> = match std::env::var("CLUTTER_SEED") {
-            Ok(s) => vec![s.parse().unwrap()],
-            Err(_) => SEEDS.to_vec(),
+        let seeds: Vec<u64> = match (
+            std::env::var("CLUTTER_SEED"),
+            std::env::var("CLUTTER_SEEDS"),
+        ) {
+            (Ok(s), _) => vec![s.parse().expect("CLUTTER_SEED is a seed")],
+            (_, Ok(n)) => (1..=n.parse().expect("CLUTTER_SEEDS is a count")).collect(),
+            _ => SEEDS.to_vec(),
         };
         for seed in seeds {
             let mut p = params(seed, obstacles.clone());
@@ -134,13 +146,15 @@ impl Case {
     }
 }
 
+/// The median (the mean of the middle two of an even count).
 fn median(v: &[f64]) -> f64 {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
-    if s.is_empty() {
-        return f64::NAN;
+    match s.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => s[n / 2],
+        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
     }
-    s[s.len() / 2]
 }
 
 fn max(v: &[f64]) -> f64 {
@@ -284,7 +298,7 @@ fn decoys(seeds: std::ops::Range<u64>) -> (usize, usize) {
     let mut located = 0;
     let n = seeds.end - seeds.start;
     for seed in seeds {
-        let p = params(
+        let mut p = params(
             seed,
             ObstacleParams {
                 target1_absent: true,
@@ -292,6 +306,13 @@ fn decoys(seeds: std::ops::Range<u64>) -> (usize, usize) {
                 ..ObstacleParams::default()
             },
         );
+        // The sparser scene: fewer returns leave the size checks more slack
+        // (a sparse plate's width may fall short by 0.22 w/√n), so decoys
+        // pass for targets more easily. Seeds 100–199 at 3 M points also
+        // located nothing (session 8); this keeps CI's time down.
+        if std::env::var("CLUTTER_POINTS").is_err() {
+            p.points = 1_000_000;
+        }
         let (map, truth) = generate(&p);
         if let Ok(c) = locate_target(&map, &truth, 0) {
             located += 1;
@@ -336,19 +357,16 @@ fn stack_inside_the_l() {
 }
 
 #[test]
-#[ignore = "issue 16: found 4 of 4 (before: 1 of 4), but median 4.59 mm > 3 mm (max 5.03; open 2.40 / 4.50): the upper 60 % of the plates locates less well"]
 fn lower_plates_hidden() {
     check("lower 40 % hidden");
 }
 
 #[test]
-#[ignore = "issue 16: 3 of 4 (max 3.79 mm, before 13.1): in seed 2 the crop is right but only 8 of 2000 localisation attempts pass the perpendicularity gates (10 needed)"]
 fn one_plate_a_quarter() {
     check("plate 2 a quarter");
 }
 
 #[test]
-#[ignore = "issue 16: found 4 of 4 (before: 0 of 4), max 3.65 mm, but median 3.11 mm > 3 mm (open 2.40)"]
 fn grass_through_the_plates() {
     check("grass through lower plates");
 }
