@@ -14,7 +14,8 @@ pub struct Args {
     /// Survey CSV: id and x,y[,z] (local metres) or lat,lon[,alt] (WGS84); optional role, antenna_height.
     #[arg(long)]
     pub survey: PathBuf,
-    /// Estimates CSV in the map frame: id,x,y[,z] (extra columns ignored).
+    /// Estimates CSV in the map frame: id,x,y[,z] (extra columns ignored), or
+    /// the targets.csv an eval wrote (its map_x, map_y, map_z and status).
     #[arg(long)]
     pub estimates: PathBuf,
     /// Alignment map → survey: none, rigid2d, rigid2d+z, rigid3d, similarity2d, similarity3d, robust2d.

@@ -479,12 +479,23 @@ pub fn read_survey_for_map(
 
 /// Reads an estimates CSV `id,x,y[,z]` (map frame; extra columns ignored).
 /// Empty x/y cells mean "not found" (the reason column `reason`, if any, is kept).
+/// `eval`'s own `targets.csv` is read too: without `x`/`y` columns its
+/// `map_x,map_y,map_z` are the estimates, and a row whose `status` is
+/// `not_found` is not found whatever its cells hold.
 pub fn read_estimates(path: &Path) -> Result<Vec<Estimate>> {
     let t = Table::read(path)?;
     let id_c = t.require(ID)?;
-    let x_c = t.require(X)?;
-    let y_c = t.require(Y)?;
-    let z_c = t.col(Z);
+    let from_eval = t.col(X).is_none() && t.col(&["map_x"]).is_some();
+    let (x_c, y_c, z_c) = if from_eval {
+        (
+            t.require(&["map_x"])?,
+            t.require(&["map_y"])?,
+            t.col(&["map_z"]),
+        )
+    } else {
+        (t.require(X)?, t.require(Y)?, t.col(Z))
+    };
+    let status_c = t.col(&["status"]).filter(|_| from_eval);
     let reason_c = t.col(&["reason"]);
     let mut seen = HashSet::new();
     let mut out = Vec::with_capacity(t.rows.len());
@@ -499,7 +510,8 @@ pub fn read_estimates(path: &Path) -> Result<Vec<Estimate>> {
             ));
         }
         let empty = |c: usize| rec.get(c).is_none_or(|s| s.is_empty());
-        if empty(x_c) && empty(y_c) {
+        let not_found = status_c.and_then(|c| rec.get(c)) == Some("not_found");
+        if not_found || (empty(x_c) && empty(y_c)) {
             let reason = reason_c
                 .and_then(|c| rec.get(c))
                 .filter(|s| !s.is_empty())
@@ -636,6 +648,36 @@ mod tests {
         let f = file("id,x,y\n1,1,\n");
         let m = read_estimates(f.path()).unwrap_err().to_string();
         assert!(m.contains(":2:") && m.contains("`y`"), "{m}");
+    }
+
+    /// eval's targets.csv: the map columns are the estimates; excluded rows
+    /// keep their position (errors judges them again), not-found rows none.
+    #[test]
+    fn estimates_from_evals_targets_csv() {
+        let f = file(
+            "id,status,reason,survey_x,survey_y,survey_z,map_x,map_y,map_z,aligned_x\n\
+             1,ok,,10,20,1,1.5,2.5,3.5,10\n\
+             2,not_found,no target here,11,21,1,,,,\n\
+             3,excluded,gross error,12,22,1,4,5,,12\n\
+             4,not_found,wrong object,13,23,1,7,8,9,\n",
+        );
+        let e = read_estimates(f.path()).unwrap();
+        assert_eq!(
+            e[0].status,
+            EstimateStatus::Found(Point::new(1.5, 2.5, 3.5))
+        );
+        assert!(e[0].has_z);
+        assert!(
+            matches!(&e[1].status, EstimateStatus::NotFound { reason } if reason == "no target here")
+        );
+        assert_eq!(
+            e[2].status,
+            EstimateStatus::Found(Point::new(4.0, 5.0, 0.0))
+        );
+        assert!(!e[2].has_z);
+        assert!(
+            matches!(&e[3].status, EstimateStatus::NotFound { reason } if reason == "wrong object")
+        );
     }
 }
 
