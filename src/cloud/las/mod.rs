@@ -80,10 +80,8 @@ fn open_with(path: &Path, copc: bool, chunked: bool) -> Result<Box<dyn PointRead
         // Read as plain LAZ after all: every chunk's head checked first.
         check(true)?;
     }
-    if chunked {
-        if let Some(r) = chunked::open_plain(path, &file, file_bytes)? {
-            return Ok(Box::new(r));
-        }
+    if chunked && let Some(r) = chunked::open_plain(path, &file, file_bytes)? {
+        return Ok(Box::new(r));
     }
     let p = path.to_path_buf();
     // Sized here, on the caller's thread, so a caller's own pool size holds.
