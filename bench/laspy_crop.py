@@ -34,7 +34,11 @@ def main() -> int:
     r2 = radius * radius
     for tid, tx, ty in targets:
         mask = (x - tx) ** 2 + (y - ty) ** 2 < r2
-        crop = laspy.LasData(las.header)
+        # A fresh header of the same point format: laspy writes no COPC, and
+        # a crop is no octree.
+        head = laspy.LasHeader(point_format=las.header.point_format, version=las.header.version)
+        head.scales, head.offsets = las.header.scales, las.header.offsets
+        crop = laspy.LasData(head)
         crop.points = las.points[mask]
         crop.write(os.path.join(out, f"{tid}.las"))
         print(f"{tid} {int(mask.sum())}")

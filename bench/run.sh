@@ -218,7 +218,8 @@ for N in "${SIZES[@]}"; do
         for t in $TOOLS; do
             case $t in
                 open3d) [[ $have_open3d == 1 ]] || continue
-                        [[ $f == las || $f == laz ]] && { note "Open3D cannot read $f"; continue; }
+                        [[ $f == las || $f == laz || $f == laz14 || $f == copc ]] && { note "Open3D cannot read $f"; continue; }
+                        [[ $f == tiles ]] && { note "Open3D cannot read a tiled map (a folder)"; continue; }
                         (( NPTS > BASELINE_MAX_POINTS )) && { note "$N points: Open3D skipped (BASELINE_MAX_POINTS)"; continue; } ;;
                 pcl)    [[ $have_pcl == 1 ]] || continue
                         [[ $f == pcd* ]] || continue

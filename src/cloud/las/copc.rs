@@ -7,8 +7,9 @@
 //! cubes come within the crop radius of a target, in file order, so a crop
 //! holds the same points in the same order as decoding the whole file (the
 //! plain LAZ path reads the same chunks in file order). Without a hint every
-//! node is read. The `las` crate parses the header and the hierarchy; nodes
-//! are read with `pread` and decompressed in parallel with the `laz` crate.
+//! node is read. The `las` crate parses the header and the hierarchy; the
+//! nodes are decoded by the chunked LAZ reader (`chunked.rs`: `pread`, in
+//! parallel, X, Y, Z only), of which this is the case with an octree.
 //!
 //! A file whose hierarchy is unreadable or does not account for every point
 //! of the header is read by the plain LAZ path instead (same points, no
