@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Side-by-side benchmark of issue 7: mapgauge crop / eval against `cat` (the
 # floor: one copy of the page-cached file), Open3D (PyPI `open3d`: read + numpy
-# mask per target + write) and PCL's command-line tools (Debian `pcl-tools`:
-# pcl_passthrough_filter on x then y per target), on synthetic maps in every
-# format. Wall time, CPU time (user + sys) and peak RSS, median of RUNS rounds;
+# mask per target + write), PCL's command-line tools (Debian `pcl-tools`:
+# pcl_passthrough_filter on x then y per target), laspy for LAS/LAZ/COPC (PyPI
+# `laspy[lazrs]`: read + numpy mask per target + write) and PDAL's
+# filters.crop (`pdal pipeline`, where PDAL is installed), on synthetic maps in
+# every format. Wall time, CPU time (user + sys) and peak RSS, median of RUNS rounds;
 # tools alternate inside each round so they all see the same machine load.
 #
 # Usage: bench/run.sh [POINTS...]          (default: 20000000)
@@ -15,7 +17,11 @@
 #                 pcd-xyzi pcd-fastlio ply-f32 (the float32 SLAM layouts:
 #                 LIO-SAM's x y z intensity, FAST-LIO2's eight floats, GLIM's
 #                 float PLY; synthesised directly in that layout)
-#        TOOLS    subset of: cat crop eval open3d pcl
+#                 laz14 (LAS 1.4 point format 6 LAZ, every field varying:
+#                 bench/laz14_write.py, needs laspy), copc (bench/copc_write.py,
+#                 copclib in a venv made in DIR), tiles (an Autoware tiled map
+#                 of 20 m PCD tiles: bench/tiles_write.py)
+#        TOOLS    subset of: cat crop eval open3d pcl laspy pdal
 #        BASELINE_MAX_POINTS  largest map given to Open3D and PCL (default 50000000:
 #                 they hold the whole map in memory, ~10 GB at 200 M points)
 #        OUT      markdown table file (default DIR/results-<date>.md), headed by
@@ -26,8 +32,8 @@ set -euo pipefail
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 DIR=${DIR:-/tmp/mapgauge-bench}
 RUNS=${RUNS:-3}
-FORMATS=${FORMATS:-"pcd pcd-ascii pcd-compressed ply las laz pcd-xyzi pcd-fastlio ply-f32"}
-TOOLS=${TOOLS:-"cat crop eval open3d pcl"}
+FORMATS=${FORMATS:-"pcd pcd-ascii pcd-compressed ply las laz laz14 copc tiles pcd-xyzi pcd-fastlio ply-f32"}
+TOOLS=${TOOLS:-"cat crop eval open3d pcl laspy pdal"}
 BASELINE_MAX_POINTS=${BASELINE_MAX_POINTS:-50000000}
 SIZES=("$@")
 [[ ${#SIZES[@]} -eq 0 ]] && SIZES=(20000000)
@@ -50,13 +56,20 @@ elif [[ " $TOOLS " == *" open3d "* ]]; then note "Open3D skipped: python3 cannot
 have_pcl=0
 if command -v pcl_passthrough_filter >/dev/null; then have_pcl=1
 elif [[ " $TOOLS " == *" pcl "* ]]; then note "PCL skipped: pcl_passthrough_filter missing (apt-get install pcl-tools)"; fi
+have_laspy=0
+if python3 -c 'import laspy, lazrs' 2>/dev/null; then have_laspy=1
+elif [[ " $TOOLS $FORMATS " == *" laspy "* || " $FORMATS " == *" laz14 "* ]]; then
+    note "laspy skipped (and the laz14 format, which it writes): python3 cannot import laspy and lazrs (pip install 'laspy[lazrs]')"; fi
+have_pdal=0
+if command -v pdal >/dev/null; then have_pdal=1
+elif [[ " $TOOLS " == *" pdal "* ]]; then note "PDAL skipped: no pdal command (apt-get install pdal; PyPI's pdal is bindings that need it)"; fi
 
 now_ns() { date +%s%N; }
 median() { printf '%s\n' "$@" | sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 max() { printf '%s\n' "$@" | sort -g | tail -n1; }
 
 # run_one KEY CMD...: one timed run; appends wall, cpu, rss to KEY's lists.
-declare -A WALL CPU RSS
+declare -A WALL CPU RSS READ
 run_one() {
     local key=$1; shift
     local tf; tf=$(mktemp)
@@ -69,6 +82,8 @@ run_one() {
     fi
     t1=$(now_ns)
     read -r u s m < <(tail -n1 "$tf")
+    # `crop` on a tiled map or COPC: "tiles: 12 of 118 opened (3.0 of 5.1 MB)".
+    READ[$key]=$(grep -m1 -E '^(tiles|COPC nodes): .* opened' "$tf.err" | sed 's/ opened//' || true)
     WALL[$key]+="$(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.3f", (b-a)/1e9}') "
     CPU[$key]+="$(awk -v u="$u" -v s="$s" 'BEGIN{printf "%.2f", u+s}') "
     RSS[$key]+="$m "
@@ -89,6 +104,18 @@ pcl_crop() {
 }
 export -f pcl_crop
 
+# pdal_crop MAP SURVEY OUTDIR: PDAL's filters.crop, one r-metre circle (a
+# cylinder) per target, each written by writers.las as its own file.
+pdal_crop() {
+    local map=$1 survey=$2 out=$3 r=5 pts
+    mkdir -p "$out"
+    pts=$(tail -n +2 "$survey" | awk -F, '{printf "%s\"POINT(%s %s)\"", (NR>1?",":""), $2, $3}')
+    printf '[{"type":"%s","filename":"%s"},{"type":"filters.crop","point":[%s],"distance":%s},{"type":"writers.las","filename":"%s/#.las"}]\n' \
+        "$4" "$map" "$pts" "$r" "$out" >"$out.json"
+    pdal pipeline "$out.json"
+}
+export -f pdal_crop
+
 # What was measured and on what: the table is only comparable with tables of
 # the same build and machine, so both head it.
 COMMIT=$(git -C "$REPO" rev-parse --short HEAD 2>/dev/null || echo unknown)
@@ -108,8 +135,8 @@ echo "- Machine: $(nproc) cores ($CPU_MODEL${HYPERVISOR:+, $HYPERVISOR guest}), 
 echo "- Load average (1, 5, 15 min) before: $(cut -d' ' -f1-3 /proc/loadavg)."
 echo "- Median of $RUNS runs; files in the page cache; CPU = user + sys; peak RSS from GNU time."
 echo
-echo "| points | format | MB | tool | wall s | CPU s | peak RSS MB | wall / cat | CPU / cat | Open3D wall / this |"
-echo "|---|---|---|---|---|---|---|---|---|---|"
+echo "| points | format | MB | tool | wall s | CPU s | peak RSS MB | wall / cat | CPU / cat | Open3D wall / this | read |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
 } >"$OUT"
 
 for N in "${SIZES[@]}"; do
@@ -122,6 +149,7 @@ for N in "${SIZES[@]}"; do
     NPTS=$(grep -a -m1 '^POINTS ' "$S/map.pcd" | awk '{print $2}')
     declare -A FILE=([pcd]="$S/map.pcd" [pcd-ascii]="$S/map-ascii.pcd" [pcd-compressed]="$S/map-compressed.pcd"
                      [ply]="$S/map.ply" [las]="$S/map.las" [laz]="$S/map.laz"
+                     [laz14]="$S/map14.laz" [copc]="$S/map.copc.laz" [tiles]="$S/tiles"
                      [pcd-xyzi]="$S/pcd-xyzi/map.pcd" [pcd-fastlio]="$S/pcd-fastlio/map.pcd" [ply-f32]="$S/ply-f32/map.ply")
     # The survey of every layout: the scene (and so the survey) does not
     # depend on the format the map is written in.
@@ -138,6 +166,26 @@ for N in "${SIZES[@]}"; do
                 echo "synthesising $N points as $f ..." >&2
                 "$BIN" synth --points "$N" --format "$f" --out "$S/$f" >/dev/null
             fi
+            continue
+        fi
+        if [[ $f == laz14 || $f == copc || $f == tiles ]]; then
+            [[ -e ${FILE[$f]} ]] && continue
+            if [[ $f != tiles && ! -f ${FILE[las]} ]]; then
+                echo "converting to las (for $f) ..." >&2
+                "$BIN" convert --map "$S/map.pcd" --out "${FILE[las]}" >/dev/null
+            fi
+            echo "writing $f ..." >&2
+            case $f in
+                laz14) if [[ $have_laspy == 1 ]]; then python3 "$REPO/bench/laz14_write.py" "${FILE[las]}" "${FILE[$f]}" 6
+                       else note "laz14 skipped: it is written with laspy"; fi ;;
+                copc)  if [[ -z ${COPC_PY:-} ]]; then
+                           COPC_PY=$DIR/venv-copc/bin/python
+                           [[ -x $COPC_PY ]] || { python3 -m venv "$DIR/venv-copc" && "$DIR/venv-copc/bin/pip" install --quiet copclib==2.6.3 numpy; } || true
+                       fi
+                       "$COPC_PY" "$REPO/bench/copc_write.py" "${FILE[las]}" "${FILE[$f]}" \
+                           || { rm -f "${FILE[$f]}"; note "copc skipped: copclib (PyPI copclib==2.6.3) could not write it"; } ;;
+                tiles) python3 "$REPO/bench/tiles_write.py" "$S/map.pcd" "${FILE[$f]}" 20 ;;
+            esac
             continue
         fi
         if [[ ! -f ${FILE[$f]} ]]; then
@@ -159,19 +207,28 @@ for N in "${SIZES[@]}"; do
     fi
     for f in $FORMATS; do
         MAP=${FILE[$f]:-}
-        [[ -n $MAP && -f $MAP ]] || continue
-        MB=$(( $(stat -L -c %s "$MAP") / 1000000 ))
-        cat "$MAP" >/dev/null   # warm the page cache
+        [[ -n $MAP && -e $MAP ]] || continue
+        # A tiled map is a folder: its bytes are its tiles', and `cat` reads them all.
+        CATS=("$MAP")
+        [[ -d $MAP ]] && CATS=("$MAP"/*.pcd)
+        MB=$(( $(cat "${CATS[@]}" | wc -c) / 1000000 ))
+        cat "${CATS[@]}" >/dev/null   # warm the page cache
         [[ -f ${PCLFILE[$f]:-/nonexistent} && ${PCLFILE[$f]} != "$MAP" ]] && cat "${PCLFILE[$f]}" >/dev/null
         tools=()
         for t in $TOOLS; do
             case $t in
                 open3d) [[ $have_open3d == 1 ]] || continue
-                        [[ $f == las || $f == laz ]] && { note "Open3D cannot read $f"; continue; }
+                        [[ $f == las || $f == laz || $f == laz14 || $f == copc ]] && { note "Open3D cannot read $f"; continue; }
+                        [[ $f == tiles ]] && { note "Open3D cannot read a tiled map (a folder)"; continue; }
                         (( NPTS > BASELINE_MAX_POINTS )) && { note "$N points: Open3D skipped (BASELINE_MAX_POINTS)"; continue; } ;;
                 pcl)    [[ $have_pcl == 1 ]] || continue
                         [[ $f == pcd* ]] || continue
                         (( NPTS > BASELINE_MAX_POINTS )) && { note "$N points: PCL skipped (BASELINE_MAX_POINTS)"; continue; } ;;
+                laspy)  [[ $have_laspy == 1 ]] || continue
+                        [[ $f == las || $f == laz || $f == laz14 || $f == copc ]] || continue
+                        (( NPTS > BASELINE_MAX_POINTS )) && { note "$N points: laspy skipped (BASELINE_MAX_POINTS)"; continue; } ;;
+                pdal)   [[ $have_pdal == 1 ]] || continue
+                        [[ $f == las || $f == laz || $f == laz14 || $f == copc || $f == pcd || $f == ply ]] || continue ;;
             esac
             tools+=("$t")
         done
@@ -181,11 +238,17 @@ for N in "${SIZES[@]}"; do
                 rm -rf "$S/out-$t"
                 echo "  $N $f $t run $i" >&2
                 case $t in
-                    cat)    run_one "$key" sh -c "cat '$MAP' >/dev/null" ;;
+                    cat)    run_one "$key" cat "${CATS[@]}" ;;
                     crop)   run_one "$key" "$BIN" crop --map "$MAP" --survey "${SURVEY[$f]}" --out "$S/out-$t" ;;
                     eval)   run_one "$key" "$BIN" eval --map "$MAP" --survey "${SURVEY[$f]}" --out "$S/out-$t" ;;
                     open3d) run_one "$key" python3 "$REPO/bench/open3d_crop.py" "$MAP" "${SURVEY[$f]}" "$S/out-$t" ;;
                     pcl)    run_one "$key" bash -c "pcl_crop '${PCLFILE[$f]}' '${SURVEY[$f]}' '$S/out-$t'" ;;
+                    laspy)  run_one "$key" python3 "$REPO/bench/laspy_crop.py" "$MAP" "${SURVEY[$f]}" "$S/out-$t" ;;
+                    pdal)   reader=readers.las
+                            [[ $f == copc ]] && reader=readers.copc
+                            [[ $f == pcd ]] && reader=readers.pcd
+                            [[ $f == ply ]] && reader=readers.ply
+                            run_one "$key" bash -c "pdal_crop '$MAP' '${SURVEY[$f]}' '$S/out-$t' $reader" ;;
                 esac
             done
         done
@@ -200,7 +263,9 @@ for N in "${SIZES[@]}"; do
             ro=$(awk -v a="$o3w" -v b="$w" 'BEGIN{ if (a != "nan" && b+0 > 0) printf "%.1f", a/b; else print "-" }')
             mb=$MB; name=$t
             if [[ $t == pcl && ${PCLFILE[$f]} != "$MAP" ]]; then mb="$(( $(stat -c %s "${PCLFILE[$f]}") / 1000000 ))"; name="pcl (float32 copy)"; fi
-            echo "| $NPTS | $f | $mb | $name | $w | $c | $r | $rw | $rc | $ro |" >>"$OUT"
+            rd=${READ[$key]:-}
+            [[ -n $rd ]] || rd="-"
+            echo "| $NPTS | $f | $mb | $name | $w | $c | $r | $rw | $rc | $ro | $rd |" >>"$OUT"
             echo "$NPTS $f $t: wall ${WALL[$key]}cpu ${CPU[$key]}rss ${RSS[$key]}" >&2
         done
     done

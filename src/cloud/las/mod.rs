@@ -1,13 +1,16 @@
-//! LAS/LAZ reader and LAS writer, on the `las` crate.
+//! LAS/LAZ reader and LAS writer, on the `las` and `laz` crates.
 //!
-//! The crate's reader is not `Send`, so it runs on its own thread and hands
+//! The `las` crate's reader is not `Send`, so it runs on its own thread and hands
 //! blocks of points over a bounded channel (`producer.rs`); that also overlaps
 //! decoding (and LAZ decompression, itself parallel) with the caller's work.
 //! Memory stays at a few blocks whatever the file size.
 
 //!
-//! LAS data goes to the `pread` record reader, LAZ through the crate after
-//! its chunk table is checked (`laz_check.rs`); the writer is `sink.rs`.
+//! LAS data goes to the `pread` record reader. LAZ has its chunk table
+//! checked first (`laz_check.rs`); then LAS 1.4 point formats 6-10 (layered
+//! chunks) are decoded chunk by chunk, X, Y, Z only (`chunked.rs`, of which
+//! COPC, `copc.rs`, is the case that can skip nodes), and formats 0-5 go
+//! through the crate. The writer is `sink.rs`.
 
 use super::producer::{Msg, Producer, Tx, on_reader_thread};
 use super::{CloudInfo, Format, PointReader};
@@ -16,6 +19,7 @@ use std::fs::File;
 use std::io::{BufReader, Seek, SeekFrom};
 use std::path::Path;
 
+mod chunked;
 mod copc;
 mod laz_check;
 mod sink;
@@ -37,11 +41,14 @@ pub(super) fn las_err(path: &Path, e: las::Error) -> Error {
 
 /// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
-    open_with(path, true)
+    let chunked = std::env::var_os(chunked::CRATE_PATH_ENV).is_none();
+    open_with(path, true, chunked)
 }
 
-/// [`open`]; `copc: false` reads a COPC file as plain LAZ (tests compare).
-fn open_with(path: &Path, copc: bool) -> Result<Box<dyn PointReader>> {
+/// [`open`]; `copc: false` reads a COPC file as plain LAZ, `chunked: false`
+/// reads plain LAZ of every point format through the `las` crate (tests
+/// compare the paths).
+fn open_with(path: &Path, copc: bool, chunked: bool) -> Result<Box<dyn PointReader>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
     // Before any `las::Reader`: opening a LAZ file already reads its chunk table.
@@ -72,6 +79,9 @@ fn open_with(path: &Path, copc: bool) -> Result<Box<dyn PointReader>> {
         }
         // Read as plain LAZ after all: every chunk's head checked first.
         check(true)?;
+    }
+    if chunked && let Some(r) = chunked::open_plain(path, &file, file_bytes)? {
+        return Ok(Box::new(r));
     }
     let p = path.to_path_buf();
     // Sized here, on the caller's thread, so a caller's own pool size holds.

@@ -222,12 +222,15 @@ fn copc_whole_read_equals_plain_laz() {
     let path = dir.path().join("m.copc.laz");
     std::fs::write(&path, COPC).unwrap();
     let mut copc = super::open(&path).unwrap();
-    let mut plain = open_with(&path, false).unwrap();
+    let mut plain = open_with(&path, false, true).unwrap();
     assert!(plain.tile_stats().is_none(), "the plain path reads chunks");
     let (a, b) = (all(copc.as_mut()), all(plain.as_mut()));
     assert_eq!(a.len(), 20_000);
     assert_eq!(a, b, "same points in the same order");
     assert_eq!(copc.stats(), plain.stats());
+    // Variable-size chunks: coordinate-only decoding equals the crate's.
+    let (c, sc, _) = all_of(&path, false, false).unwrap();
+    assert!(c == a && sc == copc.stats());
     assert_eq!(copc.info().format, Format::Laz);
     assert_eq!(copc.info().declared_points, Some(20_000));
     let t = copc.tile_stats().unwrap();
@@ -263,7 +266,7 @@ fn copc_crop_reads_near_nodes_only_and_equals_plain_laz() {
             max_points: 0,
         };
         let mut copc = super::open(&path).unwrap();
-        let mut plain = open_with(&path, false).unwrap();
+        let mut plain = open_with(&path, false, true).unwrap();
         let a = loose_crop(copc.as_mut(), &centres, &params, |_| ()).unwrap();
         let b = loose_crop(plain.as_mut(), &centres, &params, |_| ()).unwrap();
         assert_eq!(a.points, b.points, "radius {radius} {shape:?}");
@@ -318,7 +321,7 @@ fn copc_truncated_or_corrupt_is_an_error_not_a_panic() {
     let e = res.unwrap_err().to_string();
     assert!(e.contains("m.copc.laz") && e.contains("COPC node"), "{e}");
     // The plain LAZ path checks every chunk's head when opening.
-    let e = open_with(&path, false).err().unwrap().to_string();
+    let e = open_with(&path, false, true).err().unwrap().to_string();
     assert!(
         e.contains("layers of") && e.contains("declared in a chunk"),
         "{e}"
@@ -337,7 +340,7 @@ fn lying_layer_sizes_are_refused_before_allocating() {
     )
     .unwrap();
     for copc in [true, false] {
-        let e = open_with(&path, copc)
+        let e = open_with(&path, copc, true)
             .and_then(|mut r| {
                 let mut buf = Vec::new();
                 while r.next_chunk(&mut buf)? {}
@@ -365,4 +368,216 @@ fn lying_evlr_length_is_refused_before_allocating() {
         e.contains("extended VLR at byte") && e.contains("declares"),
         "{e}"
     );
+}
+
+/// Writes a LAS 1.4 LAZ file of point format `fmt` (with `extra` extra
+/// bytes) of `n` points whose every field varies: returns, scanner channels,
+/// classification and flags, intensity, scan angle, GPS time, colour, NIR.
+fn write_rich_laz(path: &Path, fmt: u8, extra: u16, n: usize, seed: u64) {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+    let mut b = las::Builder::from((1, 4));
+    b.point_format = las::point::Format::new(fmt).unwrap();
+    b.point_format.extra_bytes = extra;
+    b.point_format.is_compressed = true;
+    let tr = |o| las::Transform {
+        scale: 0.001,
+        offset: o,
+    };
+    b.transforms = las::Vector {
+        x: tr(350000.0),
+        y: tr(4150000.0),
+        z: tr(0.0),
+    };
+    let mut w = las::Writer::from_path(path, b.into_header().unwrap()).unwrap();
+    let f = *w.header().point_format();
+    let mut t = 1.0e8;
+    for i in 0..n {
+        let returns = rng.random_range(1..=5u8);
+        t += rng.random_range(0.0..1e-4);
+        let q = las::Point {
+            x: 350_000.0 + (i % 5000) as f64 * 0.013 + rng.random_range(0.0..2.0),
+            y: 4_150_000.0 + (i / 5000) as f64 * 0.7 + rng.random_range(0.0..2.0),
+            z: 12.0 + rng.random_range(-5.0..30.0),
+            intensity: rng.random(),
+            return_number: rng.random_range(1..=returns),
+            number_of_returns: returns,
+            scan_direction: if rng.random() {
+                las::point::ScanDirection::LeftToRight
+            } else {
+                las::point::ScanDirection::RightToLeft
+            },
+            is_edge_of_flight_line: rng.random_bool(0.01),
+            classification: las::point::Classification::new(rng.random_range(1..10)).unwrap(),
+            is_synthetic: rng.random_bool(0.1),
+            is_key_point: rng.random_bool(0.1),
+            is_withheld: rng.random_bool(0.05),
+            is_overlap: rng.random_bool(0.05),
+            scanner_channel: rng.random_range(0..4),
+            scan_angle: rng.random_range(-30.0..30.0),
+            user_data: rng.random(),
+            point_source_id: rng.random_range(0..3),
+            gps_time: f.has_gps_time.then_some(t),
+            color: f
+                .has_color
+                .then(|| las::Color::new(rng.random(), rng.random(), rng.random())),
+            nir: f.has_nir.then(|| rng.random()),
+            extra_bytes: (0..extra).map(|_| rng.random()).collect(),
+            ..Default::default()
+        };
+        w.write_point(q).unwrap();
+    }
+    w.close().unwrap();
+}
+
+fn all_of(path: &Path, copc: bool, chunked: bool) -> Result<(Vec<Point>, ReadStats, u64)> {
+    let mut r = open_with(path, copc, chunked)?;
+    let mut all = Vec::new();
+    let mut buf = Vec::new();
+    while r.next_chunk(&mut buf)? {
+        all.extend_from_slice(&buf);
+    }
+    Ok((all, r.stats(), r.bytes_read()))
+}
+
+/// Coordinate-only decoding gives the points of the `las` crate's full
+/// decoding, in the same order, for formats 6, 7, 8 (and extra bytes) of
+/// several fixed-size chunks.
+#[test]
+fn laz14_coordinates_only_equal_the_crate_path() {
+    let dir = tempfile::tempdir().unwrap();
+    for (fmt, extra) in [(6, 0), (7, 0), (8, 0), (6, 3)] {
+        let path = dir.path().join(format!("f{fmt}-{extra}.laz"));
+        let n = 123_457;
+        write_rich_laz(&path, fmt, extra, n, u64::from(fmt));
+        let (a, sa, ba) = all_of(&path, true, true).unwrap();
+        let (b, sb, bb) = all_of(&path, true, false).unwrap();
+        assert_eq!(open(&path).unwrap().info().format, Format::Laz);
+        assert_eq!(a.len(), n, "format {fmt}");
+        assert!(a == b, "format {fmt}: the paths differ");
+        assert_eq!((sa, ba), (sb, bb));
+        // The chunked reader itself takes these files.
+        let file = File::open(&path).unwrap();
+        let len = file.metadata().unwrap().len();
+        let mut c = chunked::open_plain(&path, &file, len)
+            .unwrap()
+            .expect("formats 6-10 are read chunk by chunk");
+        assert!(all(&mut c) == b, "format {fmt}");
+        assert_eq!(c.bytes_read(), len);
+    }
+    // Formats 0-5 are not.
+    let path = dir.path().join("f3.laz");
+    write_with_crate(&path, 3, (1, 2), &truth(1000));
+    let file = File::open(&path).unwrap();
+    assert!(chunked::open_plain(&path, &file, 1).unwrap().is_none());
+}
+
+/// Points made non-finite by a huge scale are skipped and counted alike.
+#[test]
+fn laz14_nonfinite_points_skipped_as_by_the_crate_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("inf.laz");
+    write_rich_laz(&path, 7, 0, 60_000, 9);
+    let mut bytes = std::fs::read(&path).unwrap();
+    // The X scale factor (LAS header byte 131): X * 1e305 overflows for |X| > 1797.
+    bytes[131..139].copy_from_slice(&1e305_f64.to_le_bytes());
+    bytes[155..163].copy_from_slice(&0.0_f64.to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    let (a, sa, _) = all_of(&path, true, true).unwrap();
+    let (b, sb, _) = all_of(&path, true, false).unwrap();
+    assert!(a == b && sa == sb);
+    assert!(sa.skipped_nonfinite > 1000 && sa.points > 0, "{sa:?}");
+    assert_eq!(sa.points + sa.skipped_nonfinite, 60_000);
+}
+
+/// Every LAS/LAZ input of the fuzz corpus and the hostile-input corpus gives
+/// points or an error on both LAZ paths, and a panic inside a decoder only
+/// ever happens on reader-named threads (which libFuzzer's hook cannot see).
+#[test]
+fn fuzz_corpus_gives_errors_not_panics() {
+    use std::sync::Mutex;
+    static SEEN: Mutex<Vec<Option<String>>> = Mutex::new(Vec::new());
+    super::super::producer::quiet_reader_panics();
+    let prev = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        // The decoder crates' panics (other tests may panic meanwhile).
+        if info
+            .location()
+            .is_some_and(|l| l.file().contains("laz-0.") || l.file().contains("las-0."))
+        {
+            let name = std::thread::current().name().map(str::to_string);
+            SEEN.lock().unwrap_or_else(|e| e.into_inner()).push(name);
+        }
+        prev(info);
+    }));
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    for d in ["fuzz/corpus/las", "fuzz/upstream", "tests/corpus"] {
+        for e in std::fs::read_dir(root.join(d)).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "las" || x == "laz") {
+                files.push(p);
+            }
+        }
+    }
+    assert!(files.len() >= 12, "{files:?}");
+    let (mut ok, mut failed) = (0, 0);
+    for p in &files {
+        for (copc, chunked) in [(true, true), (false, true), (false, false)] {
+            match all_of(p, copc, chunked) {
+                Ok(_) => ok += 1,
+                Err(e) => {
+                    failed += 1;
+                    assert!(!e.to_string().contains('\n'), "{e}");
+                }
+            }
+        }
+    }
+    assert!(ok > 0 && failed > 0, "{ok} {failed}");
+    let seen = SEEN.lock().unwrap().clone();
+    let reader = Some(super::super::producer::READER_THREAD.to_string());
+    assert!(seen.iter().all(|n| *n == reader), "{seen:?}");
+}
+
+/// A header that declares fewer points than the chunks hold is read to its
+/// count as by the crate; one that declares more is an error.
+#[test]
+fn laz14_header_count_caps_or_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("n.laz");
+    write_rich_laz(&path, 6, 0, 70_000, 3);
+    let good = std::fs::read(&path).unwrap();
+    let with_count = |n: u64| {
+        let mut b = good.clone();
+        // LAS 1.4's 64-bit point count (header byte 247), and the legacy one
+        // (byte 107), which the las crate writes too.
+        b[247..255].copy_from_slice(&n.to_le_bytes());
+        b[107..111].copy_from_slice(&(n as u32).to_le_bytes());
+        std::fs::write(&path, &b).unwrap();
+    };
+    with_count(60_001);
+    let (a, sa, _) = all_of(&path, true, true).unwrap();
+    let (b, sb, _) = all_of(&path, true, false).unwrap();
+    assert_eq!((a.len(), b.len()), (60_001, 60_001));
+    assert!(a == b && sa == sb);
+    // A fixed-size table's last chunk may hold up to 50 000: its own count
+    // (in its head) tells.
+    with_count(70_001);
+    let e = all_of(&path, true, true).unwrap_err().to_string();
+    assert!(
+        e.contains("n.laz")
+            && e.contains("reading points 50000.. of 70001")
+            && e.contains("says 20001 points, the chunk's data 20000"),
+        "{e}"
+    );
+    with_count(100_001);
+    let e = all_of(&path, true, true).unwrap_err().to_string();
+    assert!(
+        e.contains(
+            "reading points 100000.. of 100001: the LAZ chunk table holds only 100000 points"
+        ),
+        "{e}"
+    );
+    // The crate path fails too (when reading).
+    assert!(all_of(&path, true, false).is_err());
 }

@@ -1,0 +1,423 @@
+//! LAZ of LAS 1.4 point formats 6-10 decoded chunk by chunk, coordinates only.
+//!
+//! Why: these formats compress each field in its own layer, so a reader that
+//! wants X, Y and Z can skip the layers of intensity, GPS time, colour,
+//! classification and the rest unread (`laz::DecompressionSelection`), and
+//! mapgauge needs nothing else. The LASzip chunks (from the chunk table of a
+//! plain LAZ file, or the octree nodes of a COPC file) are read with `pread`
+//! and decoded in parallel on the reader pool, in file order, one block of
+//! chunks at a time, so memory stays at a few blocks. Point formats 0-5 are
+//! compressed point by point (nothing to skip) and stay on the `las` crate.
+//!
+//! COPC ([`Octree`]) is the hinted case: given a region hint, only the nodes
+//! near the targets are decoded.
+
+use super::super::producer::{on_reader_thread, panic_text, reader_pool};
+use super::super::{CloudInfo, Format, PointReader, ReadStats, TileStats};
+use super::laz_check::{check_layers, layer_words};
+use crate::{Error, Point, Result};
+use laz::record::{LayeredPointRecordDecompressor, RecordDecompressor};
+use rayon::prelude::*;
+use std::fs::File;
+use std::io::{BufReader, Seek, SeekFrom};
+use std::os::unix::fs::FileExt;
+use std::path::{Path, PathBuf};
+
+/// Points decoded per block (about 20 LASzip chunks, so every core has one).
+const BLOCK_POINTS: u64 = 1 << 20;
+
+/// Set (to anything) to read plain LAZ of formats 6-10 through the `las`
+/// crate (every layer decompressed), as before coordinate-only decoding:
+/// the benchmark's "before".
+pub(super) const CRATE_PATH_ENV: &str = "MAPGAUGE_LAZ_CRATE";
+
+/// One LASzip chunk: where its bytes are and how many points to decode.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Chunk {
+    pub(super) offset: u64,
+    pub(super) bytes: u64,
+    pub(super) points: u64,
+}
+
+/// A COPC file's octree: the voxel key and cube of each chunk (node).
+pub(super) struct Octree {
+    /// Level, x, y, z of each node's voxel key.
+    pub(super) keys: Vec<[i32; 4]>,
+    /// Each node's cube: min x, min y, min z, max x, max y, max z.
+    pub(super) cubes: Vec<[f64; 6]>,
+    /// How far outside its cube a point may lie (coordinate rounding).
+    pub(super) slack: f64,
+    pub(super) counts: TileStats,
+}
+
+/// What a chunked reader is built from (see [`ChunkedLaz::new`]).
+pub(super) struct Layout {
+    pub(super) info: CloudInfo,
+    /// Every chunk with points, in file order.
+    pub(super) chunks: Vec<Chunk>,
+    pub(super) items: Vec<laz::LazItem>,
+    pub(super) transforms: las::Vector<las::Transform>,
+    /// Bytes counted as read before any chunk (header, VLRs, and for COPC
+    /// the hierarchy).
+    pub(super) head_bytes: u64,
+}
+
+/// A LAZ file of layered chunks read chunk by chunk, X, Y, Z only.
+pub(super) struct ChunkedLaz {
+    path: PathBuf,
+    file: File,
+    info: CloudInfo,
+    chunks: Vec<Chunk>,
+    /// Indices of the chunks to read, in file order.
+    order: Vec<usize>,
+    next: usize,
+    items: Vec<laz::LazItem>,
+    /// Bytes of a record (a chunk's first point), and its layer-size words.
+    first: usize,
+    words: usize,
+    transforms: las::Vector<las::Transform>,
+    stats: ReadStats,
+    bytes: u64,
+    /// Points in the chunks before each one (for a plain file's errors).
+    before: Vec<u64>,
+    octree: Option<Octree>,
+    started: bool,
+    pool: Option<rayon::ThreadPool>,
+}
+
+/// The layers read: X, Y (with returns and channel, which predict them) and Z.
+fn selection() -> laz::DecompressionSelection {
+    laz::DecompressionSelection::xy_returns_channel().decompress_z()
+}
+
+/// Whether the `laz` items are layered (item versions 3 and 4: the crate
+/// picks its layered decompressor by the first item's version) with X, Y, Z
+/// at the start of a record (point formats 6-10): the layer-size words of a
+/// chunk's head.
+fn layered(items: &[laz::LazItem]) -> Option<usize> {
+    let first = items.first()?;
+    (first.item_type() == laz::LazItemType::Point14 && matches!(first.version(), 3 | 4))
+        .then(|| layer_words(items))
+        .flatten()
+}
+
+impl ChunkedLaz {
+    /// `None` when the items are not layered with X, Y, Z first (point
+    /// formats 0-5): those stay on the `las` crate.
+    pub(super) fn new(
+        path: &Path,
+        file: &File,
+        lay: Layout,
+        octree: Option<Octree>,
+    ) -> Result<Option<Self>> {
+        let Some(words) = layered(&lay.items) else {
+            return Ok(None);
+        };
+        let file = file.try_clone().map_err(|e| Error::io(path, e))?;
+        let before = lay
+            .chunks
+            .iter()
+            .scan(0u64, |s, c| {
+                let b = *s;
+                *s = s.saturating_add(c.points);
+                Some(b)
+            })
+            .collect();
+        Ok(Some(ChunkedLaz {
+            path: path.to_path_buf(),
+            file,
+            info: lay.info,
+            order: (0..lay.chunks.len()).collect(),
+            chunks: lay.chunks,
+            next: 0,
+            first: lay.items.iter().map(|i| usize::from(i.size())).sum(),
+            words,
+            items: lay.items,
+            transforms: lay.transforms,
+            stats: ReadStats::default(),
+            bytes: lay.head_bytes,
+            before,
+            octree,
+            started: false,
+            pool: reader_pool(),
+        }))
+    }
+
+    /// Decodes chunk `i`: its finite points and the count of non-finite ones.
+    fn decode(&self, i: usize) -> std::result::Result<(Vec<Point>, u64), String> {
+        let c = &self.chunks[i];
+        let mut raw = vec![0u8; c.bytes as usize];
+        self.file
+            .read_exact_at(&mut raw, c.offset)
+            .map_err(|e| e.to_string())?;
+        // The chunk's own head: its layers fit in it, and it holds the points
+        // the hierarchy (the chunk table) says.
+        let count = u64::from(check_layers(&raw, self.first, self.words, c.bytes)?);
+        if self.octree.is_some() && count != c.points {
+            return Err(format!(
+                "the hierarchy says {} points, the node's data {count}",
+                c.points
+            ));
+        }
+        if count < c.points {
+            return Err(format!(
+                "the chunk table says {} points, the chunk's data {count}",
+                c.points
+            ));
+        }
+        let mut d = LayeredPointRecordDecompressor::new(std::io::Cursor::new(&raw[..]));
+        d.set_fields_from(&self.items).map_err(|e| e.to_string())?;
+        d.set_selection(selection());
+        // One record at a time: the skipped fields are never copied out, and
+        // a header claiming huge records costs one record, not a block of them.
+        let mut rec = vec![0u8; self.first];
+        let t = &self.transforms;
+        let mut pts = Vec::with_capacity(c.points.min(1 << 16) as usize);
+        let mut skipped = 0;
+        for _ in 0..c.points {
+            d.decompress_next(&mut rec).map_err(|e| e.to_string())?;
+            let r = &rec;
+            let v = |o: usize| i32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
+            let q = Point::new(t.x.direct(v(0)), t.y.direct(v(4)), t.z.direct(v(8)));
+            if q.x.is_finite() && q.y.is_finite() && q.z.is_finite() {
+                pts.push(q);
+            } else {
+                skipped += 1;
+            }
+        }
+        Ok((pts, skipped))
+    }
+
+    /// Decodes `batch` (chunk indices) on the reader pool, in order.
+    fn decode_all(&self, batch: &[usize]) -> Result<Vec<(Vec<Point>, u64)>> {
+        let run = || {
+            batch
+                .par_iter()
+                .map(|&i| self.decode(i).map_err(|m| (i, m)))
+                .collect::<std::result::Result<Vec<_>, _>>()
+        };
+        // A panic in the laz crate on malformed data becomes this file's
+        // error (on reader-named threads, no panic hook reports it).
+        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match &self.pool {
+            Some(pool) => pool.install(run),
+            None => run(),
+        }));
+        let msg = match (out, &self.octree) {
+            (Ok(Ok(v)), _) => return Ok(v),
+            (Ok(Err((i, m))), Some(o)) => format!("COPC node {}: {m}", key_text(&o.keys[i])),
+            (Ok(Err((i, m))), None) => format!(
+                "LAS: reading points {}.. of {}: LAZ chunk {i}: {m}",
+                self.before[i],
+                self.info.declared_points.unwrap_or(0)
+            ),
+            (Err(_), Some(_)) => "the decoder failed on malformed data (a COPC node)".into(),
+            (Err(panic), None) => format!(
+                "the decoder failed on malformed data ({})",
+                panic_text(&*panic)
+            ),
+        };
+        Err(Error::format(&self.path, msg))
+    }
+
+    /// Some nodes were left unread: every point read must lie in its cube.
+    fn check_cube(&self, i: usize, pts: &[Point]) -> Result<()> {
+        let Some(o) = &self.octree else {
+            return Ok(());
+        };
+        if o.counts.selected == o.counts.tiles {
+            return Ok(());
+        }
+        let (c, s) = (&o.cubes[i], o.slack);
+        if let Some(p) = pts.iter().find(|p| {
+            !(p.x >= c[0] - s
+                && p.x <= c[3] + s
+                && p.y >= c[1] - s
+                && p.y <= c[4] + s
+                && p.z >= c[2] - s
+                && p.z <= c[5] + s)
+        }) {
+            return Err(Error::format(
+                &self.path,
+                format!(
+                    "COPC node {} holds point ({}, {}, {}) outside its cube x [{}, {}], y [{}, {}], z [{}, {}]: the octree cannot tell which nodes to skip (convert the file to plain LAZ with `mapgauge convert`, which reads every node)",
+                    key_text(&o.keys[i]),
+                    p.x,
+                    p.y,
+                    p.z,
+                    c[0],
+                    c[3],
+                    c[1],
+                    c[4],
+                    c[2],
+                    c[5]
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn key_text(k: &[i32; 4]) -> String {
+    format!("{}-{}-{}-{}", k[0], k[1], k[2], k[3])
+}
+
+impl PointReader for ChunkedLaz {
+    fn info(&self) -> &CloudInfo {
+        &self.info
+    }
+
+    fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+        self.started = true;
+        buf.clear();
+        while self.next < self.order.len() {
+            let mut end = self.next;
+            let mut pts = 0;
+            while end < self.order.len()
+                && (end == self.next || pts + self.chunks[self.order[end]].points <= BLOCK_POINTS)
+            {
+                pts += self.chunks[self.order[end]].points;
+                end += 1;
+            }
+            let batch = self.order[self.next..end].to_vec();
+            let decoded = self.decode_all(&batch)?;
+            for (&i, (pts, skipped)) in batch.iter().zip(decoded) {
+                self.check_cube(i, &pts)?;
+                self.stats.points += pts.len() as u64;
+                self.stats.skipped_nonfinite += skipped;
+                self.bytes += self.chunks[i].bytes;
+                if let Some(o) = &mut self.octree {
+                    o.counts.opened += 1;
+                    o.counts.bytes_opened += self.chunks[i].bytes;
+                }
+                buf.extend_from_slice(&pts);
+            }
+            self.next = end;
+            if !buf.is_empty() {
+                return Ok(true);
+            }
+        }
+        // A plain file has been read to its end (the chunk table after the chunks).
+        if self.octree.is_none() {
+            self.bytes = self.info.file_bytes;
+        }
+        Ok(false)
+    }
+
+    fn stats(&self) -> ReadStats {
+        self.stats
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.bytes
+    }
+
+    fn hint_discs(&mut self, centres: &[[f64; 2]], radius: f64) {
+        let Some(o) = &mut self.octree else {
+            return;
+        };
+        if self.started
+            || !(radius.is_finite() && radius >= 0.0)
+            || centres.iter().flatten().any(|v| !v.is_finite())
+        {
+            return;
+        }
+        let s = o.slack;
+        let near = |c: &[f64; 6]| {
+            centres.iter().any(|p| {
+                let dx = (c[0] - s - p[0]).max(p[0] - c[3] - s).max(0.0);
+                let dy = (c[1] - s - p[1]).max(p[1] - c[4] - s).max(0.0);
+                dx * dx + dy * dy <= radius * radius
+            })
+        };
+        let cubes = &o.cubes;
+        self.order.retain(|&i| near(&cubes[i]));
+        o.counts.selected = self.order.len() as u64;
+    }
+
+    fn tile_stats(&self) -> Option<TileStats> {
+        self.octree.as_ref().map(|o| o.counts)
+    }
+}
+
+/// Opens a plain LAZ file of point format 6-10 for coordinate-only decoding
+/// (its chunk table already checked by `laz_check`). `None` sends it to the
+/// `las` crate: formats 0-5, and a file the crate cannot parse (it then
+/// reports why).
+pub(super) fn open_plain(path: &Path, file: &File, file_bytes: u64) -> Result<Option<ChunkedLaz>> {
+    // The las and laz crates parse the header and chunk table; they can panic
+    // on malformed data, so on a reader thread (the panic becomes an error).
+    let parsed = on_reader_thread(path, || {
+        let own = || File::open(path).map_err(|e| Error::io(path, e));
+        let Ok(r) = las::Reader::new(BufReader::new(own()?)) else {
+            return Ok(None);
+        };
+        let h = r.header();
+        let fmt = *h.point_format();
+        if !fmt.is_compressed || fmt.to_u8().is_ok_and(|f| f < 6) {
+            return Ok(None);
+        }
+        let (Ok(vlr), Ok(raw)) = (h.laz_vlr(), h.clone().into_raw()) else {
+            return Ok(None);
+        };
+        let (total, transforms) = (h.number_of_points(), *h.transforms());
+        drop(r);
+        if vlr.items_size() != u64::from(fmt.len()) {
+            return Ok(None);
+        }
+        let start = u64::from(raw.offset_to_point_data);
+        let mut f = BufReader::new(own()?);
+        f.seek(SeekFrom::Start(start))
+            .map_err(|e| Error::io(path, e))?;
+        let Ok(table) = laz::laszip::ChunkTable::read_from(&mut f, &vlr) else {
+            return Ok(None);
+        };
+        let fixed = (!vlr.uses_variable_size_chunks()).then(|| u64::from(vlr.chunk_size()));
+        Ok(Some((vlr, total, transforms, start, table, fixed)))
+    })?;
+    let Some((vlr, total, transforms, start, table, fixed)) = parsed else {
+        return Ok(None);
+    };
+    // The chunks follow the 8-byte chunk table offset. Decode as many points
+    // as the header declares: every chunk's (a fixed-size table's last chunk
+    // holds the rest), and none after the header's count is reached.
+    let mut chunks = Vec::with_capacity(table.len());
+    let (mut at, mut sum) = (start + 8, 0u64);
+    for e in table.as_ref() {
+        if sum == total {
+            break;
+        }
+        let points = fixed.unwrap_or(e.point_count).min(total - sum);
+        let end = at.checked_add(e.byte_count).filter(|&b| b <= file_bytes);
+        let Some(end) = end else {
+            return Ok(None); // refused by `laz_check` already
+        };
+        if points > 0 {
+            chunks.push(Chunk {
+                offset: at,
+                bytes: e.byte_count,
+                points,
+            });
+        }
+        (at, sum) = (end, sum + points);
+    }
+    if sum < total {
+        return Err(Error::format(
+            path,
+            format!(
+                "LAS: reading points {sum}.. of {total}: the LAZ chunk table holds only {sum} points"
+            ),
+        ));
+    }
+    let lay = Layout {
+        info: CloudInfo {
+            format: Format::Laz,
+            declared_points: Some(total),
+            file_bytes,
+        },
+        chunks,
+        items: vlr.items().clone(),
+        transforms,
+        head_bytes: start,
+    };
+    ChunkedLaz::new(path, file, lay, None)
+}
