@@ -175,6 +175,23 @@ impl Lane {
     }
 }
 
+/// Locks `m[own]`, or when it is taken, any free one (a thread that ran a
+/// second piece while waiting inside a first, through a reader that waits on
+/// rayon, would otherwise wait for itself); waits for `m[own]` only when
+/// every one is taken. Returns the index locked.
+fn lock_any<T>(m: &[Mutex<T>], own: usize) -> (usize, std::sync::MutexGuard<'_, T>) {
+    use std::sync::TryLockError;
+    for k in 0..m.len() {
+        let i = (own + k) % m.len();
+        match m[i].try_lock() {
+            Ok(g) => return (i, g),
+            Err(TryLockError::Poisoned(e)) => return (i, e.into_inner()),
+            Err(TryLockError::WouldBlock) => {}
+        }
+    }
+    (own, m[own].lock().unwrap_or_else(|e| e.into_inner()))
+}
+
 /// Where a piece's hits lie: lane, segment, start, end.
 type Span = (usize, usize, usize, usize);
 
@@ -413,10 +430,10 @@ pub fn loose_crop_each(
                         // The worker's own lane; the last one is shared by
                         // any other thread (none in practice): the locks
                         // keep it correct either way.
-                        let lane =
+                        let own =
                             rayon::current_thread_index().map_or(lanes - 1, |t| t.min(lanes - 1));
-                        let mut sc = scratch[lane].lock().unwrap_or_else(|e| e.into_inner());
-                        let mut l = cur[lane].lock().unwrap_or_else(|e| e.into_inner());
+                        let (_, mut sc) = lock_any(scratch, own);
+                        let (lane, mut l) = lock_any(cur, own);
                         let block = match region {
                             Some(r) => batch.piece_within(i, &mut sc, r),
                             None => batch.piece(i, &mut sc),

@@ -341,3 +341,16 @@ fn thinning_is_bounded_uniform_and_order_free() {
     c.extend(&pts);
     assert_eq!((c.points.len(), c.level), (pts.len(), 0));
 }
+
+#[test]
+fn a_taken_lane_is_passed_over_not_waited_for() {
+    let m: Vec<std::sync::Mutex<u32>> = (0..3).map(std::sync::Mutex::new).collect();
+    let (i, g) = lock_any(&m, 1);
+    assert_eq!((i, *g), (1, 1));
+    // The same thread asks again while holding lane 1: lane 2, not a deadlock.
+    let (j, h) = lock_any(&m, 1);
+    assert_eq!((j, *h), (2, 2));
+    let (k, f) = lock_any(&m, 1);
+    assert_eq!((k, *f), (0, 0));
+    drop((g, h, f));
+}
