@@ -21,8 +21,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Bytes of file per piece (one thread's unit of work).
 const PIECE_BYTES: usize = 128 << 10;
-/// Pieces per batch: enough to keep every core busy between two batches.
-const BATCH_PIECES: usize = 128;
+/// Pieces per batch (4 MiB of file): enough to keep every core busy between
+/// two batches, and few, because the crop holds a batch's hits until the
+/// next batch is written: on this 2-core VM a fresh page costs more than its
+/// share of the read (128 pieces held 40 % more pages, for no speed).
+const BATCH_PIECES: usize = 32;
 
 /// Where one coordinate sits in a record and how it is stored.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -304,12 +307,23 @@ fn f32_front_finite<const S: usize>(bytes: &[u8]) -> bool {
     }
     // x, y, z and the word after them; that lane is dropped at the end.
     let mut acc = [0u32; 4];
-    for r in bytes.chunks_exact(S) {
+    let head = |acc: &mut [u32; 4], r: &[u8]| {
         let head = get::<16>(r, 0);
         for (j, a) in acc.iter_mut().enumerate() {
             let v = f32::from_le_bytes(get::<4>(&head, 4 * j));
             *a |= (v - v).to_bits();
         }
+    };
+    // Four records a turn: the loop's own count and branch were a third of
+    // its instructions.
+    let mut quads = bytes.chunks_exact(4 * S);
+    for q in &mut quads {
+        for k in 0..4 {
+            head(&mut acc, &q[k * S..]);
+        }
+    }
+    for r in quads.remainder().chunks_exact(S) {
+        head(&mut acc, r);
     }
     acc[0] | acc[1] | acc[2] == 0
 }

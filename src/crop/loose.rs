@@ -123,6 +123,78 @@ pub struct LooseCrop {
     pub skipped_nonfinite: u64,
 }
 
+/// Target ids and points of hits side by side (a pushed (u32, Point) pair is
+/// built on the stack and read back with a wider load, which stalls).
+#[derive(Default)]
+struct Hits {
+    ids: Vec<u32>,
+    pts: Vec<Point>,
+}
+
+/// Hits a segment of a [`Lane`] has room for (768 KiB of points; capacity
+/// that is never written is never faulted in).
+const SEGMENT: usize = 1 << 15;
+
+/// The hits of one thread in one batch, in segments of fixed capacity: a
+/// segment never grows while it is in use (most pieces), so hits are never
+/// copied to a larger list, and the segments are reused batch after batch,
+/// so their pages are faulted in once.
+#[derive(Default)]
+struct Lane {
+    segments: Vec<Hits>,
+    /// Segments in use this batch (the rest are empty, kept for later).
+    used: usize,
+}
+
+impl Lane {
+    fn clear(&mut self) {
+        for h in &mut self.segments[..self.used] {
+            h.ids.clear();
+            h.pts.clear();
+        }
+        self.used = 0;
+    }
+
+    /// The index of a segment with room for `n` more hits: the last one in
+    /// use, or the next one (grown to hold `n` if it cannot).
+    fn room(&mut self, n: usize) -> usize {
+        if let Some(h) = self.used.checked_sub(1).and_then(|i| self.segments.get(i)) {
+            let free = |c: usize, l: usize| c - l >= n;
+            if free(h.pts.capacity(), h.pts.len()) && free(h.ids.capacity(), h.ids.len()) {
+                return self.used - 1;
+            }
+        }
+        if self.used == self.segments.len() {
+            self.segments.push(Hits::default());
+        }
+        let h = &mut self.segments[self.used];
+        h.pts.reserve_exact(n.max(SEGMENT));
+        h.ids.reserve_exact(n.max(SEGMENT));
+        self.used += 1;
+        self.used - 1
+    }
+}
+
+/// Locks `m[own]`, or when it is taken, any free one (a thread that ran a
+/// second piece while waiting inside a first, through a reader that waits on
+/// rayon, would otherwise wait for itself); waits for `m[own]` only when
+/// every one is taken. Returns the index locked.
+fn lock_any<T>(m: &[Mutex<T>], own: usize) -> (usize, std::sync::MutexGuard<'_, T>) {
+    use std::sync::TryLockError;
+    for k in 0..m.len() {
+        let i = (own + k) % m.len();
+        match m[i].try_lock() {
+            Ok(g) => return (i, g),
+            Err(TryLockError::Poisoned(e)) => return (i, e.into_inner()),
+            Err(TryLockError::WouldBlock) => {}
+        }
+    }
+    (own, m[own].lock().unwrap_or_else(|e| e.into_inner()))
+}
+
+/// Where a piece's hits lie: lane, segment, start, end.
+type Span = (usize, usize, usize, usize);
+
 /// Upper bound on grid cells; the cell size grows when targets span a huge area.
 const MAX_CELLS: usize = 1 << 22;
 
@@ -208,7 +280,11 @@ impl CentreIndex {
         if !(fx >= 0.0 && fy >= 0.0 && fx < self.nxf && fy < self.nyf) {
             return &[];
         }
-        let c = (fy as usize).min(self.ny - 1) * self.nx + (fx as usize).min(self.nx - 1);
+        // Both lie in [0, 2^22) here (at most `MAX_CELLS` cells), so a u32
+        // conversion truncates exactly as a usize one would, and costs one
+        // instruction instead of a 64-bit unsigned conversion's dozen.
+        let c =
+            (fy as u32 as usize).min(self.ny - 1) * self.nx + (fx as u32 as usize).min(self.nx - 1);
         match (self.starts.get(c), self.starts.get(c + 1)) {
             (Some(&a), Some(&b)) if a < b => self.ids.get(a as usize..b as usize).unwrap_or(&[]),
             _ => &[],
@@ -278,26 +354,41 @@ pub fn loose_crop_each(
         d2 < r2
     };
     // Pieces are read, decoded and tested by the same thread, so each piece's
-    // points are used while they are in its cache; hits are appended in piece
-    // order, so the result does not depend on the thread count.
-    let pool: Mutex<Vec<Scratch>> = Mutex::new(Vec::new());
+    // points are used while they are in its cache; hits are handed to `sink`
+    // in piece order, so the result does not depend on the thread count.
+    //
+    // Each worker thread has its own scratch buffers and, per batch, its own
+    // hit lane: a piece appends its hits to the lane of the thread that ran
+    // it and records where they lie. Two generations of lanes: the hits of
+    // one batch are handed to `sink` on this thread while the pool works on
+    // the next, so neither core waits for the writer. Lanes keep their memory
+    // across batches, so it is faulted in once, and it is bounded by a
+    // batch's hits per thread (one list per piece, as before, grew by copying
+    // and grew each list to the most hits its slot ever saw: with 2 x 128
+    // slots that was about half of the crop's page faults).
+    let lanes = rayon::current_num_threads() + 1;
+    let scratch: Vec<Mutex<Scratch>> = (0..lanes).map(|_| Mutex::default()).collect();
+    let mut cur: Vec<Mutex<Lane>> = (0..lanes).map(|_| Mutex::default()).collect();
+    let mut prev: Vec<Mutex<Lane>> = (0..lanes).map(|_| Mutex::default()).collect();
+    // Per piece of a batch: (lane, segment, start, end) of its hits.
+    let mut cur_spans: Vec<Span> = Vec::new();
+    let mut prev_spans: Vec<Span> = Vec::new();
     let mut buf = Vec::new();
-    // One hit list per piece, for two batches: the hits of one batch are
-    // handed to `sink` on this thread while the pool works on the next, so
-    // neither core waits for the writer. The lists are kept across batches,
-    // so their memory is allocated and faulted in once.
-    // (Target ids and points are kept apart: a pushed (u32, Point) pair is
-    // built on the stack and read back with a wider load, which stalls.)
-    let mut cur: Vec<(Vec<u32>, Vec<Point>)> = Vec::new();
-    let mut prev: Vec<(Vec<u32>, Vec<Point>)> = Vec::new();
-    let mut prev_n = 0;
     // A piece's hits usually belong to one target and go to `sink` as they
     // lie, without a copy; a piece that mixes targets (crops overlapping, or
     // two targets near one piece) is sorted out per target first, in order,
     // so that `sink` is never called point by point.
     let mut per: Vec<Vec<Point>> = vec![Vec::new(); centres.len()];
-    let mut drain = |hits: &[(Vec<u32>, Vec<Point>)]| -> Result<()> {
-        for (ids, pts) in hits {
+    let mut drain = |lanes: &mut [Mutex<Lane>], spans: &[Span]| -> Result<()> {
+        let lanes: Vec<&Lane> = lanes
+            .iter_mut()
+            .map(|m| &*m.get_mut().unwrap_or_else(|e| e.into_inner()))
+            .collect();
+        for &(lane, seg, a, b) in spans {
+            let Some(h) = lanes.get(lane).and_then(|l| l.segments.get(seg)) else {
+                continue;
+            };
+            let (ids, pts) = (&h.ids[a..b], &h.pts[a..b]);
             let Some(&first) = ids.first() else {
                 continue;
             };
@@ -322,56 +413,59 @@ pub fn loose_crop_each(
             break;
         };
         let n = batch.pieces();
-        if cur.len() < n {
-            cur.resize_with(n, Default::default);
+        for l in cur.iter_mut() {
+            l.get_mut().unwrap_or_else(|e| e.into_inner()).clear();
         }
+        cur_spans.clear();
+        cur_spans.resize(n, (0, 0, 0, 0));
         let mut done: Vec<Result<()>> = Vec::new();
         let drained = rayon::in_place_scope(|s| {
-            let (cur, done, batch) = (&mut cur, &mut done, &batch);
-            let (pool, region, grid, inside) = (&pool, &region, &grid, &inside);
+            let (cur, spans, done, batch) = (&cur, &mut cur_spans, &mut done, &batch);
+            let (scratch, region, grid, inside) = (&scratch, &region, &grid, &inside);
             s.spawn(move |_| {
-                *done = cur[..n]
+                *done = spans
                     .par_iter_mut()
                     .enumerate()
-                    .map(|(i, (ids, pts))| {
-                        ids.clear();
-                        pts.clear();
-                        let mut scratch = pool
-                            .lock()
-                            .ok()
-                            .and_then(|mut p| p.pop())
-                            .unwrap_or_default();
+                    .map(|(i, span)| {
+                        // The worker's own lane; the last one is shared by
+                        // any other thread (none in practice): the locks
+                        // keep it correct either way.
+                        let own =
+                            rayon::current_thread_index().map_or(lanes - 1, |t| t.min(lanes - 1));
+                        let (_, mut sc) = lock_any(scratch, own);
+                        let (lane, mut l) = lock_any(cur, own);
                         let block = match region {
-                            Some(r) => batch.piece_within(i, &mut scratch, r),
-                            None => batch.piece(i, &mut scratch),
-                        };
-                        let res = block.map(|block| {
-                            for p in block {
-                                for &i in grid.candidates(p) {
-                                    if inside(p, &centres[i as usize]) {
-                                        ids.push(i);
-                                        pts.push(*p);
-                                    }
+                            Some(r) => batch.piece_within(i, &mut sc, r),
+                            None => batch.piece(i, &mut sc),
+                        }?;
+                        // Room for every point of the block: more hits only
+                        // where crops overlap (then the segment grows).
+                        let seg = l.room(block.len());
+                        let h = &mut l.segments[seg];
+                        let start = h.pts.len();
+                        for p in block {
+                            for &t in grid.candidates(p) {
+                                if inside(p, &centres[t as usize]) {
+                                    h.ids.push(t);
+                                    h.pts.push(*p);
                                 }
                             }
-                        });
-                        if let Ok(mut p) = pool.lock() {
-                            p.push(scratch);
                         }
-                        res
+                        *span = (lane, seg, start, h.pts.len());
+                        Ok(())
                     })
                     .collect();
             });
-            drain(&prev[..prev_n])
+            drain(&mut prev, &prev_spans)
         });
         drop(batch);
         drained?;
         done.into_iter().collect::<Result<()>>()?;
         std::mem::swap(&mut cur, &mut prev);
-        prev_n = n;
+        std::mem::swap(&mut cur_spans, &mut prev_spans);
         progress(reader.bytes_read());
     }
-    drain(&prev[..prev_n])?;
+    drain(&mut prev, &prev_spans)?;
     let st = reader.stats();
     Ok((st.points, st.skipped_nonfinite))
 }

@@ -200,6 +200,73 @@ fn region_filtered_file_reads_equal_brute_force() {
     }
 }
 
+/// A dense map read from a file whose batches hold more hits per thread
+/// than a lane segment (so pieces land in several segments, and crops
+/// overlap): every thread count hands the sink the same points in map order,
+/// equal to brute force.
+#[test]
+fn dense_file_crops_are_in_map_order_at_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+    // 150,000 points in a 16 m square: nearly all of them within 5 m of one
+    // of the two overlapping targets, so one batch holds far more than
+    // `SEGMENT` hits.
+    let pts: Vec<Point> = (0..150_000)
+        .map(|_| {
+            Point::new(
+                rng.random_range(-8.0..8.0),
+                rng.random_range(-8.0..8.0),
+                rng.random_range(0.0..2.0),
+            )
+        })
+        .collect();
+    let centres = [Point::new(-2.0, 0.0, 1.0), Point::new(2.5, 0.5, 1.0)];
+    let path = dir.path().join("dense.pcd");
+    let mut w = crate::cloud::CloudWriter::create(&path, crate::cloud::OutFormat::Pcd).unwrap();
+    w.write(&pts).unwrap();
+    w.finish().unwrap();
+    let params = LooseParams {
+        max_points: 0,
+        ..LooseParams::default()
+    };
+    let want: Vec<Vec<Point>> = centres
+        .iter()
+        .map(|c| {
+            pts.iter()
+                .copied()
+                .filter(|p| {
+                    let (dx, dy) = (p.x - c.x, p.y - c.y);
+                    dx * dx + dy * dy < 25.0
+                })
+                .collect()
+        })
+        .collect();
+    assert!(want.iter().map(Vec::len).sum::<usize>() > 2 * super::SEGMENT);
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let got = pool.install(|| {
+            let mut r = crate::cloud::open(&path).unwrap();
+            let mut got = vec![Vec::new(); centres.len()];
+            loose_crop_each(
+                &mut *r,
+                &centres,
+                &params,
+                |_| {},
+                |i, p| {
+                    got[i].extend_from_slice(p);
+                    Ok(())
+                },
+            )
+            .unwrap();
+            got
+        });
+        assert_eq!(got, want, "{threads} threads");
+    }
+}
+
 #[test]
 fn order_is_independent_of_block_size() {
     let (pts, centres) = scene([0.0; 3], 3);
@@ -273,4 +340,17 @@ fn thinning_is_bounded_uniform_and_order_free() {
     let mut c = Thinned::new(0);
     c.extend(&pts);
     assert_eq!((c.points.len(), c.level), (pts.len(), 0));
+}
+
+#[test]
+fn a_taken_lane_is_passed_over_not_waited_for() {
+    let m: Vec<std::sync::Mutex<u32>> = (0..3).map(std::sync::Mutex::new).collect();
+    let (i, g) = lock_any(&m, 1);
+    assert_eq!((i, *g), (1, 1));
+    // The same thread asks again while holding lane 1: lane 2, not a deadlock.
+    let (j, h) = lock_any(&m, 1);
+    assert_eq!((j, *h), (2, 2));
+    let (k, f) = lock_any(&m, 1);
+    assert_eq!((k, *f), (0, 0));
+    drop((g, h, f));
 }
