@@ -188,33 +188,35 @@ impl ChunkedLaz {
         Ok((pts, skipped))
     }
 
-    /// Decodes `batch` (chunk indices) on the reader pool, in order.
+    /// Decodes `batch` (chunk indices) on the reader pool, in order. Of
+    /// several bad chunks the first in file order names the error, whichever
+    /// thread failed first: the message is part of the output.
     fn decode_all(&self, batch: &[usize]) -> Result<Vec<(Vec<Point>, u64)>> {
-        let run = || {
-            batch
-                .par_iter()
-                .map(|&i| self.decode(i).map_err(|m| (i, m)))
-                .collect::<std::result::Result<Vec<_>, _>>()
-        };
-        // A panic in the laz crate on malformed data becomes this file's
+        // A panic in the laz crate on malformed data becomes that chunk's
         // error (on reader-named threads, no panic hook reports it).
-        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match &self.pool {
+        let one = |i: usize| {
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.decode(i)))
+                .map_err(|panic| (i, Err(panic_text(&*panic))))?
+                .map_err(|m| (i, Ok(m)))
+        };
+        let run = || batch.par_iter().map(|&i| one(i)).collect::<Vec<_>>();
+        let out = match &self.pool {
             Some(pool) => pool.install(run),
             None => run(),
-        }));
-        let msg = match (out, &self.octree) {
-            (Ok(Ok(v)), _) => return Ok(v),
-            (Ok(Err((i, m))), Some(o)) => format!("COPC node {}: {m}", key_text(&o.keys[i])),
-            (Ok(Err((i, m))), None) => format!(
+        };
+        let (i, fail) = match out.into_iter().collect::<std::result::Result<Vec<_>, _>>() {
+            Ok(v) => return Ok(v),
+            Err(e) => e,
+        };
+        let msg = match (fail, &self.octree) {
+            (Ok(m), Some(o)) => format!("COPC node {}: {m}", key_text(&o.keys[i])),
+            (Ok(m), None) => format!(
                 "LAS: reading points {}.. of {}: LAZ chunk {i}: {m}",
                 self.before[i],
                 self.info.declared_points.unwrap_or(0)
             ),
             (Err(_), Some(_)) => "the decoder failed on malformed data (a COPC node)".into(),
-            (Err(panic), None) => format!(
-                "the decoder failed on malformed data ({})",
-                panic_text(&*panic)
-            ),
+            (Err(panic), None) => format!("the decoder failed on malformed data ({panic})"),
         };
         Err(Error::format(&self.path, msg))
     }

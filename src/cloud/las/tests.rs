@@ -26,19 +26,24 @@ fn truth(n: usize) -> Vec<Point> {
         .collect()
 }
 
-/// Writes `pts` with the las crate itself in point format `fmt`.
-fn write_with_crate(path: &Path, fmt: u8, version: (u8, u8), pts: &[Point]) {
-    let mut b = las::Builder::from(version);
-    b.point_format = las::point::Format::new(fmt).unwrap();
+/// Millimetre scale, offsets of a UTM-sized site.
+fn utm_mm() -> las::Vector<las::Transform> {
     let tr = |o| las::Transform {
         scale: 0.001,
         offset: o,
     };
-    b.transforms = las::Vector {
+    las::Vector {
         x: tr(350000.0),
         y: tr(4150000.0),
         z: tr(0.0),
-    };
+    }
+}
+
+/// Writes `pts` with the las crate itself in point format `fmt`.
+fn write_with_crate(path: &Path, fmt: u8, version: (u8, u8), pts: &[Point]) {
+    let mut b = las::Builder::from(version);
+    b.point_format = las::point::Format::new(fmt).unwrap();
+    b.transforms = utm_mm();
     let mut w = las::Writer::from_path(path, b.into_header().unwrap()).unwrap();
     for p in pts {
         let mut q = las::Point {
@@ -166,24 +171,40 @@ fn sink_dropped_without_finish_leaves_nothing() {
     assert!(e.contains("point 1"), "{e}");
 }
 
+/// The names of the threads the decoder crates (`laz`, `las`) panicked on,
+/// recorded by one hook installed once for every test: tests that each took
+/// and set the process-wide hook raced (one's hook replaced the other's, and
+/// it then saw no panic at all).
+fn decoder_panics() -> &'static std::sync::Mutex<Vec<Option<String>>> {
+    use std::sync::{Mutex, OnceLock};
+    static SEEN: OnceLock<Mutex<Vec<Option<String>>>> = OnceLock::new();
+    SEEN.get_or_init(|| {
+        // Ours runs first, then the quiet hook (installed now, so it is under ours).
+        super::super::producer::quiet_reader_panics();
+        let prev = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if info
+                .location()
+                .is_some_and(|l| l.file().contains("laz-0.") || l.file().contains("las-0."))
+            {
+                let name = std::thread::current().name().map(str::to_string);
+                if let Some(seen) = SEEN.get() {
+                    seen.lock().unwrap_or_else(|e| e.into_inner()).push(name);
+                }
+            }
+            prev(info);
+        }));
+        Mutex::new(Vec::new())
+    })
+}
+
 /// laz 0.13 indexes out of bounds on this chunk table inside its rayon
 /// workers: the panic must happen on reader-named threads (whose panics the
 /// quiet hook keeps from a hook that aborts, libFuzzer's: the `las` fuzz
 /// target depends on it) and come back as the file's error.
 #[test]
 fn laz_decoder_panic_stays_on_reader_threads() {
-    use std::sync::Mutex;
-    static SEEN: Mutex<Vec<Option<String>>> = Mutex::new(Vec::new());
-    // Ours runs first, then the quiet hook (installed now, so it is under ours).
-    super::super::producer::quiet_reader_panics();
-    let prev = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        if info.location().is_some_and(|l| l.file().contains("laz-0.")) {
-            let name = std::thread::current().name().map(str::to_string);
-            SEEN.lock().unwrap_or_else(|e| e.into_inner()).push(name);
-        }
-        prev(info);
-    }));
+    let seen = decoder_panics();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.las");
     std::fs::write(
@@ -193,7 +214,7 @@ fn laz_decoder_panic_stays_on_reader_threads() {
     .unwrap();
     let e = read(&path).unwrap_err().to_string();
     assert!(e.contains("the decoder failed on malformed data"), "{e}");
-    let seen = SEEN.lock().unwrap().clone();
+    let seen = seen.lock().unwrap_or_else(|e| e.into_inner()).clone();
     assert!(
         !seen.is_empty(),
         "the laz crate no longer panics on this file"
@@ -339,16 +360,28 @@ fn lying_layer_sizes_are_refused_before_allocating() {
         include_bytes!("../../../tests/corpus/fuzz-copc-layer-sizes.copc.laz"),
     )
     .unwrap();
+    // Every chunk of a batch is decoded (the lying one refused before it
+    // allocates); the first bad one in file order names the error, the same
+    // one on every run (it once depended on which thread failed first).
     for copc in [true, false] {
-        let e = open_with(&path, copc, true)
-            .and_then(|mut r| {
-                let mut buf = Vec::new();
-                while r.next_chunk(&mut buf)? {}
-                Ok(())
-            })
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("declared in a chunk of"), "{copc}: {e}");
+        let err = || {
+            open_with(&path, copc, true)
+                .and_then(|mut r| {
+                    let mut buf = Vec::new();
+                    while r.next_chunk(&mut buf)? {}
+                    Ok(())
+                })
+                .unwrap_err()
+                .to_string()
+        };
+        let e = err();
+        assert!(
+            e.contains("declared in a chunk of") || e.contains("failed to fill whole buffer"),
+            "{copc}: {e}"
+        );
+        for _ in 0..4 {
+            assert_eq!(err(), e, "{copc}");
+        }
     }
 }
 
@@ -380,15 +413,7 @@ fn write_rich_laz(path: &Path, fmt: u8, extra: u16, n: usize, seed: u64) {
     b.point_format = las::point::Format::new(fmt).unwrap();
     b.point_format.extra_bytes = extra;
     b.point_format.is_compressed = true;
-    let tr = |o| las::Transform {
-        scale: 0.001,
-        offset: o,
-    };
-    b.transforms = las::Vector {
-        x: tr(350000.0),
-        y: tr(4150000.0),
-        z: tr(0.0),
-    };
+    b.transforms = utm_mm();
     let mut w = las::Writer::from_path(path, b.into_header().unwrap()).unwrap();
     let f = *w.header().point_format();
     let mut t = 1.0e8;
@@ -495,21 +520,7 @@ fn laz14_nonfinite_points_skipped_as_by_the_crate_path() {
 /// ever happens on reader-named threads (which libFuzzer's hook cannot see).
 #[test]
 fn fuzz_corpus_gives_errors_not_panics() {
-    use std::sync::Mutex;
-    static SEEN: Mutex<Vec<Option<String>>> = Mutex::new(Vec::new());
-    super::super::producer::quiet_reader_panics();
-    let prev = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        // The decoder crates' panics (other tests may panic meanwhile).
-        if info
-            .location()
-            .is_some_and(|l| l.file().contains("laz-0.") || l.file().contains("las-0."))
-        {
-            let name = std::thread::current().name().map(str::to_string);
-            SEEN.lock().unwrap_or_else(|e| e.into_inner()).push(name);
-        }
-        prev(info);
-    }));
+    let seen_all = decoder_panics();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut files = Vec::new();
     for d in ["fuzz/corpus/las", "fuzz/upstream", "tests/corpus"] {
@@ -534,7 +545,7 @@ fn fuzz_corpus_gives_errors_not_panics() {
         }
     }
     assert!(ok > 0 && failed > 0, "{ok} {failed}");
-    let seen = SEEN.lock().unwrap().clone();
+    let seen = seen_all.lock().unwrap_or_else(|e| e.into_inner()).clone();
     let reader = Some(super::super::producer::READER_THREAD.to_string());
     assert!(seen.iter().all(|n| *n == reader), "{seen:?}");
 }
