@@ -519,6 +519,12 @@ fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
         bands.push((z.len(), z[0]));
     }
     bands.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+    // The first clear band as wide as a plate on both plates; else the first
+    // clear band (then refused by its widths). A solid object at the feet
+    // whose faces lie in the plates' planes (a pallet stack inside the L) is
+    // a clear band too, denser than the grill above it, but it stops short
+    // of a plate's far edge (clutter stack seed 8).
+    let mut first_clear = None;
     for (n, s) in bands {
         if n < 2 * p.min_plate_points {
             break;
@@ -529,10 +535,30 @@ fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
             inside[inside.len() - 1 - inside.len() / 50],
         );
         if near.iter().all(|pl| clear_beside(pl, lo, hi, w)) {
-            return Some((lo, hi));
+            if near.iter().all(|pl| plate_wide(pl, lo, hi, w)) {
+                return Some((lo, hi));
+            }
+            first_clear.get_or_insert((lo, hi));
         }
     }
-    None
+    first_clear
+}
+
+/// Whether a plate's points in the band reach a plate's width, as
+/// `check_l`'s width test measures it (the 95th percentile along the plate
+/// from the corner, less the scatter of n points).
+fn plate_wide(near: &[Near], lo: f64, hi: f64, w: f64) -> bool {
+    let mut ext: Vec<f64> = near
+        .iter()
+        .filter(|q| q.z > lo - 0.05 && q.z < hi + 0.05 && q.d.abs() < SLAB && q.t > 0.0)
+        .map(|q| q.t)
+        .collect();
+    if ext.is_empty() {
+        return false;
+    }
+    ext.sort_by(f64::total_cmp);
+    let width = ext[(ext.len() * 19) / 20];
+    width >= MIN_WIDTH_SHARE * w - 0.22 * w / (ext.len() as f64).sqrt()
 }
 
 /// Whether a plate's plane is clear just below and above its band (away from
