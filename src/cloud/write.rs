@@ -141,7 +141,6 @@ fn fixed_header(kind: Kind, n: u64) -> Vec<u8> {
     header(kind, n, (COUNT_WIDTH - digits) * per_count)
 }
 
-/// A binary x, y, z (f64, little endian) writer for PLY or PCD.
 /// Bytes a [`XyzSink`] buffers: a block of [`SINK_BLOCK`] binary points is
 /// larger and goes to the file directly (no second copy); smaller writes (the
 /// crop hands its hits over piece by piece) gather here. Small, because the
@@ -152,6 +151,7 @@ const SINK_BUF: usize = 64 << 10;
 /// Points converted to bytes at a time (96 KiB of double PLY).
 const SINK_BLOCK: usize = 1 << 12;
 
+/// A binary x, y, z (f64, little endian) writer for PLY or PCD.
 struct XyzSink {
     kind: Kind,
     dest: PathBuf,

@@ -176,12 +176,7 @@ impl ChunkedLaz {
         let mut skipped = 0;
         for _ in 0..c.points {
             d.decompress_next(&mut rec).map_err(|e| e.to_string())?;
-            let r = &rec;
-            let v = |o: usize| i32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
-            let q = Point::new(t.x.direct(v(0)), t.y.direct(v(4)), t.z.direct(v(8)));
-            if q.x.is_finite() && q.y.is_finite() && q.z.is_finite() {
-                pts.push(q);
-            } else {
+            if !super::push_record(&rec, t, &mut pts) {
                 skipped += 1;
             }
         }

@@ -39,6 +39,20 @@ pub(super) fn las_err(path: &Path, e: las::Error) -> Error {
     Error::format(path, format!("LAS: {e}"))
 }
 
+/// Appends a LAS record's point (every point format starts with X, Y, Z as
+/// little-endian i32), scaled and offset; `false` (and nothing appended)
+/// when a coordinate is not finite.
+#[inline]
+fn push_record(r: &[u8], t: &las::Vector<las::Transform>, out: &mut Vec<Point>) -> bool {
+    let i = |o: usize| i32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
+    let q = Point::new(t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8)));
+    let finite = q.x.is_finite() && q.y.is_finite() && q.z.is_finite();
+    if finite {
+        out.push(q);
+    }
+    finite
+}
+
 /// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let chunked = std::env::var_os(chunked::CRATE_PATH_ENV).is_none();
@@ -181,11 +195,7 @@ fn read_laz(tx: Tx, file: File, file_bytes: u64, p: std::path::PathBuf) {
         out.reserve(n as usize);
         let mut skipped = 0;
         for r in pd.raw_bytes().chunks_exact(pd.record_len()) {
-            let i = |o: usize| i32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
-            let q = Point::new(t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8)));
-            if q.x.is_finite() && q.y.is_finite() && q.z.is_finite() {
-                out.push(q);
-            } else {
+            if !push_record(r, &t, &mut out) {
                 skipped += 1;
             }
         }

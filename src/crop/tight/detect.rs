@@ -195,8 +195,9 @@ fn fit_l(
     let half = ((4.0 * p.plate_width + 0.3) / bin).ceil() as i64 + 2;
     let mut hist_a = vec![0u32; (2 * half + 1) as usize];
     let mut hist_b = vec![0u32; (2 * half + 1) as usize];
-    // Support (the weaker plate's peak) at every heading, 1.5° apart.
-    let mut support: Vec<(usize, f64)> = Vec::with_capacity(60);
+    // The heading (1.5° steps) where the weaker plate's peak is sharpest;
+    // ties keep the lower angle.
+    let mut best = (0, 0.0);
     let mut deg = 0.0;
     while deg < 90.0 {
         let th = f64::to_radians(deg);
@@ -212,15 +213,13 @@ fn fit_l(
             hist_a[ia as usize] += 1;
             hist_b[ib as usize] += 1;
         }
-        support.push((sharp_peak(&hist_a).min(sharp_peak(&hist_b)), deg));
+        let support = sharp_peak(&hist_a).min(sharp_peak(&hist_b));
+        if support > best.0 {
+            best = (support, deg);
+        }
         deg += 1.5;
     }
-    // The sharpest heading; ties keep the lower angle.
-    let deg = support
-        .iter()
-        .copied()
-        .fold((0, 0.0), |b, s| if s.0 > b.0 { s } else { b })
-        .1;
+    let deg = best.1;
     let mut why = Rejected::unnamed(0);
     let th = deg.to_radians();
     let na = e1 * th.cos() + e2 * th.sin();
