@@ -115,9 +115,14 @@ fn unfinished_writer_leaves_no_file() {
         assert!(!p.exists());
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
-    // Overwriting an existing file replaces it atomically.
+    // Overwriting an existing file replaces it, and only once the new one is
+    // complete: an unfinished writer leaves the old file as it was.
     let p = dir.path().join("again.pcd");
     cloud::write(&p, OutFormat::Pcd, &[Point::new(1.0, 1.0, 1.0)]).unwrap();
+    let mut w = CloudWriter::create(&p, OutFormat::Pcd).unwrap();
+    w.write(&[Point::new(5.0, 5.0, 5.0)]).unwrap();
+    drop(w);
+    assert_eq!(cloud::read_all(&p).unwrap(), [Point::new(1.0, 1.0, 1.0)]);
     cloud::write(
         &p,
         OutFormat::Pcd,
@@ -125,6 +130,19 @@ fn unfinished_writer_leaves_no_file() {
     )
     .unwrap();
     assert_eq!(cloud::read_all(&p).unwrap().len(), 2);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    // A folder where the file should go is an error naming it; the folder
+    // and its contents stay, and no temporary is left.
+    let d = dir.path().join("taken.ply");
+    std::fs::create_dir(&d).unwrap();
+    std::fs::write(d.join("keep"), b"x").unwrap();
+    let e = cloud::write(&d, OutFormat::Ply, &[Point::new(1.0, 1.0, 1.0)])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("taken.ply"), "{e}");
+    assert!(d.join("keep").exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    std::fs::remove_dir_all(&d).unwrap();
     // A directory that does not exist is an I/O error naming the path.
     let bad = dir.path().join("no/such/dir/x.ply");
     let e = CloudWriter::create(&bad, OutFormat::Ply)
