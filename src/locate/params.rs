@@ -5,7 +5,7 @@ use super::kmeans::{Init, Space};
 use super::types::LocateError;
 use serde::{Deserialize, Serialize};
 
-/// Parameters of [`locate`]. Defaults are the paper's values plus the
+/// Parameters of [`locate`](crate::locate::locate). Defaults are the paper's values plus the
 /// acceptance improvements; [`LocateParams::paper`] turns the improvements off.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

@@ -71,7 +71,7 @@ pub struct Plumb {
     pub se_deg: f64,
     /// Targets that gave one.
     pub targets: usize,
-    /// Whether the frame was turned to it (see [`plumb`]).
+    /// Whether the frame was turned to it (see the plumb step in this module).
     pub applied: bool,
 }
 
