@@ -21,7 +21,10 @@
 #                 bench/laz14_write.py, needs laspy), copc (bench/copc_write.py,
 #                 copclib in a venv made in DIR), tiles (an Autoware tiled map
 #                 of 20 m PCD tiles: bench/tiles_write.py)
-#        TOOLS    subset of: cat crop eval open3d pcl laspy pdal
+#        TOOLS    subset of: cat crop floor eval open3d pcl laspy pdal
+#                 (floor: `cat` of the map, then the bytes of the crops `crop`
+#                 just wrote copied into one new file: the reading and writing
+#                 any crop must do, without the parsing; after `crop` only)
 #        BASELINE_MAX_POINTS  largest map given to Open3D and PCL (default 50000000:
 #                 they hold the whole map in memory, ~10 GB at 200 M points)
 #        OUT      markdown table file (default DIR/results-<date>.md), headed by
@@ -33,7 +36,7 @@ REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 DIR=${DIR:-/tmp/mapgauge-bench}
 RUNS=${RUNS:-3}
 FORMATS=${FORMATS:-"pcd pcd-ascii pcd-compressed ply las laz laz14 copc tiles pcd-xyzi pcd-fastlio ply-f32"}
-TOOLS=${TOOLS:-"cat crop eval open3d pcl laspy pdal"}
+TOOLS=${TOOLS:-"cat crop floor eval open3d pcl laspy pdal"}
 BASELINE_MAX_POINTS=${BASELINE_MAX_POINTS:-50000000}
 SIZES=("$@")
 [[ ${#SIZES[@]} -eq 0 ]] && SIZES=(20000000)
@@ -135,8 +138,8 @@ echo "- Machine: $(nproc) cores ($CPU_MODEL${HYPERVISOR:+, $HYPERVISOR guest}), 
 echo "- Load average (1, 5, 15 min) before: $(cut -d' ' -f1-3 /proc/loadavg)."
 echo "- Median of $RUNS runs; files in the page cache; CPU = user + sys; peak RSS from GNU time."
 echo
-echo "| points | format | MB | tool | wall s | CPU s | peak RSS MB | wall / cat | CPU / cat | Open3D wall / this | read |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| points | format | MB | tool | wall s | CPU s | peak RSS MB | wall / cat | CPU / cat | wall / floor | Open3D wall / this | read |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 } >"$OUT"
 
 for N in "${SIZES[@]}"; do
@@ -227,6 +230,7 @@ for N in "${SIZES[@]}"; do
                 laspy)  [[ $have_laspy == 1 ]] || continue
                         [[ $f == las || $f == laz || $f == laz14 || $f == copc ]] || continue
                         (( NPTS > BASELINE_MAX_POINTS )) && { note "$N points: laspy skipped (BASELINE_MAX_POINTS)"; continue; } ;;
+                floor)  [[ " $TOOLS " == *" crop "* ]] || { note "floor skipped: it copies the crops \`crop\` wrote, and crop is not in TOOLS"; continue; } ;;
                 pdal)   [[ $have_pdal == 1 ]] || continue
                         [[ $f == las || $f == laz || $f == laz14 || $f == copc || $f == pcd || $f == ply ]] || continue ;;
             esac
@@ -240,6 +244,9 @@ for N in "${SIZES[@]}"; do
                 case $t in
                     cat)    run_one "$key" cat "${CATS[@]}" ;;
                     crop)   run_one "$key" "$BIN" crop --map "$MAP" --survey "${SURVEY[$f]}" --out "$S/out-$t" ;;
+                    floor)  mkdir -p "$S/out-floor"
+                            run_one "$key" bash -c 'd=$0 o=$1; shift; cat "$@" >/dev/null && cat "$d"/* >"$o"' \
+                                "$S/out-crop" "$S/out-floor/crops" "${CATS[@]}" ;;
                     eval)   run_one "$key" "$BIN" eval --map "$MAP" --survey "${SURVEY[$f]}" --out "$S/out-$t" ;;
                     open3d) run_one "$key" python3 "$REPO/bench/open3d_crop.py" "$MAP" "${SURVEY[$f]}" "$S/out-$t" ;;
                     pcl)    run_one "$key" bash -c "pcl_crop '${PCLFILE[$f]}' '${SURVEY[$f]}' '$S/out-$t'" ;;
@@ -255,17 +262,19 @@ for N in "${SIZES[@]}"; do
         catw=$(median ${WALL["$N|$f|cat"]:-nan})
         catc=$(median ${CPU["$N|$f|cat"]:-nan})
         o3w=$(median ${WALL["$N|$f|open3d"]:-nan})
+        flw=$(median ${WALL["$N|$f|floor"]:-nan})
         for t in "${tools[@]}"; do
             key="$N|$f|$t"
             w=$(median ${WALL[$key]}); c=$(median ${CPU[$key]}); r=$(( $(max ${RSS[$key]}) / 1024 ))
             rw=$(awk -v a="$w" -v b="$catw" 'BEGIN{ if (b+0 > 0 && a != "nan") printf "%.2f", a/b; else print "-" }')
             rc=$(awk -v a="$c" -v b="$catc" 'BEGIN{ if (b+0 > 0 && a != "nan") printf "%.2f", a/b; else print "-" }')
             ro=$(awk -v a="$o3w" -v b="$w" 'BEGIN{ if (a != "nan" && b+0 > 0) printf "%.1f", a/b; else print "-" }')
+            rf=$(awk -v a="$w" -v b="$flw" 'BEGIN{ if (b != "nan" && b+0 > 0 && a != "nan") printf "%.2f", a/b; else print "-" }')
             mb=$MB; name=$t
             if [[ $t == pcl && ${PCLFILE[$f]} != "$MAP" ]]; then mb="$(( $(stat -c %s "${PCLFILE[$f]}") / 1000000 ))"; name="pcl (float32 copy)"; fi
             rd=${READ[$key]:-}
             [[ -n $rd ]] || rd="-"
-            echo "| $NPTS | $f | $mb | $name | $w | $c | $r | $rw | $rc | $ro | $rd |" >>"$OUT"
+            echo "| $NPTS | $f | $mb | $name | $w | $c | $r | $rw | $rc | $rf | $ro | $rd |" >>"$OUT"
             echo "$NPTS $f $t: wall ${WALL[$key]}cpu ${CPU[$key]}rss ${RSS[$key]}" >&2
         done
     done
