@@ -56,6 +56,54 @@ impl RigidMotion {
         }
     }
 
+    /// Discs in the unmoved frame that hold every point with z in `z` whose
+    /// moved position lies within `radius` (horizontally) of a centre:
+    /// `(centres, radius)`. A tilted map's points move sideways by their
+    /// height times the tangent of the tilt, so the disc grows by that over
+    /// the map's height range. `None` when the range or radius is not finite,
+    /// or the motion tips the map more than 60° (not a levelling): then
+    /// nothing can be left unread.
+    pub fn discs_back(
+        &self,
+        centres: &[[f64; 2]],
+        radius: f64,
+        z: [f64; 2],
+    ) -> Option<(Vec<[f64; 2]>, f64)> {
+        // p - o = T (q - o) with T = R⁻¹. Eliminating the moved height q_z
+        // through p_z: p_xy - o_xy = K (q_xy - o_xy) + k (p_z - o_z), with
+        // K = A - b aᵀ / g and k = b / g for T's blocks [[A, b], [aᵀ, g]].
+        let t = self.rotation.inverse().into_inner();
+        let g = t[(2, 2)];
+        if !(g > 0.5 && radius.is_finite() && z.iter().all(|v| v.is_finite()) && z[0] <= z[1]) {
+            return None;
+        }
+        let k = [t[(0, 2)] / g, t[(1, 2)] / g];
+        let kk = |i: usize, j: usize| t[(i, j)] - k[i] * t[(2, j)];
+        let m = [[kk(0, 0), kk(0, 1)], [kk(1, 0), kk(1, 1)]];
+        // ‖K‖₂: the square root of KᵀK's largest eigenvalue.
+        let p = m[0][0] * m[0][0] + m[1][0] * m[1][0];
+        let q = m[0][0] * m[0][1] + m[1][0] * m[1][1];
+        let s = m[0][1] * m[0][1] + m[1][1] * m[1][1];
+        let norm = ((p + s) / 2.0 + (((p - s) / 2.0).powi(2) + q * q).sqrt()).sqrt();
+        let o = self.origin;
+        let mid = (z[0] + z[1]) / 2.0 - o.z;
+        let half = (z[1] - z[0]) / 2.0;
+        let back = centres
+            .iter()
+            .map(|c| {
+                let d = [c[0] - o.x, c[1] - o.y];
+                [
+                    o.x + m[0][0] * d[0] + m[0][1] * d[1] + k[0] * mid,
+                    o.y + m[1][0] * d[0] + m[1][1] * d[1] + k[1] * mid,
+                ]
+            })
+            .collect();
+        // A millimetre and a part in 10⁹ beyond what the algebra gives, for
+        // its rounding: the reader still gets a superset, as a hint must be.
+        let r = (norm * radius + k[0].hypot(k[1]) * half) * (1.0 + 1e-9) + 1e-3;
+        Some((back, r))
+    }
+
     /// Tilt of the motion's rotation: the angle between +z and where it goes (degrees).
     pub fn tilt_deg(&self) -> f64 {
         (self.rotation * Vector3::z())
@@ -68,6 +116,9 @@ impl RigidMotion {
 pub(crate) struct Moved<'r> {
     pub(crate) inner: Box<dyn PointReader + 'r>,
     pub(crate) motion: RigidMotion,
+    /// The map's z range (unmoved frame), when known: what lets a hint be
+    /// turned back into the inner reader's frame.
+    pub(crate) z_range: Option<[f64; 2]>,
 }
 
 impl PointReader for Moved<'_> {
@@ -87,9 +138,19 @@ impl PointReader for Moved<'_> {
     fn bytes_read(&self) -> u64 {
         self.inner.bytes_read()
     }
-    // No `hint_discs`: the hint is in the moved frame, and a tilted map's
-    // points move sideways with their height, which no tile tells before it
-    // is read; every tile is read.
+    /// The hint is in the moved frame; a tilted map's points move sideways
+    /// with their height, which no tile or COPC node tells before it is read.
+    /// With the map's z range the discs are turned back and widened by the
+    /// most any point can move ([`RigidMotion::discs_back`]); without it
+    /// every part of the map is read.
+    fn hint_discs(&mut self, centres: &[[f64; 2]], radius: f64) {
+        if let Some((back, r)) = self
+            .z_range
+            .and_then(|z| self.motion.discs_back(centres, radius, z))
+        {
+            self.inner.hint_discs(&back, r);
+        }
+    }
     fn tile_stats(&self) -> Option<super::TileStats> {
         self.inner.tile_stats()
     }
@@ -144,6 +205,61 @@ mod tests {
     }
 
     #[test]
+    fn discs_turned_back_hold_every_point_that_moves_into_a_disc() {
+        let mut s = 11u64;
+        let mut u = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for (tilt, az) in [(0.0, 0.0), (3.0, 40.0), (8.0, 200.0), (25.0, 300.0)] {
+            let (t, a) = (f64::to_radians(tilt), f64::to_radians(az));
+            let up = Vector3::new(t.sin() * a.cos(), t.sin() * a.sin(), t.cos());
+            let o = Point::new(512_000.0, 4_100_000.0, 80.0);
+            let m = RigidMotion::levelling(o, &up);
+            let centres = [[o.x + 35.0, o.y - 60.0], [o.x - 120.0, o.y + 14.0]];
+            let z = [60.0, 140.0];
+            let (back, r) = m.discs_back(&centres, 5.0, z).unwrap();
+            if tilt == 0.0 {
+                assert!(
+                    (r - 5.0).abs() < 2e-3 && back[0] == centres[0],
+                    "{back:?} {r}"
+                );
+            }
+            let mut worst: f64 = 0.0;
+            for _ in 0..20_000 {
+                // A point of the map (z in range) that moves to within 5 m of
+                // a centre: pick the moved x, y, then solve for the height.
+                let c = centres[(u() * 2.0) as usize % 2];
+                let (ang, d) = (u() * std::f64::consts::TAU, 5.0 * u().sqrt());
+                let pz = z[0] + (z[1] - z[0]) * u();
+                let (qx, qy) = (c[0] + d * ang.cos(), c[1] + d * ang.sin());
+                // p = invert(q): its z is linear in q's height h.
+                let at = |h: f64| m.invert(&Point::new(qx, qy, h));
+                let (p0, p1) = (at(0.0), at(1.0));
+                let p = at((pz - p0.z) / (p1.z - p0.z));
+                assert!((p.z - pz).abs() < 1e-6);
+                let inside = back
+                    .iter()
+                    .map(|b| (p.x - b[0]).hypot(p.y - b[1]))
+                    .fold(f64::INFINITY, f64::min);
+                assert!(inside <= r, "tilt {tilt}: {inside} > {r}");
+                worst = worst.max(inside / r);
+            }
+            // Tight: the far rim is reached (the disc is not just huge).
+            assert!(worst > 0.9, "tilt {tilt}: {worst}");
+        }
+        let flat = RigidMotion::identity_at(Point::origin());
+        assert!(
+            flat.discs_back(&[[0.0, 0.0]], 5.0, [0.0, f64::NAN])
+                .is_none()
+        );
+        let over = RigidMotion::levelling(Point::origin(), &Vector3::x());
+        assert!(over.discs_back(&[[0.0, 0.0]], 5.0, [0.0, 1.0]).is_none());
+    }
+
+    #[test]
     fn moved_reader_moves_every_point() {
         let pts: Vec<Point> = (0..200_000)
             .map(|i| Point::new(i as f64 * 0.01, 1.0, 2.0))
@@ -152,6 +268,7 @@ mod tests {
         let mut r = Moved {
             inner: Box::new(super::super::MemoryReader::new(&pts)),
             motion: m,
+            z_range: None,
         };
         let mut buf = Vec::new();
         let mut got = Vec::new();

@@ -29,9 +29,25 @@ impl<'a> MapSource<'a> {
         &self,
         motion: Option<&super::RigidMotion>,
     ) -> Result<Box<dyn PointReader + 'a>> {
+        self.open_moved_within(motion, None)
+    }
+
+    /// [`MapSource::open_moved`] of a map whose z range (its own frame) is
+    /// known: a consumer's region hint then reaches the file's reader even
+    /// when the map is turned, so a tilted tiled map or COPC file is read
+    /// only near the targets.
+    pub fn open_moved_within(
+        &self,
+        motion: Option<&super::RigidMotion>,
+        z_range: Option<[f64; 2]>,
+    ) -> Result<Box<dyn PointReader + 'a>> {
         let inner = self.open()?;
         Ok(match motion {
-            Some(m) if !m.is_identity() => Box::new(super::Moved { inner, motion: *m }),
+            Some(m) if !m.is_identity() => Box::new(super::Moved {
+                inner,
+                motion: *m,
+                z_range,
+            }),
             _ => inner,
         })
     }

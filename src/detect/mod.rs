@@ -184,7 +184,7 @@ pub fn detect_map(
     let mut detections = Vec::new();
     if !centres.is_empty() {
         // Candidate centres at their ground height (the crop is a cylinder).
-        let mut reader = source.open_moved(Some(motion))?;
+        let mut reader = source.open_moved_within(Some(motion), ground.z_range)?;
         let loose = LooseParams {
             radius: params.crop_radius,
             shape: Shape::Cylinder,

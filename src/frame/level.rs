@@ -68,6 +68,9 @@ pub struct MapGround {
     /// A point near the map's middle (whole metres): the centre of
     /// rotation for any turn of the map, whether or not a vertical was found.
     pub centre: Point,
+    /// Lowest and highest z of the points read (`None` without points): how
+    /// far a tilted map's points can move sideways when it is levelled.
+    pub z_range: Option<[f64; 2]>,
     pub(crate) lowest: CellGrid<f32>,
     pub(crate) z0: f64,
 }
@@ -122,6 +125,8 @@ struct Lowest {
     /// Sums of the offsets from the origin in whole millimetres: integers, so
     /// the centre does not depend on the order threads add them in.
     sum: [i128; 3],
+    /// Lowest and highest z seen.
+    z: [f64; 2],
 }
 
 /// Streams the map once and estimates its vertical from the ground. `None`
@@ -148,6 +153,7 @@ pub fn ground_level(
                     points: 0,
                     read: r.stats(),
                     centre: Point::origin(),
+                    z_range: None,
                     lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
                     z0: 0.0,
                 });
@@ -162,6 +168,7 @@ pub fn ground_level(
         z0,
         count: 0,
         sum: [0; 3],
+        z: [f64::INFINITY, f64::NEG_INFINITY],
     };
     let low = fold_points(
         reader.as_mut(),
@@ -170,6 +177,7 @@ pub fn ground_level(
             let mut s = [0i128; 3];
             let mut n = 0;
             for p in pts {
+                acc.z = [acc.z[0].min(p.z), acc.z[1].max(p.z)];
                 if let Some(k) = acc.grid.key(p.x, p.y) {
                     let z = (p.z - acc.z0) as f32;
                     let c = acc.grid.entry(k);
@@ -198,6 +206,7 @@ pub fn ground_level(
             for k in 0..3 {
                 a.sum[k] += b.sum[k];
             }
+            a.z = [a.z[0].min(b.z[0]), a.z[1].max(b.z[1])];
         },
         progress,
     )?;
@@ -222,6 +231,7 @@ pub fn ground_level(
     Ok(MapGround {
         level,
         centre,
+        z_range: (low.z[0] <= low.z[1]).then_some(low.z),
         points: low.count,
         read: reader.stats(),
         lowest: low.grid,

@@ -185,7 +185,15 @@ fn evaluate(
     // were moved into the levelled frame already.
     let first = |init: &[f64; 3], dz: f64, own: bool, map: &mut MapStats, progress: &mut _| {
         let expected = expected_positions(survey, init, dz, own.then_some(&motion));
-        let crops = read_crops(source, &expected, &crop_params, &motion, map, progress)?;
+        let crops = read_crops(
+            source,
+            &expected,
+            &crop_params,
+            &motion,
+            ground.z_range,
+            map,
+            progress,
+        )?;
         let found: Vec<TargetRun> = survey
             .targets
             .par_iter()
@@ -284,7 +292,7 @@ fn evaluate(
             &opts,
             &mut found,
             &motion,
-            ground_up,
+            &ground,
             &far,
             &mut progress,
         )?;
@@ -308,7 +316,7 @@ fn evaluate(
                 &opts,
                 &mut found,
                 &motion,
-                ground_up,
+                &ground,
                 &late,
                 &mut progress,
             )?;
@@ -552,10 +560,13 @@ fn read_crops(
     centres: &[Point],
     params: &LooseParams,
     motion: &RigidMotion,
+    z_range: Option<[f64; 2]>,
     map: &mut MapStats,
     progress: &mut impl FnMut(u64, u64),
 ) -> Result<Vec<(Vec<Point>, u64)>> {
-    let mut reader = source.open_moved(Some(motion))?;
+    // With the map's z range, a tilted map's region hint reaches its reader
+    // (tiles and COPC nodes far from the targets stay unread).
+    let mut reader = source.open_moved_within(Some(motion), z_range)?;
     let total = reader.info().file_bytes;
     if reader.tile_stats().is_none() {
         map.bytes = total;

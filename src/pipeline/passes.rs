@@ -25,7 +25,7 @@ pub(super) fn second_pass(
     opts: &ScoreOptions,
     found: &mut [TargetRun],
     motion: &RigidMotion,
-    ground_up: Option<Vector3<f64>>,
+    ground: &crate::frame::MapGround,
     narrow: &[(usize, f64, f64, target::FarBy)],
     progress: &mut impl FnMut(u64, u64),
 ) -> Result<()> {
@@ -67,6 +67,7 @@ pub(super) fn second_pass(
         &centres,
         crop_params,
         motion,
+        ground.z_range,
         &mut again_stats,
         progress,
     )?;
@@ -75,7 +76,7 @@ pub(super) fn second_pass(
     // wrong object cannot be found again.
     // The radius grows with the error, so that a target of a badly distorted
     // map is still found where it is, while the wrong object stays outside.
-    let ups = super::more_ups(motion, ground_up);
+    let ups = super::more_ups(motion, ground.level.as_ref().map(|l| l.up));
     // The other targets: where they were found, else where they were expected.
     let placed: Vec<Point> = (0..found.len())
         .map(|j| found[j].corner().unwrap_or(expected[j]))

@@ -8,16 +8,20 @@ use mapgauge::cloud::{self, OutFormat, TiledMap};
 use mapgauge::survey::{Geodetic, Projector, SurveyOptions, read_survey};
 use std::path::Path;
 
-/// A synthetic scene's map written whole (in tile order) and as tiles;
-/// returns (whole map, tile folder, survey).
-fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
+/// A synthetic scene's map (`synth` with `more` arguments) written whole (in
+/// tile order) and as tiles; returns (whole map, tile folder, survey).
+fn scene_with(
+    dir: &Path,
+    more: &[&str],
+) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
     let s = dir.join("scene");
     stdout_ok(
         bin()
             .args([
                 "synth", "--points", "400000", "--format", "pcd", "--seed", "1", "--out",
             ])
-            .arg(&s),
+            .arg(&s)
+            .args(more),
     );
     let pts = cloud::read_all(&s.join("map.pcd")).unwrap();
     let tiles = dir.join("pointcloud_map");
@@ -31,6 +35,10 @@ fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf, std::path::Path
     )
     .unwrap();
     (whole, tiles, s.join("survey.csv"))
+}
+
+fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
+    scene_with(dir, &[])
 }
 
 /// result.json without its `eval.map` and `eval.map_bytes` lines (the path
@@ -49,15 +57,33 @@ fn whole_and_tiled_maps_give_identical_results() {
     let dir = tempdir();
     let (whole, tiles, survey) = scene(dir.path());
     let meta = tiles.join("pointcloud_map_metadata.yaml");
+    same_results(dir.path(), &[&whole, &tiles, &meta], &survey);
+}
+
+/// A map leaning 6°: eval levels it, and its crops of the tiled map open the
+/// tiles the discs turned back into the map's frame reach, which must hold
+/// every point the whole map gives.
+#[test]
+fn a_tilted_tiled_map_gives_the_whole_maps_results() {
+    let dir = tempdir();
+    let (whole, tiles, survey) = scene_with(dir.path(), &["--tilt-deg", "6"]);
+    let out = same_results(dir.path(), &[&whole, &tiles], &survey);
+    let result = std::fs::read_to_string(out[0].join("result.json")).unwrap();
+    assert!(result.contains("\"levelling\""), "levelled: {result}");
+}
+
+/// Runs eval on each map and checks they give the same results; returns
+/// the output folders.
+fn same_results(dir: &Path, maps: &[&Path], survey: &Path) -> Vec<std::path::PathBuf> {
     let mut outs = Vec::new();
-    for (k, map) in [&whole, &tiles, &meta].into_iter().enumerate() {
-        let out = dir.path().join(format!("out{k}"));
+    for (k, map) in maps.iter().enumerate() {
+        let out = dir.join(format!("out{k}"));
         let o = bin()
             .arg("eval")
             .arg("--map")
             .arg(map)
             .arg("--survey")
-            .arg(&survey)
+            .arg(survey)
             .arg("--out")
             .arg(&out)
             .output()
@@ -91,6 +117,7 @@ fn whole_and_tiled_maps_give_identical_results() {
         let html = std::fs::read_to_string(out.join("report.html")).unwrap();
         assert!(html.contains("pointcloud_map"), "report names the map");
     }
+    outs
 }
 
 #[test]

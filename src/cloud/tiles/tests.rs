@@ -135,6 +135,79 @@ fn a_region_hint_opens_only_the_tiles_within_reach() {
 }
 
 #[test]
+fn a_tilted_maps_hint_is_turned_back_into_the_tiles_frame() {
+    use crate::cloud::{MapSource, RigidMotion};
+    let dir = tempfile::tempdir().unwrap();
+    // Heights over 24 m, so that the tilt moves points sideways by up to
+    // 2.5 m along x.
+    let pts: Vec<Point> = scene(120_000)
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| Point::new(p.x, p.y, (i % 97) as f64 * 0.25))
+        .collect();
+    let tiled = dir.path().join("t");
+    write_tiles(&pts, &tiled, 20.0, OutFormat::Pcd).unwrap();
+    let whole = dir.path().join("whole.pcd");
+    cloud::write(
+        &whole,
+        OutFormat::Pcd,
+        &TiledMap::order_points(&pts, 20.0).unwrap(),
+    )
+    .unwrap();
+    let t = 10f64.to_radians();
+    let up = nalgebra::Vector3::new(t.sin() * 0.6, t.sin() * 0.8, t.cos());
+    let m = RigidMotion::levelling(Point::new(40.0, 30.0, 0.0), &up);
+    // Targets where the levelled map has them: one whose crop reaches the
+    // next tile (x >= 40) only through the tilt, one on a tile corner.
+    let centres = [
+        m.apply(&Point::new(34.6, 30.0, 1.0)),
+        m.apply(&Point::new(80.0, 40.0, 1.0)),
+    ];
+    let params = LooseParams {
+        radius: 5.0,
+        ..LooseParams::default()
+    };
+    let z = [0.0, 96.0 * 0.25];
+    let crop = |map: &Path, z: Option<[f64; 2]>| {
+        let mut r = MapSource::File(map).open_moved_within(Some(&m), z).unwrap();
+        let c = loose_crop(r.as_mut(), &centres, &params, |_| {}).unwrap();
+        (c.points, r.tile_stats())
+    };
+    let (want, _) = crop(&whole, Some(z));
+    assert!(
+        want.iter().all(|p| p.len() > 300),
+        "{:?}",
+        want.iter().map(Vec::len).collect::<Vec<_>>()
+    );
+    let (got, st) = crop(&tiled, Some(z));
+    let st = st.unwrap();
+    assert!(
+        got == want,
+        "the tiles opened hold every point of the crops"
+    );
+    assert!(st.selected >= 5 && st.selected <= 12, "{st:?}");
+    // Without the height range nothing bounds the sideways move: every tile.
+    let (all, st) = crop(&tiled, None);
+    assert!(all == want);
+    assert_eq!(st.unwrap().selected, 72);
+    // The discs as the levelled frame has them, handed to the tiles as they
+    // are, lose the points the tilt carried over the tile's edge.
+    let mut inner = cloud::open(&tiled).unwrap();
+    let flat: Vec<[f64; 2]> = centres.iter().map(|c| [c.x, c.y]).collect();
+    inner.hint_discs(&flat, params.radius);
+    let mut r = crate::cloud::Moved {
+        inner,
+        motion: m,
+        z_range: None,
+    };
+    let lost = loose_crop(&mut r, &centres, &params, |_| {}).unwrap();
+    assert!(
+        lost.points[0].len() < want[0].len(),
+        "the scene tests the turn"
+    );
+}
+
+#[test]
 fn without_metadata_every_pcd_is_read_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
