@@ -17,6 +17,21 @@ fn scene(n: usize) -> Vec<Point> {
         .collect()
 }
 
+/// `pts` as 20 m tiles in `dir/t` and whole (in tile order) in
+/// `dir/whole.pcd`.
+fn tiled_and_whole(dir: &Path, pts: &[Point]) -> (PathBuf, PathBuf) {
+    let tiled = dir.join("t");
+    write_tiles(pts, &tiled, 20.0, OutFormat::Pcd).unwrap();
+    let whole = dir.join("whole.pcd");
+    cloud::write(
+        &whole,
+        OutFormat::Pcd,
+        &TiledMap::order_points(pts, 20.0).unwrap(),
+    )
+    .unwrap();
+    (tiled, whole)
+}
+
 fn read(path: &Path) -> (Vec<Point>, Option<TileStats>) {
     let mut r = cloud::open(path).unwrap();
     let mut all = Vec::new();
@@ -85,15 +100,7 @@ fn tiles_read_as_the_whole_map_in_tile_order() {
 fn a_region_hint_opens_only_the_tiles_within_reach() {
     let dir = tempfile::tempdir().unwrap();
     let pts = scene(120_000);
-    let tiled = dir.path().join("t");
-    write_tiles(&pts, &tiled, 20.0, OutFormat::Pcd).unwrap();
-    let whole = dir.path().join("whole.pcd");
-    cloud::write(
-        &whole,
-        OutFormat::Pcd,
-        &TiledMap::order_points(&pts, 20.0).unwrap(),
-    )
-    .unwrap();
+    let (tiled, whole) = tiled_and_whole(dir.path(), &pts);
     // Two targets: one well inside cell (1, 1) = [20, 40) × [20, 40), one on
     // the corner of four cells.
     let centres = [Point::new(30.0, 30.0, 0.0), Point::new(80.0, 40.0, 0.0)];
@@ -145,15 +152,7 @@ fn a_tilted_maps_hint_is_turned_back_into_the_tiles_frame() {
         .enumerate()
         .map(|(i, p)| Point::new(p.x, p.y, (i % 97) as f64 * 0.25))
         .collect();
-    let tiled = dir.path().join("t");
-    write_tiles(&pts, &tiled, 20.0, OutFormat::Pcd).unwrap();
-    let whole = dir.path().join("whole.pcd");
-    cloud::write(
-        &whole,
-        OutFormat::Pcd,
-        &TiledMap::order_points(&pts, 20.0).unwrap(),
-    )
-    .unwrap();
+    let (tiled, whole) = tiled_and_whole(dir.path(), &pts);
     let t = 10f64.to_radians();
     let up = nalgebra::Vector3::new(t.sin() * 0.6, t.sin() * 0.8, t.cos());
     let m = RigidMotion::levelling(Point::new(40.0, 30.0, 0.0), &up);
