@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # COPC crop against decoding the whole LAZ (issue 21): `mapgauge crop` of 8
 # targets (5 m cylinders) in a random 400 m x 400 m x 20 m cloud written as
-# COPC by copclib (bench/copc_write.py, leaves of about 2 000 points), and of
+# COPC by copclib (bench/copc_write.py with COPC_MAX_NODE=2000: the depth is
+# chosen for 2 000 points a node of the whole octree cube, which this flat
+# cloud fills a twentieth of, so nodes hold ~11 k points at 200 M), and of
 # the very same file with its COPC VLR renamed, which mapgauge then reads as
 # plain LAZ (every chunk, in file order). Page-cached files; wall time and
 # peak RSS are the median of RUNS runs; the crops of both must be identical
@@ -12,6 +14,8 @@
 #        RUNS  runs per measurement, odd (default 3)
 #        PY    a python with copclib and numpy (default: a venv made in DIR
 #              with `pip install copclib==2.6.3 numpy`)
+#        BIN   a mapgauge binary to time as it is (default: cargo build
+#              --release, then target/release/mapgauge)
 set -euo pipefail
 
 REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -19,8 +23,10 @@ N=${1:-20000000}
 DIR=${DIR:-/tmp/mapgauge-copc}
 RUNS=${RUNS:-3}
 mkdir -p "$DIR"
-BIN=$REPO/target/release/mapgauge
-(cd "$REPO" && cargo build --release --quiet)
+if [[ -z ${BIN:-} ]]; then
+    BIN=$REPO/target/release/mapgauge
+    (cd "$REPO" && cargo build --release --quiet)
+fi
 if [[ -z ${PY:-} ]]; then
     if [[ ! -x $DIR/venv/bin/python ]]; then
         python3 -m venv "$DIR/venv"

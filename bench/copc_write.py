@@ -13,109 +13,221 @@ which leaves hold about MAX_NODE points, and each point on a level of detail
 drawn from a hash of its index (1/8 of the points of a level go one level up),
 so every level has nodes of similar size, as real writers (untwine, PDAL) do.
 Nodes are written in (level, x, y, z) order; points keep their input order
-within a node.
+within a node. (The depth counts the whole octree cube: for a flat cloud such
+as the random 400 m x 400 m x 20 m one, whose points fill about 1/20 of the
+cube, nodes hold about ten times MAX_NODE points.)
+
+Streaming, so memory stays bounded (well under 1 GB at 200 M points): the
+points are read in slabs of CHUNK in input order three times, (1) for the
+bounds, (2) to sort them into temporary bucket files next to OUT, one per
+(level, node x), in input order, and (3) bucket by bucket, to sort each by
+node and hand copclib one node at a time (copclib compresses and writes each
+node as it comes and keeps only the hierarchy). The random cloud is drawn as
+one numpy stream, all x, then all y, then all z; the generator states at the
+starts of y and z are found in pass 1, so the points, the octree and the file
+are the same as the former in-memory version wrote (byte for byte). The
+temporary files take 20 bytes a point (4 GB at 200 M points).
 """
 
 import os
+import resource
+import shutil
 import sys
 
 import numpy as np
 import copclib as copc
 
 MAX_NODE = int(os.environ.get("COPC_MAX_NODE", "20000"))
+CHUNK = 4_000_000
+MAX_BUCKETS = 256  # per level: node x columns are grouped beyond this
 
 
-def read_las(path):
-    """Integer coordinates, scales and offsets of a LAS file (any version)."""
-    head = np.fromfile(path, dtype=np.uint8, count=375)
-    u32 = lambda o: int(head[o : o + 4].view("<u4")[0])
-    start = u32(96)
-    rec = int(head[105:107].view("<u2")[0])
-    count = u32(107)
-    if count == 0 and head[25] >= 4:
-        count = int(head[247:255].view("<u8")[0])
-    scale = head[131:155].view("<f8").copy()
-    offset = head[155:179].view("<f8").copy()
-    raw = np.memmap(path, dtype=np.uint8, mode="r", offset=start, shape=(count, rec))
-    xyz = np.ascontiguousarray(raw[:, :12]).view("<i4").reshape(count, 3)
-    return xyz, scale, offset
+class LasSource:
+    """Integer coordinates of a LAS file (any version), in slabs."""
+
+    def __init__(self, path):
+        head = np.fromfile(path, dtype=np.uint8, count=375)
+        u32 = lambda o: int(head[o : o + 4].view("<u4")[0])
+        start = u32(96)
+        rec = int(head[105:107].view("<u2")[0])
+        count = u32(107)
+        if count == 0 and head[25] >= 4:
+            count = int(head[247:255].view("<u8")[0])
+        self.scale = head[131:155].view("<f8").copy()
+        self.offset = head[155:179].view("<f8").copy()
+        self.n = count
+        self.raw = np.memmap(path, dtype=np.uint8, mode="r", offset=start, shape=(count, rec))
+
+    def slabs(self):
+        for i in range(0, self.n, CHUNK):
+            part = self.raw[i : i + CHUNK, :12]
+            yield i, np.ascontiguousarray(part).view("<i4").reshape(len(part), 3)
 
 
-def random_cloud(n, seed):
-    """A 400 m x 400 m x 20 m cloud at UTM-like coordinates, millimetre grid."""
-    rng = np.random.default_rng(seed)
-    xyz = np.empty((n, 3), dtype=np.int32)
-    xyz[:, 0] = rng.integers(0, 400_000, n)
-    xyz[:, 1] = rng.integers(0, 400_000, n)
-    xyz[:, 2] = rng.integers(0, 20_000, n)
-    return xyz, np.array([0.001] * 3), np.array([350_000.0, 4_150_000.0, 0.0])
+class RandomSource:
+    """A 400 m x 400 m x 20 m cloud at UTM-like coordinates, millimetre grid:
+    `rng.integers` for all x, then all y, then all z (one generator)."""
+
+    SPAN = (400_000, 400_000, 20_000)
+
+    def __init__(self, n, seed):
+        self.n = n
+        self.scale = np.array([0.001] * 3)
+        self.offset = np.array([350_000.0, 4_150_000.0, 0.0])
+        rng = np.random.default_rng(seed)
+        self.states = []
+        for span in self.SPAN:
+            self.states.append(rng.bit_generator.state)
+            for i in range(0, n, CHUNK):
+                rng.integers(0, span, min(CHUNK, n - i))
+
+    def slabs(self):
+        gens = []
+        for state in self.states:
+            g = np.random.default_rng()
+            g.bit_generator.state = state
+            gens.append(g)
+        for i in range(0, self.n, CHUNK):
+            c = min(CHUNK, self.n - i)
+            xyz = np.empty((c, 3), dtype=np.int32)
+            for a, (g, span) in enumerate(zip(gens, self.SPAN)):
+                xyz[:, a] = g.integers(0, span, c)
+            yield i, xyz
 
 
-def write(xyz, scale, offset, out):
-    n = len(xyz)
-    pos = xyz * scale + offset
-    lo, hi = pos.min(axis=0), pos.max(axis=0)
-    centre = (lo + hi) / 2
-    half = float((hi - lo).max()) / 2 * 1.0001 + 1e-3
-    depth = 0
-    while n > MAX_NODE * 8**depth and depth < 12:
-        depth += 1
-    cells = 1 << depth
-    leaf = np.floor((pos - (centre - half)) / (2 * half / cells)).astype(np.int64)
-    np.clip(leaf, 0, cells - 1, out=leaf)
-    # Level of detail: trailing zero bits of a multiplicative hash, 3 per level.
-    h = (np.arange(n, dtype=np.uint64) + np.uint64(1)) * np.uint64(0x9E3779B97F4A7C15)
-    tz = np.zeros(n, dtype=np.int64)
-    for b in range(3 * depth):
-        tz += (h & np.uint64((1 << (b + 1)) - 1)) == 0
-    level = depth - np.minimum(depth, tz // 3)
-    key = leaf >> (depth - level)[:, None]
-    order = np.lexsort((np.arange(n), key[:, 2], key[:, 1], key[:, 0], level))
+class Octree:
+    def __init__(self, n, scale, offset, lo, hi):
+        self.scale, self.offset = scale, offset
+        self.lo, self.hi = lo, hi
+        self.centre = (lo + hi) / 2
+        self.half = float((hi - lo).max()) / 2 * 1.0001 + 1e-3
+        depth = 0
+        while n > MAX_NODE * 8**depth and depth < 12:
+            depth += 1
+        self.depth = depth
+        self.cells = 1 << depth
+        # Buckets: per level, node x columns, grouped by 2**shift.
+        self.shift = [max(0, l - MAX_BUCKETS.bit_length() + 1) for l in range(depth + 1)]
+        first = np.cumsum([0] + [(1 << l) >> s for l, s in enumerate(self.shift)])
+        self.first = first[:-1]
+        self.buckets = int(first[-1])
 
-    cfg = copc.CopcConfigWriter(6, copc.Vector3(*scale), copc.Vector3(*offset))
-    cfg.las_header.min = copc.Vector3(*lo)
-    cfg.las_header.max = copc.Vector3(*hi)
-    cfg.copc_info.center_x, cfg.copc_info.center_y, cfg.copc_info.center_z = centre
-    cfg.copc_info.halfsize = half
-    cfg.copc_info.spacing = 2 * half / 128
-    w = copc.FileWriter(out, cfg)
-    rec = np.dtype(
-        [
-            ("xyz", "<i4", 3),
-            ("intensity", "<u2"),
-            ("returns", "u1"),
-            ("flags", "u1"),
-            ("class", "u1"),
-            ("user", "u1"),
-            ("angle", "<i2"),
-            ("source", "<u2"),
-            ("time", "<f8"),
-        ]
-    )
-    assert rec.itemsize == 30
-    lk = np.column_stack([level[order], key[order]])
-    bounds = np.flatnonzero(np.any(lk[1:] != lk[:-1], axis=1)) + 1
-    for part in np.split(order, bounds):
-        r = np.zeros(len(part), dtype=rec)
-        r["xyz"] = xyz[part]
-        r["intensity"] = (part % 4096).astype(np.uint16)
-        r["returns"] = 0x11
-        r["class"] = 1
-        first = part[0]
-        l = int(level[first])
-        kx, ky, kz = (int(v) for v in key[first])
-        w.AddNode(copc.VoxelKey(l, kx, ky, kz), copc.VectorChar(r.view(np.int8)))
-    w.Close()
-    print(f"{out}: {n} points, depth {depth}, {len(bounds) + 1} nodes")
+    def level(self, index):
+        """Level of detail: trailing zero bits of a multiplicative hash, 3 per level."""
+        h = (index.astype(np.uint64) + np.uint64(1)) * np.uint64(0x9E3779B97F4A7C15)
+        tz = np.zeros(len(index), dtype=np.int64)
+        for b in range(3 * self.depth):
+            tz += (h & np.uint64((1 << (b + 1)) - 1)) == 0
+        return self.depth - np.minimum(self.depth, tz // 3)
+
+    def key(self, xyz, level):
+        pos = xyz * self.scale + self.offset
+        leaf = np.floor((pos - (self.centre - self.half)) / (2 * self.half / self.cells)).astype(np.int64)
+        np.clip(leaf, 0, self.cells - 1, out=leaf)
+        return leaf >> (self.depth - level)[:, None]
+
+    def bucket(self, level, kx):
+        return self.first[level] + (kx >> np.asarray(self.shift)[level])
+
+
+BUCKET = np.dtype([("i", "<u8"), ("xyz", "<i4", 3)])
+REC = np.dtype(
+    [
+        ("xyz", "<i4", 3),
+        ("intensity", "<u2"),
+        ("returns", "u1"),
+        ("flags", "u1"),
+        ("class", "u1"),
+        ("user", "u1"),
+        ("angle", "<i2"),
+        ("source", "<u2"),
+        ("time", "<f8"),
+    ]
+)
+assert REC.itemsize == 30
+
+
+def write(src, out):
+    n = src.n
+    # Pass 1: bounds (x * scale + offset is monotonic in x).
+    imin = np.full(3, np.iinfo(np.int32).max, dtype=np.int64)
+    imax = np.full(3, np.iinfo(np.int32).min, dtype=np.int64)
+    for _, xyz in src.slabs():
+        imin = np.minimum(imin, xyz.min(axis=0))
+        imax = np.maximum(imax, xyz.max(axis=0))
+    lo, hi = imin * src.scale + src.offset, imax * src.scale + src.offset
+    tree = Octree(n, src.scale, src.offset, lo, hi)
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft != resource.RLIM_INFINITY and soft < tree.buckets + 64:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, tree.buckets + 64), hard))
+    tmp = out + ".buckets"
+    shutil.rmtree(tmp, ignore_errors=True)
+    os.makedirs(tmp)
+    try:
+        # Pass 2: into bucket files, in input order.
+        files = [open(os.path.join(tmp, f"{b}"), "wb") for b in range(tree.buckets)]
+        for i0, xyz in src.slabs():
+            index = np.arange(i0, i0 + len(xyz), dtype=np.int64)
+            level = tree.level(index)
+            b = tree.bucket(level, tree.key(xyz, level)[:, 0])
+            order = np.argsort(b, kind="stable")
+            recs = np.empty(len(xyz), dtype=BUCKET)
+            recs["i"] = index[order]
+            recs["xyz"] = xyz[order]
+            bs = b[order]
+            cuts = np.flatnonzero(bs[1:] != bs[:-1]) + 1
+            for lo_, hi_ in zip(np.r_[0, cuts], np.r_[cuts, len(bs)]):
+                files[bs[lo_]].write(recs[lo_:hi_].tobytes())
+            del recs, order, bs, b, level, index, xyz
+        for f in files:
+            f.close()
+
+        # Pass 3: bucket by bucket, node by node.
+        cfg = copc.CopcConfigWriter(6, copc.Vector3(*src.scale), copc.Vector3(*src.offset))
+        cfg.las_header.min = copc.Vector3(*lo)
+        cfg.las_header.max = copc.Vector3(*hi)
+        cfg.copc_info.center_x, cfg.copc_info.center_y, cfg.copc_info.center_z = tree.centre
+        cfg.copc_info.halfsize = tree.half
+        cfg.copc_info.spacing = 2 * tree.half / 128
+        w = copc.FileWriter(out, cfg)
+        nodes = 0
+        written = 0
+        for l in range(tree.depth + 1):
+            for b in range(tree.first[l], tree.first[l] + ((1 << l) >> tree.shift[l])):
+                path = os.path.join(tmp, f"{b}")
+                recs = np.fromfile(path, dtype=BUCKET)
+                os.remove(path)
+                if len(recs) == 0:
+                    continue
+                m = len(recs)
+                key = tree.key(recs["xyz"], np.full(m, l, dtype=np.int64))
+                order = np.lexsort((key[:, 2], key[:, 1], key[:, 0]))  # stable: input order kept
+                key = key[order]
+                recs = recs[order]
+                cuts = np.flatnonzero(np.any(key[1:] != key[:-1], axis=1)) + 1
+                for s, e in zip(np.r_[0, cuts], np.r_[cuts, m]):
+                    r = np.zeros(e - s, dtype=REC)
+                    r["xyz"] = recs["xyz"][s:e]
+                    r["intensity"] = (recs["i"][s:e] % 4096).astype(np.uint16)
+                    r["returns"] = 0x11
+                    r["class"] = 1
+                    kx, ky, kz = (int(v) for v in key[s])
+                    w.AddNode(copc.VoxelKey(l, kx, ky, kz), copc.VectorChar(r.view(np.int8)))
+                    nodes += 1
+                    written += e - s
+        w.Close()
+        assert written == n, (written, n)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"{out}: {n} points, depth {tree.depth}, {nodes} nodes")
 
 
 def main(argv):
     if len(argv) == 5 and argv[1] == "--random":
-        xyz, scale, offset = random_cloud(int(argv[2]), int(argv[3]))
-        write(xyz, scale, offset, argv[4])
+        write(RandomSource(int(argv[2]), int(argv[3])), argv[4])
     elif len(argv) == 3:
-        xyz, scale, offset = read_las(argv[1])
-        write(xyz, scale, offset, argv[2])
+        write(LasSource(argv[1]), argv[2])
     else:
         sys.exit(__doc__)
 
