@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
@@ -464,6 +465,10 @@ def table(
     directory name as ``mapgauge table`` uses, an evaluation's map file name
     without extension, else ``run 1``, ``run 2``, ...). ``format`` is markdown,
     latex, csv, html, json or text; ``which`` relative, absolute or both.
+
+    Runs scored against different surveys (a target surveyed elsewhere, or
+    other targets) do not compare: each such pair raises a ``UserWarning``
+    with the message ``mapgauge table`` prints.
     """
     results = list(results)
     if names is not None:
@@ -484,4 +489,7 @@ def table(
         else:
             raise MapgaugeError(f"result {i + 1}: expected an Evaluation, a result.json path or its dict")
         runs.append((names[i] if names is not None else default, kind, payload))
-    return _mapgauge._table(runs, format, which)
+    text, cautions = _mapgauge._table(runs, format, which)
+    for c in cautions:
+        warnings.warn(c, UserWarning, stacklevel=2)
+    return text

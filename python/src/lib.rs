@@ -663,14 +663,15 @@ fn _synth<'py>(
 }
 
 /// The paper's Tables I and II over several results, as `mapgauge table`
-/// prints them. Each run is (name, "path" | "json", path or JSON text).
+/// prints them, and the warnings it prints (runs scored against different
+/// surveys). Each run is (name, "path" | "json", path or JSON text).
 #[pyfunction]
 fn _table(
     py: Python<'_>,
     runs: Vec<(String, String, String)>,
     format: &str,
     which: &str,
-) -> PyResult<String> {
+) -> PyResult<(String, Vec<String>)> {
     let fmt: OutputFormat = format.parse().map_err(err)?;
     let (rel, abs) = match which {
         "both" => (true, true),
@@ -708,7 +709,10 @@ fn _table(
         .map(|r| r.0.clone())
         .zip(results.iter())
         .collect();
-    Ok(render_tables(&named, fmt, rel, abs))
+    Ok((
+        render_tables(&named, fmt, rel, abs),
+        render::survey_mismatches(&named),
+    ))
 }
 
 /// `mapgauge table`'s output, as text.

@@ -3,6 +3,7 @@
 import json
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -249,6 +250,22 @@ def test_table_is_the_cli_table(cli, scene, tmp_path):
     assert "| map |" in mapgauge.table(evs[:1])  # named after the map file
     with pytest.raises(mapgauge.MapgaugeError, match="2 names for 1 results"):
         mapgauge.table(evs[:1], names=["a", "b"])
+
+
+def test_table_warns_when_runs_used_different_surveys(scene, tmp_path):
+    # As `mapgauge table` does on stderr: runs scored against other targets
+    # do not compare, and the table says so instead of lining them up.
+    lines = (scene / "survey.csv").read_text().splitlines()
+    fewer = tmp_path / "fewer.csv"
+    fewer.write_text("\n".join(lines[:-1]) + "\n")
+    same = mapgauge.evaluate(str(scene / "map.ply"), str(scene / "survey.csv"))
+    other = mapgauge.evaluate(str(scene / "map.ply"), str(fewer))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mapgauge.table([same, same], names=["a", "b"])
+    with pytest.warns(UserWarning, match=r"runs `a` and `b` were scored against different surveys \(only in `a`: "):
+        text = mapgauge.table([same, other], names=["a", "b"])
+    assert "| a |" in text and "| b |" in text
 
 
 # --- errors(), locate(), read_points(), synth() --------------------------------

@@ -1,7 +1,9 @@
 //! `mapgauge table`: the paper's Tables I and II, one row per result file.
 
 use mapgauge::record::ResultFile;
-use mapgauge::render::{Grid, OutputFormat, TableFormat, absolute_grid, relative_grid};
+use mapgauge::render::{
+    Grid, OutputFormat, TableFormat, absolute_grid, relative_grid, survey_mismatches,
+};
 use mapgauge::report::html;
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
@@ -170,60 +172,4 @@ pub fn run(a: Args) -> Result<()> {
         print!("{}", g.render(fmt));
     }
     Ok(())
-}
-
-/// Runs compared in one table should share a survey: a target id whose
-/// surveyed position differs between two runs (by more than 1 mm) means they
-/// were measured against different surveys, and the columns do not compare.
-fn survey_mismatches(runs: &[(String, &ResultFile)]) -> Vec<String> {
-    let mut out = Vec::new();
-    let Some((first, r0)) = runs.first() else {
-        return out;
-    };
-    for (name, r) in &runs[1..] {
-        let differ: Vec<&str> = r
-            .targets
-            .iter()
-            .filter(|t| {
-                r0.targets.iter().any(|u| {
-                    u.id == t.id
-                        && ((u.survey.x - t.survey.x).hypot(u.survey.y - t.survey.y) > 1e-3
-                            || r0.survey_frame != r.survey_frame)
-                })
-            })
-            .map(|t| t.id.as_str())
-            .collect();
-        if !differ.is_empty() {
-            out.push(format!(
-                "runs `{first}` and `{name}` were scored against different surveys (targets {} differ): their columns do not compare",
-                differ.join(", ")
-            ));
-            continue;
-        }
-        // Same positions but other targets: a different survey too, and the
-        // runs' E_abs and E_rel are means over different targets.
-        let only = |a: &ResultFile, b: &ResultFile| -> Vec<String> {
-            a.targets
-                .iter()
-                .filter(|t| !b.targets.iter().any(|u| u.id == t.id))
-                .map(|t| t.id.clone())
-                .collect()
-        };
-        let (in_first, in_this) = (only(r0, r), only(r, r0));
-        if !in_first.is_empty() || !in_this.is_empty() {
-            let list = |v: &[String]| {
-                if v.is_empty() {
-                    "none".to_string()
-                } else {
-                    v.join(", ")
-                }
-            };
-            out.push(format!(
-                "runs `{first}` and `{name}` were scored against different surveys (only in `{first}`: {}; only in `{name}`: {}): their E_abs and E_rel are over different targets",
-                list(&in_first),
-                list(&in_this)
-            ));
-        }
-    }
-    out
 }
