@@ -138,6 +138,8 @@ impl Estimate {
 struct Table {
     path: std::path::PathBuf,
     headers: Vec<String>,
+    /// The header's line in the file (comments may come first).
+    header_line: u64,
     rows: Vec<(u64, csv::StringRecord)>,
 }
 
@@ -192,6 +194,7 @@ impl Table {
             .trim(csv::Trim::All)
             .from_reader(bytes.as_slice());
         let mut headers = None;
+        let mut header_line = 1;
         let mut rows = Vec::new();
         for rec in rdr.records() {
             let rec = rec.map_err(|e| {
@@ -227,6 +230,7 @@ impl Table {
                     }
                 }
                 headers = Some(h);
+                header_line = line;
             } else {
                 rows.push((line, rec));
             }
@@ -235,6 +239,7 @@ impl Table {
         Ok(Table {
             path: path.to_path_buf(),
             headers,
+            header_line,
             rows,
         })
     }
@@ -311,6 +316,62 @@ const Z: &[&str] = &["z", "up", "u", "height"];
 const LAT: &[&str] = &["lat", "latitude"];
 const LON: &[&str] = &["lon", "lng", "long", "longitude"];
 const ALT: &[&str] = &["alt", "altitude", "h", "ellipsoidal_height"];
+const ROLE: &[&str] = &["role"];
+const ANTENNA: &[&str] = &["antenna_height", "antenna"];
+
+/// The survey column that header `h` (lowercase) most likely meant, when it
+/// is not itself one: the same letters but for separators (`antenna height`),
+/// a name with a unit after it (`alt_m`, `lat (deg)`), or a name of five or
+/// more letters with up to two typos (one for shorter names). Other extra
+/// columns (`description`, `sigma_x`) are ignored as before.
+fn misspelt_column(h: &str) -> Option<&'static str> {
+    let known = || {
+        [ID, X, Y, Z, LAT, LON, ALT, ROLE, ANTENNA]
+            .into_iter()
+            .flatten()
+            .copied()
+    };
+    if h.is_empty() || known().any(|k| k == h) {
+        return None;
+    }
+    let norm = |s: &str| -> String { s.chars().filter(|c| c.is_ascii_alphanumeric()).collect() };
+    // A unit after a separator: `alt_m`, `z [m]`, `lat(deg)`.
+    let stem = ["metres", "meters", "degrees", "deg", "m"]
+        .iter()
+        .find_map(|u| {
+            let t = h.trim_end_matches([')', ']', ' ']);
+            let head = t.strip_suffix(u)?;
+            let head2 = head.trim_end_matches(['_', '-', ' ', '(', '[']);
+            (head2.len() < head.len()).then_some(head2)
+        });
+    let n = norm(h);
+    known().find(|k| {
+        let nk = norm(k);
+        nk == n
+            || stem.is_some_and(|s| norm(s) == nk)
+            || match nk.len() {
+                0..=3 => false,
+                4 => levenshtein(&n, &nk) <= 1,
+                _ => levenshtein(&n, &nk) <= 2,
+            }
+    })
+}
+
+/// Edit distance between two short ASCII strings.
+fn levenshtein(a: &str, b: &str) -> usize {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, &ca) in a.iter().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != cb)).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
 
 /// Reads a survey CSV: `id` and either `x,y[,z]` (local metres) or `lat,lon[,alt]`
 /// (WGS84 degrees, converted to ENU about `opts.origin` or the first target);
@@ -331,6 +392,19 @@ pub fn read_survey_for_map(
     projector: Option<&Path>,
 ) -> Result<Survey> {
     let t = Table::read(path)?;
+    // A misspelt column (`antena_height`, `alt_m`) would be ignored like any
+    // extra column, and its values lost without a word: refuse it instead.
+    for h in &t.headers {
+        if let Some(meant) = misspelt_column(h) {
+            return Err(Error::table(
+                path,
+                t.header_line,
+                format!(
+                    "column `{h}` is not one mapgauge reads; did you mean `{meant}`? Rename it (or remove the column): its values would be ignored"
+                ),
+            ));
+        }
+    }
     let id_c = t.require(ID)?;
     let (xy, ll) = ((t.col(X), t.col(Y)), (t.col(LAT), t.col(LON)));
     let geodetic = match (xy, ll) {
@@ -366,8 +440,8 @@ pub fn read_survey_for_map(
     } else {
         (t.require(X)?, t.require(Y)?, t.col(Z), "x", "y", "z")
     };
-    let role_c = t.col(&["role"]);
-    let ah_c = t.col(&["antenna_height", "antenna"]);
+    let role_c = t.col(ROLE);
+    let ah_c = t.col(ANTENNA);
     let mut seen = HashSet::new();
     let mut targets = Vec::with_capacity(t.rows.len());
     let mut geo = Vec::new();
@@ -555,6 +629,34 @@ mod tests {
         read_survey(f.path(), &SurveyOptions::default())
             .unwrap_err()
             .to_string()
+    }
+
+    #[test]
+    fn a_misspelt_column_is_refused_and_extra_columns_are_not() {
+        for (head, meant) in [
+            ("id,x,y,z,antena_height", "antenna_height"),
+            ("id,x,y,z,antenna height", "antenna_height"),
+            ("id,x,y,z_m", "z"),
+            ("id,lat,lon,alt_m", "alt"),
+            ("id,lat,lon,alt (m)", "alt"),
+            ("id,lattitude,lon", "latitude"),
+            ("id,x,y,z,rol", "role"),
+            ("id,easting,northing,height [m]", "height"),
+        ] {
+            let cols = head.split(',').count();
+            let row = vec!["1"; cols].join(",");
+            let e = err(&format!("# comment first\n{head}\n{row}\n"));
+            assert!(
+                e.contains(":2: column `") && e.contains(&format!("did you mean `{meant}`?")),
+                "{head}: {e}"
+            );
+        }
+        // Columns a survey export carries that mapgauge does not read.
+        let f = file(
+            "id,x,y,z,description,notes,code,type,date,time,sigma_x,hrms,status,geoid_height\nT1,1,2,3,a,b,c,d,e,f,0.01,0.02,fix,40\n",
+        );
+        let s = read_survey(f.path(), &SurveyOptions::default()).unwrap();
+        assert_eq!(s.targets.len(), 1);
     }
 
     #[test]
