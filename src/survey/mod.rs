@@ -298,7 +298,7 @@ impl Table {
         self.col(names).ok_or_else(|| {
             Error::table(
                 &self.path,
-                1,
+                self.header_line,
                 format!(
                     "missing column `{}` (header has: {})",
                     names[0],
@@ -411,7 +411,7 @@ pub fn read_survey_for_map(
         ((Some(_), Some(_)), (Some(_), Some(_))) => {
             return Err(Error::table(
                 path,
-                1,
+                t.header_line,
                 "both x,y and lat,lon columns: keep only one kind",
             ));
         }
@@ -420,7 +420,7 @@ pub fn read_survey_for_map(
         _ => {
             return Err(Error::table(
                 path,
-                1,
+                t.header_line,
                 format!(
                     "missing position columns: need x,y[,z] or lat,lon[,alt] (header has: {})",
                     t.headers.join(",")
