@@ -61,6 +61,16 @@ pub enum Warning {
     /// Few targets were found where expected, and detection could not find
     /// another frame; the first guess was kept.
     DetectionFailed(String),
+    /// The frame the user gave (`--init` or `--hints`) found too few targets
+    /// where it put them; detection found another frame, which was used.
+    GivenFrameReplaced {
+        /// `init` or `hints`.
+        given: &'static str,
+        /// Targets found with the given frame.
+        found: usize,
+        /// Targets in the survey.
+        targets: usize,
+    },
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
         /// Total tilt corrected (degrees).
@@ -87,6 +97,14 @@ impl std::fmt::Display for Warning {
             Warning::DetectionFailed(e) => write!(
                 f,
                 "few targets were found where expected and detection found no other frame ({e}); the expected frame was kept"
+            ),
+            Warning::GivenFrameReplaced {
+                given,
+                found,
+                targets,
+            } => write!(
+                f,
+                "the frame from --{given} found {found} of {targets} targets where it put them; the targets were detected in the map and that frame was used instead (result.json eval.frame)"
             ),
             Warning::Levelled { tilt_deg } => write!(
                 f,
@@ -233,6 +251,18 @@ fn evaluate(
             >= cfg.metrics.align.min_points().max(2);
         match frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress) {
             Ok(d) => {
+                let given = match how {
+                    FrameHow::Init => Some("init"),
+                    FrameHow::Hints { .. } => Some("hints"),
+                    _ => None,
+                };
+                if let Some(given) = given {
+                    warnings.push(Warning::GivenFrameReplaced {
+                        given,
+                        found: found.iter().filter(|r| r.outcome.is_ok()).count(),
+                        targets: found.len(),
+                    });
+                }
                 (how, init, dz, unmatched) = d;
                 (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
             }

@@ -384,6 +384,27 @@ fn init_transform_hand_crops_and_failures() {
     );
     assert!((r["alignment"]["rotation_deg"].as_f64().unwrap() + 30.0).abs() < 0.05);
     assert!(r["absolute"]["mean"].as_f64().unwrap() < 0.05);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("the frame from --init"));
+
+    // A wrong transform finds nothing where it points; detection takes over,
+    // and the terminal says the --init given was not used.
+    let out = eval(&[
+        os("--map"),
+        map.as_os_str(),
+        os("--survey"),
+        survey.as_os_str(),
+        os("--init=100,100,120"),
+        os("--format"),
+        os("json"),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning: the frame from --init found 0 of 5 targets where it put them; the targets were detected in the map"),
+        "{err}"
+    );
+    let m: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((m["alignment"]["rotation_deg"].as_f64().unwrap() + 30.0).abs() < 0.05);
 
     // The paper's manual workflow: the tight crops as hand-made crops give the
     // same targets; a missing crop is reported, not fatal.
