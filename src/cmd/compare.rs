@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 /// Paired differences of two runs on the targets both located, with 95 % intervals.
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// A's result.json.
     a: PathBuf,

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 /// Convert a map to another format, streaming (memory does not grow with the map).
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Input map (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content),
     /// or an Autoware tiled map (a folder of PCD tiles or its `*metadata*.yaml`).

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 
 /// Cut the map around every surveyed target (one pass over the map).
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Map file (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content), or an
     /// Autoware tiled map: a folder of PCD tiles or its `*metadata*.yaml`.

@@ -13,6 +13,7 @@ use std::sync::atomic::AtomicBool;
 
 /// Synthesise a scene with known truth, evaluate it, print the results.
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Directory for the scene and the results.
     #[arg(long, default_value = "mapgauge-demo")]

@@ -12,6 +12,7 @@ use std::path::PathBuf;
 /// List every object shaped like a target (two perpendicular plates of the
 /// configured size meeting at a vertical edge) anywhere in the map.
 #[derive(clap::Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// The map (PCD, PLY, LAS/LAZ, E57, XYZ, PTS), or an Autoware tiled map
     /// (a folder of PCD tiles or its `*metadata*.yaml`).

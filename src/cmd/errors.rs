@@ -10,6 +10,7 @@ use std::path::PathBuf;
 
 /// Flags of `mapgauge errors`.
 #[derive(clap::Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Survey CSV: id and x,y[,z] (local metres) or lat,lon[,alt] (WGS84); optional role, antenna_height.
     #[arg(long)]

@@ -16,6 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Measure a map's accuracy: crop, locate every target, align, report.
 #[derive(clap::Args, Clone)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Map file (PCD, PLY, LAS/LAZ, E57, PTS, XYZ; recognised from its content), or an
     /// Autoware tiled map: a folder of PCD tiles or its `*metadata*.yaml`.

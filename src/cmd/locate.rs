@@ -17,6 +17,7 @@ pub enum OutFormat {
 
 /// Locate the corner of the L-target in each tight crop (k-means → RANSAC → SVD → corner).
 #[derive(clap::Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Tight crops (PCD, PLY, LAS/LAZ, E57, XYZ), one target per file; id = file stem.
     #[arg(required = true)]

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 /// Generate a LiDAR-like map of L-targets with known truth (map, survey.csv, truth.json).
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Output directory (created if missing): map.<ext>, survey.csv, truth.json.
     #[arg(long, required_unless_present = "print_config")]

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 
 /// Paper-style tables across runs (one row per result.json).
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// result.json files written by `eval` or `errors --out`.
     #[arg(required = true)]

@@ -195,6 +195,25 @@ fn messages_name_the_remedy() {
         "{}",
         stderr(&o)
     );
+    // A negative number is a value, so an out-of-range one gets the range
+    // error (exit 1), not clap's "unexpected argument '-1'".
+    for cmd in ["eval", "crop"] {
+        let o = bin()
+            .args([cmd, "--radius", "-1", "--out"])
+            .arg(d.path().join("neg"))
+            .arg("--map")
+            .arg(d.path().join("none.ply"))
+            .arg("--survey")
+            .arg(d.path().join("none.csv"))
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1), "{cmd}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("-1: must be within 0.001..10000"),
+            "{cmd}: {}",
+            stderr(&o)
+        );
+    }
     // List flags: negative numbers without `=`; a wrong count is a usage error.
     let (map, survey) = scene(d.path());
     let o = bin()
