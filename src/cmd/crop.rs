@@ -34,6 +34,9 @@ pub struct Args {
     /// expect. Loose crops keep the ground, for inspection or hand editing.
     #[arg(long)]
     tight: bool,
+    /// Plate width and height `W[,H]` in metres, for `--tight` [default: 0.6,0.6].
+    #[arg(long, value_name = "W[,H]", value_parser = super::one_or_two, allow_hyphen_values = true)]
+    plate_size: Option<(f64, Option<f64>)>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutFormat::Ply)]
     format: OutFormat,
@@ -53,6 +56,19 @@ pub fn run(a: Args) -> Result<()> {
             "--radius {}: must be within 0.001..10000 m",
             a.radius
         )));
+    }
+    if let Some((w, h)) = a.plate_size {
+        let h = h.unwrap_or(w);
+        if !a.tight {
+            return Err(mapgauge::Error::Param(
+                "--plate-size shapes the tight crops: add --tight (loose crops are cylinders whatever the plates)".into(),
+            ));
+        }
+        if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
+            return Err(mapgauge::Error::Param(format!(
+                "--plate-size `{w},{h}`: sizes must be positive"
+            )));
+        }
     }
     super::check_out_dir(&a.out)?;
     let projector = cloud::map_projector(&a.map)?;
@@ -124,6 +140,9 @@ pub fn run(a: Args) -> Result<()> {
             );
         }
     }
+    if empty > 0 {
+        frame_hint();
+    }
     eprintln!(
         "{} points read{}; {} of {} targets have points",
         map_points,
@@ -143,6 +162,14 @@ pub fn run(a: Args) -> Result<()> {
     );
     super::print_tile_stats(reader.as_ref());
     Ok(())
+}
+
+/// crop looks where the survey (or `--init`) puts the targets; it does not
+/// search the map for them as eval does: say how to get the frame.
+fn frame_hint() {
+    eprintln!(
+        "a map in another frame needs --init X,Y,YAW_DEG: `mapgauge eval` finds the frame by itself and writes it to result.json as eval.frame.init"
+    );
 }
 
 /// `crop --tight`: the loose crops in memory (thinned as `eval` thins them),
@@ -170,7 +197,11 @@ fn write_tight(
     }
     super::print_tile_stats(reader.as_ref());
     std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
-    let tight_params = mapgauge::crop::TightParams::default();
+    let mut tight_params = mapgauge::crop::TightParams::default();
+    if let Some((w, h)) = a.plate_size {
+        tight_params.plate_width = w;
+        tight_params.plate_height = h.unwrap_or(w);
+    }
     println!("{:<12} {:>10}  file", "id", "points");
     let mut written = 0;
     for ((t, pts), c) in survey.targets.iter().zip(&loose.points).zip(centres) {
@@ -195,5 +226,8 @@ fn write_tight(
         written,
         survey.targets.len()
     );
+    if loose.points.iter().any(|p| p.is_empty()) {
+        frame_hint();
+    }
     Ok(())
 }

@@ -343,3 +343,63 @@ fn radius_out_of_range_is_a_one_line_error() {
         assert!(!out.exists(), "{r}: output directory created");
     }
 }
+
+/// A map in another frame: crop looks where the survey puts the targets,
+/// finds nothing, and says how to get the frame; `--plate-size` shapes tight
+/// crops only.
+#[test]
+fn a_map_in_another_frame_gets_the_way_to_its_frame() {
+    let dir = tempdir();
+    let (map, survey) = synth(dir.path(), "ply", 3);
+    let moved = dir.path().join("moved.ply");
+    let pts: Vec<Point> = mapgauge::cloud::read_all(&map)
+        .unwrap()
+        .into_iter()
+        .map(|p| Point::new(p.x + 500.0, p.y - 300.0, p.z))
+        .collect();
+    mapgauge::cloud::write(&moved, mapgauge::cloud::OutFormat::Ply, &pts).unwrap();
+    for tight in [false, true] {
+        let mut args = vec!["crop"];
+        if tight {
+            args.push("--tight");
+        }
+        let out = dir.path().join(format!("out-{tight}"));
+        let o = run(
+            &args,
+            &[("--map", &moved), ("--survey", &survey), ("--out", &out)],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("needs --init X,Y,YAW_DEG: `mapgauge eval` finds the frame by itself and writes it to result.json as eval.frame.init"),
+            "{}",
+            stderr(&o)
+        );
+    }
+    // The way back: --init puts the targets where they are.
+    let got = crop(
+        &moved,
+        &survey,
+        &dir.path().join("init"),
+        &["--init=-500,300,0"],
+    );
+    assert!(got.values().all(|(n, _)| *n > 100), "{got:?}");
+    let o = run(
+        &["crop", "--plate-size", "0.5"],
+        &[
+            ("--map", &map),
+            ("--survey", &survey),
+            ("--out", &dir.path().join("p")),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("add --tight"), "{}", stderr(&o));
+    let o = run(
+        &["crop", "--tight", "--plate-size", "0.6,0.6"],
+        &[
+            ("--map", &map),
+            ("--survey", &survey),
+            ("--out", &dir.path().join("q")),
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
