@@ -255,6 +255,20 @@ pub(super) fn plumb(found: &[TargetRun], turned: bool) -> Option<(Plumb, Option<
     ))
 }
 
+/// Standard error (degrees) of the vertical a levelled frame was turned to:
+/// the plumb lines' and the ground's inverse-variance mean when both turned
+/// it (`ground_turned`), the plumb lines' alone, or the ground's alone (its
+/// error is the site's slope).
+pub(super) fn vertical_se_deg(plumb: Option<&Plumb>, ground_turned: bool) -> f64 {
+    match plumb {
+        Some(p) if p.applied && ground_turned => {
+            (1.0 / (GROUND_SIGMA_DEG.powi(-2) + p.se_deg.max(1e-9).powi(-2))).sqrt()
+        }
+        Some(p) if p.applied => p.se_deg,
+        _ => GROUND_SIGMA_DEG,
+    }
+}
+
 /// A target's plumb line from plain least-squares planes through the points
 /// near each located plate: the locator's own axis comes from a sample that
 /// passed its verticality gate, which leans it towards the "up" it was given.
@@ -289,7 +303,7 @@ fn plain_axis(tight: &[Point], f: &target::Found) -> Option<(Vector3<f64>, f64)>
 
 /// How far the ground's vertical may be from the true one: a site's general
 /// slope (degrees).
-const GROUND_SIGMA_DEG: f64 = 2.0;
+pub(super) const GROUND_SIGMA_DEG: f64 = 2.0;
 
 /// Turns every target's crops by `rot` about `origin` and locates the found
 /// ones again with +z as their vertical.

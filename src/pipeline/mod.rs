@@ -75,6 +75,14 @@ pub enum Warning {
     Levelled {
         /// Total tilt corrected (degrees).
         tilt_deg: f64,
+        /// Standard error of the vertical it was turned to (degrees).
+        se_deg: f64,
+        /// What that angle does to the targets' levelled positions: the
+        /// largest height change (m: distance from the levelling origin × the
+        /// angle) and horizontal change (mm: height above it × the angle).
+        height_m: f64,
+        /// See `height_m`.
+        across_mm: f64,
     },
 }
 
@@ -106,9 +114,14 @@ impl std::fmt::Display for Warning {
                 f,
                 "the frame from --{given} found {found} of {targets} targets where it put them; the targets were detected in the map and that frame was used instead (result.json eval.frame)"
             ),
-            Warning::Levelled { tilt_deg } => write!(
+            Warning::Levelled {
+                tilt_deg,
+                se_deg,
+                height_m,
+                across_mm,
+            } => write!(
                 f,
-                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back)"
+                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back). The vertical is known to ±{se_deg:.2}° (1σ): the targets' levelled heights are uncertain by up to {height_m:.2} m (distance from the levelling origin × that angle) and their horizontal positions by up to {across_mm:.1} mm (height above it × that angle), beyond the σ given per target"
             ),
         }
     }
@@ -295,7 +308,20 @@ fn evaluate(
         });
     let tilt = motion.tilt_deg();
     if tilt > 0.0 {
-        warnings.push(Warning::Levelled { tilt_deg: tilt });
+        let se_deg = frame::vertical_se_deg(plumb.as_ref(), turned);
+        let a = se_deg.to_radians();
+        let o = motion.origin;
+        let (mut height_m, mut across_mm) = (0.0_f64, 0.0_f64);
+        for e in &expected {
+            height_m = height_m.max(a * (e.x - o.x).hypot(e.y - o.y));
+            across_mm = across_mm.max(1e3 * a * (e.z - o.z).abs());
+        }
+        warnings.push(Warning::Levelled {
+            tilt_deg: tilt,
+            se_deg,
+            height_m,
+            across_mm,
+        });
     }
 
     let opts = ScoreOptions {

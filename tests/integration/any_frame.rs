@@ -559,3 +559,70 @@ fn what_stood_where_a_target_was_not_found_is_named_and_placed() {
     // The other targets have nothing of the kind.
     assert!(r["eval"]["targets"][1].get("seen").is_none());
 }
+
+/// A levelled map's vertical is an estimate: the same tilted map with its
+/// points in another order samples other plate points, the plumb lines move
+/// by a fraction of a degree, and far targets' levelled heights by decimetres.
+/// The levelling warning states that bound; what moves must lie within it.
+#[test]
+fn a_levelled_maps_heights_move_within_the_stated_vertical_uncertainty() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    synth(&scene, &["--points", "600000", "--tilt-deg", "6"]);
+    let mut pts = mapgauge::cloud::read_all(&scene.join("map.pcd")).unwrap();
+    pts.reverse();
+    let shuffled = dir.path().join("shuffled");
+    std::fs::create_dir_all(&shuffled).unwrap();
+    std::fs::copy(scene.join("survey.csv"), shuffled.join("survey.csv")).unwrap();
+    mapgauge::cloud::write(
+        &shuffled.join("map.pcd"),
+        mapgauge::cloud::OutFormat::Pcd,
+        &pts,
+    )
+    .unwrap();
+    let mut runs = Vec::new();
+    for (k, sc) in [&scene, &shuffled].into_iter().enumerate() {
+        let res = dir.path().join(format!("res{k}"));
+        let out = eval(sc, &res, &[]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let r = result(&res);
+        let w = r["warnings"].to_string();
+        let bound: f64 = w
+            .split("levelled heights are uncertain by up to ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no levelling bound in {w}"));
+        assert!(w.contains("The vertical is known to ±"), "{w}");
+        // Heights in the levelled frame, where the errors are computed.
+        let z: Vec<Option<f64>> = r["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["map"]["z"].as_f64())
+            .collect();
+        runs.push((z, corners(&r), bound));
+    }
+    let bound = runs[0].2.max(runs[1].2);
+    let mut worst: f64 = 0.0;
+    for (a, b) in runs[0].0.iter().zip(&runs[1].0) {
+        if let (Some(a), Some(b)) = (a, b) {
+            worst = worst.max((a - b).abs());
+        }
+    }
+    // In the map's own frame the corners stay put: the plates are where they
+    // are, only the estimated vertical turns.
+    for (a, b) in runs[0].1.iter().zip(&runs[1].1) {
+        if let (Some(p), Some(q)) = (a.1, b.1) {
+            let d = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+            assert!(d < 0.02, "target {} moved {d} m in the map's frame", a.0);
+        }
+    }
+    // Two estimates, each within the bound at 1σ of the true vertical: their
+    // difference within three times it.
+    eprintln!("heights moved up to {worst:.3} m; stated bound {bound:.3} m");
+    assert!(
+        worst <= 3.0 * bound,
+        "heights moved {worst} m, bound {bound} m"
+    );
+}
