@@ -190,6 +190,13 @@ pub fn run(a: Args) -> Result<()> {
         "expected    E_abs {:.4} m, E_rel {:.4} m (true map positions, rigid2d)",
         expected.absolute.mean, expected.relative.mean
     );
+    let level = mapgauge::pipeline::Config::default().frame.level_above_deg;
+    if p.distortion.tilt_deg > level {
+        println!(
+            "            (of the map as written, leaning {}°: eval levels a map leaning more than {level}°, so it measures without the tilt's share)",
+            p.distortion.tilt_deg
+        );
+    }
     if p.clutter.decoys > 0 {
         println!(
             "decoys      {} placed of {} asked",

@@ -133,12 +133,18 @@ impl Grid {
                         w[i] = w[i].max(c.chars().count());
                     }
                 }
+                // A last column of sentences (a not-found reason) is left
+                // unpadded: right-aligned, one long reason pushed every row
+                // past the terminal's width. Short cells (units) stay aligned.
+                let last_words = ncol > 1 && w[ncol - 1] > 40;
                 for r in std::iter::once(&self.header).chain(&self.rows) {
                     let cells: Vec<String> = r
                         .iter()
                         .enumerate()
                         .map(|(i, c)| {
-                            if i == 0 {
+                            if last_words && i + 1 == ncol {
+                                c.clone()
+                            } else if i == 0 {
                                 format!("{c:<width$}", width = w[i])
                             } else {
                                 format!("{c:>width$}", width = w[i])
