@@ -33,7 +33,6 @@ mod scalar;
 mod source;
 pub(crate) mod tiles;
 mod write;
-pub(crate) use write::rename_over;
 mod xyz;
 
 /// A map file format mapgauge can read.

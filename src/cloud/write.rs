@@ -302,7 +302,7 @@ impl Sink for XyzSink {
             .map_err(|e| Error::io(&tmp, e))?;
         file.write_all(&head).map_err(|e| Error::io(&tmp, e))?;
         drop(file);
-        rename_over(&tmp, &self.dest).map_err(|e| Error::io(&self.dest, e))?;
+        std::fs::rename(&tmp, &self.dest).map_err(|e| Error::io(&self.dest, e))?;
         self.tmp = None;
         Ok(self.count)
     }
@@ -315,22 +315,6 @@ impl Drop for XyzSink {
             let _ = std::fs::remove_file(tmp);
         }
     }
-}
-
-/// Moves a finished temporary file onto `dest`, removing what `dest` held
-/// first. Why not a plain rename over it: ext4 (the default on Linux) treats a
-/// rename that replaces a file as a request to make the new data durable
-/// (`auto_da_alloc`) and allocates and starts writing out the new file's blocks
-/// inside the rename call. For a crop rerun into the same folder that cost
-/// more than the whole read of a 20 M-point float map (a 40 ms crop took
-/// 55-75 ms). Outputs here are derived files and never synced: a crash
-/// between the two steps leaves the old output gone and the complete new one
-/// under its temporary name, never a half-written file under `dest`.
-pub(crate) fn rename_over(tmp: &Path, dest: &Path) -> std::io::Result<()> {
-    // Nothing there, or something that cannot be removed (a directory): the
-    // rename says why if it matters.
-    let _ = std::fs::remove_file(dest);
-    std::fs::rename(tmp, dest)
 }
 
 /// Starts a binary PLY writer.
@@ -496,7 +480,7 @@ impl Sink for PcdCompressedSink {
         file.write_all(&comp32.to_le_bytes()).map_err(io)?;
         file.write_all(&raw32.to_le_bytes()).map_err(io)?;
         drop(file);
-        rename_over(&tmp, &self.dest).map_err(|e| Error::io(&self.dest, e))?;
+        std::fs::rename(&tmp, &self.dest).map_err(|e| Error::io(&self.dest, e))?;
         self.finished = true;
         Ok(self.count)
     }

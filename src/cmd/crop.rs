@@ -168,7 +168,7 @@ pub fn run(a: Args) -> Result<()> {
 /// search the map for them as eval does: say how to get the frame.
 fn frame_hint() {
     eprintln!(
-        "a map in another frame needs --init X,Y,YAW_DEG: `mapgauge eval` finds the frame by itself and writes it to result.json as eval.frame.init"
+        "a map in another frame needs --init X,Y,YAW_DEG: `mapgauge eval` finds the frame by itself and writes it to result.json as eval.frame.init (for a map that leans and that eval levels, that frame is the levelled one: take the crops from `eval --save-crops` instead)"
     );
 }
 

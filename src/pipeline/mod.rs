@@ -314,7 +314,11 @@ fn evaluate(
         let (mut height_m, mut across_mm) = (0.0_f64, 0.0_f64);
         for e in &expected {
             height_m = height_m.max(a * (e.x - o.x).hypot(e.y - o.y));
-            across_mm = across_mm.max(1e3 * a * (e.z - o.z).abs());
+        }
+        // Heights from the located corners: the expected positions carry the
+        // survey's heights, whose datum need not be the map's.
+        for c in found.iter().filter_map(|r| r.corner()) {
+            across_mm = across_mm.max(1e3 * a * (c.z - o.z).abs());
         }
         warnings.push(Warning::Levelled {
             tilt_deg: tilt,

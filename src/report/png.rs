@@ -40,7 +40,7 @@ pub fn write(f: &Figure, path: &Path) -> Result<()> {
         draw(f, &root).map_err(|e| fail(e.to_string()))?;
         root.present().map_err(|e| fail(e.to_string()))?;
     }
-    crate::cloud::rename_over(&tmp, path).map_err(|e| {
+    std::fs::rename(&tmp, path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
         Error::io(path, e)
     })

@@ -319,11 +319,21 @@ const ALT: &[&str] = &["alt", "altitude", "h", "ellipsoidal_height"];
 const ROLE: &[&str] = &["role"];
 const ANTENNA: &[&str] = &["antenna_height", "antenna"];
 
+/// Height columns under names mapgauge does not read.
+const ELEVATION: &[&str] = &[
+    "elevation",
+    "elev",
+    "orthometric_height",
+    "ortho_height",
+    "hgt",
+];
+
 /// The survey column that header `h` (lowercase) most likely meant, when it
 /// is not itself one: the same letters but for separators (`antenna height`),
-/// a name with a unit after it (`alt_m`, `lat (deg)`), or a name of five or
-/// more letters with up to two typos (one for shorter names). Other extra
-/// columns (`description`, `sigma_x`) are ignored as before.
+/// a name with a unit after it (`alt_m`, `lat (deg)`), or one of the long
+/// names (seven letters or more: `antenna_height`, `latitude`, `easting`...)
+/// with up to two typos and at most one letter more or less. Other extra
+/// columns (`description`, `note`, `weight`, `easting_sd`) are ignored.
 fn misspelt_column(h: &str) -> Option<&'static str> {
     let known = || {
         [ID, X, Y, Z, LAT, LON, ALT, ROLE, ANTENNA]
@@ -349,11 +359,7 @@ fn misspelt_column(h: &str) -> Option<&'static str> {
         let nk = norm(k);
         nk == n
             || stem.is_some_and(|s| norm(s) == nk)
-            || match nk.len() {
-                0..=3 => false,
-                4 => levenshtein(&n, &nk) <= 1,
-                _ => levenshtein(&n, &nk) <= 2,
-            }
+            || (nk.len() >= 7 && n.len().abs_diff(nk.len()) <= 1 && levenshtein(&n, &nk) <= 2)
     })
 }
 
@@ -396,11 +402,16 @@ pub fn read_survey_for_map(
     // extra column, and its values lost without a word: refuse it instead.
     for h in &t.headers {
         if let Some(meant) = misspelt_column(h) {
+            let caveat = if ANTENNA.contains(&meant) {
+                " (coordinates already reduced to the ground mark, as many GNSS exports give them, must not also give an antenna height)"
+            } else {
+                ""
+            };
             return Err(Error::table(
                 path,
                 t.header_line,
                 format!(
-                    "column `{h}` is not one mapgauge reads; did you mean `{meant}`? Rename it (or remove the column): its values would be ignored"
+                    "column `{h}` is not one mapgauge reads; did you mean `{meant}`? Rename it for its values to be used, or remove it{caveat}"
                 ),
             ));
         }
@@ -428,6 +439,29 @@ pub fn read_survey_for_map(
             ));
         }
     };
+    // Heights under the other kind's names, or under a name read by neither,
+    // would be dropped without a word.
+    let (theirs, ours) = if geodetic {
+        (
+            Z,
+            "`alt` (or altitude, h, ellipsoidal_height) in a lat,lon survey",
+        )
+    } else {
+        (ALT, "`z` (or up, height) in an x,y survey")
+    };
+    if let Some(h) = t
+        .headers
+        .iter()
+        .find(|h| theirs.contains(&h.as_str()) || ELEVATION.contains(&h.as_str()))
+    {
+        return Err(Error::table(
+            path,
+            t.header_line,
+            format!(
+                "column `{h}` holds heights mapgauge does not read under that name: heights go in {ours}; rename it, or remove it"
+            ),
+        ));
+    }
     let (c1, c2, c3, n1, n2, n3) = if geodetic {
         (
             t.require(LAT)?,
@@ -640,7 +674,8 @@ mod tests {
             ("id,lat,lon,alt_m", "alt"),
             ("id,lat,lon,alt (m)", "alt"),
             ("id,lattitude,lon", "latitude"),
-            ("id,x,y,z,rol", "role"),
+            ("id,latitude,longitud", "longitude"),
+            ("id,x,y,z,antena", "antenna"),
             ("id,easting,northing,height [m]", "height"),
         ] {
             let cols = head.split(',').count();
@@ -651,12 +686,31 @@ mod tests {
                 "{head}: {e}"
             );
         }
+        assert!(
+            err("id,x,y,antenna height\n1,2,3,4\n")
+                .contains("must not also give an antenna height")
+        );
         // Columns a survey export carries that mapgauge does not read.
         let f = file(
-            "id,x,y,z,description,notes,code,type,date,time,sigma_x,hrms,status,geoid_height\nT1,1,2,3,a,b,c,d,e,f,0.01,0.02,fix,40\n",
+            "id,x,y,z,description,notes,note,code,type,date,time,sigma_x,hrms,status,geoid_height,weight,names,easting_sd,northing rms,along,east2,rol\nT1,1,2,3,a,b,c,d,e,f,g,0.01,0.02,fix,40,1,n,0.1,0.1,a,b,c\n",
         );
         let s = read_survey(f.path(), &SurveyOptions::default()).unwrap();
         assert_eq!(s.targets.len(), 1);
+        // Heights under the other kind of survey's names, or under a name
+        // read by neither, would be lost: refused, saying where they go.
+        for (head, want) in [
+            ("id,lat,lon,height", "heights go in `alt`"),
+            ("id,lat,lon,z", "heights go in `alt`"),
+            ("id,x,y,alt", "heights go in `z`"),
+            ("id,x,y,elevation", "heights go in `z`"),
+            ("id,lat,lon,elev", "heights go in `alt`"),
+        ] {
+            let e = err(&format!("{head}\n1,2,3,4\n"));
+            assert!(
+                e.contains(":1: column `") && e.contains(want),
+                "{head}: {e}"
+            );
+        }
     }
 
     #[test]

@@ -184,7 +184,7 @@ impl Sink for LasSink {
         let mut inner = writer.into_inner().map_err(|e| las_err(&self.tmp, e))?;
         inner.inner.flush().map_err(|e| Error::io(&self.tmp, e))?;
         drop(inner);
-        crate::cloud::rename_over(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
         self.finished = true;
         Ok(self.count)
     }
