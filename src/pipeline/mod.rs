@@ -127,9 +127,6 @@ impl std::fmt::Display for Warning {
     }
 }
 
-/// Fewer finite points than this is not a map (see `run`).
-const MIN_MAP_POINTS: u64 = 100;
-
 /// Everything an evaluation produces.
 #[derive(Debug)]
 pub struct Evaluation {
@@ -200,22 +197,6 @@ fn evaluate(
     map.bytes = total;
     map.points = ground.read.points;
     map.skipped_nonfinite = ground.read.skipped_nonfinite;
-    // A located target alone takes hundreds of points: a "map" of fewer than
-    // a hundred is another file (the survey, a list of positions) given as
-    // the map, and every later message (no frame found, no target) would
-    // hide that.
-    if crops_dir.is_none() && map.points < MIN_MAP_POINTS {
-        return Err(Error::Input(format!(
-            "{}: only {} finite points{}; a map holds thousands around each target: is this the map?",
-            map.name,
-            map.points,
-            if map.skipped_nonfinite > 0 {
-                format!(" ({} non-finite skipped)", map.skipped_nonfinite)
-            } else {
-                String::new()
-            }
-        )));
-    }
     // `--align none` scores the map in the survey frame as it is: nothing
     // may turn it.
     let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
