@@ -57,18 +57,13 @@ pub fn run(a: Args) -> Result<()> {
             a.radius
         )));
     }
-    if let Some((w, h)) = a.plate_size {
-        let h = h.unwrap_or(w);
+    if let Some(p) = a.plate_size {
         if !a.tight {
             return Err(mapgauge::Error::Param(
                 "--plate-size shapes the tight crops: add --tight (loose crops are cylinders whatever the plates)".into(),
             ));
         }
-        if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
-            return Err(mapgauge::Error::Param(format!(
-                "--plate-size `{w},{h}`: sizes must be positive"
-            )));
-        }
+        super::plate_size(p)?;
     }
     super::check_out_dir(&a.out)?;
     let projector = cloud::map_projector(&a.map)?;
@@ -198,9 +193,8 @@ fn write_tight(
     super::print_tile_stats(reader.as_ref());
     std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
     let mut tight_params = mapgauge::crop::TightParams::default();
-    if let Some((w, h)) = a.plate_size {
-        tight_params.plate_width = w;
-        tight_params.plate_height = h.unwrap_or(w);
+    if let Some(p) = a.plate_size {
+        (tight_params.plate_width, tight_params.plate_height) = super::plate_size(p)?;
     }
     println!("{:<12} {:>10}  file", "id", "points");
     let mut written = 0;

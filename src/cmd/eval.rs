@@ -125,13 +125,8 @@ pub fn config(a: &Args) -> Result<Config> {
     if let Some(s) = a.shape {
         cfg.crop.shape = s;
     }
-    if let Some((w, h)) = a.plate_size {
-        let h = h.unwrap_or(w);
-        if w <= 0.0 || h <= 0.0 {
-            return Err(Error::Param(format!(
-                "--plate-size `{w},{h}`: sizes must be positive"
-            )));
-        }
+    if let Some(p) = a.plate_size {
+        let (w, h) = super::plate_size(p)?;
         cfg.tight.plate_width = w;
         cfg.tight.plate_height = h;
     }

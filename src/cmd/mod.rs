@@ -66,6 +66,17 @@ pub fn one_or_two(s: &str) -> std::result::Result<(f64, Option<f64>), String> {
     Ok((v[0], v.get(1).copied()))
 }
 
+/// `--plate-size W[,H]` checked, with H defaulting to W (eval's and crop's).
+pub fn plate_size((w, h): (f64, Option<f64>)) -> mapgauge::Result<(f64, f64)> {
+    let h = h.unwrap_or(w);
+    if w <= 0.0 || h <= 0.0 {
+        return Err(mapgauge::Error::Param(format!(
+            "--plate-size `{w},{h}`: sizes must be positive"
+        )));
+    }
+    Ok((w, h))
+}
+
 /// `--origin lat,lon[,alt]` in WGS84 degrees and metres.
 pub fn origin(s: &str) -> std::result::Result<mapgauge::survey::Geodetic, String> {
     let v = numbers(s, 2, 3)?;
