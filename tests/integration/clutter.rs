@@ -7,7 +7,8 @@
 //!
 //! `cargo test --release --test integration clutter::table -- --ignored --nocapture` prints
 //! the table of every case (`CLUTTER_CASE`, `|`-separated parts of case names,
-//! and `CLUTTER_SEED` narrow it; `CLUTTER_SEEDS=N` runs seeds 1..=N).
+//! and `CLUTTER_SEED` narrow it; `CLUTTER_SEEDS=N` runs seeds 1..=N; `CLUTTER_EACH`
+//! prints every error, to compare two builds seed by seed).
 
 use mapgauge::Point;
 use mapgauge::crop::{TightParams, tight_crop};
@@ -123,7 +124,13 @@ impl Case {
             let (open_map, open_truth) = generate(&q);
             for i in 0..truth.targets.len() {
                 match error_mm(&map, &truth, i) {
-                    Ok(e) => case.errors.push(e),
+                    Ok(e) => {
+                        // Every error, to compare two builds seed by seed.
+                        if std::env::var("CLUTTER_EACH").is_ok() {
+                            eprintln!("each seed {seed} target {}: {e:.4} mm", i + 1);
+                        }
+                        case.errors.push(e)
+                    }
                     Err(why) => case
                         .misses
                         .push(format!("seed {seed} target {}: {why}", i + 1)),

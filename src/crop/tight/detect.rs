@@ -523,18 +523,23 @@ fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
     // whose faces lie in the plates' planes (a pallet stack inside the L) is
     // a clear band too, denser than the grill above it, but it stops short
     // of a plate's far edge (clutter stack seed 8).
+    // Each plate's points indexed by height once: a band's checks then cost
+    // a few binary searches, not a pass over the plate (a cluttered crop
+    // tries many bands, and each looked at every near point ~70 times).
+    let plates = [ByHeight::new(&near[0], w), ByHeight::new(&near[1], w)];
     let mut first_clear = None;
     for (n, s) in bands {
         if n < 2 * p.min_plate_points {
             break;
         }
-        let inside: Vec<f64> = z.iter().copied().filter(|&x| x >= s && x < s + h).collect();
+        // `z` is sorted: the band's heights are one run of it.
+        let inside = &z[z.partition_point(|&x| x < s)..z.partition_point(|&x| x < s + h)];
         let (lo, hi) = (
             inside[inside.len() / 50],
             inside[inside.len() - 1 - inside.len() / 50],
         );
-        if near.iter().all(|pl| clear_beside(pl, lo, hi, w)) {
-            if near.iter().all(|pl| plate_wide(pl, lo, hi, w)) {
+        if plates.iter().all(|pl| clear_beside(pl, lo, hi)) {
+            if plates.iter().all(|pl| plate_wide(pl, lo, hi, w)) {
                 return Some((lo, hi));
             }
             first_clear.get_or_insert((lo, hi));
@@ -543,20 +548,71 @@ fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
     first_clear
 }
 
+/// One plate's near points sorted by height, for `plate_band`'s per-band
+/// checks: the slab and the two shells beside it over the plate's width
+/// away from the post (`clear_beside`'s rows), and the slab's points on the
+/// plate's side of the corner with their distance along it (`plate_wide`).
+struct ByHeight {
+    /// Heights in the slab, `0.15 w < t < w`.
+    slab: Vec<f64>,
+    /// Heights in the shell in front (`d > 0`), same span along the plate.
+    front: Vec<f64>,
+    /// Heights in the shell behind (`d < 0`), same span along the plate.
+    back: Vec<f64>,
+    /// (height, distance along the plate) in the slab with `t > 0`.
+    ext: Vec<(f64, f64)>,
+}
+
+impl ByHeight {
+    fn new(near: &[Near], w: f64) -> Self {
+        let (t0, t1) = (0.15 * w, w);
+        let mut b = ByHeight {
+            slab: Vec::new(),
+            front: Vec::new(),
+            back: Vec::new(),
+            ext: Vec::new(),
+        };
+        for q in near {
+            let a = q.d.abs();
+            if a < SLAB && q.t > 0.0 {
+                b.ext.push((q.z, q.t));
+            }
+            if q.t <= t0 || q.t >= t1 {
+                continue;
+            }
+            if a < SLAB {
+                b.slab.push(q.z);
+            } else if a > SHELL.0 && a < SHELL.1 {
+                if q.d > 0.0 { &mut b.front } else { &mut b.back }.push(q.z);
+            }
+        }
+        for v in [&mut b.slab, &mut b.front, &mut b.back] {
+            v.sort_by(f64::total_cmp);
+        }
+        b.ext.sort_by(|x, y| x.0.total_cmp(&y.0));
+        b
+    }
+
+    /// `planar_count(near, 0.15 w, w, z0, z1).1`: the slab's points strictly
+    /// between the heights less twice the emptier shell's.
+    fn planar(&self, z0: f64, z1: f64) -> usize {
+        let between = |v: &[f64]| v.partition_point(|&x| x < z1) - v.partition_point(|&x| x <= z0);
+        between(&self.slab).saturating_sub(2 * between(&self.front).min(between(&self.back)))
+    }
+}
+
 /// Whether a plate's points in the band reach a plate's width, as
 /// `check_l`'s width test measures it (the 95th percentile along the plate
 /// from the corner, less the scatter of n points).
-fn plate_wide(near: &[Near], lo: f64, hi: f64, w: f64) -> bool {
-    let mut ext: Vec<f64> = near
-        .iter()
-        .filter(|q| q.z > lo - 0.05 && q.z < hi + 0.05 && q.d.abs() < SLAB && q.t > 0.0)
-        .map(|q| q.t)
-        .collect();
-    if ext.is_empty() {
+fn plate_wide(pl: &ByHeight, lo: f64, hi: f64, w: f64) -> bool {
+    let (a, b) = (lo - 0.05, hi + 0.05);
+    let run = &pl.ext[pl.ext.partition_point(|e| e.0 <= a)..pl.ext.partition_point(|e| e.0 < b)];
+    if run.is_empty() {
         return false;
     }
-    ext.sort_by(f64::total_cmp);
-    let width = ext[(ext.len() * 19) / 20];
+    let mut ext: Vec<f64> = run.iter().map(|e| e.1).collect();
+    let k = (ext.len() * 19) / 20;
+    let width = *ext.select_nth_unstable_by(k, f64::total_cmp).1;
     width >= MIN_WIDTH_SHARE * w - 0.22 * w / (ext.len() as f64).sqrt()
 }
 
@@ -569,13 +625,12 @@ fn plate_wide(near: &[Near], lo: f64, hi: f64, w: f64) -> bool {
 ///
 /// Fixed thin strips were measured to fail here: a LiDAR's rings leave
 /// 8 cm strips of a cabinet's face nearly empty when the band ends in a lull.
-fn clear_beside(near: &[Near], lo: f64, hi: f64, w: f64) -> bool {
-    let (t0, t1) = (0.15 * w, w);
+fn clear_beside(pl: &ByHeight, lo: f64, hi: f64) -> bool {
     let rows = |z0: f64, n: usize| -> Vec<usize> {
         (0..n)
             .map(|i| {
                 let a = z0 + i as f64 * ROW;
-                planar_count(near, t0, t1, a, a + ROW).1
+                pl.planar(a, a + ROW)
             })
             .collect()
     };
