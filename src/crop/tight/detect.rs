@@ -197,9 +197,7 @@ fn fit_l(
     let mut hist_b = vec![0u32; (2 * half + 1) as usize];
     // The heading (1.5° steps) where the weaker plate's peak is sharpest;
     // ties keep the lower angle.
-    let mut best = (0, 0.0);
-    let mut deg = 0.0;
-    while deg < 90.0 {
+    let mut score = |deg: f64, stride: usize| {
         let th = f64::to_radians(deg);
         let na = e1 * th.cos() + e2 * th.sin();
         let nb = up.cross(&na);
@@ -207,17 +205,42 @@ fn fit_l(
         let base_b = (nb.dot(&first) / bin).floor() as i64 - half;
         hist_a.fill(0);
         hist_b.fill(0);
-        for v in win {
+        for v in win.iter().step_by(stride) {
             let ia = ((na.dot(v) / bin).floor() as i64 - base_a).clamp(0, 2 * half);
             let ib = ((nb.dot(v) / bin).floor() as i64 - base_b).clamp(0, 2 * half);
             hist_a[ia as usize] += 1;
             hist_b[ib as usize] += 1;
         }
-        let support = sharp_peak(&hist_a).min(sharp_peak(&hist_b));
+        sharp_peak(&hist_a).min(sharp_peak(&hist_b))
+    };
+    let mut headings = Vec::with_capacity(60);
+    let mut deg = 0.0;
+    while deg < 90.0 {
+        headings.push(deg);
+        deg += 1.5;
+    }
+    // A dense window (a wall, a TLS scan) is searched on a fixed-stride
+    // sample of `HEADING_POINTS`, and its best few headings are scored
+    // again on every point: the choice is the whole window's unless the
+    // sample ranks the best heading below `HEADING_RESCORE` others.
+    let stride = win.len().div_ceil(HEADING_POINTS).max(1);
+    if stride > 1 {
+        let mut ranked: Vec<(usize, usize)> = headings
+            .iter()
+            .enumerate()
+            .map(|(k, &d)| (score(d, stride), k))
+            .collect();
+        ranked.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut keep: Vec<usize> = ranked.iter().take(HEADING_RESCORE).map(|r| r.1).collect();
+        keep.sort_unstable();
+        headings = keep.into_iter().map(|k| headings[k]).collect();
+    }
+    let mut best = (0, 0.0);
+    for deg in headings {
+        let support = score(deg, 1);
         if support > best.0 {
             best = (support, deg);
         }
-        deg += 1.5;
     }
     let deg = best.1;
     let mut why = Rejected::unnamed(0);
@@ -322,7 +345,7 @@ fn check_l(
                 .filter(|q| q.d.abs() < SLAB && q.t > lo && q.t < hi)
                 .map(|q| q.t)
                 .collect();
-            t.sort_by(f64::total_cmp);
+            t.sort_unstable_by(f64::total_cmp);
             (t.len() - densest_run(&t, 0.12), t.len())
         };
         let (pos, neg) = (side(0.05, w + 0.15), side(-w - 0.15, -0.05));
@@ -350,7 +373,7 @@ fn check_l(
         if z.len() < 2 * p.min_plate_points {
             no!(String::new());
         }
-        z.sort_by(f64::total_cmp);
+        z.sort_unstable_by(f64::total_cmp);
         let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
         no!(format!(
             "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
@@ -370,13 +393,13 @@ fn check_l(
         // other plate (a wall seen through its grill): those points sit at
         // one distance, while a plate going on spreads along its plane.
         let mut behind: Vec<f64> = ts.iter().copied().filter(|&t| t < -0.05).collect();
-        behind.sort_by(f64::total_cmp);
+        behind.sort_unstable_by(f64::total_cmp);
         let minor = behind.len() - densest_run(&behind, 0.12);
         if minor * 3 > major {
             no!("a plane running through the corner (a T or a cross)".into());
         }
         let mut ext: Vec<f64> = ts.into_iter().filter(|&t| t > 0.0).collect();
-        ext.sort_by(f64::total_cmp);
+        ext.sort_unstable_by(f64::total_cmp);
         let far = ext[(ext.len() * 9) / 10];
         if far > w + 0.15 {
             no!(format!("a plane continuing {far:.1} m past the corner"));
@@ -505,7 +528,7 @@ fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
     if z.len() < 2 * p.min_plate_points {
         return None;
     }
-    z.sort_by(f64::total_cmp);
+    z.sort_unstable_by(f64::total_cmp);
     let h = p.plate_height + 0.04;
     let count = |a: f64, b: f64| z.partition_point(|&x| x < b) - z.partition_point(|&x| x < a);
     let mut bands: Vec<(usize, f64)> = Vec::new();
@@ -517,7 +540,7 @@ fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
     if bands.is_empty() {
         bands.push((z.len(), z[0]));
     }
-    bands.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+    bands.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
     // The first clear band as wide as a plate on both plates; else the first
     // clear band (then refused by its widths). A solid object at the feet
     // whose faces lie in the plates' planes (a pallet stack inside the L) is
@@ -559,8 +582,9 @@ struct ByHeight {
     front: Vec<f64>,
     /// Heights in the shell behind (`d < 0`), same span along the plate.
     back: Vec<f64>,
-    /// (height, distance along the plate) in the slab with `t > 0`.
-    ext: Vec<(f64, f64)>,
+    /// (height, distance along the plate) in the slab with `t > 0`; sorted
+    /// by height the first time a band is clear (most checks end before).
+    ext: std::cell::RefCell<(bool, Vec<(f64, f64)>)>,
 }
 
 impl ByHeight {
@@ -570,12 +594,13 @@ impl ByHeight {
             slab: Vec::new(),
             front: Vec::new(),
             back: Vec::new(),
-            ext: Vec::new(),
+            ext: Default::default(),
         };
+        let mut ext = Vec::new();
         for q in near {
             let a = q.d.abs();
             if a < SLAB && q.t > 0.0 {
-                b.ext.push((q.z, q.t));
+                ext.push((q.z, q.t));
             }
             if q.t <= t0 || q.t >= t1 {
                 continue;
@@ -587,10 +612,24 @@ impl ByHeight {
             }
         }
         for v in [&mut b.slab, &mut b.front, &mut b.back] {
-            v.sort_by(f64::total_cmp);
+            v.sort_unstable_by(f64::total_cmp);
         }
-        b.ext.sort_by(|x, y| x.0.total_cmp(&y.0));
+        b.ext = std::cell::RefCell::new((false, ext));
         b
+    }
+
+    /// `ext`, sorted by height.
+    fn ext(&self) -> std::cell::Ref<'_, Vec<(f64, f64)>> {
+        {
+            let mut e = self.ext.borrow_mut();
+            if !e.0 {
+                // The order among equal heights does not matter: a band
+                // takes all of them or none, and a percentile of the rest.
+                e.1.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+                e.0 = true;
+            }
+        }
+        std::cell::Ref::map(self.ext.borrow(), |e| &e.1)
     }
 
     /// `planar_count(near, 0.15 w, w, z0, z1).1`: the slab's points strictly
@@ -606,7 +645,8 @@ impl ByHeight {
 /// from the corner, less the scatter of n points).
 fn plate_wide(pl: &ByHeight, lo: f64, hi: f64, w: f64) -> bool {
     let (a, b) = (lo - 0.05, hi + 0.05);
-    let run = &pl.ext[pl.ext.partition_point(|e| e.0 <= a)..pl.ext.partition_point(|e| e.0 < b)];
+    let all = pl.ext();
+    let run = &all[all.partition_point(|e| e.0 <= a)..all.partition_point(|e| e.0 < b)];
     if run.is_empty() {
         return false;
     }
@@ -676,6 +716,14 @@ fn clear_beside(pl: &ByHeight, lo: f64, hi: f64) -> bool {
     })
 }
 
+/// Most window points the heading search histograms at every heading (see
+/// `fit_l`); a plate edge-on is a spike of hundreds of points in a sample
+/// this size, so a sparser sample still ranks its heading near the top.
+const HEADING_POINTS: usize = 1500;
+
+/// Headings a dense window's sample passes on to be scored on every point.
+const HEADING_RESCORE: usize = 6;
+
 /// Rows in which `clear_beside` walks out from a plate's band (m).
 const ROW: f64 = 0.02;
 
@@ -717,7 +765,7 @@ fn strong_peaks(h: &[u32], base: i64, bin: f64, min: usize) -> Vec<(usize, f64)>
         })
         .filter(|&(c, _)| c >= min)
         .collect();
-    all.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+    all.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
     let mut kept: Vec<(usize, usize)> = Vec::new();
     for (c, k) in all {
         if kept.iter().all(|&(_, j)| j.abs_diff(k) >= 4) {
@@ -799,7 +847,7 @@ fn going_on(d: &[f64]) -> i64 {
         return 0;
     }
     let mut s = d.to_vec();
-    s.sort_by(f64::total_cmp);
+    s.sort_unstable_by(f64::total_cmp);
     let near = |a: f64, b: f64| d.iter().filter(|x| x.abs() >= a && x.abs() < b).count() as i64;
     // A surface standing across the plane (a barrier the plane runs into)
     // spreads its points evenly over the ±0.15 m; a face keeps them close.
