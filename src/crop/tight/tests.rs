@@ -218,3 +218,50 @@ fn an_l_nearer_another_target_is_left_to_it() {
     let t = tight_crop_among(&sc.pts, &expected, &[far], &p).unwrap();
     assert!((t.corner_guess - sc.corner).xy().norm() < 0.06);
 }
+
+/// Issue 29: a crop 40 times denser than SLAM maps (TLS-like: 3.5 M points,
+/// 400 k above the ground, windows of tens of thousands) is searched on a
+/// sample (`DETECT_POINTS`, `HEADING_POINTS`), yet finds the same L as the
+/// crop at its own density, keeps every plate point near it, and costs the
+/// same whatever the order of its points.
+#[test]
+fn a_dense_crop_finds_the_same_l_on_a_sample() {
+    let sc = scene(2, 1.0, 0.7, &["wall", "box"]);
+    let offset = Vector3::new(0.6, -0.4, 0.0);
+    let sparse = check(&sc, offset);
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(29);
+    let jitter = Normal::new(0.0, 0.002).unwrap();
+    let mut dense = Vec::with_capacity(sc.pts.len() * 40);
+    for p in &sc.pts {
+        for _ in 0..40 {
+            let j = Vector3::new(
+                jitter.sample(&mut rng),
+                jitter.sample(&mut rng),
+                jitter.sample(&mut rng),
+            );
+            dense.push(p + j);
+        }
+    }
+    let dense_scene = Scene {
+        pts: dense,
+        corner: sc.corner,
+    };
+    let t = check(&dense_scene, offset);
+    assert!(t.above_ground > 2 * DETECT_POINTS, "{} above ground", t.above_ground);
+    let moved = (t.corner_guess - sparse.corner_guess).xy().norm();
+    assert!(moved < 0.01, "the dense crop's L is {moved:.4} m from the sparse one's");
+    // Every point kept from the sparse crop has its 40 copies kept (give or
+    // take the jitter at the slab's edge).
+    let want = 40 * sparse.points.len();
+    assert!(
+        t.points.len() as f64 > 0.97 * want as f64,
+        "{} of ~{want} plate points kept",
+        t.points.len()
+    );
+    let mut reversed = dense_scene.pts.clone();
+    reversed.reverse();
+    let expected = sc.corner + offset;
+    let r = tight_crop(&reversed, &expected, &TightParams::default()).unwrap();
+    let moved = (r.corner_guess - t.corner_guess).xy().norm();
+    assert!(moved < 0.005, "reversed order moved the L by {moved:.4} m");
+}
