@@ -69,6 +69,33 @@ pub struct CloudInfo {
     pub file_bytes: u64,
 }
 
+/// What one pass of an evaluation read from the map: how many points, and
+/// how many bytes of files (a whole plain file; only the tiles or COPC
+/// nodes a region hint selected), so a user sees what each pass cost.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct PassRead {
+    /// The pass: `ground`, `detect-cells`, `detect-crops`, `crops`,
+    /// `second-pass`.
+    pub pass: String,
+    /// Finite points read.
+    pub points: u64,
+    /// Bytes of the files read.
+    pub bytes: u64,
+}
+
+impl PassRead {
+    /// What `reader` has read so far, as pass `pass`.
+    pub fn of(pass: &str, reader: &dyn PointReader) -> PassRead {
+        PassRead {
+            pass: pass.into(),
+            points: reader.stats().points,
+            bytes: reader
+                .tile_stats()
+                .map_or(reader.info().file_bytes, |t| t.bytes_opened),
+        }
+    }
+}
+
 /// Counters a reader keeps while streaming.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ReadStats {

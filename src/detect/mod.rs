@@ -112,6 +112,9 @@ pub struct MapDetections {
     pub rejected: Vec<(String, usize)>,
     /// Memory of the occupancy grid (bytes).
     pub grid_bytes: usize,
+    /// What its passes read: the cells above the ground, and the crops
+    /// around the candidates (when there were any).
+    pub reads: Vec<crate::cloud::PassRead>,
 }
 
 #[derive(Clone, Copy)]
@@ -168,6 +171,7 @@ pub fn detect_map(
         &mut progress,
     )?;
     let grid_bytes = occ.bytes() + floor.bytes() + ground.lowest.bytes();
+    let mut reads = vec![crate::cloud::PassRead::of("detect-cells", reader.as_ref())];
     let groups = groups(&occ, params);
     let mut rejected: HashMap<String, usize> = HashMap::new();
     let centres: Vec<Point> = groups
@@ -191,6 +195,7 @@ pub fn detect_map(
             max_points: 200_000,
         };
         let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
+        reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));
         let tp = TightParams {
             search_radius: params.search_radius,
             ..tight.clone()
@@ -249,6 +254,7 @@ pub fn detect_map(
         candidates,
         rejected,
         grid_bytes,
+        reads,
     })
 }
 

@@ -65,6 +65,8 @@ pub struct MapGround {
     /// The reader's counters over the whole map (finite points, non-finite
     /// ones skipped).
     pub read: crate::cloud::ReadStats,
+    /// What the pass read (points and bytes).
+    pub pass_read: crate::cloud::PassRead,
     /// A point near the map's middle (whole metres): the centre of
     /// rotation for any turn of the map, whether or not a vertical was found.
     pub centre: Point,
@@ -152,6 +154,7 @@ pub fn ground_level(
                     level: None,
                     points: 0,
                     read: r.stats(),
+                    pass_read: crate::cloud::PassRead::of("ground", r.as_ref()),
                     centre: Point::origin(),
                     z_range: None,
                     lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
@@ -234,6 +237,7 @@ pub fn ground_level(
         z_range: (low.z[0] <= low.z[1]).then_some(low.z),
         points: low.count,
         read: reader.stats(),
+        pass_read: crate::cloud::PassRead::of("ground", reader.as_ref()),
         lowest: low.grid,
         z0,
     })

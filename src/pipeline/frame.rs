@@ -136,6 +136,7 @@ pub(super) fn detect_and_match(
     cfg: &Config,
     total: u64,
     progress: &mut impl FnMut(u64, u64),
+    reads: &mut Vec<crate::cloud::PassRead>,
 ) -> Result<(FrameHow, [f64; 3], f64, Vec<Detection>)> {
     let found = detect_map(
         source,
@@ -145,6 +146,7 @@ pub(super) fn detect_and_match(
         &cfg.tight,
         |b| progress(b, total),
     )?;
+    reads.extend(found.reads.iter().cloned());
     let cands: Vec<Candidate> = found
         .detections
         .iter()

@@ -140,6 +140,8 @@ pub struct Evaluation {
     pub warnings: Vec<Warning>,
     /// How the map's frame was found, and its levelling.
     pub frame: FrameFound,
+    /// What each pass over the map read, in order.
+    pub reads: Vec<crate::cloud::PassRead>,
 }
 
 /// Evaluates a map against a survey. `progress` gets (bytes read, total
@@ -206,15 +208,22 @@ fn evaluate(
         ground.levelling(cfg.frame.level_above_deg)
     };
     let ground_up = ground.level.as_ref().map(|l| l.up);
+    // What each pass read, in order (result.json `eval.reads`).
+    let mut reads = vec![ground.pass_read.clone()];
     let (mut how, mut init, mut dz) = frame::given(survey, cfg, &motion)?;
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {
         (how, init, dz, unmatched) =
-            frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress)?;
+            frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress, &mut reads)?;
     }
     // `--init` and the survey frame are the map's own; hints and detections
     // were moved into the levelled frame already.
-    let first = |init: &[f64; 3], dz: f64, own: bool, map: &mut MapStats, progress: &mut _| {
+    let first = |init: &[f64; 3],
+                 dz: f64,
+                 own: bool,
+                 map: &mut MapStats,
+                 progress: &mut _,
+                 reads: &mut Vec<crate::cloud::PassRead>| {
         let expected = expected_positions(survey, init, dz, own.then_some(&motion));
         let crops = read_crops(
             source,
@@ -225,6 +234,8 @@ fn evaluate(
             map,
             progress,
         )?;
+        reads.push(crops.1);
+        let crops = crops.0;
         let found: Vec<TargetRun> = survey
             .targets
             .par_iter()
@@ -251,7 +262,7 @@ fn evaluate(
         Result::Ok((expected, found))
     };
     let own = |h: &FrameHow| matches!(h, FrameHow::Init | FrameHow::Survey);
-    let (mut expected, mut found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
+    let (mut expected, mut found) = first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
     // A guess that finds too few targets (the survey frame, or an `--init`
     // or hints too far off) gives way to detection in auto mode.
     if cfg.frame.mode == config::FrameMode::Auto
@@ -262,7 +273,7 @@ fn evaluate(
     {
         let enough = found.iter().filter(|r| r.outcome.is_ok()).count()
             >= cfg.metrics.align.min_points().max(2);
-        match frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress) {
+        match frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress, &mut reads) {
             Ok(d) => {
                 let given = match how {
                     FrameHow::Init => Some("init"),
@@ -277,7 +288,7 @@ fn evaluate(
                     });
                 }
                 (how, init, dz, unmatched) = d;
-                (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress)?;
+                (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
             }
             // The first guess found enough to align: keep it, and say why
             // detection did not take over.
@@ -355,6 +366,7 @@ fn evaluate(
             &ground,
             &far,
             &mut progress,
+            &mut reads,
         )?;
     }
     passes::common_vertical(&mut found, cfg);
@@ -379,6 +391,7 @@ fn evaluate(
                 &ground,
                 &late,
                 &mut progress,
+                &mut reads,
             )?;
             passes::common_vertical(&mut found, cfg);
             far.extend(late);
@@ -475,6 +488,7 @@ fn evaluate(
         targets: found,
         map,
         warnings,
+        reads,
         frame: FrameFound {
             how,
             init,
@@ -623,7 +637,7 @@ fn read_crops(
     z_range: Option<[f64; 2]>,
     map: &mut MapStats,
     progress: &mut impl FnMut(u64, u64),
-) -> Result<Vec<(Vec<Point>, u64)>> {
+) -> Result<(Vec<(Vec<Point>, u64)>, crate::cloud::PassRead)> {
     // With the map's z range, a tilted map's region hint reaches its reader
     // (tiles and COPC nodes far from the targets stay unread).
     let mut reader = source.open_moved_within(Some(motion), z_range)?;
@@ -638,5 +652,6 @@ fn read_crops(
         map.points = crop.map_points;
         map.skipped_nonfinite = crop.skipped_nonfinite;
     }
-    Ok(crop.points.into_iter().zip(crop.offered).collect())
+    let read = crate::cloud::PassRead::of("crops", reader.as_ref());
+    Ok((crop.points.into_iter().zip(crop.offered).collect(), read))
 }

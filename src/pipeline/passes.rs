@@ -28,6 +28,7 @@ pub(super) fn second_pass(
     ground: &crate::frame::MapGround,
     narrow: &[(usize, f64, f64, target::FarBy)],
     progress: &mut impl FnMut(u64, u64),
+    reads: &mut Vec<crate::cloud::PassRead>,
 ) -> Result<()> {
     let is_narrow = |i: usize| narrow.iter().find(|n| n.0 == i).copied();
     let missing: Vec<usize> = (0..found.len())
@@ -62,7 +63,7 @@ pub(super) fn second_pass(
     let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
     // The map's statistics stay those of the first pass.
     let mut again_stats = super::MapStats::default();
-    let again = read_crops(
+    let (again, read) = read_crops(
         source,
         &centres,
         crop_params,
@@ -71,6 +72,10 @@ pub(super) fn second_pass(
         &mut again_stats,
         progress,
     )?;
+    reads.push(crate::cloud::PassRead {
+        pass: "second-pass".into(),
+        ..read
+    });
     // A target searched again because the one found was far from where the
     // others put it is looked for only close to the prediction, so the same
     // wrong object cannot be found again.

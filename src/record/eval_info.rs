@@ -125,6 +125,10 @@ pub struct EvalInfo {
     /// How the map's frame was found.
     #[serde(default)]
     pub frame: FrameInfo,
+    /// What each pass over the map read (points, bytes), in order: the
+    /// ground pass, detection's when it ran, the crops, a second pass.
+    #[serde(default)]
+    pub reads: Vec<crate::cloud::PassRead>,
 }
 
 impl EvalInfo {
@@ -152,6 +156,7 @@ impl EvalInfo {
                 })
                 .collect(),
             frame: frame_info(&ev.frame),
+            reads: ev.reads.clone(),
         }
     }
 }

@@ -41,15 +41,35 @@ fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf, std::path::Path
     scene_with(dir, &[])
 }
 
-/// result.json without its `eval.map` and `eval.map_bytes` lines (the path
-/// given, and the bytes of one file against the tiles with their headers).
+/// result.json without its `eval.map`, `eval.map_bytes` and `eval.reads`
+/// (the path given, the bytes of one file against the tiles with their
+/// headers, and what each pass read: a tiled map's crops open fewer tiles).
 fn result_without_map(out: &Path) -> String {
-    std::fs::read_to_string(out.join("result.json"))
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    let eval = v["eval"].as_object_mut().unwrap();
+    for k in ["map", "map_bytes", "reads"] {
+        assert!(eval.remove(k).is_some(), "eval.{k} missing");
+    }
+    serde_json::to_string_pretty(&v).unwrap()
+}
+
+/// `eval.reads` of a run: (pass, points, bytes).
+fn reads(out: &Path) -> Vec<(String, u64, u64)> {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    v["eval"]["reads"]
+        .as_array()
         .unwrap()
-        .lines()
-        .filter(|l| !l.trim_start().starts_with("\"map\": \"") && !l.contains("\"map_bytes\""))
-        .collect::<Vec<_>>()
-        .join("\n")
+        .iter()
+        .map(|r| {
+            (
+                r["pass"].as_str().unwrap().to_string(),
+                r["points"].as_u64().unwrap(),
+                r["bytes"].as_u64().unwrap(),
+            )
+        })
+        .collect()
 }
 
 #[test]
@@ -57,7 +77,24 @@ fn whole_and_tiled_maps_give_identical_results() {
     let dir = tempdir();
     let (whole, tiles, survey) = scene(dir.path());
     let meta = tiles.join("pointcloud_map_metadata.yaml");
-    same_results(dir.path(), &[&whole, &tiles, &meta], &survey);
+    let outs = same_results(dir.path(), &[&whole, &tiles, &meta], &survey);
+    // Issue 29: result.json says what each pass read. The whole file is read
+    // whole by both passes; the tiled map's ground pass reads every tile and
+    // its crops only the tiles near the targets.
+    let whole_reads = reads(&outs[0]);
+    let tiled_reads = reads(&outs[1]);
+    let passes = |r: &[(String, u64, u64)]| r.iter().map(|p| p.0.clone()).collect::<Vec<_>>();
+    assert_eq!(passes(&whole_reads), ["ground", "crops"], "{whole_reads:?}");
+    assert_eq!(passes(&tiled_reads), ["ground", "crops"], "{tiled_reads:?}");
+    let map_bytes = std::fs::metadata(&whole).unwrap().len();
+    assert!(whole_reads.iter().all(|r| r.2 == map_bytes), "{whole_reads:?}");
+    assert_eq!(whole_reads[0].1, whole_reads[1].1);
+    assert_eq!(tiled_reads[0].1, whole_reads[0].1, "the ground pass reads every point");
+    // (This scene's targets reach 57 % of its points' tiles.)
+    assert!(
+        tiled_reads[1].2 < tiled_reads[0].2 * 3 / 4 && tiled_reads[1].1 < tiled_reads[0].1 * 3 / 4,
+        "the crops read the tiles near the targets only: {tiled_reads:?}"
+    );
 }
 
 /// A map leaning 6°: eval levels it, and its crops of the tiled map open the
@@ -98,12 +135,6 @@ fn same_results(dir: &Path, maps: &[&Path], survey: &Path) -> Vec<std::path::Pat
         "{targets}"
     );
     let want = result_without_map(&outs[0]);
-    let full = std::fs::read_to_string(outs[0].join("result.json")).unwrap();
-    assert_eq!(
-        full.lines().count(),
-        want.lines().count() + 2,
-        "two lines dropped"
-    );
     for out in &outs[1..] {
         assert_eq!(result_without_map(out), want, "{}", out.display());
         for f in ["targets.csv", "pairs.csv"] {
