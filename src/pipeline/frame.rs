@@ -128,6 +128,7 @@ pub(super) fn targets_there(found: &[TargetRun]) -> bool {
 }
 
 /// Detects targets map-wide and matches them to the survey.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn detect_and_match(
     source: MapSource,
     survey: &Survey,

@@ -627,8 +627,11 @@ pub fn expected_in_map(init: &[f64; 3], p: &Point) -> Point {
     Point::new(c * dx + s * dy, -s * dx + c * dy, p.z)
 }
 
+/// Per centre, the crop's points and how many were offered before thinning.
+type Crops = Vec<(Vec<Point>, u64)>;
+
 /// The loose crops around `centres` in one pass over the map, each with the
-/// number of points the map had there before thinning.
+/// number of points the map had there before thinning, and what the pass read.
 fn read_crops(
     source: MapSource,
     centres: &[Point],
@@ -637,7 +640,7 @@ fn read_crops(
     z_range: Option<[f64; 2]>,
     map: &mut MapStats,
     progress: &mut impl FnMut(u64, u64),
-) -> Result<(Vec<(Vec<Point>, u64)>, crate::cloud::PassRead)> {
+) -> Result<(Crops, crate::cloud::PassRead)> {
     // With the map's z range, a tilted map's region hint reaches its reader
     // (tiles and COPC nodes far from the targets stay unread).
     let mut reader = source.open_moved_within(Some(motion), z_range)?;
