@@ -298,17 +298,21 @@ pub fn evaluate(
     let survey = read_survey_for_map(survey_path, &SurveyOptions { origin }, projector.as_deref())?;
     super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, origin, survey_path)?;
-    let pb = progress_bar(cloud::map_bytes(map), "reading map");
-    let progress = |b, _| {
-        if let Some(pb) = &pb {
-            pb.set_position(b)
+    let pb = progress_bar(cloud::map_bytes(map), "pass 1: ground (whole map)");
+    // One bar for the whole run: each pass over the map is named and
+    // numbered as it starts, and fills the bar from 0 again.
+    let mut passes: Vec<&'static str> = Vec::new();
+    let progress = |p: pipeline::Progress| {
+        let Some(pb) = &pb else { return };
+        if passes.last() != Some(&p.pass) {
+            passes.push(p.pass);
+            pb.set_message(format!("pass {}: {}", passes.len(), pass_label(p.pass)));
+            pb.set_length(p.total);
         }
+        pb.set_position(p.done)
     };
     let source = MapSource::File(map);
-    let ev = match &a.crops {
-        Some(dir) => pipeline::run_with_crops(source, &survey, dir, cfg, progress)?,
-        None => pipeline::run(source, &survey, cfg, progress)?,
-    };
+    let ev = pipeline::run_reporting(source, &survey, a.crops.as_deref(), cfg, progress)?;
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
@@ -322,6 +326,17 @@ pub fn evaluate(
         }
     }
     Ok((ev, result))
+}
+
+/// What a pass over the map is doing, for the progress bar.
+fn pass_label(pass: &str) -> &str {
+    match pass {
+        "ground" => "ground (whole map)",
+        "detection" => "detecting the targets (map-wide)",
+        "crops" => "crops near the targets",
+        "second-pass" => "second pass (predicted positions)",
+        other => other,
+    }
 }
 
 /// The result file of an evaluation, with its `eval` section.

@@ -144,15 +144,31 @@ pub struct Evaluation {
     pub reads: Vec<crate::cloud::PassRead>,
 }
 
+/// Where a running evaluation is: the pass over the map and its bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    /// The pass: `ground` (the whole map: its vertical and ground),
+    /// `detection` (map-wide detection of the targets, when the frame is
+    /// not known), `crops` (around the expected positions), `second-pass`
+    /// (around the positions the found targets predict).
+    pub pass: &'static str,
+    /// Bytes of this pass read so far.
+    pub done: u64,
+    /// Bytes this pass reads in all (a tiled map's or COPC file's crops
+    /// may stop short of it: only the tiles or nodes near the targets).
+    pub total: u64,
+}
+
 /// Evaluates a map against a survey. `progress` gets (bytes read, total
-/// bytes) while a map file streams.
+/// bytes) while a map file streams; each pass starts again from 0
+/// ([`run_reporting`] says which pass).
 pub fn run(
     source: MapSource,
     survey: &Survey,
     cfg: &Config,
-    progress: impl FnMut(u64, u64),
+    mut progress: impl FnMut(u64, u64),
 ) -> Result<Evaluation> {
-    evaluate(source, survey, None, cfg, progress)
+    evaluate(source, survey, None, cfg, |p: Progress| progress(p.done, p.total))
 }
 
 /// [`run`] with hand-made tight crops `crops_dir/<id>.ply|pcd|…` (the paper's
@@ -163,9 +179,23 @@ pub fn run_with_crops(
     survey: &Survey,
     crops_dir: &Path,
     cfg: &Config,
-    progress: impl FnMut(u64, u64),
+    mut progress: impl FnMut(u64, u64),
 ) -> Result<Evaluation> {
-    evaluate(source, survey, Some(crops_dir), cfg, progress)
+    evaluate(source, survey, Some(crops_dir), cfg, |p: Progress| {
+        progress(p.done, p.total)
+    })
+}
+
+/// [`run`] (or [`run_with_crops`] with `crops_dir`) telling `progress` which
+/// pass over the map it is in, for a progress display that names it.
+pub fn run_reporting(
+    source: MapSource,
+    survey: &Survey,
+    crops_dir: Option<&Path>,
+    cfg: &Config,
+    progress: impl FnMut(Progress),
+) -> Result<Evaluation> {
+    evaluate(source, survey, crops_dir, cfg, progress)
 }
 
 fn evaluate(
@@ -173,9 +203,19 @@ fn evaluate(
     survey: &Survey,
     crops_dir: Option<&Path>,
     cfg: &Config,
-    mut progress: impl FnMut(u64, u64),
+    mut report: impl FnMut(Progress),
 ) -> Result<Evaluation> {
     cfg.validate()?;
+    // The pass the bytes belong to: set before each pass, read by the one
+    // byte callback every reader is given.
+    let pass = std::cell::Cell::new("ground");
+    let mut progress = |done: u64, total: u64| {
+        report(Progress {
+            pass: pass.get(),
+            done,
+            total,
+        })
+    };
     if survey.targets.is_empty() {
         return Err(Error::Input("the survey has no targets".into()));
     }
@@ -213,6 +253,7 @@ fn evaluate(
     let (mut how, mut init, mut dz) = frame::given(survey, cfg, &motion)?;
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {
+        pass.set("detection");
         (how, init, dz, unmatched) =
             frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress, &mut reads)?;
     }
@@ -262,6 +303,7 @@ fn evaluate(
         Result::Ok((expected, found))
     };
     let own = |h: &FrameHow| matches!(h, FrameHow::Init | FrameHow::Survey);
+    pass.set("crops");
     let (mut expected, mut found) = first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
     // A guess that finds too few targets (the survey frame, or an `--init`
     // or hints too far off) gives way to detection in auto mode.
@@ -273,6 +315,7 @@ fn evaluate(
     {
         let enough = found.iter().filter(|r| r.outcome.is_ok()).count()
             >= cfg.metrics.align.min_points().max(2);
+        pass.set("detection");
         match frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress, &mut reads) {
             Ok(d) => {
                 let given = match how {
@@ -288,6 +331,7 @@ fn evaluate(
                     });
                 }
                 (how, init, dz, unmatched) = d;
+                pass.set("crops");
                 (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
             }
             // The first guess found enough to align: keep it, and say why
@@ -354,6 +398,7 @@ fn evaluate(
         Vec::new()
     };
     if (cfg.frame.second_pass || !far.is_empty()) && crops_dir.is_none() {
+        pass.set("second-pass");
         passes::second_pass(
             source,
             survey,
@@ -379,6 +424,7 @@ fn evaluate(
             .filter(|l| !far.iter().any(|f| f.0 == l.0))
             .collect();
         if !late.is_empty() {
+            pass.set("second-pass");
             passes::second_pass(
                 source,
                 survey,

@@ -186,3 +186,36 @@ fn a_gross_error_is_flagged_and_excluded_on_request() {
     );
     assert!(ev.accuracy.absolute.mean < 0.5 * flagged.accuracy.absolute.mean);
 }
+
+/// Issue 29: `run_reporting` names every pass its progress belongs to, in
+/// the order `eval.reads` lists them, and each pass over a plain file ends
+/// with its whole size.
+#[test]
+fn progress_names_each_pass_as_reads_lists_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (files, _, _) = synth::write_scene(dir.path(), &params(), OutFormat::Pcd).unwrap();
+    let survey = read_survey(&files.survey, &SurveyOptions::default()).unwrap();
+    let mut seen: Vec<(&str, u64, u64)> = Vec::new();
+    let ev = pipeline::run_reporting(
+        MapSource::File(&files.map),
+        &survey,
+        None,
+        &Config::default(),
+        |p| match seen.last_mut() {
+            Some(last) if last.0 == p.pass && p.done >= last.1 => last.1 = p.done,
+            _ => seen.push((p.pass, p.done, p.total)),
+        },
+    )
+    .unwrap();
+    let size = std::fs::metadata(&files.map).unwrap().len();
+    let passes: Vec<&str> = seen.iter().map(|s| s.0).collect();
+    let reads: Vec<&str> = ev.reads.iter().map(|r| r.pass.as_str()).collect();
+    assert_eq!(passes, ["ground", "crops"], "{seen:?}");
+    assert_eq!(reads, passes);
+    for (pass, done, total) in &seen {
+        assert_eq!((*done, *total), (size, size), "{pass}");
+    }
+    for r in &ev.reads {
+        assert_eq!((r.points, r.bytes), (ev.map.points, size), "{r:?}");
+    }
+}
