@@ -27,6 +27,8 @@
 #                 any crop must do, without the parsing; after `crop` only)
 #        BASELINE_MAX_POINTS  largest map given to Open3D and PCL (default 50000000:
 #                 they hold the whole map in memory, ~10 GB at 200 M points)
+#        BIN      a mapgauge binary to measure instead of this checkout's
+#                 release build (an older build, for a before/after)
 #        OUT      markdown table file (default DIR/results-<date>.md), headed by
 #                 the build's commit (-dirty: uncommitted changes built in) and the
 #                 machine (cores, CPU model, memory, load average before and after)
@@ -49,9 +51,13 @@ if [[ ! -x /usr/bin/time ]]; then
     echo "installing GNU time" >&2
     apt-get install -y time >/dev/null 2>&1 || { echo "error: /usr/bin/time missing" >&2; exit 1; }
 fi
-echo "building release..." >&2
-(cd "$REPO" && cargo build --release --quiet)
-BIN="$REPO/target/release/mapgauge"
+if [[ -n "${BIN:-}" ]]; then
+    echo "benchmarking $BIN (not built here)" >&2
+else
+    echo "building release..." >&2
+    (cd "$REPO" && cargo build --release --quiet)
+    BIN="$REPO/target/release/mapgauge"
+fi
 
 have_open3d=0
 if python3 -c 'import open3d' 2>/dev/null; then have_open3d=1
@@ -126,6 +132,8 @@ COMMIT=$(git -C "$REPO" rev-parse --short HEAD 2>/dev/null || echo unknown)
 if [[ $COMMIT != unknown && -n $(git -C "$REPO" status --porcelain 2>/dev/null) ]]; then
     COMMIT="$COMMIT-dirty"
 fi
+# A binary given as BIN is its own build, whatever this checkout holds.
+[[ "$BIN" != "$REPO/target/release/mapgauge" ]] && COMMIT="unknown (BIN=$BIN)"
 CPU_MODEL=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//' || true)
 CPU_MODEL=${CPU_MODEL:-$(grep -m1 vendor_id /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//' || true)}
 CPU_MODEL=${CPU_MODEL:-unknown CPU}
