@@ -5,7 +5,7 @@
 
 use super::TightParams;
 use nalgebra::Vector3;
-use std::collections::HashMap;
+use crate::frame::grid::TileMap;
 
 /// A detected L: two perpendicular vertical planes in window-local terms.
 #[derive(Debug, Clone)]
@@ -88,7 +88,8 @@ pub(super) fn detect_l(
     let w = params.plate_width;
     let step = 0.25_f64.min(w / 2.0);
     let rw = 0.47 * w / 0.6 * 1.0 + step * 0.75;
-    let mut cells: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+    // Keys are sorted before use: the fast hasher changes nothing but time.
+    let mut cells: TileMap<(i64, i64), Vec<u32>> = TileMap::default();
     for (i, v) in ap.iter().enumerate() {
         cells
             .entry(((v.x / step).floor() as i64, (v.y / step).floor() as i64))
@@ -786,7 +787,7 @@ fn strong_peaks(h: &[u32], base: i64, bin: f64, min: usize) -> Vec<(usize, f64)>
 /// on; this is what tells them apart.
 fn is_bounded(
     l: &LShape,
-    cells: &HashMap<(i64, i64), Vec<u32>>,
+    cells: &TileMap<(i64, i64), Vec<u32>>,
     ap: &[Vector3<f64>],
     step: f64,
     up: &Vector3<f64>,

@@ -6,7 +6,7 @@ use super::TightParams;
 use crate::geom::{Draw, Plane, Ransac, Scatter};
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use std::collections::HashMap;
+use crate::frame::grid::TileMap;
 
 /// Local ground: a plane for the normal, per-cell minima for the bumps.
 pub(super) struct Ground {
@@ -15,7 +15,7 @@ pub(super) struct Ground {
     offset: f64,
     cell: f64,
     /// Lowest plane height in each cell's 3×3 block.
-    floor: HashMap<(i64, i64), f64>,
+    floor: TileMap<(i64, i64), f64>,
 }
 
 impl Ground {
@@ -25,7 +25,9 @@ impl Ground {
 
     pub(super) fn fit(q: &[Vector3<f64>], params: &TightParams) -> Ground {
         let cell = params.ground_cell.max(0.05);
-        let mut lowest: HashMap<(i64, i64), Vector3<f64>> = HashMap::new();
+        // Cell-keyed maps with the grid's fast hasher (SipHash was a tenth of a
+        // dense crop); nothing below depends on their order.
+        let mut lowest: TileMap<(i64, i64), Vector3<f64>> = TileMap::default();
         for v in q {
             lowest
                 .entry(Self::key(cell, v))
@@ -41,7 +43,7 @@ impl Ground {
         let cand: Vec<Vector3<f64>> = keys.iter().map(|k| lowest[k]).collect();
         let normal = ransac_ground(&cand, params.seed).unwrap_or_else(Vector3::z);
         let offset = 0.0;
-        let mut cell_min: HashMap<(i64, i64), f64> = HashMap::new();
+        let mut cell_min: TileMap<(i64, i64), f64> = TileMap::default();
         for v in q {
             let h = normal.dot(v) - offset;
             cell_min
@@ -49,7 +51,7 @@ impl Ground {
                 .and_modify(|m| *m = m.min(h))
                 .or_insert(h);
         }
-        let mut floor = HashMap::with_capacity(cell_min.len());
+        let mut floor = TileMap::with_capacity_and_hasher(cell_min.len(), Default::default());
         for &(kx, ky) in cell_min.keys() {
             let mut m = f64::INFINITY;
             for dy in -1..=1 {
