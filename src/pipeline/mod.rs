@@ -168,7 +168,9 @@ pub fn run(
     cfg: &Config,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<Evaluation> {
-    evaluate(source, survey, None, cfg, |p: Progress| progress(p.done, p.total))
+    evaluate(source, survey, None, cfg, |p: Progress| {
+        progress(p.done, p.total)
+    })
 }
 
 /// [`run`] with hand-made tight crops `crops_dir/<id>.ply|pcd|…` (the paper's
@@ -254,8 +256,16 @@ fn evaluate(
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {
         pass.set("detection");
-        (how, init, dz, unmatched) =
-            frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress, &mut reads)?;
+        (how, init, dz, unmatched) = frame::detect_and_match(
+            source,
+            survey,
+            &ground,
+            &motion,
+            cfg,
+            total,
+            &mut progress,
+            &mut reads,
+        )?;
     }
     // `--init` and the survey frame are the map's own; hints and detections
     // were moved into the levelled frame already.
@@ -304,7 +314,8 @@ fn evaluate(
     };
     let own = |h: &FrameHow| matches!(h, FrameHow::Init | FrameHow::Survey);
     pass.set("crops");
-    let (mut expected, mut found) = first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
+    let (mut expected, mut found) =
+        first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
     // A guess that finds too few targets (the survey frame, or an `--init`
     // or hints too far off) gives way to detection in auto mode.
     if cfg.frame.mode == config::FrameMode::Auto
@@ -316,7 +327,16 @@ fn evaluate(
         let enough = found.iter().filter(|r| r.outcome.is_ok()).count()
             >= cfg.metrics.align.min_points().max(2);
         pass.set("detection");
-        match frame::detect_and_match(source, survey, &ground, &motion, cfg, total, &mut progress, &mut reads) {
+        match frame::detect_and_match(
+            source,
+            survey,
+            &ground,
+            &motion,
+            cfg,
+            total,
+            &mut progress,
+            &mut reads,
+        ) {
             Ok(d) => {
                 let given = match how {
                     FrameHow::Init => Some("init"),
@@ -332,7 +352,8 @@ fn evaluate(
                 }
                 (how, init, dz, unmatched) = d;
                 pass.set("crops");
-                (expected, found) = first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
+                (expected, found) =
+                    first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
             }
             // The first guess found enough to align: keep it, and say why
             // detection did not take over.

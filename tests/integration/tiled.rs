@@ -87,9 +87,15 @@ fn whole_and_tiled_maps_give_identical_results() {
     assert_eq!(passes(&whole_reads), ["ground", "crops"], "{whole_reads:?}");
     assert_eq!(passes(&tiled_reads), ["ground", "crops"], "{tiled_reads:?}");
     let map_bytes = std::fs::metadata(&whole).unwrap().len();
-    assert!(whole_reads.iter().all(|r| r.2 == map_bytes), "{whole_reads:?}");
+    assert!(
+        whole_reads.iter().all(|r| r.2 == map_bytes),
+        "{whole_reads:?}"
+    );
     assert_eq!(whole_reads[0].1, whole_reads[1].1);
-    assert_eq!(tiled_reads[0].1, whole_reads[0].1, "the ground pass reads every point");
+    assert_eq!(
+        tiled_reads[0].1, whole_reads[0].1,
+        "the ground pass reads every point"
+    );
     // (This scene's targets reach 57 % of its points' tiles.)
     assert!(
         tiled_reads[1].2 < tiled_reads[0].2 * 3 / 4 && tiled_reads[1].1 < tiled_reads[0].1 * 3 / 4,

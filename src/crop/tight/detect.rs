@@ -4,8 +4,8 @@
 //! strong candidate nearest the expected position wins.
 
 use super::TightParams;
-use nalgebra::Vector3;
 use crate::frame::grid::TileMap;
+use nalgebra::Vector3;
 
 /// A detected L: two perpendicular vertical planes in window-local terms.
 #[derive(Debug, Clone)]
@@ -583,9 +583,10 @@ struct ByHeight {
     front: Vec<f64>,
     /// Heights in the shell behind (`d < 0`), same span along the plate.
     back: Vec<f64>,
-    /// (height, distance along the plate) in the slab with `t > 0`; sorted
-    /// by height the first time a band is clear (most checks end before).
-    ext: std::cell::RefCell<(bool, Vec<(f64, f64)>)>,
+    /// (height, distance along the plate) in the slab with `t > 0`, by
+    /// height (the order among equal heights does not matter: a band takes
+    /// all of them or none, and a percentile of the rest).
+    ext: Vec<(f64, f64)>,
 }
 
 impl ByHeight {
@@ -595,13 +596,12 @@ impl ByHeight {
             slab: Vec::new(),
             front: Vec::new(),
             back: Vec::new(),
-            ext: Default::default(),
+            ext: Vec::new(),
         };
-        let mut ext = Vec::new();
         for q in near {
             let a = q.d.abs();
             if a < SLAB && q.t > 0.0 {
-                ext.push((q.z, q.t));
+                b.ext.push((q.z, q.t));
             }
             if q.t <= t0 || q.t >= t1 {
                 continue;
@@ -615,22 +615,8 @@ impl ByHeight {
         for v in [&mut b.slab, &mut b.front, &mut b.back] {
             v.sort_unstable_by(f64::total_cmp);
         }
-        b.ext = std::cell::RefCell::new((false, ext));
+        b.ext.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         b
-    }
-
-    /// `ext`, sorted by height.
-    fn ext(&self) -> std::cell::Ref<'_, Vec<(f64, f64)>> {
-        {
-            let mut e = self.ext.borrow_mut();
-            if !e.0 {
-                // The order among equal heights does not matter: a band
-                // takes all of them or none, and a percentile of the rest.
-                e.1.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
-                e.0 = true;
-            }
-        }
-        std::cell::Ref::map(self.ext.borrow(), |e| &e.1)
     }
 
     /// `planar_count(near, 0.15 w, w, z0, z1).1`: the slab's points strictly
@@ -646,8 +632,8 @@ impl ByHeight {
 /// from the corner, less the scatter of n points).
 fn plate_wide(pl: &ByHeight, lo: f64, hi: f64, w: f64) -> bool {
     let (a, b) = (lo - 0.05, hi + 0.05);
-    let all = pl.ext();
-    let run = &all[all.partition_point(|e| e.0 <= a)..all.partition_point(|e| e.0 < b)];
+    let e = &pl.ext;
+    let run = &e[e.partition_point(|x| x.0 <= a)..e.partition_point(|x| x.0 < b)];
     if run.is_empty() {
         return false;
     }
@@ -718,8 +704,9 @@ fn clear_beside(pl: &ByHeight, lo: f64, hi: f64) -> bool {
 }
 
 /// Most window points the heading search histograms at every heading (see
-/// `fit_l`); a plate edge-on is a spike of hundreds of points in a sample
-/// this size, so a sparser sample still ranks its heading near the top.
+/// `fit_l`); denser windows are searched on a sample and rescored. The
+/// clutter cases' target windows came out the same with it (only the
+/// `DETECT_POINTS` sample moved corners there).
 const HEADING_POINTS: usize = 1500;
 
 /// Headings a dense window's sample passes on to be scored on every point.

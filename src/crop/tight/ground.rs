@@ -3,10 +3,10 @@
 //! per-cell minima for the bumps the plane cannot follow.
 
 use super::TightParams;
+use crate::frame::grid::TileMap;
 use crate::geom::{Draw, Plane, Ransac, Scatter};
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use crate::frame::grid::TileMap;
 
 /// Local ground: a plane for the normal, per-cell minima for the bumps.
 pub(super) struct Ground {

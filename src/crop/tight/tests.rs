@@ -222,8 +222,8 @@ fn an_l_nearer_another_target_is_left_to_it() {
 /// Issue 29: a crop 40 times denser than SLAM maps (TLS-like: 3.5 M points,
 /// 400 k above the ground, windows of tens of thousands) is searched on a
 /// sample (`DETECT_POINTS`, `HEADING_POINTS`), yet finds the same L as the
-/// crop at its own density, keeps every plate point near it, and costs the
-/// same whatever the order of its points.
+/// crop at its own density, keeps every plate point near it, and finds it
+/// again with its points in reverse order.
 #[test]
 fn a_dense_crop_finds_the_same_l_on_a_sample() {
     let sc = scene(2, 1.0, 0.7, &["wall", "box"]);
@@ -247,9 +247,16 @@ fn a_dense_crop_finds_the_same_l_on_a_sample() {
         corner: sc.corner,
     };
     let t = check(&dense_scene, offset);
-    assert!(t.above_ground > 2 * DETECT_POINTS, "{} above ground", t.above_ground);
+    assert!(
+        t.above_ground > 2 * DETECT_POINTS,
+        "{} above ground",
+        t.above_ground
+    );
     let moved = (t.corner_guess - sparse.corner_guess).xy().norm();
-    assert!(moved < 0.01, "the dense crop's L is {moved:.4} m from the sparse one's");
+    assert!(
+        moved < 0.01,
+        "the dense crop's L is {moved:.4} m from the sparse one's"
+    );
     // Every point kept from the sparse crop has its 40 copies kept (give or
     // take the jitter at the slab's edge).
     let want = 40 * sparse.points.len();
