@@ -74,8 +74,9 @@ pub struct CloudInfo {
 /// nodes a region hint selected), so a user sees what each pass cost.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct PassRead {
-    /// The pass: `ground`, `detect-cells`, `detect-crops`, `crops`,
-    /// `second-pass`.
+    /// The pass: `ground` (an even sample of a big map), `detect-ground`
+    /// (the rest of the ground, when detection needs it), `detect-cells`,
+    /// `detect-crops`, `crops`, `second-pass`.
     pub pass: String,
     /// Finite points read.
     pub points: u64,
@@ -89,9 +90,10 @@ impl PassRead {
         PassRead {
             pass: pass.into(),
             points: reader.stats().points,
-            bytes: reader
-                .tile_stats()
-                .map_or(reader.info().file_bytes, |t| t.bytes_opened),
+            bytes: match reader.tile_stats() {
+                Some(t) => t.bytes_opened,
+                None => reader.sampled().unwrap_or(reader.info().file_bytes),
+            },
         }
     }
 }
@@ -161,7 +163,27 @@ pub trait PointReader: Send {
     fn tile_stats(&self) -> Option<TileStats> {
         None
     }
+    /// Tells the reader, before its first read, that the consumer wants a
+    /// spatially even sample of the map of at least `points` points, not
+    /// every point (the levelling's ground estimate). A reader that can leave
+    /// whole parts of the map unread reads an even selection of them: every
+    /// k-th tile, the coarse levels of a COPC octree, every k-th LASzip chunk,
+    /// every k-th block of fixed-size records. Others, and later calls, read
+    /// everything; [`PointReader::sampled`] says which happened.
+    fn hint_sample(&mut self, points: u64) {
+        let _ = points;
+    }
+    /// The bytes of the map read so far when a [`PointReader::hint_sample`]
+    /// made this reader skip parts of it (its counters are then the
+    /// sample's, not the map's); `None` when it reads everything.
+    fn sampled(&self) -> Option<u64> {
+        None
+    }
 }
+
+/// Bytes a point is taken to occupy when only a file's size is known (a
+/// tile not yet opened): float32 x, y, z and intensity, the common PCD map.
+pub(crate) const BYTES_PER_POINT_GUESS: u64 = 16;
 
 /// Consecutive pieces of a cloud, in file order, each decodable on any thread.
 pub trait Batch: Sync {
@@ -264,6 +286,23 @@ pub fn open_as(path: &Path, format: Format) -> Result<Box<dyn PointReader>> {
     }
 }
 
+/// The message for a Git LFS pointer file (a map repository cloned without
+/// its large files): a few lines naming the object, not the map.
+fn lfs_pointer(head: &[u8]) -> Option<String> {
+    let text = std::str::from_utf8(head).ok()?;
+    if !text.starts_with("version https://git-lfs.github.com/spec/") {
+        return None;
+    }
+    let size = text
+        .lines()
+        .find_map(|l| l.strip_prefix("size "))
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    Some(format!(
+        "this is a Git LFS pointer, not the map itself{}: the repository was cloned without its large files; run `git lfs pull` in it (or download the file) and try again",
+        size.map_or(String::new(), |b| format!(" (the map is {b} bytes)"))
+    ))
+}
+
 /// Recognises a cloud's format from its first bytes; the extension only breaks
 /// ties (LAS vs LAZ share a signature).
 pub fn detect(path: &Path) -> Result<Format> {
@@ -295,6 +334,9 @@ pub fn detect(path: &Path) -> Result<Format> {
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
+    if let Some(msg) = lfs_pointer(head) {
+        return Err(Error::format(path, msg));
+    }
     if head.starts_with(b"LASF") {
         // Point data format id at byte 104; LAZ sets bit 7 (and 6).
         let compressed = head.get(104).is_some_and(|b| b & 0x80 != 0);

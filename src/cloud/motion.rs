@@ -154,6 +154,12 @@ impl PointReader for Moved<'_> {
     fn tile_stats(&self) -> Option<super::TileStats> {
         self.inner.tile_stats()
     }
+    fn hint_sample(&mut self, points: u64) {
+        self.inner.hint_sample(points);
+    }
+    fn sampled(&self) -> Option<u64> {
+        self.inner.sampled()
+    }
     fn next_batch<'a>(
         &'a mut self,
         buf: &'a mut Vec<Point>,

@@ -63,6 +63,11 @@ pub(super) struct Records {
     lay: Layout,
     /// Records per piece.
     piece: u64,
+    /// One piece in `every` is read (1: all of them; more after a
+    /// [`PointReader::hint_sample`]).
+    every: u64,
+    /// Bytes of records read (what a sample cost).
+    fetched: AtomicU64,
     next: u64,
     points: AtomicU64,
     skipped: AtomicU64,
@@ -113,6 +118,8 @@ impl Records {
             info,
             lay,
             piece,
+            every: 1,
+            fetched: AtomicU64::new(0),
             next: 0,
             points: AtomicU64::new(0),
             skipped: AtomicU64::new(0),
@@ -128,6 +135,7 @@ impl Records {
             bytes.resize(len, 0);
         }
         let off = self.lay.start + first * self.lay.stride as u64;
+        self.fetched.fetch_add(len as u64, Ordering::Relaxed);
         read_exact_at(&self.file, &mut bytes[..len], off).map_err(|e| {
             if e.kind() == std::io::ErrorKind::UnexpectedEof {
                 Error::format(
@@ -404,7 +412,8 @@ fn pack(
     (k, finite)
 }
 
-/// One batch of pieces of a [`Records`] reader.
+/// One batch of pieces of a [`Records`] reader: records `first..first + n`,
+/// of which the first piece in every `r.every` is read.
 struct RecBatch<'a> {
     r: &'a Records,
     first: u64,
@@ -413,7 +422,7 @@ struct RecBatch<'a> {
 
 impl Batch for RecBatch<'_> {
     fn pieces(&self) -> usize {
-        self.n.div_ceil(self.r.piece) as usize
+        self.n.div_ceil(self.r.piece * self.r.every) as usize
     }
 
     fn piece<'s>(&'s self, i: usize, scratch: &'s mut Scratch) -> Result<&'s [Point]> {
@@ -437,7 +446,7 @@ impl RecBatch<'_> {
         scratch: &'s mut Scratch,
         region: Option<&Region>,
     ) -> Result<&'s [Point]> {
-        let from = i as u64 * self.r.piece;
+        let from = i as u64 * self.r.piece * self.r.every;
         if from >= self.n {
             return Ok(&[]);
         }
@@ -460,6 +469,19 @@ impl PointReader for Records {
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
         buf.clear();
+        if self.every > 1 {
+            // A sample: one piece at a time, the others skipped unread.
+            let mut bytes = Vec::new();
+            while buf.is_empty() && self.next < self.lay.count {
+                let n = (self.lay.count - self.next).min(self.piece) as usize;
+                self.read(self.next, n, &mut bytes)?;
+                buf.resize(n, Point::origin());
+                let kept = self.decode(&bytes, n, buf, None);
+                buf.truncate(kept);
+                self.next = (self.next + self.piece * self.every).min(self.lay.count);
+            }
+            return Ok(!buf.is_empty());
+        }
         while buf.is_empty() && self.next < self.lay.count {
             let n = (self.lay.count - self.next).min(self.piece * BATCH_PIECES as u64);
             buf.resize(n as usize, Point::origin());
@@ -503,7 +525,7 @@ impl PointReader for Records {
     /// One thread, a record at a time: the path of `convert`, not of the
     /// crop, so kept simple.
     fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
-        let Some(ic) = self.lay.intensity else {
+        let Some(ic) = self.lay.intensity.filter(|_| self.every == 1) else {
             inten.clear();
             return self.next_chunk(buf);
         };
@@ -549,10 +571,25 @@ impl PointReader for Records {
         if self.next >= self.lay.count {
             return Ok(None);
         }
-        let n = (self.lay.count - self.next).min(self.piece * BATCH_PIECES as u64);
+        let n = (self.lay.count - self.next).min(self.piece * BATCH_PIECES as u64 * self.every);
         let first = self.next;
         self.next += n;
         Ok(Some(Box::new(RecBatch { r: self, first, n })))
+    }
+
+    /// Every k-th piece (128 KiB of records): each piece holds points that
+    /// are near one another in a map's file (a scan's stretch, a voxel's
+    /// run), so the ground under them is seen whole, and the pieces come
+    /// from the whole file.
+    fn hint_sample(&mut self, points: u64) {
+        if self.next > 0 || points == 0 {
+            return;
+        }
+        self.every = (self.lay.count / points).max(1);
+    }
+
+    fn sampled(&self) -> Option<u64> {
+        (self.every > 1).then(|| self.lay.start + self.fetched.load(Ordering::Relaxed))
     }
 
     fn stats(&self) -> ReadStats {

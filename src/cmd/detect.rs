@@ -45,7 +45,7 @@ pub fn run(a: Args) -> Result<()> {
         tight.plate_height = h.unwrap_or(w);
     }
     let source = MapSource::File(&a.map);
-    let ground = ground_level(source, None, |_| {})?;
+    let ground = ground_level(source, None, None, |_| {})?;
     let motion = ground.levelling(a.level_above);
     let found = detect_map(
         source,

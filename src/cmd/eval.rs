@@ -331,7 +331,7 @@ pub fn evaluate(
 /// What a pass over the map is doing, for the progress bar.
 fn pass_label(pass: &str) -> &str {
     match pass {
-        "ground" => "ground (whole map)",
+        "ground" => "ground (the map's vertical)",
         "detection" => "detecting the targets (map-wide)",
         "crops" => "crops near the targets",
         "second-pass" => "second pass (predicted positions)",

@@ -44,7 +44,19 @@ pub(crate) struct CellGrid<T> {
     index: TileMap<(i64, i64), usize>,
     tiles: Vec<((i64, i64), Box<[T]>)>,
     last: Option<((i64, i64), usize)>,
+    /// Calls of [`CellGrid::entry`]: a pass's points, to tell a map whose
+    /// points are spread too thin to be one in metres.
+    touched: u64,
 }
+
+/// A grid of at least this many tiles whose points average fewer than
+/// [`THIN_PER_TILE`] a tile is [`CellGrid::spread_thin`]. A map's points
+/// sample surfaces at centimetres to a metre (thousands to millions in a
+/// 32 m square); a map in millimetres read as metres puts each point in a
+/// square of its own, and a tile (16 KiB) for each would exhaust memory.
+pub(crate) const THIN_TILES: usize = 4096;
+/// See [`THIN_TILES`].
+pub(crate) const THIN_PER_TILE: u64 = 8;
 
 /// Farthest distance from the origin accepted (metres): a point beyond (more
 /// than the Earth's radius away, however the first point fell) is not part
@@ -60,7 +72,15 @@ impl<T: Copy> CellGrid<T> {
             index: TileMap::default(),
             tiles: Vec::new(),
             last: None,
+            touched: 0,
         }
+    }
+
+    /// Whether the points seen are spread too thin for a map in metres:
+    /// thousands of tiles with a few points each ([`THIN_TILES`]). A pass
+    /// stops filling a grid once it is, so its memory stays bounded.
+    pub(crate) fn spread_thin(&self) -> bool {
+        self.tiles.len() >= THIN_TILES && self.touched < THIN_PER_TILE * self.tiles.len() as u64
     }
 
     /// The cell holding (x, y), or `None` when absurdly far from the origin.
@@ -92,6 +112,7 @@ impl<T: Copy> CellGrid<T> {
     /// The cell `k`, created empty when new.
     #[inline]
     pub(crate) fn entry(&mut self, k: (i64, i64)) -> &mut T {
+        self.touched += 1;
         let (t, i) = Self::split(k);
         let slot = match self.last {
             Some((lt, s)) if lt == t => s,
@@ -134,6 +155,7 @@ impl<T: Copy> CellGrid<T> {
 
     /// Merges `other` (same cell and origin) cell by cell.
     pub(crate) fn merge(&mut self, other: CellGrid<T>, f: impl Fn(&mut T, &T)) {
+        self.touched += other.touched;
         for (t, cells) in other.tiles {
             match self.index.get(&t) {
                 Some(&s) => {

@@ -70,9 +70,14 @@ pub struct MapGround {
     /// A point near the map's middle (whole metres): the centre of
     /// rotation for any turn of the map, whether or not a vertical was found.
     pub centre: Point,
-    /// Lowest and highest z of the points read (`None` without points): how
-    /// far a tilted map's points can move sideways when it is levelled.
+    /// Lowest and highest z of the map (`None` without points, or when only a
+    /// sample was read: its range may miss the map's extremes): how far a
+    /// tilted map's points can move sideways when it is levelled.
     pub z_range: Option<[f64; 2]>,
+    /// Only a sample of the map was read (see [`ground_level`]): the
+    /// vertical and centre are the sample's, and `lowest` has no ground
+    /// where the sample had no points.
+    pub sampled: bool,
     pub(crate) lowest: CellGrid<f32>,
     pub(crate) z0: f64,
 }
@@ -86,6 +91,19 @@ impl MapGround {
             Some(l) if l.tilt_deg > above_deg => l.motion(),
             _ => RigidMotion::identity_at(self.centre),
         }
+    }
+
+    /// This ground with every cell seen: a sampled one is read again whole
+    /// (map-wide detection needs the ground under every cell), keeping the
+    /// sample's vertical and centre, which the map was already levelled by.
+    pub fn completed(&self, source: MapSource, progress: impl FnMut(u64)) -> Result<MapGround> {
+        if !self.sampled {
+            return Ok(self.clone());
+        }
+        let mut all = ground_level(source, None, None, progress)?;
+        all.level = self.level.clone();
+        all.centre = self.centre;
+        Ok(all)
     }
 
     /// The ground's height under every 0.5 m cell of the frame `motion` moves
@@ -129,13 +147,34 @@ struct Lowest {
     sum: [i128; 3],
     /// Lowest and highest z seen.
     z: [f64; 2],
+    /// The grid is spread too thin for a map in metres: no more is added.
+    thin: bool,
+}
+
+/// The error of a pass whose grid was spread too thin
+/// ([`CellGrid::spread_thin`]).
+pub(crate) fn too_thin(source: &MapSource) -> crate::Error {
+    crate::Error::Input(format!(
+        "{}: the map's points are spread too thin for a map in metres: over {} squares of 32 m held fewer than {} points each on average, where a map's surfaces give thousands a square. Is it in millimetres or another unit? mapgauge reads coordinates as metres (scale it by 0.001 for millimetres and run again); reading stopped before its memory grew with that extent",
+        source.name(),
+        super::grid::THIN_TILES,
+        super::grid::THIN_PER_TILE,
+    ))
 }
 
 /// Streams the map once and estimates its vertical from the ground. `None`
 /// when the map shows too little ground (fewer than 20 planar blocks).
+///
+/// With `sample`, a map of more points may be read in part: an even
+/// selection of its tiles, COPC nodes, LAZ chunks or blocks of records
+/// holding about that many points ([`crate::cloud::PointReader::hint_sample`]),
+/// each part whole so its ground cells are seen as densely as in the whole
+/// map. The vertical is the mode of many block normals, so a sample of
+/// millions of points finds it as the whole map does.
 pub fn ground_level(
     source: MapSource,
     motion: Option<&RigidMotion>,
+    sample: Option<u64>,
     progress: impl FnMut(u64),
 ) -> Result<MapGround> {
     // The grid's origin: the first point, so cell keys and heights stay small
@@ -157,6 +196,7 @@ pub fn ground_level(
                     pass_read: crate::cloud::PassRead::of("ground", r.as_ref()),
                     centre: Point::origin(),
                     z_range: None,
+                    sampled: false,
                     lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
                     z0: 0.0,
                 });
@@ -166,17 +206,24 @@ pub fn ground_level(
     let origin = [first.x.round(), first.y.round()];
     let z0 = first.z.round();
     let mut reader = source.open_moved(motion)?;
+    if let Some(n) = sample {
+        reader.hint_sample(n);
+    }
     let new = || Lowest {
         grid: CellGrid::new(CELL, origin, f32::INFINITY),
         z0,
         count: 0,
         sum: [0; 3],
         z: [f64::INFINITY, f64::NEG_INFINITY],
+        thin: false,
     };
     let low = fold_points(
         reader.as_mut(),
         new,
         |acc, pts| {
+            if acc.thin {
+                return;
+            }
             let mut s = [0i128; 3];
             let mut n = 0;
             for p in pts {
@@ -201,13 +248,22 @@ pub fn ground_level(
             for k in 0..3 {
                 acc.sum[k] += s[k];
             }
+            acc.thin = acc.grid.spread_thin();
         },
         |a, b| {
+            if a.thin || b.thin {
+                // Kept whichever grid shows it, and no more merged.
+                if b.thin && !a.thin {
+                    *a = b;
+                }
+                return;
+            }
             a.grid.merge(b.grid, |x, y| {
                 if *y < *x {
                     *x = *y
                 }
             });
+            a.thin = a.grid.spread_thin();
             a.count += b.count;
             for k in 0..3 {
                 a.sum[k] += b.sum[k];
@@ -216,6 +272,9 @@ pub fn ground_level(
         },
         progress,
     )?;
+    if low.thin {
+        return Err(too_thin(&source));
+    }
     let n = low.count.max(1) as f64 * 1000.0;
     let centre = Point::new(
         origin[0] + (low.sum[0] as f64 / n).round(),
@@ -234,10 +293,12 @@ pub fn ground_level(
             grid_bytes: low.grid.bytes(),
         }
     });
+    let sampled = reader.sampled().is_some();
     Ok(MapGround {
         level,
         centre,
-        z_range: (low.z[0] <= low.z[1]).then_some(low.z),
+        z_range: (low.z[0] <= low.z[1] && !sampled).then_some(low.z),
+        sampled,
         points: low.count,
         read: reader.stats(),
         pass_read: crate::cloud::PassRead::of("ground", reader.as_ref()),
@@ -385,11 +446,79 @@ mod tests {
             .collect()
     }
 
+    /// A sample of a quarter of the points, as every 4th tile of a tiled map
+    /// and as every 4th block of a single file's records, finds the tilt
+    /// the whole map gives, and says it read only a sample.
+    #[test]
+    fn a_sample_of_tiles_or_record_blocks_finds_the_whole_maps_tilt() {
+        let dir = tempfile::tempdir().unwrap();
+        let pts = site(6.6);
+        let whole = ground_level(MapSource::Points(&pts), None, None, |_| {}).unwrap();
+        let whole_tilt = whole.level.as_ref().unwrap().tilt_deg;
+        let tiles = dir.path().join("tiles");
+        let map =
+            crate::cloud::write_tiles(&pts, &tiles, 10.0, crate::cloud::OutFormat::Pcd).unwrap();
+        let file = dir.path().join("map.pcd");
+        crate::cloud::write(&file, crate::cloud::OutFormat::Pcd, &pts).unwrap();
+        for path in [&tiles, &file] {
+            let g = ground_level(
+                MapSource::File(path),
+                None,
+                Some(pts.len() as u64 / 4),
+                |_| {},
+            )
+            .unwrap();
+            assert!(g.sampled, "{}", path.display());
+            assert!(g.z_range.is_none(), "a sample's z range is not the map's");
+            let read = g.pass_read.points as f64 / pts.len() as f64;
+            assert!(
+                (0.2..0.45).contains(&read),
+                "{}: read {read} {:?}",
+                path.display(),
+                g.pass_read
+            );
+            assert!(
+                g.pass_read.bytes * 2 < crate::cloud::map_bytes(path),
+                "{}: {:?}",
+                path.display(),
+                g.pass_read
+            );
+            let tilt = g.level.as_ref().unwrap().tilt_deg;
+            assert!(
+                (tilt - whole_tilt).abs() < 0.1,
+                "{}: {tilt} against {whole_tilt}",
+                path.display()
+            );
+            // Completed, the ground is the whole map's, with the sample's vertical.
+            let all = g.completed(MapSource::File(path), |_| {}).unwrap();
+            assert!(!all.sampled);
+            assert_eq!(all.points, pts.len() as u64);
+            assert_eq!(all.level, g.level);
+            assert_eq!(all.z_range, whole.z_range);
+        }
+        assert!(map.tiles.len() >= 32, "{} tiles", map.tiles.len());
+    }
+
+    /// Issue 31: a map in millimetres read as metres spreads a point to
+    /// each 32 m square; the pass says so instead of growing a tile for each.
+    #[test]
+    fn a_map_in_millimetres_is_refused_before_its_grid_grows() {
+        let pts: Vec<Point> = site(0.0)
+            .iter()
+            .map(|p| Point::from(p.coords * 1000.0))
+            .collect();
+        let e = ground_level(MapSource::Points(&pts), None, None, |_| {}).unwrap_err();
+        assert!(e.to_string().contains("millimetres"), "{e}");
+        // The same points in metres are a map.
+        let pts = site(0.0);
+        assert!(ground_level(MapSource::Points(&pts), None, None, |_| {}).is_ok());
+    }
+
     #[test]
     fn finds_the_tilt_of_a_tilted_yard_with_a_ramp_and_a_wall() {
         for tilt in [0.0, 6.6, 14.0] {
             let pts = site(tilt);
-            let g = ground_level(MapSource::Points(&pts), None, |_| {})
+            let g = ground_level(MapSource::Points(&pts), None, None, |_| {})
                 .unwrap()
                 .level
                 .unwrap();

@@ -110,6 +110,11 @@ pub struct FrameConfig {
     /// the lean, and the map is read as it is (the plumb lines may still turn
     /// it when they lean significantly).
     pub level_above_deg: f64,
+    /// Points the levelling's ground pass reads of a bigger map: an even
+    /// sample of its tiles, COPC nodes, LAZ chunks or record blocks, each
+    /// part whole (0: every point). Formats that cannot skip part of a file
+    /// (ASCII, E57, compressed PCD) are read whole.
+    pub ground_sample: u64,
 }
 
 /// `origin = [lat, lon]` or `[lat, lon, alt]` (alt 0 when left out).
@@ -140,6 +145,7 @@ impl Default for FrameConfig {
             max_tilt_deg: 3.0,
             tilt_redo_deg: 0.25,
             level_above_deg: 5.0,
+            ground_sample: super::GROUND_SAMPLE_POINTS,
         }
     }
 }

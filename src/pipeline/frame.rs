@@ -139,9 +139,21 @@ pub(super) fn detect_and_match(
     progress: &mut impl FnMut(u64, u64),
     reads: &mut Vec<crate::cloud::PassRead>,
 ) -> Result<(FrameHow, [f64; 3], f64, Vec<Detection>)> {
+    // The levelling's ground was a sample; detection needs the ground under
+    // every cell of the map.
+    let all = if ground.sampled {
+        let g = ground.completed(source, |b| progress(b, total))?;
+        reads.push(crate::cloud::PassRead {
+            pass: "detect-ground".into(),
+            ..g.pass_read.clone()
+        });
+        Some(g)
+    } else {
+        None
+    };
     let found = detect_map(
         source,
-        ground,
+        all.as_ref().unwrap_or(ground),
         motion,
         &DetectParams::default(),
         &cfg.tight,

@@ -40,9 +40,10 @@ pub struct MapStats {
     pub name: String,
     /// Size in bytes (0 in memory).
     pub bytes: u64,
-    /// Finite points read.
+    /// Finite points in the map when a pass read all of it; else the most
+    /// any pass read (`Evaluation::reads` says what each read).
     pub points: u64,
-    /// Points skipped as NaN or infinite.
+    /// Points skipped as NaN or infinite (by the pass that read the most).
     pub skipped_nonfinite: u64,
 }
 
@@ -144,10 +145,18 @@ pub struct Evaluation {
     pub reads: Vec<crate::cloud::PassRead>,
 }
 
+/// Points the levelling's ground pass reads of a bigger map by default
+/// (`frame.ground_sample`): an even sample of its tiles, COPC nodes, LAZ
+/// chunks or record blocks ([`crate::frame::ground_level`]). Millions of points give thousands of
+/// 2 m ground blocks, more than the vertical's mode needs, at a fifth of a
+/// pass over a 20 M-point map and a fiftieth of a 200 M-point one.
+pub const GROUND_SAMPLE_POINTS: u64 = 4_000_000;
+
 /// Where a running evaluation is: the pass over the map and its bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Progress {
-    /// The pass: `ground` (the whole map: its vertical and ground),
+    /// The pass: `ground` (the map's vertical and ground, from an even
+    /// sample of a big map),
     /// `detection` (map-wide detection of the targets, when the frame is
     /// not known), `crops` (around the expected positions), `second-pass`
     /// (around the positions the found targets predict).
@@ -236,8 +245,10 @@ fn evaluate(
         MapSource::File(p) => crate::cloud::map_bytes(p),
         MapSource::Points(_) => 0,
     };
-    let ground = crate::frame::ground_level(source, None, |b| progress(b, total))?;
-    // The whole map's counts; a crop of a tiled map reads only some tiles.
+    let sample = (cfg.frame.ground_sample > 0).then_some(cfg.frame.ground_sample);
+    let ground = crate::frame::ground_level(source, None, sample, |b| progress(b, total))?;
+    // The map's counts as far as this pass saw them; the crops' pass, when
+    // it reads the whole map, gives every point's.
     map.bytes = total;
     map.points = ground.read.points;
     map.skipped_nonfinite = ground.read.skipped_nonfinite;
@@ -550,6 +561,9 @@ fn evaluate(
             ));
         }
     }
+    // No pass may have read the whole map (a sampled ground, crops of some
+    // tiles): the most any pass read is what is known of it.
+    map.points = reads.iter().map(|r| r.points).fold(map.points, u64::max);
     Ok(Evaluation {
         accuracy,
         targets: found,

@@ -114,7 +114,8 @@ pub struct EvalInfo {
     pub map: String,
     /// Map size in bytes.
     pub map_bytes: u64,
-    /// Points read from the map.
+    /// Finite points in the map when a pass read all of it; else the most
+    /// any pass read (`reads` says what each pass read).
     pub map_points: u64,
     /// Points skipped as NaN / infinite.
     pub skipped_nonfinite: u64,

@@ -235,6 +235,21 @@ fn cases(dir: &Path) -> Vec<Case> {
     vec![
         // ---------------------------------------------------------------- PCD
         case("pcd empty", Map, "m.pcd", "", &["empty file"]),
+        // Issue 31: a map repository cloned without `git lfs pull`.
+        case(
+            "pcd that is a Git LFS pointer",
+            Map,
+            "m.pcd",
+            "version https://git-lfs.github.com/spec/v1\noid sha256:4d7a214614ab2935c943f9e0ff69d22eadbb8f32b1258daaa5e2ca24d17e2393\nsize 132453889\n",
+            &["Git LFS pointer", "132453889 bytes", "git lfs pull"],
+        ),
+        case(
+            "las that is a Git LFS pointer",
+            Map,
+            "m.las",
+            "version https://git-lfs.github.com/spec/v1\noid sha256:4d7a214614ab2935c943f9e0ff69d22eadbb8f32b1258daaa5e2ca24d17e2393\nsize 9000\n",
+            &["Git LFS pointer", "git lfs pull"],
+        ),
         case(
             "pcd header only, no DATA",
             Map,

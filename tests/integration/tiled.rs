@@ -103,6 +103,82 @@ fn whole_and_tiled_maps_give_identical_results() {
     );
 }
 
+/// Issue 29: with a ground sample of a fifth of the map (`frame.ground_sample`),
+/// eval's ground pass reads every k-th tile of a tiled map and every k-th
+/// block of a whole file's records, and the results are the whole map's (the
+/// scene does not lean: the ground's vertical turns nothing).
+#[test]
+fn a_sampled_ground_pass_reads_part_of_the_map_and_changes_nothing() {
+    let dir = tempdir();
+    let (whole, tiles, survey) = scene(dir.path());
+    let cfg = dir.path().join("sample.toml");
+    std::fs::write(&cfg, "[frame]\nground_sample = 80000\n").unwrap();
+    let run = |map: &Path, config: Option<&Path>, name: &str| {
+        let out = dir.path().join(name);
+        let mut c = bin();
+        c.arg("eval")
+            .arg("--map")
+            .arg(map)
+            .arg("--survey")
+            .arg(&survey);
+        c.arg("--out").arg(&out).arg("--no-report");
+        if let Some(cfg) = config {
+            c.arg("--config").arg(cfg);
+        }
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "eval {}: {}", map.display(), stderr(&o));
+        out
+    };
+    let base = run(&whole, None, "base");
+    // Less the map's point count (no pass reads every tile) and the ground's
+    // own estimate (a sample's vertical and centre; this map is read as it is
+    // whatever they are), checked on their own below.
+    let without = |out: &Path| {
+        let mut v: serde_json::Value = serde_json::from_str(&result_without_map(out)).unwrap();
+        v["eval"].as_object_mut().unwrap().remove("map_points");
+        let lev = v["eval"]["frame"]["levelling"].as_object_mut().unwrap();
+        let ground = [
+            "ground_tilt_deg",
+            "ground_azimuth_deg",
+            "ground_support",
+            "origin",
+        ]
+        .map(|k| lev.remove(k).unwrap());
+        (v, ground)
+    };
+    let (want, whole_ground) = without(&base);
+    let all_points = reads(&base)[0].1;
+    let tiles_bytes: u64 = std::fs::read_dir(&tiles)
+        .unwrap()
+        .map(|e| e.unwrap().metadata().unwrap().len())
+        .sum();
+    for (map, total) in [
+        (&whole, std::fs::metadata(&whole).unwrap().len()),
+        (&tiles, tiles_bytes),
+    ] {
+        let out = run(
+            map,
+            Some(&cfg),
+            if map == &whole { "whole" } else { "tiles" },
+        );
+        let (got, ground) = without(&out);
+        assert_eq!(got, want, "{}", map.display());
+        let tilt = |g: &[serde_json::Value; 4]| g[0].as_f64().unwrap();
+        assert!(
+            (tilt(&ground) - tilt(&whole_ground)).abs() < 0.2,
+            "{}: the sample's ground tilt {ground:?} against the whole map's {whole_ground:?}",
+            map.display()
+        );
+        let r = reads(&out);
+        assert_eq!(r[0].0, "ground");
+        assert!(
+            r[0].1 * 3 < all_points && r[0].2 * 3 < total,
+            "{}: the ground pass reads a sample: {r:?} of {all_points} points, {total} bytes",
+            map.display()
+        );
+    }
+}
+
 /// A map leaning 6°: eval levels it, and its crops of the tiled map open the
 /// tiles the discs turned back into the map's frame reach, which must hold
 /// every point the whole map gives.

@@ -82,6 +82,8 @@ pub(super) struct ChunkedLaz {
     before: Vec<u64>,
     octree: Option<Octree>,
     started: bool,
+    /// A [`PointReader::hint_sample`] left chunks unread.
+    sampled: bool,
     pool: Option<rayon::ThreadPool>,
 }
 
@@ -139,6 +141,7 @@ impl ChunkedLaz {
             before,
             octree,
             started: false,
+            sampled: false,
             pool: reader_pool(),
         }))
     }
@@ -294,7 +297,7 @@ impl PointReader for ChunkedLaz {
             }
         }
         // A plain file has been read to its end (the chunk table after the chunks).
-        if self.octree.is_none() {
+        if self.octree.is_none() && !self.sampled {
             self.bytes = self.info.file_bytes;
         }
         Ok(false)
@@ -333,6 +336,40 @@ impl PointReader for ChunkedLaz {
 
     fn tile_stats(&self) -> Option<TileStats> {
         self.octree.as_ref().map(|o| o.counts)
+    }
+
+    /// Every k-th chunk: for plain LAZ in file order (a chunk is a run of
+    /// consecutive points, near one another in a map's file); for COPC in
+    /// the order of the nodes' keys (level, then x, y, z), so the sample is
+    /// nodes from all over the map, most of them small deep cubes, each
+    /// holding most of the points of its patch of ground. (An octree's
+    /// coarse levels are an even sample too, but a thin one: at 4 M points
+    /// of a square kilometre no 0.5 m ground cell would have a point.)
+    fn hint_sample(&mut self, points: u64) {
+        let total: u64 = self.order.iter().map(|&i| self.chunks[i].points).sum();
+        if self.started || points == 0 || points >= total {
+            return;
+        }
+        let every = (total / points).max(1) as usize;
+        let before = self.order.len();
+        match &mut self.octree {
+            Some(o) => {
+                let keys = &o.keys;
+                let mut by_key = self.order.clone();
+                by_key.sort_unstable_by_key(|&i| keys[i]);
+                let mut keep: Vec<usize> = by_key.into_iter().step_by(every).collect();
+                // Read in file order, as every other read of the file is.
+                keep.sort_unstable();
+                self.order = keep;
+                o.counts.selected = self.order.len() as u64;
+            }
+            None => self.order = self.order.iter().copied().step_by(every).collect(),
+        }
+        self.sampled = self.order.len() < before;
+    }
+
+    fn sampled(&self) -> Option<u64> {
+        self.sampled.then_some(self.bytes)
     }
 }
 

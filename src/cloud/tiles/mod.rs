@@ -478,7 +478,17 @@ pub(crate) struct TiledReader {
     started: bool,
     /// Whether every tile to read has an intensity field (looked up once).
     intensity: std::sync::OnceLock<bool>,
+    /// A sample's points per byte of tile, handed to each tile's reader when
+    /// too few tiles are left out (`hint_sample`), and whether some tile or
+    /// tile reader left part of the map unread.
+    sample_each: Option<f64>,
+    sampled: bool,
 }
+
+/// A sample of a tiled map reads whole tiles when it can leave out enough of
+/// them and still keep this many, spread over the map; with fewer, each
+/// tile is sampled by its own reader.
+const MIN_SAMPLE_TILES: usize = 8;
 
 impl TiledReader {
     pub(crate) fn new(map: TiledMap) -> Self {
@@ -505,6 +515,8 @@ impl TiledReader {
             },
             started: false,
             intensity: std::sync::OnceLock::new(),
+            sample_each: None,
+            sampled: false,
         }
     }
 
@@ -524,7 +536,11 @@ impl TiledReader {
         };
         self.next += 1;
         let tile = &self.map.tiles[t];
-        let r = super::open(&tile.path)?;
+        let mut r = super::open(&tile.path)?;
+        if let Some(per_byte) = self.sample_each {
+            r.hint_sample(((tile.bytes as f64 * per_byte).ceil() as u64).max(1));
+            self.sampled |= r.sampled().is_some();
+        }
         self.counts.opened += 1;
         self.counts.bytes_opened += tile.bytes;
         self.cur = Some((r, t));
@@ -682,6 +698,55 @@ impl PointReader for TiledReader {
 
     fn tile_stats(&self) -> Option<TileStats> {
         Some(self.counts)
+    }
+
+    /// Every k-th tile in reading order (row by row under a metadata file),
+    /// so the sample spans the map; each tile whole, as its ground is. With
+    /// too few tiles to leave enough out, each tile's reader samples it.
+    fn hint_sample(&mut self, points: u64) {
+        if self.started || points == 0 {
+            return;
+        }
+        let tiles = &self.map.tiles;
+        let bytes: u64 = self.order.iter().map(|&t| tiles[t].bytes).sum();
+        // Bytes a point takes, from the biggest tile's header (where the
+        // header's own bytes count least); a guess when it declares no count.
+        let Some(&big) = self
+            .order
+            .iter()
+            .max_by_key(|&&t| (tiles[t].bytes, usize::MAX - t))
+        else {
+            return;
+        };
+        let first = &tiles[big];
+        let per_point = super::open(&first.path)
+            .ok()
+            .and_then(|r| r.info().declared_points)
+            .filter(|&n| n > 0)
+            .map_or(super::BYTES_PER_POINT_GUESS as f64, |n| {
+                first.bytes as f64 / n as f64
+            });
+        let want = points as f64 * per_point;
+        if want >= bytes as f64 {
+            return;
+        }
+        let every = ((bytes as f64 / want) as usize).min(self.order.len() / MIN_SAMPLE_TILES);
+        if every >= 2 {
+            self.order = self.order.iter().copied().step_by(every).collect();
+            self.counts.selected = self.order.len() as u64;
+            self.info.file_bytes = self.order.iter().map(|&t| tiles[t].bytes).sum();
+            self.sampled = true;
+        } else {
+            self.sample_each = Some(points as f64 / bytes as f64);
+        }
+    }
+
+    fn sampled(&self) -> Option<u64> {
+        let current = self
+            .cur
+            .as_ref()
+            .is_some_and(|(r, _)| r.sampled().is_some());
+        (self.sampled || current).then_some(self.counts.bytes_opened)
     }
 }
 
