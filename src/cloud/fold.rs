@@ -14,6 +14,19 @@ pub(crate) fn fold_points<A: Send>(
     new: impl Fn() -> A + Sync,
     fold: impl Fn(&mut A, &[Point]) + Sync,
     merge: impl Fn(&mut A, A) + Sync,
+    progress: impl FnMut(u64),
+) -> Result<A> {
+    fold_points_until(reader, new, fold, merge, |_| false, progress)
+}
+
+/// [`fold_points`] that stops reading once `enough(total)` holds after a
+/// batch (a pass that has seen what makes its result an error).
+pub(crate) fn fold_points_until<A: Send>(
+    reader: &mut dyn PointReader,
+    new: impl Fn() -> A + Sync,
+    fold: impl Fn(&mut A, &[Point]) + Sync,
+    merge: impl Fn(&mut A, A) + Sync,
+    enough: impl Fn(&A) -> bool,
     mut progress: impl FnMut(u64),
 ) -> Result<A> {
     let mut total = new();
@@ -47,6 +60,9 @@ pub(crate) fn fold_points<A: Send>(
         drop(batch);
         merge(&mut total, part);
         progress(reader.bytes_read());
+        if enough(&total) {
+            break;
+        }
     }
     Ok(total)
 }

@@ -7,7 +7,7 @@
 //! bounded whatever the map's size. Non-finite points are skipped and counted.
 
 use crate::{Error, Point, Result};
-pub(crate) use fold::fold_points;
+pub(crate) use fold::{fold_points, fold_points_until};
 pub(crate) use motion::Moved;
 pub use motion::RigidMotion;
 pub use region::Region;

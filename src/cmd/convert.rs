@@ -23,6 +23,10 @@ pub struct Args {
     /// LAS) is kept by `pcd-xyzi`, `pcd-fastlio`, `ply-f32` and `xyz`.
     #[arg(long, visible_alias = "to", value_enum)]
     format: Option<OutFormat>,
+    /// Multiply every coordinate by this: 0.001 turns a map written in
+    /// millimetres into metres, which mapgauge reads [default: 1, as stored].
+    #[arg(long, value_name = "FACTOR")]
+    scale: Option<f64>,
 }
 
 /// Runs `convert`.
@@ -51,25 +55,44 @@ pub fn run(a: Args) -> Result<()> {
             }
         }
     };
+    if let Some(s) = a.scale
+        && !(s.is_finite() && s > 0.0)
+    {
+        return Err(Error::Param(format!(
+            "--scale {s}: give a finite factor above 0 (0.001 for a map in millimetres)"
+        )));
+    }
     refuse_overwrite(&a.out, &[&a.map])?;
     let mut reader = cloud::open(&a.map)?;
     // Intensity goes through when both ends have it.
     let keep = reader.has_intensity() && format.holds_intensity();
     let mut writer = CloudWriter::create_with(&a.out, format, keep)?;
     let (mut buf, mut inten) = (Vec::new(), Vec::new());
+    let scale = |buf: &mut Vec<mapgauge::Point>| {
+        if let Some(s) = a.scale {
+            for p in buf.iter_mut() {
+                p.coords *= s;
+            }
+        }
+    };
     if keep {
         while reader.next_chunk_intensity(&mut buf, &mut inten)? {
+            scale(&mut buf);
             writer.write_intensity(&buf, &inten)?;
         }
     } else {
         while reader.next_chunk(&mut buf)? {
+            scale(&mut buf);
             writer.write(&buf)?;
         }
     }
     let n = writer.finish()?;
     let st = reader.stats();
     let with = if keep { " with intensity" } else { "" };
-    println!("{n} points written to {}{with}", a.out.display());
+    let scaled = a
+        .scale
+        .map_or(String::new(), |s| format!(", coordinates × {s}"));
+    println!("{n} points written to {}{with}{scaled}", a.out.display());
     if st.skipped_nonfinite > 0 {
         eprintln!("{} non-finite points skipped", st.skipped_nonfinite);
     }

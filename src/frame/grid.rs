@@ -49,12 +49,13 @@ pub(crate) struct CellGrid<T> {
     touched: u64,
 }
 
-/// A grid of at least this many tiles whose points average fewer than
+/// A grid of at least this many tiles (a square kilometre and more) whose
+/// points average fewer than
 /// [`THIN_PER_TILE`] a tile is [`CellGrid::spread_thin`]. A map's points
 /// sample surfaces at centimetres to a metre (thousands to millions in a
 /// 32 m square); a map in millimetres read as metres puts each point in a
 /// square of its own, and a tile (16 KiB) for each would exhaust memory.
-pub(crate) const THIN_TILES: usize = 4096;
+pub(crate) const THIN_TILES: usize = 1024;
 /// See [`THIN_TILES`].
 pub(crate) const THIN_PER_TILE: u64 = 8;
 
@@ -77,7 +78,7 @@ impl<T: Copy> CellGrid<T> {
     }
 
     /// Whether the points seen are spread too thin for a map in metres:
-    /// thousands of tiles with a few points each ([`THIN_TILES`]). A pass
+    /// a thousand tiles or more with a few points each ([`THIN_TILES`]). A pass
     /// stops filling a grid once it is, so its memory stays bounded.
     pub(crate) fn spread_thin(&self) -> bool {
         self.tiles.len() >= THIN_TILES && self.touched < THIN_PER_TILE * self.tiles.len() as u64

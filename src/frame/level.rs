@@ -12,7 +12,7 @@
 //! own plumb lines, which are built vertical.
 
 use super::grid::CellGrid;
-use crate::cloud::{MapSource, RigidMotion, fold_points};
+use crate::cloud::{MapSource, RigidMotion, fold_points_until};
 use crate::{Point, Result};
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -155,7 +155,7 @@ struct Lowest {
 /// ([`CellGrid::spread_thin`]).
 pub(crate) fn too_thin(source: &MapSource) -> crate::Error {
     crate::Error::Input(format!(
-        "{}: the map's points are spread too thin for a map in metres: over {} squares of 32 m held fewer than {} points each on average, where a map's surfaces give thousands a square. Is it in millimetres or another unit? mapgauge reads coordinates as metres (scale it by 0.001 for millimetres and run again); reading stopped before its memory grew with that extent",
+        "{}: the map's points are spread too thin for a map in metres: over {} squares of 32 m held fewer than {} points each on average, where a map's surfaces give thousands a square. Is it in millimetres or another unit? mapgauge reads coordinates as metres (for millimetres: `mapgauge convert --map MAP --out MAP_m.pcd --scale 0.001`, then run again); reading stopped before its memory grew with that extent",
         source.name(),
         super::grid::THIN_TILES,
         super::grid::THIN_PER_TILE,
@@ -217,38 +217,42 @@ pub fn ground_level(
         z: [f64::INFINITY, f64::NEG_INFINITY],
         thin: false,
     };
-    let low = fold_points(
+    let low = fold_points_until(
         reader.as_mut(),
         new,
         |acc, pts| {
-            if acc.thin {
-                return;
-            }
-            let mut s = [0i128; 3];
-            let mut n = 0;
-            for p in pts {
-                acc.z = [acc.z[0].min(p.z), acc.z[1].max(p.z)];
-                if let Some(k) = acc.grid.key(p.x, p.y) {
-                    let z = (p.z - acc.z0) as f32;
-                    let c = acc.grid.entry(k);
-                    if z < *c {
-                        *c = z;
-                    }
-                    // Through i64: f64 -> i128 is a slow library call (7 % of
-                    // a 20 M-point eval), and i64 holds any offset from the
-                    // first point below 9e15 m exactly.
-                    let mm = |v: f64| (v * 1000.0).round() as i64 as i128;
-                    s[0] += mm(p.x - origin[0]);
-                    s[1] += mm(p.y - origin[1]);
-                    s[2] += mm(p.z - z0);
-                    n += 1;
+            // In runs of 1024 points, so a grid spread too thin stops
+            // growing within a run of where it became so.
+            for run in pts.chunks(1024) {
+                if acc.thin {
+                    return;
                 }
+                let mut s = [0i128; 3];
+                let mut n = 0;
+                for p in run {
+                    acc.z = [acc.z[0].min(p.z), acc.z[1].max(p.z)];
+                    if let Some(k) = acc.grid.key(p.x, p.y) {
+                        let z = (p.z - acc.z0) as f32;
+                        let c = acc.grid.entry(k);
+                        if z < *c {
+                            *c = z;
+                        }
+                        // Through i64: f64 -> i128 is a slow library call (7 %
+                        // of a 20 M-point eval), and i64 holds any offset from
+                        // the first point below 9e15 m exactly.
+                        let mm = |v: f64| (v * 1000.0).round() as i64 as i128;
+                        s[0] += mm(p.x - origin[0]);
+                        s[1] += mm(p.y - origin[1]);
+                        s[2] += mm(p.z - z0);
+                        n += 1;
+                    }
+                }
+                acc.count += n;
+                for k in 0..3 {
+                    acc.sum[k] += s[k];
+                }
+                acc.thin = acc.grid.spread_thin();
             }
-            acc.count += n;
-            for k in 0..3 {
-                acc.sum[k] += s[k];
-            }
-            acc.thin = acc.grid.spread_thin();
         },
         |a, b| {
             if a.thin || b.thin {
@@ -270,6 +274,7 @@ pub fn ground_level(
             }
             a.z = [a.z[0].min(b.z[0]), a.z[1].max(b.z[1])];
         },
+        |a| a.thin,
         progress,
     )?;
     if low.thin {
