@@ -179,7 +179,13 @@ def test_unknown_config_keys_are_errors(scene):
 
 
 def test_too_few_targets_found_is_an_error():
+    # A patch of bare ground (a map of fewer than 100 points is refused as
+    # not a map, before any target is looked for).
+    g = np.arange(40) * 0.5
+    ground = np.c_[np.repeat(g, 40), np.tile(g, 40), np.zeros(1600)]
     with pytest.raises(mapgauge.MapgaugeError, match="only 0 of 2 targets found"):
+        mapgauge.evaluate(ground, {"a": (100, 100), "b": (200, 200)})
+    with pytest.raises(mapgauge.MapgaugeError, match="only 10 finite points.*is this the map"):
         mapgauge.evaluate(np.zeros((10, 3)), {"a": (100, 100), "b": (200, 200)})
 
 

@@ -149,13 +149,22 @@ pub fn run(a: Args) -> Result<()> {
         survey.targets.len() - empty,
         survey.targets.len()
     );
+    super::print_tile_stats(reader.as_ref());
+    if empty == survey.targets.len() {
+        // Empty files are kept (they say which targets were asked for), but
+        // the run found nothing to crop: not a success.
+        return Err(mapgauge::Error::Input(format!(
+            "no map points within {} m of any of the {} surveyed targets: the map is not where the survey is (another frame, another unit, another site?)",
+            a.radius,
+            survey.targets.len()
+        )));
+    }
     // `locate` and `eval --crops` refuse these (ground included): say so here,
     // where the user decides what to do with them.
     eprintln!(
         "these are loose crops (ground and surroundings included), for inspection or hand editing; \
          `mapgauge locate` and `eval --crops` want tight crops: `mapgauge crop --tight`"
     );
-    super::print_tile_stats(reader.as_ref());
     Ok(())
 }
 
@@ -220,6 +229,14 @@ fn write_tight(
         written,
         survey.targets.len()
     );
+    if written == 0 {
+        // Nothing to hand to `locate`: a failed run, said with its likely cause.
+        frame_hint();
+        return Err(mapgauge::Error::Input(format!(
+            "no tight crop made: none of the {} surveyed places shows a target (the reasons are above)",
+            survey.targets.len()
+        )));
+    }
     if loose.points.iter().any(|p| p.is_empty()) {
         frame_hint();
     }

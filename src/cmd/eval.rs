@@ -298,7 +298,10 @@ pub fn evaluate(
     let survey = read_survey_for_map(survey_path, &SurveyOptions { origin }, projector.as_deref())?;
     super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, origin, survey_path)?;
-    let pb = progress_bar(cloud::map_bytes(map), "pass 1: ground (whole map)");
+    let pb = progress_bar(
+        cloud::map_bytes(map),
+        &format!("pass 1: {}", pass_label("ground")),
+    );
     // One bar for the whole run: each pass over the map is named and
     // numbered as it starts, and fills the bar from 0 again.
     let mut passes: Vec<&'static str> = Vec::new();
@@ -324,6 +327,21 @@ pub fn evaluate(
         if let Some(r) = &t.reason {
             eprintln!("warning: target {} {}: {r}", t.id, t.status);
         }
+    }
+    // How the frame was found, where the user reads: a detected frame costs a
+    // map-wide pass that --init saves next time.
+    if let pipeline::FrameHow::Detected { matched, rms, .. } = &ev.frame.how {
+        let [x, y, yaw] = ev.frame.init;
+        let level = if ev.frame.levelling.is_identity() {
+            ""
+        } else {
+            " (a frame of the levelled map: the map as stored differs from it by the tilt, height × angle, which the crops' few metres absorb on most sites)"
+        };
+        eprintln!(
+            "frame: the map is not in the survey frame; it was found by detecting the targets map-wide ({} matched, rms {:.0} mm). Next time `--init {x:.3},{y:.3},{yaw:.4}` skips the detection{level}",
+            matched.len(),
+            rms * 1e3
+        );
     }
     Ok((ev, result))
 }

@@ -170,7 +170,23 @@ pub(super) fn detect_and_match(
         tol: cfg.frame.match_tolerance,
         min_matches: 3,
     };
-    let m = match_frame(&cands, &sur, survey.has_z(), &params).map_err(|e| {
+    let m = match_frame(&cands, &sur, survey.has_z(), &params);
+    // A survey with x and y exchanged is the map's mirror image: no rigid
+    // motion fits it, though a few targets may happen to fit one (an
+    // isosceles three of them does). Its mirror fitting more is the mistake.
+    let mirrored: Vec<Point> = sur.iter().map(|p| Point::new(p.y, p.x, p.z)).collect();
+    if let Ok(mm) = match_frame(&cands, &mirrored, survey.has_z(), &params) {
+        let given = m.as_ref().map_or(0, |m| m.matches.len());
+        if mm.matches.len() > given {
+            return Err(Error::Input(format!(
+                "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. Check the order of the survey's columns (id,x,y: x east, y north) and run again",
+                mm.matches.len(),
+                sur.len(),
+                mm.rms * 1e3
+            )));
+        }
+    }
+    let m = m.map_err(|e| {
         let remedy = match e {
             MatchError::Ambiguous { .. } => {
                 "; give --hints FILE (id,x,y of 2 or more targets as seen in the map, ±0.5 m) to choose"

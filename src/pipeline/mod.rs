@@ -128,6 +128,9 @@ impl std::fmt::Display for Warning {
     }
 }
 
+/// Fewer finite points than this is not a map (see `run`).
+const MIN_MAP_POINTS: u64 = 100;
+
 /// Everything an evaluation produces.
 #[derive(Debug)]
 pub struct Evaluation {
@@ -252,6 +255,22 @@ fn evaluate(
     map.bytes = total;
     map.points = ground.read.points;
     map.skipped_nonfinite = ground.read.skipped_nonfinite;
+    // A located target alone takes hundreds of points: a "map" of fewer than
+    // a hundred is another file (the survey, a list of positions) given as
+    // the map, and every later message (no frame found, no target) would
+    // hide that.
+    if crops_dir.is_none() && map.points < MIN_MAP_POINTS {
+        return Err(Error::Input(format!(
+            "{}: only {} finite points{}; a map holds thousands around each target: is this the map?",
+            map.name,
+            map.points,
+            if map.skipped_nonfinite > 0 {
+                format!(" ({} non-finite skipped)", map.skipped_nonfinite)
+            } else {
+                String::new()
+            }
+        )));
+    }
     // `--align none` scores the map in the survey frame as it is: nothing
     // may turn it.
     let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
@@ -369,6 +388,16 @@ fn evaluate(
             // The first guess found enough to align: keep it, and say why
             // detection did not take over.
             Err(e) if enough => warnings.push(Warning::DetectionFailed(e.to_string())),
+            // What was seen where the survey places the targets tells a
+            // wrong plate size from a map in another frame.
+            Err(Error::Input(e)) if other_plate_size(&found, cfg).is_some() => {
+                let size = other_plate_size(&found, cfg).unwrap_or_default();
+                return Err(Error::Input(format!(
+                    "{size}. (Read in the survey frame, the map showed {} of {} targets; and detection map-wide: {e})",
+                    found.iter().filter(|r| r.outcome.is_ok()).count(),
+                    found.len()
+                )));
+            }
             Err(e) => return Err(e),
         }
     }
@@ -602,6 +631,12 @@ fn too_few_found(
         survey.targets.len(),
         cfg.metrics.align.name(),
     );
+    // The plates' size first: the frame is not to blame.
+    if let Some(size) = other_plate_size(found, cfg) {
+        msg += ". ";
+        msg += &size;
+        return Error::Input(msg);
+    }
     if !why.is_empty() {
         msg += "; ";
         msg += &why[..why.len().min(5)].join("; ");
@@ -633,6 +668,58 @@ fn too_few_found(
         };
     }
     Error::Input(msg)
+}
+
+/// The sentence for L's of one other size seen at two or more of the
+/// surveyed places (refused for their size alone): the plates are likely not
+/// the configured ones, which every later message would hide.
+fn other_plate_size(found: &[TargetRun], cfg: &Config) -> Option<String> {
+    let sizes: Vec<[f64; 3]> = found
+        .iter()
+        .filter_map(|r| match &r.outcome {
+            Err(Failure::Tight(crop::TightError::NoTargetShape { seen: Some(s), .. })) => {
+                s.plate_size.map(|s| s.map(|v| v.unwrap_or(f64::NAN)))
+            }
+            _ => None,
+        })
+        .collect();
+    if sizes.len() < 2 {
+        return None;
+    }
+    // Per dimension, over the places where it was measured.
+    let median = |ks: &[usize]| {
+        let mut v: Vec<f64> = sizes
+            .iter()
+            .flat_map(|s| ks.iter().map(|&k| s[k]))
+            .filter(|v| v.is_finite())
+            .collect();
+        v.sort_unstable_by(f64::total_cmp);
+        v.get(v.len() / 2).copied()
+    };
+    let (w, h) = (median(&[0, 1]), median(&[2]));
+    let (cw, ch) = (cfg.tight.plate_width, cfg.tight.plate_height);
+    let off = |m: Option<f64>, c: f64| m.is_some_and(|m| (m - c).abs() > 0.15 * c);
+    if !off(w, cw) && !off(h, ch) {
+        return None;
+    }
+    // The same L at each place: what was measured within a sixth of the median.
+    let near = |v: f64, m: Option<f64>| !v.is_finite() || m.is_none_or(|m| (v - m).abs() < m / 6.0);
+    let alike = sizes
+        .iter()
+        .filter(|s| near(s[0], w) && near(s[1], w) && near(s[2], h))
+        .count();
+    let said = |m: Option<f64>, what: &str| m.map(|m| format!("{m:.2} m {what}"));
+    let size: Vec<String> = [said(w, "wide"), said(h, "tall")]
+        .into_iter()
+        .flatten()
+        .collect();
+    let flag = format!("{:.2},{:.2}", w.unwrap_or(cw), h.unwrap_or(ch));
+    (alike >= 2).then(|| {
+        format!(
+            "L's of other plates than configured stand at {alike} of the surveyed places: plates about {} (where measured), against {cw},{ch} m configured (--plate-size). Is that their size? If so, give --plate-size {flag} (a hidden lower part makes an L look shorter)",
+            size.join(", ")
+        )
+    })
 }
 
 /// The located corners as estimates for [`accuracy::score`].

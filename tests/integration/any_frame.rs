@@ -102,6 +102,36 @@ fn check_scene(name: &str, args: &[&str], missing: Option<(&str, f64, f64)>) {
     assert!(out.status.success(), "{name}: {}", stderr(&out));
     let a = result(&auto);
     assert_eq!(a["eval"]["frame"]["how"], "detect", "{name}");
+    // Issue 31: the terminal says the frame was detected, and the --init
+    // that reproduces it without the detection.
+    let err = stderr(&out);
+    let init = err
+        .split("Next time `--init ")
+        .nth(1)
+        .and_then(|t| t.split('`').next())
+        .unwrap_or_else(|| panic!("{name}: no --init said: {err}"));
+    assert!(
+        err.contains("frame: the map is not in the survey frame; it was found by detecting the targets map-wide"),
+        "{name}: {err}"
+    );
+    let reused = dir.path().join("reused");
+    let out = eval(&scene, &reused, &["--init", init]);
+    assert!(
+        out.status.success(),
+        "{name} (--init {init}): {}",
+        stderr(&out)
+    );
+    let r = result(&reused);
+    assert_eq!(r["eval"]["frame"]["how"], "init", "{name}");
+    assert_eq!(
+        r["targets"]
+            .as_array()
+            .map(|t| t.iter().filter(|t| t["status"] == "ok").count()),
+        a["targets"]
+            .as_array()
+            .map(|t| t.iter().filter(|t| t["status"] == "ok").count()),
+        "{name}: --init {init} finds as many targets as the detection"
+    );
     true_hints(&truth, &dir.path().join("hints.csv"));
     let given = dir.path().join("given");
     let hints = dir.path().join("hints.csv");

@@ -235,6 +235,64 @@ fn target_outside_the_map_warns_and_still_succeeds() {
     }
 }
 
+/// Issue 31: a crop that finds nothing is a failed run: `crop` with every
+/// target far from the map, and `crop --tight` with none of them where the
+/// survey says, exit 1 saying so (and the frame advice), not 0 with empty
+/// files and "0 of N".
+#[test]
+fn a_crop_that_finds_nothing_fails_with_the_reason() {
+    let dir = tempdir();
+    let (map, survey) = synth(dir.path(), "pcd", 1);
+    let text = std::fs::read_to_string(&survey).unwrap();
+    let mut lines = text.lines();
+    let mut moved = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        let mut f: Vec<String> = l.split(',').map(String::from).collect();
+        // 20 m north of every target: bare ground in the loose crops.
+        f[2] = format!("{:.4}", f[2].parse::<f64>().unwrap() + 20.0);
+        moved += &(f.join(",") + "\n");
+    }
+    let moved_path = dir.path().join("moved.csv");
+    std::fs::write(&moved_path, &moved).unwrap();
+    let o = run(
+        &["crop", "--tight"],
+        &[
+            ("--map", &map),
+            ("--survey", &moved_path),
+            ("--out", &dir.path().join("t")),
+        ],
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("no tight crop made: none of the"), "{err}");
+    assert!(err.contains("--init X,Y,YAW_DEG"), "{err}");
+    let far: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return format!("{l}\n");
+            }
+            let mut f: Vec<String> = l.split(',').map(String::from).collect();
+            f[1] = format!("{:.4}", f[1].parse::<f64>().unwrap() + 9000.0);
+            f.join(",") + "\n"
+        })
+        .collect();
+    let far_path = dir.path().join("far.csv");
+    std::fs::write(&far_path, far).unwrap();
+    let o = run(
+        &["crop"],
+        &[
+            ("--map", &map),
+            ("--survey", &far_path),
+            ("--out", &dir.path().join("f")),
+        ],
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("no map points within"), "{err}");
+}
+
 /// Exit code 1 (never the panic code 101) and one line `error: <path>...`.
 fn assert_clean_failure(o: &Output, path: &Path) {
     let err = stderr(o);
@@ -345,8 +403,8 @@ fn radius_out_of_range_is_a_one_line_error() {
 }
 
 /// A map in another frame: crop looks where the survey puts the targets,
-/// finds nothing, and says how to get the frame; `--plate-size` shapes tight
-/// crops only.
+/// finds nothing, fails, and says how to get the frame; `--plate-size` shapes
+/// tight crops only.
 #[test]
 fn a_map_in_another_frame_gets_the_way_to_its_frame() {
     let dir = tempdir();
@@ -368,7 +426,8 @@ fn a_map_in_another_frame_gets_the_way_to_its_frame() {
             &args,
             &[("--map", &moved), ("--survey", &survey), ("--out", &out)],
         );
-        assert!(o.status.success(), "{}", stderr(&o));
+        // Nothing found is a failed run (issue 31), with the way to the frame.
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
         assert!(
             stderr(&o).contains("needs --init X,Y,YAW_DEG: `mapgauge eval` finds the frame by itself and writes it to result.json as eval.frame.init"),
             "{}",

@@ -217,6 +217,25 @@ fn messages_name_the_remedy() {
     }
     // List flags: negative numbers without `=`; a wrong count is a usage error.
     let (map, survey) = scene(d.path());
+    // The survey given as the map: read as a 5-point map, and said so, rather
+    // than "no frame found".
+    let o = bin()
+        .args(["eval", "--map"])
+        .arg(&survey)
+        .arg("--survey")
+        .arg(&survey)
+        .arg("--out")
+        .arg(d.path().join("swapped"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "only 5 finite points; a map holds thousands around each target: is this the map?"
+        ),
+        "{}",
+        stderr(&o)
+    );
     let o = bin()
         .args(["eval", "--init", "-26.7,96,30", "--print-config"])
         .output()
@@ -498,4 +517,79 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
         .unwrap();
     assert_eq!(bad.status.code(), Some(1), "{}", stderr(&bad));
     assert!(stderr(&bad).contains("--scale 0"), "{}", stderr(&bad));
+}
+
+/// Issue 31: a survey with x and y swapped is the map's mirror image. It was
+/// scored on the three targets (an isosceles three) that a rotation happened
+/// to fit, as if nothing were wrong; it is refused, naming the mistake. A
+/// wrong plate size, and an empty map, each get their own diagnosis too
+/// (all three were "the map is not in the survey frame").
+#[test]
+fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let text = std::fs::read_to_string(&survey).unwrap();
+    let mut lines = text.lines();
+    let mut swapped = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        let mut f: Vec<&str> = l.split(',').collect();
+        f.swap(1, 2);
+        swapped += &(f.join(",") + "\n");
+    }
+    let sw = dir.path().join("swapped.csv");
+    std::fs::write(&sw, swapped).unwrap();
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&sw)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o)
+            .contains("the survey's x and y look swapped: with them exchanged, 5 of its 5 targets"),
+        "{}",
+        stderr(&o)
+    );
+    // Plates of another size than --plate-size: said so, with the size seen,
+    // instead of "the map is not in the survey frame".
+    for (flag, seen) in [("0.4", "0.6"), ("0.8,0.8", "0.5")] {
+        let o = bin()
+            .args(["eval", "--no-report", "--plate-size", flag, "--map"])
+            .arg(&map)
+            .arg("--survey")
+            .arg(&survey)
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(
+            e.contains("L's of other plates than configured stand at")
+                && e.contains(&format!("plates about {seen}"))
+                && e.contains("Is that their size?"),
+            "{flag}: {e}"
+        );
+    }
+    let empty = dir.path().join("empty.pcd");
+    std::fs::write(
+        &empty,
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA binary\n",
+    )
+    .unwrap();
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(&empty)
+        .arg("--survey")
+        .arg(&survey)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "only 0 finite points; a map holds thousands around each target: is this the map?"
+        ),
+        "{}",
+        stderr(&o)
+    );
 }

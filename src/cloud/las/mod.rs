@@ -107,6 +107,21 @@ fn open_with(path: &Path, copc: bool, chunked: bool) -> Result<Box<dyn PointRead
     Ok(Box::new(producer))
 }
 
+/// Where the point records end: at the waveform data packets stored inside
+/// the file (LAS 1.3+) or the extended VLRs (LAS 1.4), whichever comes first
+/// after the points; else at the end of the file.
+fn point_data_end(raw: &las::raw::Header, start: u64, file_bytes: u64) -> u64 {
+    [
+        raw.evlr.map(|e| e.start_of_first_evlr),
+        raw.start_of_waveform_data_packet_record,
+    ]
+    .into_iter()
+    .flatten()
+    .filter(|&e| e > start && e <= file_bytes)
+    .min()
+    .unwrap_or(file_bytes)
+}
+
 /// The body of the LAZ reader thread: decodes blocks through the `las` crate
 /// and sends them.
 fn read_laz(tx: Tx, file: File, file_bytes: u64, p: std::path::PathBuf) {
@@ -127,13 +142,9 @@ fn read_laz(tx: Tx, file: File, file_bytes: u64, p: std::path::PathBuf) {
         // A declared count larger than the data is an error up front.
         let raw = header.clone().into_raw().ok();
         let start = raw.as_ref().map_or(0, |r| r.offset_to_point_data as u64);
-        // Point data ends where the extended VLRs (LAS 1.4) start, or at the end.
         let data_end = raw
             .as_ref()
-            .and_then(|r| r.evlr)
-            .map(|e| e.start_of_first_evlr)
-            .filter(|&e| e > start && e <= file_bytes)
-            .unwrap_or(file_bytes);
+            .map_or(file_bytes, |r| point_data_end(r, start, file_bytes));
         let need = total.checked_mul(rec).and_then(|b| b.checked_add(start));
         if need.is_some_and(|n| rec > 0 && n <= data_end && data_end - n >= rec) {
             tx.send(Msg::Err(Error::format(
@@ -243,12 +254,7 @@ fn open_records(path: &Path, file: &File, file_bytes: u64) -> Result<Option<Box<
         ));
     }
     let start = u64::from(raw.offset_to_point_data);
-    // Point data ends where the extended VLRs (LAS 1.4) start, or at the end.
-    let data_end = raw
-        .evlr
-        .map(|e| e.start_of_first_evlr)
-        .filter(|&e| e > start && e <= file_bytes)
-        .unwrap_or(file_bytes);
+    let data_end = point_data_end(&raw, start, file_bytes);
     let need = count
         .checked_mul(stride as u64)
         .and_then(|b| b.checked_add(start));

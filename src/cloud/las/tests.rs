@@ -104,6 +104,29 @@ fn reads_formats_0_1_3_6_and_laz() {
     }
 }
 
+/// Issue 31: LAS 1.3 with its waveform data packets inside the file, after
+/// the points (`start_of_waveform_data_packet_record`): the point data ends
+/// there. It was refused as holding more points than declared.
+#[test]
+fn las13_internal_waveform_data_ends_the_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("w.las");
+    let pts = truth(100);
+    write_with_crate(&path, 1, (1, 3), &pts);
+    let mut bytes = std::fs::read(&path).unwrap();
+    let end = bytes.len() as u64;
+    // Global encoding bit 1: waveform data packets internal; their start at
+    // byte 227 of a 1.3 header; then a 60-byte record header and 40 bytes of
+    // samples (two records' worth of format 1 points and more).
+    bytes[6] |= 0b10;
+    bytes[227..235].copy_from_slice(&end.to_le_bytes());
+    bytes.extend_from_slice(&[0u8; 100]);
+    std::fs::write(&path, &bytes).unwrap();
+    let (got, stats, _) = read(&path).unwrap();
+    assert_eq!(stats.points, 100);
+    assert_mm(&got, &pts);
+}
+
 #[test]
 fn truncated_las_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();

@@ -63,6 +63,9 @@ pub(super) struct Rejected {
     pub(super) corner: Vector3<f64>,
     /// Direction from the corner along each face (zero when not decided).
     pub(super) along: [Vector3<f64>; 2],
+    /// Its plates' widths and height (m; NaN where not measured), when it
+    /// was refused for its size alone: an L of another size than configured.
+    pub(super) size: Option<[f64; 3]>,
 }
 
 impl Rejected {
@@ -72,6 +75,7 @@ impl Rejected {
             why: String::new(),
             corner: Vector3::zeros(),
             along: [Vector3::zeros(); 2],
+            size: None,
         }
     }
 }
@@ -151,6 +155,7 @@ pub(super) fn detect_l(
             why: "only target-shaped objects nearer another surveyed target's position than this one's".into(),
             corner: l.corner,
             along: l.along,
+            size: None,
         };
         return (None, 0, best_score, Some(seen));
     }
@@ -276,6 +281,7 @@ fn fit_l(
                     why: "faces going on past a plate's edge (a car, a cabinet, a wall)".into(),
                     corner: l.corner,
                     along: l.along,
+                    size: None,
                 })
             }
         });
@@ -307,7 +313,9 @@ fn check_l(
     let w = p.plate_width;
     let corner = na * oa + nb * ob;
     let mut along = [Vector3::zeros(); 2];
-    // Refused, with what was seen and where (the faces as far as decided).
+    // Refused, with what was seen and where (the faces as far as decided),
+    // and its size when that alone refused it.
+    let mut size = None;
     macro_rules! no {
         ($why:expr) => {
             return Err(Rejected {
@@ -315,6 +323,7 @@ fn check_l(
                 why: $why,
                 corner,
                 along,
+                size,
             })
         };
     }
@@ -376,6 +385,10 @@ fn check_l(
         }
         z.sort_unstable_by(f64::total_cmp);
         let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
+        // Its faces stop within a few plate heights: an L of taller plates.
+        if tall < 2.5 * p.plate_height {
+            size = Some([f64::NAN, f64::NAN, tall]);
+        }
         no!(format!(
             "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
         ));
@@ -403,6 +416,11 @@ fn check_l(
         ext.sort_unstable_by(f64::total_cmp);
         let far = ext[(ext.len() * 9) / 10];
         if far > w + 0.15 {
+            // A plane that stops within a few plate widths: a wider plate.
+            let edge = ext[(ext.len() * 19) / 20];
+            if edge < 2.5 * w {
+                size = Some([edge, f64::NAN, f64::NAN]);
+            }
             no!(format!("a plane continuing {far:.1} m past the corner"));
         }
         // A plate is as wide as a plate: occlusion from below or foliage
@@ -436,6 +454,11 @@ fn check_l(
     let short = (0..2).any(|k| width[k] < MIN_WIDTH_SHARE * w - slack(k));
     let long = (0..2).any(|k| width[k] > MAX_WIDTH_SHARE * w + slack(k));
     let narrow = width[0].min(width[1]);
+    let tall = hi - lo;
+    let low = tall < MIN_HEIGHT_SHARE * p.plate_height - 0.02;
+    if short || long || low {
+        size = Some([width[0], width[1], tall]);
+    }
     if short || long {
         no!(format!(
             "a {:.2} × {:.2} m L (plates {:.2} and {:.2} m wide, {} m expected)",
@@ -444,6 +467,16 @@ fn check_l(
             width[0],
             width[1],
             w
+        ));
+    }
+    // ... and as tall as a plate, less what may hide its lower part (grass,
+    // a barrier): the rim of a mound, a log, a kerb or a bumper make an L of
+    // the right width a hand's height tall (issue 30: 0.12 m "plates").
+    if low {
+        no!(format!(
+            "an L {tall:.2} m tall ({} m plates expected, at most {:.0} % of them hidden)",
+            p.plate_height,
+            100.0 * (1.0 - MIN_HEIGHT_SHARE)
         ));
     }
     Ok(LShape {
@@ -729,6 +762,10 @@ const GOING_ON: f64 = 0.12;
 /// percentile of its points' distance from the corner) is not the target's:
 /// the grill's frame returns at the far edge, so a whole plate reaches ~0.97.
 const MIN_WIDTH_SHARE: f64 = 0.85;
+/// A located or detected L's plates are at least this share of the plate
+/// height tall: up to 60 % of a plate may be hidden from below (the clutter
+/// cases hide 40 %), and nothing a hand's height tall is a target.
+const MIN_HEIGHT_SHARE: f64 = 0.4;
 
 /// A plate wider than this share of the configured width is not the
 /// target's either (a 0.8 m cabinet side); the range noise along a plate

@@ -162,6 +162,11 @@ pub struct Seen {
     pub faces: Option<[[f64; 2]; 2]>,
     /// Its distance from the expected position (m, horizontal).
     pub from_expected: f64,
+    /// Its plates' widths and height (m; `None` where not measured) when
+    /// its size alone refused it: an L of other plates than configured
+    /// (`--plate-size`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plate_size: Option<[Option<f64>; 3]>,
 }
 
 impl std::fmt::Display for Seen {
@@ -248,6 +253,7 @@ pub fn tight_crop_among(
                 })
             }),
             from_expected: r.corner.xy().norm(),
+            plate_size: r.size.map(|s| s.map(|v| v.is_finite().then_some(v))),
         }
     });
     let Some(l) = best else {

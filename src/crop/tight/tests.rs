@@ -171,6 +171,29 @@ fn finds_target_with_a_bush_touching_it() {
     check(&sc, Vector3::new(0.5, 0.5, 0.0));
 }
 
+/// Issue 30: an L of plates the right width but a hand's height tall (the
+/// rim of a mound, a log, a kerb) is not a target.
+#[test]
+fn an_l_a_hands_height_tall_is_not_a_target() {
+    let mut sc = scene(9, 1.0, 0.7, &[]);
+    let c = sc.corner;
+    // The plates' bottom is 0.3 m below the corner; keep their lowest 0.15 m.
+    sc.pts.retain(|p| {
+        let near = (p - c).xy().norm() < 0.7;
+        !(near && p.z > c.z - 0.15 && p.z < c.z + 0.35)
+    });
+    let e = tight_crop(&sc.pts, &c, &TightParams::default()).unwrap_err();
+    assert!(matches!(e, TightError::NoTargetShape { .. }), "{e}");
+    assert!(e.to_string().contains("m tall"), "{e}");
+    // Hidden 40 % from below, it is still found.
+    let mut sc = scene(9, 1.0, 0.7, &[]);
+    sc.pts.retain(|p| {
+        let near = (p - c).xy().norm() < 0.7;
+        !(near && p.z > c.z - 0.31 && p.z < c.z - 0.06)
+    });
+    tight_crop(&sc.pts, &c, &TightParams::default()).unwrap();
+}
+
 #[test]
 fn reports_why_nothing_was_found() {
     assert_eq!(

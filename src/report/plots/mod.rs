@@ -173,6 +173,7 @@ mod tests {
             at: [e.x + 0.8, e.y - 0.3],
             faces: Some([[e.x + 1.4, e.y - 0.3], [e.x + 0.8, e.y + 0.3]]),
             from_expected: 0.85,
+            plate_size: None,
         };
         r.eval = Some(EvalInfo {
             targets: vec![TargetDetail {
