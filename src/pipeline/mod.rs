@@ -677,9 +677,10 @@ fn other_plate_size(found: &[TargetRun], cfg: &Config) -> Option<String> {
     let sizes: Vec<[f64; 3]> = found
         .iter()
         .filter_map(|r| match &r.outcome {
-            Err(Failure::Tight(crop::TightError::NoTargetShape { seen: Some(s), .. })) => {
-                s.plate_size.map(|s| s.map(|v| v.unwrap_or(f64::NAN)))
-            }
+            Err(Failure::Tight(crop::TightError::NoTargetShape { seen: Some(s), .. })) => s
+                .plate_size
+                .as_ref()
+                .map(|s| s.map(|v| v.unwrap_or(f64::NAN))),
             _ => None,
         })
         .collect();

@@ -65,7 +65,7 @@ pub(super) struct Rejected {
     pub(super) along: [Vector3<f64>; 2],
     /// Its plates' widths and height (m; NaN where not measured), when it
     /// was refused for its size alone: an L of another size than configured.
-    pub(super) size: Option<[f64; 3]>,
+    pub(super) size: Option<Box<[f64; 3]>>,
 }
 
 impl Rejected {
@@ -387,7 +387,7 @@ fn check_l(
         let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
         // Its faces stop within a few plate heights: an L of taller plates.
         if tall < 2.5 * p.plate_height {
-            size = Some([f64::NAN, f64::NAN, tall]);
+            size = Some(Box::new([f64::NAN, f64::NAN, tall]));
         }
         no!(format!(
             "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
@@ -419,7 +419,7 @@ fn check_l(
             // A plane that stops within a few plate widths: a wider plate.
             let edge = ext[(ext.len() * 19) / 20];
             if edge < 2.5 * w {
-                size = Some([edge, f64::NAN, f64::NAN]);
+                size = Some(Box::new([edge, f64::NAN, f64::NAN]));
             }
             no!(format!("a plane continuing {far:.1} m past the corner"));
         }
@@ -457,7 +457,7 @@ fn check_l(
     let tall = hi - lo;
     let low = tall < MIN_HEIGHT_SHARE * p.plate_height - 0.02;
     if short || long || low {
-        size = Some([width[0], width[1], tall]);
+        size = Some(Box::new([width[0], width[1], tall]));
     }
     if short || long {
         no!(format!(

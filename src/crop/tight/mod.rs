@@ -166,7 +166,7 @@ pub struct Seen {
     /// its size alone refused it: an L of other plates than configured
     /// (`--plate-size`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub plate_size: Option<[Option<f64>; 3]>,
+    pub plate_size: Option<Box<[Option<f64>; 3]>>,
 }
 
 impl std::fmt::Display for Seen {
@@ -253,7 +253,9 @@ pub fn tight_crop_among(
                 })
             }),
             from_expected: r.corner.xy().norm(),
-            plate_size: r.size.map(|s| s.map(|v| v.is_finite().then_some(v))),
+            plate_size: r
+                .size
+                .map(|s| Box::new(s.map(|v| v.is_finite().then_some(v)))),
         }
     });
     let Some(l) = best else {
