@@ -355,7 +355,9 @@ pub struct AcrossRuns {
     /// Mean over the runs.
     pub mean: f64,
     /// 95 % interval of the mean: mean ± t(0.975, n − 1) · s / √n, s the
-    /// sample standard deviation over runs (Student's t: runs are few).
+    /// sample standard deviation over runs (Student's t: runs are few), its
+    /// low end clamped at 0: the values are error magnitudes, and a t
+    /// interval of two runs (t = 12.7) reaches far below 0.
     pub ci95: [f64; 2],
 }
 
@@ -374,8 +376,8 @@ fn t975(dof: usize) -> f64 {
     }
 }
 
-/// Mean and 95 % interval of `values` (one per run); `None` with fewer than
-/// 2 runs (no spread to estimate).
+/// Mean and 95 % interval of `values` (one per run: error magnitudes, never
+/// negative); `None` with fewer than 2 runs (no spread to estimate).
 pub fn across_runs(values: &[f64]) -> Option<AcrossRuns> {
     let n = values.len();
     if n < 2 || values.iter().any(|v| !v.is_finite()) {
@@ -387,7 +389,7 @@ pub fn across_runs(values: &[f64]) -> Option<AcrossRuns> {
     Some(AcrossRuns {
         n,
         mean,
-        ci95: [mean - h, mean + h],
+        ci95: [(mean - h).max(0.0), mean + h],
     })
 }
 
@@ -402,6 +404,11 @@ mod runs_tests {
         // s = 0.01, t(2) = 4.303: half-width 0.004303·√3/… = 4.303·0.01/√3.
         assert!((r.ci95[1] - 0.02 - 4.303 * 0.01 / 3f64.sqrt()).abs() < 1e-12);
         assert!(across_runs(&[0.01]).is_none());
+        // Two runs: t(1) = 12.7 takes the low end below 0; a magnitude's is 0.
+        let two = across_runs(&[0.01, 0.03]).unwrap();
+        assert_eq!(two.ci95[0], 0.0);
+        // s = √2 · 0.01, so the half-width is 12.706 · 0.01.
+        assert!((two.ci95[1] - 0.02 - 12.706 * 0.01).abs() < 1e-9);
         assert!((t975(1000) - 1.962).abs() < 1e-3);
     }
 }

@@ -20,6 +20,11 @@ pub struct Args {
     /// Output: text, markdown or json.
     #[arg(long, default_value = "text")]
     format: OutputFormat,
+    /// Compare runs scored against different surveys (targets of one id at
+    /// other positions) anyway, with a warning [default: refused: their
+    /// differences are the surveys', not the maps'].
+    #[arg(long)]
+    force: bool,
 }
 
 fn dir_name(p: &std::path::Path) -> String {
@@ -51,6 +56,23 @@ pub fn run(a: Args) -> Result<()> {
             v => v,
         },
     };
+    // Two sites, or two surveys of one: a paired difference of their errors
+    // measures the surveys, and looked like a confident "B is better".
+    let elsewhere = mapgauge::render::surveyed_elsewhere(&ra, &rb);
+    if !elsewhere.is_empty() {
+        let what = format!(
+            "`{}` and `{}` were scored against different surveys: targets {} are surveyed at other positions (or in another frame)",
+            names[0],
+            names[1],
+            elsewhere.join(", ")
+        );
+        if !a.force {
+            return Err(Error::Input(format!(
+                "{what}; their errors do not compare (--force compares them anyway)"
+            )));
+        }
+        eprintln!("warning: {what}: the differences below are the surveys' as much as the maps'");
+    }
     let c = compare::compare(&ra, &rb, names)?;
     match a.format {
         OutputFormat::Json => {

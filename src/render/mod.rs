@@ -9,7 +9,7 @@ mod text;
 pub use summary::{render_csv, render_report, write_outputs};
 pub use tables::{
     absolute_grid, extra_grid, merged_ids, pairs_grid, relative_grid, survey_mismatches,
-    target_label, targets_grid,
+    surveyed_elsewhere, target_label, targets_grid,
 };
 pub use text::render_text;
 pub(crate) use text::{fixed, mm};

@@ -318,6 +318,23 @@ pub fn extra_grid(r: &ResultFile) -> Grid {
     }
 }
 
+/// The ids both runs surveyed but at other positions (more than 1 mm apart
+/// horizontally, or in another survey frame): two sites, or two surveys of
+/// one, whose errors do not compare.
+pub fn surveyed_elsewhere<'a>(a: &ResultFile, b: &'a ResultFile) -> Vec<&'a str> {
+    b.targets
+        .iter()
+        .filter(|t| {
+            a.targets.iter().any(|u| {
+                u.id == t.id
+                    && ((u.survey.x - t.survey.x).hypot(u.survey.y - t.survey.y) > 1e-3
+                        || a.survey_frame != b.survey_frame)
+            })
+        })
+        .map(|t| t.id.as_str())
+        .collect()
+}
+
 /// Runs compared in one table should share a survey: a target id whose
 /// surveyed position differs between two runs (by more than 1 mm) means they
 /// were measured against different surveys, and the columns do not compare.
@@ -329,18 +346,7 @@ pub fn survey_mismatches(runs: &[(String, &ResultFile)]) -> Vec<String> {
         return out;
     };
     for (name, r) in &runs[1..] {
-        let differ: Vec<&str> = r
-            .targets
-            .iter()
-            .filter(|t| {
-                r0.targets.iter().any(|u| {
-                    u.id == t.id
-                        && ((u.survey.x - t.survey.x).hypot(u.survey.y - t.survey.y) > 1e-3
-                            || r0.survey_frame != r.survey_frame)
-                })
-            })
-            .map(|t| t.id.as_str())
-            .collect();
+        let differ = surveyed_elsewhere(r0, r);
         if !differ.is_empty() {
             out.push(format!(
                 "runs `{first}` and `{name}` were scored against different surveys (targets {} differ): their columns do not compare",

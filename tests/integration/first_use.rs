@@ -411,6 +411,41 @@ fn table_warns_about_different_surveys() {
         e.contains("runs `a` and `c` were scored against different surveys (targets 3 differ)"),
         "{e}"
     );
+    // Issue 31: `compare` of runs against different surveys gave a confident
+    // difference; it refuses, and compares under --force with a warning.
+    let o = bin()
+        .arg("compare")
+        .args([&results[0], &results[2]])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("`a` and `c` were scored against different surveys: targets 3 are surveyed at other positions")
+            && stderr(&o).contains("--force"),
+        "{}",
+        stderr(&o)
+    );
+    let o = bin()
+        .args(["compare", "--force"])
+        .args([&results[0], &results[2]])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).starts_with("warning: `a` and `c` were scored against different surveys"),
+        "{}",
+        stderr(&o)
+    );
+    let o = bin()
+        .arg("compare")
+        .args([&results[0], &results[0]])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success() && stderr(&o).is_empty(),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// `origin` in TOML as `--origin` takes it: `[lat, lon]` (alt 0) or
