@@ -179,6 +179,21 @@ pub trait PointReader: Send {
     fn sampled(&self) -> Option<u64> {
         None
     }
+    /// Whether the file stores coordinates as float32 (binary PCD and PLY
+    /// `float`): far from the origin those keep a coarse step (0.5 m at
+    /// 5.4e6 m, UTM northings), which the pipeline warns of.
+    fn float32_coords(&self) -> bool {
+        false
+    }
+}
+
+/// The step float32 keeps at coordinates up to `reach` (m): its spacing at
+/// the largest power of two below `reach` (24-bit significand).
+pub fn float32_step(reach: f64) -> f64 {
+    if !(reach.is_finite() && reach > 0.0) {
+        return 0.0;
+    }
+    2f64.powi(reach.log2().floor() as i32 - 23)
 }
 
 /// Bytes a point is taken to occupy when only a file's size is known (a

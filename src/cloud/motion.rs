@@ -160,6 +160,9 @@ impl PointReader for Moved<'_> {
     fn sampled(&self) -> Option<u64> {
         self.inner.sampled()
     }
+    fn float32_coords(&self) -> bool {
+        self.inner.float32_coords()
+    }
     fn next_batch<'a>(
         &'a mut self,
         buf: &'a mut Vec<Point>,

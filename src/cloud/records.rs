@@ -592,6 +592,10 @@ impl PointReader for Records {
         (self.every > 1).then(|| self.lay.start + self.fetched.load(Ordering::Relaxed))
     }
 
+    fn float32_coords(&self) -> bool {
+        self.lay.transform.is_none() && self.lay.coords.iter().any(|c| c.kind == Scalar::F32)
+    }
+
     fn stats(&self) -> ReadStats {
         ReadStats {
             points: self.points.load(Ordering::Relaxed),

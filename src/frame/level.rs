@@ -74,6 +74,11 @@ pub struct MapGround {
     /// sample was read: its range may miss the map's extremes): how far a
     /// tilted map's points can move sideways when it is levelled.
     pub z_range: Option<[f64; 2]>,
+    /// The step float32 coordinates keep at the map's farthest coordinate,
+    /// and that coordinate (m), when the file stores them so and the step
+    /// exceeds a millimetre (a UTM map written as float32: 0.5 m at
+    /// northings of 5.4e6 m).
+    pub float32_step: Option<(f64, f64)>,
     /// Only a sample of the map was read (see [`ground_level`]): the
     /// vertical and centre are the sample's, and `lowest` has no ground
     /// where the sample had no points.
@@ -149,6 +154,8 @@ struct Lowest {
     z: [f64; 2],
     /// The grid is spread too thin for a map in metres: no more is added.
     thin: bool,
+    /// The largest |coordinate| seen (m), for float32's step there.
+    reach: f64,
 }
 
 /// The error of a pass whose grid was spread too thin
@@ -197,6 +204,7 @@ pub fn ground_level(
                     centre: Point::origin(),
                     z_range: None,
                     sampled: false,
+                    float32_step: None,
                     lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
                     z0: 0.0,
                 });
@@ -216,6 +224,7 @@ pub fn ground_level(
         sum: [0; 3],
         z: [f64::INFINITY, f64::NEG_INFINITY],
         thin: false,
+        reach: 0.0,
     };
     let low = fold_points_until(
         reader.as_mut(),
@@ -231,6 +240,7 @@ pub fn ground_level(
                 let mut n = 0;
                 for p in run {
                     acc.z = [acc.z[0].min(p.z), acc.z[1].max(p.z)];
+                    acc.reach = acc.reach.max(p.x.abs()).max(p.y.abs()).max(p.z.abs());
                     if let Some(k) = acc.grid.key(p.x, p.y) {
                         let z = (p.z - acc.z0) as f32;
                         let c = acc.grid.entry(k);
@@ -273,6 +283,7 @@ pub fn ground_level(
                 a.sum[k] += b.sum[k];
             }
             a.z = [a.z[0].min(b.z[0]), a.z[1].max(b.z[1])];
+            a.reach = a.reach.max(b.reach);
         },
         |a| a.thin,
         progress,
@@ -299,11 +310,14 @@ pub fn ground_level(
         }
     });
     let sampled = reader.sampled().is_some();
+    let step = crate::cloud::float32_step(low.reach);
+    let float32_step = (reader.float32_coords() && step > 1e-3).then_some((step, low.reach));
     Ok(MapGround {
         level,
         centre,
         z_range: (low.z[0] <= low.z[1] && !sampled).then_some(low.z),
         sampled,
+        float32_step,
         points: low.count,
         read: reader.stats(),
         pass_read: crate::cloud::PassRead::of("ground", reader.as_ref()),
@@ -502,6 +516,44 @@ mod tests {
             assert_eq!(all.z_range, whole.z_range);
         }
         assert!(map.tiles.len() >= 32, "{} tiles", map.tiles.len());
+    }
+
+    /// Issue 31: a float32 map in UTM coordinates (northings of 5.4e6 m)
+    /// keeps half-metre steps: the ground pass says so; the same map about
+    /// a local origin, or in double precision, says nothing.
+    #[test]
+    fn float32_coordinates_far_from_the_origin_report_their_step() {
+        let dir = tempfile::tempdir().unwrap();
+        let pts = site(0.0);
+        let write_f32 = |path: &std::path::Path, shift: [f64; 3]| {
+            let mut b = format!(
+                "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n",
+                n = pts.len()
+            )
+            .into_bytes();
+            for p in &pts {
+                // site() sits at (5e5, 4e6): moved to `shift`.
+                for v in [p.x - 5e5 + shift[0], p.y - 4e6 + shift[1], p.z + shift[2]] {
+                    b.extend_from_slice(&(v as f32).to_le_bytes());
+                }
+            }
+            std::fs::write(path, b).unwrap();
+        };
+        let utm = dir.path().join("utm.pcd");
+        write_f32(&utm, [4.5e5, 5.4e6, 0.0]);
+        let g = ground_level(MapSource::File(&utm), None, None, |_| {}).unwrap();
+        let (step, reach) = g.float32_step.expect("a float32 step reported");
+        assert_eq!(step, 0.5, "{reach}");
+        let local = dir.path().join("local.pcd");
+        write_f32(&local, [0.0, 0.0, 0.0]);
+        let g = ground_level(MapSource::File(&local), None, None, |_| {}).unwrap();
+        assert_eq!(g.float32_step, None);
+        let double = dir.path().join("double.pcd");
+        crate::cloud::write(&double, crate::cloud::OutFormat::Pcd, &pts).unwrap();
+        let g = ground_level(MapSource::File(&double), None, None, |_| {}).unwrap();
+        assert_eq!(g.float32_step, None);
+        assert_eq!(crate::cloud::float32_step(5.4e6), 0.5);
+        assert_eq!(crate::cloud::float32_step(30_000.0), 2f64.powi(-9));
     }
 
     /// Issue 31: a map in millimetres read as metres spreads a point to

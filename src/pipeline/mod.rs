@@ -72,6 +72,14 @@ pub enum Warning {
         /// Targets in the survey.
         targets: usize,
     },
+    /// The map stores float32 coordinates far from its origin: every
+    /// position in it is rounded to a coarse step.
+    Float32Steps {
+        /// The step (m).
+        step_m: f64,
+        /// The farthest coordinate from the origin (m).
+        reach_m: f64,
+    },
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
         /// Total tilt corrected (degrees).
@@ -115,6 +123,15 @@ impl std::fmt::Display for Warning {
                 f,
                 "the frame from --{given} found {found} of {targets} targets where it put them; the targets were detected in the map and that frame was used instead (result.json eval.frame)"
             ),
+            Warning::Float32Steps { step_m, reach_m } => write!(
+                f,
+                "the map stores its coordinates as float32, and they reach {reach_m:.0} m from the origin, where float32 keeps steps of {}: every point (and every located target) is rounded to that step, whatever the map's own accuracy. Have the map written in double precision, or about a local origin",
+                if *step_m >= 0.1 {
+                    format!("{step_m:.2} m")
+                } else {
+                    format!("{:.1} mm", step_m * 1e3)
+                }
+            ),
             Warning::Levelled {
                 tilt_deg,
                 se_deg,
@@ -154,6 +171,11 @@ pub struct Evaluation {
 /// 2 m ground blocks, more than the vertical's mode needs, at a fifth of a
 /// pass over a 20 M-point map and a fiftieth of a 200 M-point one.
 pub const GROUND_SAMPLE_POINTS: u64 = 4_000_000;
+
+/// A float32 map whose coordinates are rounded to this step (m) or more is
+/// refused: a uniform rounding of 0.1 m is 29 mm of noise on every point,
+/// beyond a LiDAR map's own.
+const FLOAT32_REFUSED_STEP: f64 = 0.1;
 
 /// Where a running evaluation is: the pass over the map and its bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -282,6 +304,18 @@ fn evaluate(
     let ground_up = ground.level.as_ref().map(|l| l.up);
     // What each pass read, in order (result.json `eval.reads`).
     let mut reads = vec![ground.pass_read.clone()];
+    if let Some((step_m, reach_m)) = ground.float32_step {
+        let w = Warning::Float32Steps { step_m, reach_m };
+        // Rounding of a tenth of a metre (coordinates beyond 1 048 576 m: UTM
+        // northings) is noise no plate fit averages away; below, a warning.
+        if step_m >= FLOAT32_REFUSED_STEP {
+            return Err(Error::Input(format!(
+                "{}: {w}. At that step no target can be measured: refused",
+                map.name
+            )));
+        }
+        warnings.push(w);
+    }
     let (mut how, mut init, mut dz) = frame::given(survey, cfg, &motion)?;
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {

@@ -628,3 +628,63 @@ fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis(
         stderr(&o)
     );
 }
+
+/// Issue 31: a float32 map far from its origin. UTM northings (5.4e6 m)
+/// keep half-metre steps: refused, saying so (it was "no frame found");
+/// eastings alone (3e5 m, 31 mm steps) are measured, with a warning.
+#[test]
+fn float32_coordinates_far_from_the_origin_are_named() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let pts = mapgauge::cloud::read_all(&map).unwrap();
+    let survey_text = std::fs::read_to_string(&survey).unwrap();
+    let shifted = |name: &str, dx: f64, dy: f64| {
+        let n = pts.len();
+        let mut b = format!(
+            "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
+        )
+        .into_bytes();
+        for p in &pts {
+            for v in [p.x + dx, p.y + dy, p.z] {
+                b.extend_from_slice(&(v as f32).to_le_bytes());
+            }
+        }
+        let m = dir.path().join(format!("{name}.pcd"));
+        std::fs::write(&m, b).unwrap();
+        let mut s: Vec<String> = Vec::new();
+        for (i, l) in survey_text.lines().enumerate() {
+            let mut f: Vec<String> = l.split(',').map(String::from).collect();
+            if i > 0 {
+                f[1] = format!("{:.4}", f[1].parse::<f64>().unwrap() + dx);
+                f[2] = format!("{:.4}", f[2].parse::<f64>().unwrap() + dy);
+            }
+            s.push(f.join(","));
+        }
+        let sv = dir.path().join(format!("{name}.csv"));
+        std::fs::write(&sv, s.join("\n") + "\n").unwrap();
+        bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(&m)
+            .arg("--survey")
+            .arg(&sv)
+            .output()
+            .unwrap()
+    };
+    let o = shifted("utm", 4.5e5, 5.4e6);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("stores its coordinates as float32")
+            && e.contains("steps of 0.50 m")
+            && e.contains("refused"),
+        "{e}"
+    );
+    let o = shifted("east", 3e5, 0.0);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("warning: the map stores its coordinates as float32")
+            && e.contains("steps of 31.2 mm"),
+        "{e}"
+    );
+}

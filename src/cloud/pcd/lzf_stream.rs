@@ -383,6 +383,9 @@ impl PointReader for LzfColumns {
     fn info(&self) -> &CloudInfo {
         &self.info
     }
+    fn float32_coords(&self) -> bool {
+        self.cols.iter().any(|c| c.kind == Scalar::F32)
+    }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
         buf.clear();

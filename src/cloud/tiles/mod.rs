@@ -741,6 +741,11 @@ impl PointReader for TiledReader {
         }
     }
 
+    /// The current tile's (a tiled map is written by one tool, alike).
+    fn float32_coords(&self) -> bool {
+        self.cur.as_ref().is_some_and(|(r, _)| r.float32_coords())
+    }
+
     fn sampled(&self) -> Option<u64> {
         let current = self
             .cur
