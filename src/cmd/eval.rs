@@ -37,7 +37,9 @@ pub struct Args {
     /// Use hand-made tight crops DIR/<id>.ply|pcd|... instead of the automatic crop.
     #[arg(long)]
     pub crops: Option<PathBuf>,
-    /// Also write the loose and tight crops (PLY) under OUT/crops/.
+    /// Also write the loose and tight crops (PLY) under OUT/crops/; when too
+    /// few targets are found to score, they are written still, with
+    /// OUT/failed.csv saying what each surveyed place showed.
     #[arg(long, requires = "out")]
     pub save_crops: bool,
     /// Alignment map → survey: none, rigid2d, rigid2d+z, rigid3d, similarity2d, similarity3d, robust2d [default: rigid2d].
@@ -315,10 +317,27 @@ pub fn evaluate(
         pb.set_position(p.done)
     };
     let source = MapSource::File(map);
-    let ev = pipeline::run_reporting(source, &survey, a.crops.as_deref(), cfg, progress)?;
+    let run = pipeline::run_keeping_failures(source, &survey, a.crops.as_deref(), cfg, progress);
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
+    let ev = match run {
+        Ok(ev) => ev,
+        Err(f) => {
+            // A run that cannot score still leaves what it saw, when asked to.
+            if let (true, Some(out), false) = (a.save_crops, &a.out, f.targets.is_empty()) {
+                match save_failure(&f.targets, out, &[map, survey_path]) {
+                    Ok(()) => eprintln!(
+                        "the crops of every surveyed place are in {}, and what each showed in {}",
+                        out.join("crops").display(),
+                        out.join("failed.csv").display()
+                    ),
+                    Err(e) => eprintln!("warning: the crops could not be saved: {e}"),
+                }
+            }
+            return Err(f.error);
+        }
+    };
     let result = result_file(&ev, &survey, survey_path);
     for w in &ev.warnings {
         eprintln!("warning: {w}");
@@ -389,19 +408,76 @@ pub fn write_outputs(
     }
     render::write_outputs(result, out)?;
     if save_crops {
-        for kind in ["loose", "tight"] {
-            let dir = out.join("crops").join(kind);
-            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-            for t in &ev.targets {
-                let pts = if kind == "loose" { &t.loose } else { &t.tight };
-                if pts.is_empty() {
-                    continue;
-                }
-                let p = dir.join(format!("{}.ply", file_stem(&t.id)));
-                refuse_overwrite(&p, inputs)?;
-                cloud::write(&p, OutFormat::Ply, pts)?;
+        write_crops(&ev.targets, out, inputs)?;
+    }
+    Ok(())
+}
+
+/// Each target's loose and tight crops as `out/crops/{loose,tight}/ID.ply`.
+fn write_crops(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) -> Result<()> {
+    for kind in ["loose", "tight"] {
+        let dir = out.join("crops").join(kind);
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        for t in targets {
+            let pts = if kind == "loose" { &t.loose } else { &t.tight };
+            if pts.is_empty() {
+                continue;
             }
+            let p = dir.join(format!("{}.ply", file_stem(&t.id)));
+            refuse_overwrite(&p, inputs)?;
+            cloud::write(&p, OutFormat::Ply, pts)?;
         }
     }
     Ok(())
+}
+
+/// `--save-crops` of a run that could not score: each target's crops, and
+/// `failed.csv` with what each surveyed place showed (the corner located
+/// there, or why none was), which is when a user needs them most.
+fn save_failure(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) -> Result<()> {
+    super::check_out_dir(out)?;
+    write_crops(targets, out, inputs)?;
+    let rows = targets
+        .iter()
+        .map(|t| {
+            let c = t.corner();
+            let at = |k: usize| c.map_or(String::new(), |c| format!("{:.4}", c[k]));
+            let (status, stage, reason) = match &t.outcome {
+                Ok(_) => ("located", String::new(), String::new()),
+                Err(e) => ("not_found", e.stage().to_string(), e.to_string()),
+            };
+            vec![
+                t.id.clone(),
+                status.into(),
+                at(0),
+                at(1),
+                at(2),
+                t.loose.len().to_string(),
+                t.tight.len().to_string(),
+                stage,
+                reason,
+            ]
+        })
+        .collect();
+    let g = render::Grid {
+        header: [
+            "id",
+            "status",
+            "x",
+            "y",
+            "z",
+            "loose_points",
+            "tight_points",
+            "stage",
+            "reason",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+        bold: Vec::new(),
+        values: Vec::new(),
+    };
+    let path = out.join("failed.csv");
+    refuse_overwrite(&path, inputs)?;
+    mapgauge::record::write_atomic(&path, g.render(TableFormat::Csv).as_bytes())
 }

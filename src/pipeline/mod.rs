@@ -205,6 +205,7 @@ pub fn run(
     evaluate(source, survey, None, cfg, |p: Progress| {
         progress(p.done, p.total)
     })
+    .map_err(|f| f.error)
 }
 
 /// [`run`] with hand-made tight crops `crops_dir/<id>.ply|pcd|…` (the paper's
@@ -220,6 +221,7 @@ pub fn run_with_crops(
     evaluate(source, survey, Some(crops_dir), cfg, |p: Progress| {
         progress(p.done, p.total)
     })
+    .map_err(|f| f.error)
 }
 
 /// [`run`] (or [`run_with_crops`] with `crops_dir`) telling `progress` which
@@ -231,6 +233,39 @@ pub fn run_reporting(
     cfg: &Config,
     progress: impl FnMut(Progress),
 ) -> Result<Evaluation> {
+    evaluate(source, survey, crops_dir, cfg, progress).map_err(|f| f.error)
+}
+
+/// An evaluation that could not score, with what it found at each surveyed
+/// place (crops, located corner or why not) when it got that far: what a
+/// user needs to see why.
+#[derive(Debug)]
+pub struct Failed {
+    /// Why the evaluation could not score.
+    pub error: Error,
+    /// Per survey target, in survey order, when the crops were read (empty
+    /// when the run failed before them).
+    pub targets: Vec<TargetRun>,
+}
+
+impl From<Error> for Failed {
+    fn from(error: Error) -> Self {
+        Failed {
+            error,
+            targets: Vec::new(),
+        }
+    }
+}
+
+/// [`run_reporting`] that, when the evaluation cannot score, keeps what it
+/// saw at each surveyed place ([`Failed`]) for the user to inspect.
+pub fn run_keeping_failures(
+    source: MapSource,
+    survey: &Survey,
+    crops_dir: Option<&Path>,
+    cfg: &Config,
+    progress: impl FnMut(Progress),
+) -> std::result::Result<Evaluation, Failed> {
     evaluate(source, survey, crops_dir, cfg, progress)
 }
 
@@ -240,7 +275,7 @@ fn evaluate(
     crops_dir: Option<&Path>,
     cfg: &Config,
     mut report: impl FnMut(Progress),
-) -> Result<Evaluation> {
+) -> std::result::Result<Evaluation, Failed> {
     cfg.validate()?;
     // The pass the bytes belong to: set before each pass, read by the one
     // byte callback every reader is given.
@@ -253,7 +288,7 @@ fn evaluate(
         })
     };
     if survey.targets.is_empty() {
-        return Err(Error::Input("the survey has no targets".into()));
+        return Err(Error::Input("the survey has no targets".into()).into());
     }
     let mut warnings = Vec::new();
     let mut crop_params = cfg.crop;
@@ -291,7 +326,8 @@ fn evaluate(
             } else {
                 String::new()
             }
-        )));
+        ))
+        .into());
     }
     // `--align none` scores the map in the survey frame as it is: nothing
     // may turn it.
@@ -312,7 +348,8 @@ fn evaluate(
             return Err(Error::Input(format!(
                 "{}: {w}. At that step no target can be measured: refused",
                 map.name
-            )));
+            ))
+            .into());
         }
         warnings.push(w);
     }
@@ -426,13 +463,22 @@ fn evaluate(
             // wrong plate size from a map in another frame.
             Err(Error::Input(e)) if other_plate_size(&found, cfg).is_some() => {
                 let size = other_plate_size(&found, cfg).unwrap_or_default();
-                return Err(Error::Input(format!(
+                let error = Error::Input(format!(
                     "{size}. (Read in the survey frame, the map showed {} of {} targets; and detection map-wide: {e})",
                     found.iter().filter(|r| r.outcome.is_ok()).count(),
                     found.len()
-                )));
+                ));
+                return Err(Failed {
+                    error,
+                    targets: found,
+                });
             }
-            Err(e) => return Err(e),
+            Err(error) => {
+                return Err(Failed {
+                    error,
+                    targets: found,
+                });
+            }
         }
     }
     // The targets' plumb lines refine the vertical, once: each line is a
@@ -573,9 +619,10 @@ fn evaluate(
     let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
     let need = cfg.metrics.align.min_points().max(2);
     if n_found < need {
-        return Err(too_few_found(
-            &found, survey, n_found, need, cfg, &map.name, &how,
-        ));
+        return Err(Failed {
+            error: too_few_found(&found, survey, n_found, need, cfg, &map.name, &how),
+            targets: found,
+        });
     }
     let covariances = found
         .iter()

@@ -688,3 +688,69 @@ fn float32_coordinates_far_from_the_origin_are_named() {
         "{e}"
     );
 }
+
+/// Issue 31: `eval --save-crops` of a run that cannot score (the survey 20 m
+/// off, `--frame survey`) exits 1 and still writes every loose crop and
+/// `failed.csv` with each place's reason; it wrote nothing before.
+#[test]
+fn a_failed_eval_still_saves_its_crops_and_reasons() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let text = std::fs::read_to_string(&survey).unwrap();
+    let moved: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            let mut f: Vec<String> = l.split(',').map(String::from).collect();
+            if i > 0 {
+                f[2] = format!("{:.4}", f[2].parse::<f64>().unwrap() + 20.0);
+            }
+            f.join(",")
+        })
+        .collect();
+    let sv = dir.path().join("moved.csv");
+    std::fs::write(&sv, moved.join("\n") + "\n").unwrap();
+    let out = dir.path().join("out");
+    let o = bin()
+        .args([
+            "eval",
+            "--frame",
+            "survey",
+            "--save-crops",
+            "--no-report",
+            "--map",
+        ])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&sv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("only 0 of 5 targets found"), "{e}");
+    assert!(e.contains("failed.csv"), "{e}");
+    let csv = std::fs::read_to_string(out.join("failed.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 6, "{csv}");
+    assert!(
+        csv.starts_with("id,status,x,y,z,loose_points,tight_points,stage,reason\n"),
+        "{csv}"
+    );
+    assert!(
+        csv.lines().skip(1).all(|l| l.contains(",not_found,")),
+        "{csv}"
+    );
+    for id in 1..=5 {
+        let p = out.join(format!("crops/loose/{id}.ply"));
+        assert!(
+            !mapgauge::cloud::read_all(&p).unwrap().is_empty(),
+            "{}",
+            p.display()
+        );
+    }
+    assert!(
+        !out.join("result.json").exists(),
+        "no result from a run that did not score"
+    );
+}
