@@ -38,8 +38,9 @@ pub struct TargetDetail {
     pub axis: Option<[f64; 3]>,
     /// Stage at which it failed (`loose`, `tight`, `locate`, `check`), when it did.
     pub failed_stage: Option<String>,
-    /// The located corner in the map's own frame, when the map was levelled
-    /// (positions elsewhere are in the levelled frame).
+    /// The located corner in the map's own frame (for a levelled map, the
+    /// corner turned back: positions elsewhere are in the levelled frame);
+    /// absent for a target not located.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corner_in_map: Option<[f64; 3]>,
     /// When the tight crop found no target: the object it saw and refused,
@@ -147,12 +148,13 @@ impl EvalInfo {
                 .iter()
                 .map(|t| {
                     let mut d = detail(t);
-                    if !ev.frame.levelling.is_identity() {
-                        d.corner_in_map = t.corner().map(|c| {
-                            let p = ev.frame.levelling.invert(&c);
-                            [p.x, p.y, p.z]
-                        });
-                    }
+                    // Always there, so a user never has to know whether
+                    // the map was levelled to find a target in it.
+                    let l = &ev.frame.levelling;
+                    d.corner_in_map = t.corner().map(|c| {
+                        let p = if l.is_identity() { c } else { l.invert(&c) };
+                        [p.x, p.y, p.z]
+                    });
                     d
                 })
                 .collect(),

@@ -100,12 +100,17 @@ impl Run {
                 continue;
             };
             // A levelled map's positions are in the levelled frame; the truth
-            // is in the map's own: compare there.
+            // is in the map's own: compare there. (A level map's
+            // `corner_in_map` is its position as is; the position itself is
+            // read then, which a test's shifted copy moves.)
+            let levelled = self.result["eval"]["frame"]["levelling"]["tilt_deg"]
+                .as_f64()
+                .is_some_and(|t| t > 0.0);
             let in_map = self.result["eval"]["targets"]
                 .as_array()
                 .and_then(|v| v.iter().find(|d| d["id"] == t["id"]))
                 .map(|d| d["corner_in_map"].clone())
-                .filter(|c| c.is_array());
+                .filter(|c| c.is_array() && levelled);
             let got = |k: &str| match &in_map {
                 Some(c) => c[["x", "y", "z"].iter().position(|n| *n == k).unwrap_or(0)]
                     .as_f64()
