@@ -326,7 +326,7 @@ pub fn evaluate(
         Err(f) => {
             // A run that cannot score still leaves what it saw, when asked to.
             if let (true, Some(out), false) = (a.save_crops, &a.out, f.targets.is_empty()) {
-                match save_failure(&f.targets, out, &[map, survey_path]) {
+                match save_failure(&f, out, &[map, survey_path]) {
                     Ok(()) => eprintln!(
                         "the crops of every surveyed place are in {}, and what each showed in {}",
                         out.join("crops").display(),
@@ -434,13 +434,18 @@ fn write_crops(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) ->
 /// `--save-crops` of a run that could not score: each target's crops, and
 /// `failed.csv` with what each surveyed place showed (the corner located
 /// there, or why none was), which is when a user needs them most.
-fn save_failure(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) -> Result<()> {
+fn save_failure(f: &pipeline::Failed, out: &Path, inputs: &[&Path]) -> Result<()> {
+    let targets = &f.targets;
     super::check_out_dir(out)?;
     write_crops(targets, out, inputs)?;
     let rows = targets
         .iter()
         .map(|t| {
-            let c = t.corner();
+            // In the map's own frame, as result.json's corner_in_map.
+            let l = &f.levelling;
+            let c = t
+                .corner()
+                .map(|c| if l.is_identity() { c } else { l.invert(&c) });
             let at = |k: usize| c.map_or(String::new(), |c| format!("{:.4}", c[k]));
             let (status, stage, reason) = match &t.outcome {
                 Ok(_) => ("located", String::new(), String::new()),
@@ -463,9 +468,9 @@ fn save_failure(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) -
         header: [
             "id",
             "status",
-            "x",
-            "y",
-            "z",
+            "x_map",
+            "y_map",
+            "z_map",
             "loose_points",
             "tight_points",
             "stage",

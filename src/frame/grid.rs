@@ -47,6 +47,8 @@ pub(crate) struct CellGrid<T> {
     /// Calls of [`CellGrid::entry`]: a pass's points, to tell a map whose
     /// points are spread too thin to be one in metres.
     touched: u64,
+    /// The tiles' key range (min x, min y, max x, max y).
+    span: [i64; 4],
 }
 
 /// A grid of at least this many tiles (a square kilometre and more) whose
@@ -58,6 +60,10 @@ pub(crate) struct CellGrid<T> {
 pub(crate) const THIN_TILES: usize = 1024;
 /// See [`THIN_TILES`].
 pub(crate) const THIN_PER_TILE: u64 = 8;
+/// A thin grid must span this many tiles (64 km) to be judged early...
+const THIN_SPAN_TILES: i64 = 2000;
+/// ... or hold this many (256 MiB of tiles; 16.8 km² of squares).
+const THIN_TILES_ANYWHERE: usize = 16384;
 
 /// Farthest distance from the origin accepted (metres): a point beyond (more
 /// than the Earth's radius away, however the first point fell) is not part
@@ -74,14 +80,34 @@ impl<T: Copy> CellGrid<T> {
             tiles: Vec::new(),
             last: None,
             touched: 0,
+            span: [i64::MAX, i64::MAX, i64::MIN, i64::MIN],
         }
+    }
+
+    fn widen(&mut self, t: (i64, i64)) {
+        self.span = [
+            self.span[0].min(t.0),
+            self.span[1].min(t.1),
+            self.span[2].max(t.0),
+            self.span[3].max(t.1),
+        ];
     }
 
     /// Whether the points seen are spread too thin for a map in metres:
     /// a thousand tiles or more with a few points each ([`THIN_TILES`]). A pass
     /// stops filling a grid once it is, so its memory stays bounded.
     pub(crate) fn spread_thin(&self) -> bool {
-        self.tiles.len() >= THIN_TILES && self.touched < THIN_PER_TILE * self.tiles.len() as u64
+        let n = self.tiles.len();
+        if n < THIN_TILES || self.touched >= THIN_PER_TILE * n as u64 {
+            return false;
+        }
+        // Judged early (a few thousand points: memory must not wait), a
+        // map stored in hashed or voxel order looks thin too until its
+        // squares fill; so thin only over an extent no such map spans (a
+        // map in millimetres of anything over 64 m does), or at a size that
+        // bounds the grid's memory (256 MiB).
+        let span = (self.span[2] - self.span[0]).max(self.span[3] - self.span[1]);
+        span >= THIN_SPAN_TILES || n >= THIN_TILES_ANYWHERE
     }
 
     /// The cell holding (x, y), or `None` when absurdly far from the origin.
@@ -121,6 +147,7 @@ impl<T: Copy> CellGrid<T> {
                 let s = match self.index.get(&t) {
                     Some(&s) => s,
                     None => {
+                        self.widen(t);
                         self.tiles
                             .push((t, vec![self.empty; (TILE * TILE) as usize].into()));
                         self.index.insert(t, self.tiles.len() - 1);
@@ -165,6 +192,7 @@ impl<T: Copy> CellGrid<T> {
                     }
                 }
                 None => {
+                    self.widen(t);
                     self.tiles.push((t, cells));
                     self.index.insert(t, self.tiles.len() - 1);
                 }

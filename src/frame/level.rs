@@ -240,8 +240,10 @@ pub fn ground_level(
                 let mut n = 0;
                 for p in run {
                     acc.z = [acc.z[0].min(p.z), acc.z[1].max(p.z)];
-                    acc.reach = acc.reach.max(p.x.abs()).max(p.y.abs()).max(p.z.abs());
                     if let Some(k) = acc.grid.key(p.x, p.y) {
+                        // Of the points kept (a stray one beyond the
+                        // Earth's radius is no part of the site).
+                        acc.reach = acc.reach.max(p.x.abs()).max(p.y.abs()).max(p.z.abs());
                         let z = (p.z - acc.z0) as f32;
                         let c = acc.grid.entry(k);
                         if z < *c {

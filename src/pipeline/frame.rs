@@ -176,7 +176,13 @@ pub(super) fn detect_and_match(
     // isosceles three of them does). Its mirror fitting more is the mistake.
     let mirrored: Vec<Point> = sur.iter().map(|p| Point::new(p.y, p.x, p.z)).collect();
     if let Ok(mm) = match_frame(&cands, &mirrored, survey.has_z(), &params) {
-        let given = m.as_ref().map_or(0, |m| m.matches.len());
+        // As given: its matches, or the most any transform found when none
+        // was chosen (too few, or two about equal).
+        let given = match &m {
+            Ok(m) => m.matches.len(),
+            Err(MatchError::TooFew { best, .. }) => *best,
+            Err(MatchError::Ambiguous { a, .. }) => *a,
+        };
         if mm.matches.len() > given {
             return Err(Error::Input(format!(
                 "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. Check the order of the survey's columns (id,x,y: x east, y north) and run again",

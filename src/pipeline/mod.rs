@@ -43,7 +43,8 @@ pub struct MapStats {
     /// Finite points in the map when a pass read all of it; else the most
     /// any pass read (`Evaluation::reads` says what each read).
     pub points: u64,
-    /// Points skipped as NaN or infinite (by the pass that read the most).
+    /// Points skipped as NaN or infinite (by the ground pass, or the crops'
+    /// when it read the whole map).
     pub skipped_nonfinite: u64,
 }
 
@@ -246,6 +247,9 @@ pub struct Failed {
     /// Per survey target, in survey order, when the crops were read (empty
     /// when the run failed before them).
     pub targets: Vec<TargetRun>,
+    /// Map → the frame the targets' positions are in (the levelling; the
+    /// identity for a map read as it is).
+    pub levelling: RigidMotion,
 }
 
 impl From<Error> for Failed {
@@ -253,6 +257,7 @@ impl From<Error> for Failed {
         Failed {
             error,
             targets: Vec::new(),
+            levelling: RigidMotion::identity_at(Point::origin()),
         }
     }
 }
@@ -471,12 +476,14 @@ fn evaluate(
                 return Err(Failed {
                     error,
                     targets: found,
+                    levelling: motion,
                 });
             }
             Err(error) => {
                 return Err(Failed {
                     error,
                     targets: found,
+                    levelling: motion,
                 });
             }
         }
@@ -622,6 +629,7 @@ fn evaluate(
         return Err(Failed {
             error: too_few_found(&found, survey, n_found, need, cfg, &map.name, &how),
             targets: found,
+            levelling: motion,
         });
     }
     let covariances = found
@@ -796,9 +804,23 @@ fn other_plate_size(found: &[TargetRun], cfg: &Config) -> Option<String> {
         .flatten()
         .collect();
     let flag = format!("{:.2},{:.2}", w.unwrap_or(cw), h.unwrap_or(ch));
-    (alike >= 2).then(|| {
+    // The same L at two places or more, and at half of those that showed an
+    // L-like object at all: two kerbs among ten places are not a plate size.
+    let shown = found
+        .iter()
+        .filter(|r| {
+            matches!(
+                r.outcome,
+                Err(Failure::Tight(crop::TightError::NoTargetShape {
+                    seen: Some(_),
+                    ..
+                }))
+            )
+        })
+        .count();
+    (alike >= 2 && 2 * alike >= shown).then(|| {
         format!(
-            "L's of other plates than configured stand at {alike} of the surveyed places: plates about {} (where measured), against {cw},{ch} m configured (--plate-size). Is that their size? If so, give --plate-size {flag} (a hidden lower part makes an L look shorter)",
+            "L's of other plates than configured stand at {alike} of the surveyed places: plates about {} (where measured), against {cw},{ch} m configured (--plate-size). Is that their size? If so, give --plate-size {flag} (a hidden lower part makes an L look shorter; if they are not the targets, the map may be in another frame: --init x,y,yaw_deg)",
             size.join(", ")
         )
     })

@@ -734,7 +734,7 @@ fn a_failed_eval_still_saves_its_crops_and_reasons() {
     let csv = std::fs::read_to_string(out.join("failed.csv")).unwrap();
     assert_eq!(csv.lines().count(), 6, "{csv}");
     assert!(
-        csv.starts_with("id,status,x,y,z,loose_points,tight_points,stage,reason\n"),
+        csv.starts_with("id,status,x_map,y_map,z_map,loose_points,tight_points,stage,reason\n"),
         "{csv}"
     );
     assert!(

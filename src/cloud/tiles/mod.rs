@@ -483,6 +483,8 @@ pub(crate) struct TiledReader {
     /// tile reader left part of the map unread.
     sample_each: Option<f64>,
     sampled: bool,
+    /// Some tile opened stores float32 coordinates.
+    float32: bool,
 }
 
 /// A sample of a tiled map reads whole tiles when it can leave out enough of
@@ -517,6 +519,7 @@ impl TiledReader {
             intensity: std::sync::OnceLock::new(),
             sample_each: None,
             sampled: false,
+            float32: false,
         }
     }
 
@@ -543,6 +546,7 @@ impl TiledReader {
         }
         self.counts.opened += 1;
         self.counts.bytes_opened += tile.bytes;
+        self.float32 |= r.float32_coords();
         self.cur = Some((r, t));
         Ok(true)
     }
@@ -741,9 +745,9 @@ impl PointReader for TiledReader {
         }
     }
 
-    /// The current tile's (a tiled map is written by one tool, alike).
+    /// Whether any tile opened so far stores float32 coordinates.
     fn float32_coords(&self) -> bool {
-        self.cur.as_ref().is_some_and(|(r, _)| r.float32_coords())
+        self.float32
     }
 
     fn sampled(&self) -> Option<u64> {
