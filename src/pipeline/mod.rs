@@ -264,6 +264,8 @@ impl From<Error> for Failed {
 
 /// [`run_reporting`] that, when the evaluation cannot score, keeps what it
 /// saw at each surveyed place ([`Failed`]) for the user to inspect.
+// A large error is returned once a run: not worth a box.
+#[allow(clippy::result_large_err)]
 pub fn run_keeping_failures(
     source: MapSource,
     survey: &Survey,
@@ -274,6 +276,7 @@ pub fn run_keeping_failures(
     evaluate(source, survey, crops_dir, cfg, progress)
 }
 
+#[allow(clippy::result_large_err)]
 fn evaluate(
     source: MapSource,
     survey: &Survey,
