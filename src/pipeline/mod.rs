@@ -469,20 +469,15 @@ fn evaluate(
             Err(e) if enough => warnings.push(Warning::DetectionFailed(e.to_string())),
             // What was seen where the survey places the targets tells a
             // wrong plate size from a map in another frame.
-            Err(Error::Input(e)) if other_plate_size(&found, cfg).is_some() => {
-                let size = other_plate_size(&found, cfg).unwrap_or_default();
-                let error = Error::Input(format!(
-                    "{size}. (Read in the survey frame, the map showed {} of {} targets; and detection map-wide: {e})",
-                    found.iter().filter(|r| r.outcome.is_ok()).count(),
-                    found.len()
-                ));
-                return Err(Failed {
-                    error,
-                    targets: found,
-                    levelling: motion,
-                });
-            }
             Err(error) => {
+                let error = match (error, other_plate_size(&found, cfg)) {
+                    (Error::Input(e), Some(size)) => Error::Input(format!(
+                        "{size}. (Read in the survey frame, the map showed {} of {} targets; and detection map-wide: {e})",
+                        found.iter().filter(|r| r.outcome.is_ok()).count(),
+                        found.len()
+                    )),
+                    (error, _) => error,
+                };
                 return Err(Failed {
                     error,
                     targets: found,

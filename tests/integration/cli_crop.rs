@@ -2,7 +2,7 @@
 //! the map read back with the library, shapes, output formats, input formats,
 //! and the exit codes and messages for bad maps.
 
-use crate::util::{bin, stderr, tempdir};
+use crate::util::{add_to, bin, edit_survey, stderr, tempdir};
 use mapgauge::Point;
 use mapgauge::survey::{SurveyOptions, read_survey};
 use std::collections::BTreeMap;
@@ -243,17 +243,9 @@ fn target_outside_the_map_warns_and_still_succeeds() {
 fn a_crop_that_finds_nothing_fails_with_the_reason() {
     let dir = tempdir();
     let (map, survey) = synth(dir.path(), "pcd", 1);
-    let text = std::fs::read_to_string(&survey).unwrap();
-    let mut lines = text.lines();
-    let mut moved = format!("{}\n", lines.next().unwrap());
-    for l in lines {
-        let mut f: Vec<String> = l.split(',').map(String::from).collect();
-        // 20 m north of every target: bare ground in the loose crops.
-        f[2] = format!("{:.4}", f[2].parse::<f64>().unwrap() + 20.0);
-        moved += &(f.join(",") + "\n");
-    }
+    // 20 m north of every target: bare ground in the loose crops.
     let moved_path = dir.path().join("moved.csv");
-    std::fs::write(&moved_path, &moved).unwrap();
+    edit_survey(&survey, &moved_path, |f| add_to(&mut f[2], 20.0));
     let o = run(
         &["crop", "--tight"],
         &[
@@ -266,20 +258,8 @@ fn a_crop_that_finds_nothing_fails_with_the_reason() {
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("no tight crop made: none of the"), "{err}");
     assert!(err.contains("--init X,Y,YAW_DEG"), "{err}");
-    let far: String = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            if i == 0 {
-                return format!("{l}\n");
-            }
-            let mut f: Vec<String> = l.split(',').map(String::from).collect();
-            f[1] = format!("{:.4}", f[1].parse::<f64>().unwrap() + 9000.0);
-            f.join(",") + "\n"
-        })
-        .collect();
     let far_path = dir.path().join("far.csv");
-    std::fs::write(&far_path, far).unwrap();
+    edit_survey(&survey, &far_path, |f| add_to(&mut f[1], 9000.0));
     let o = run(
         &["crop"],
         &[

@@ -2,7 +2,7 @@
 //! them, loose crops handed to `locate`, outputs that name files, flags that
 //! take negative numbers, and messages that name the remedy.
 
-use crate::util::{bin, stderr, stdout_ok, tempdir};
+use crate::util::{add_to, bin, edit_survey, stderr, stdout_ok, tempdir};
 use std::path::Path;
 use std::process::Command;
 
@@ -563,16 +563,8 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
 fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis() {
     let dir = tempdir();
     let (map, survey) = scene(dir.path());
-    let text = std::fs::read_to_string(&survey).unwrap();
-    let mut lines = text.lines();
-    let mut swapped = format!("{}\n", lines.next().unwrap());
-    for l in lines {
-        let mut f: Vec<&str> = l.split(',').collect();
-        f.swap(1, 2);
-        swapped += &(f.join(",") + "\n");
-    }
     let sw = dir.path().join("swapped.csv");
-    std::fs::write(&sw, swapped).unwrap();
+    edit_survey(&survey, &sw, |f| f.swap(1, 2));
     let o = bin()
         .args(["eval", "--no-report", "--map"])
         .arg(&map)
@@ -637,7 +629,6 @@ fn float32_coordinates_far_from_the_origin_are_named() {
     let dir = tempdir();
     let (map, survey) = scene(dir.path());
     let pts = mapgauge::cloud::read_all(&map).unwrap();
-    let survey_text = std::fs::read_to_string(&survey).unwrap();
     let shifted = |name: &str, dx: f64, dy: f64| {
         let n = pts.len();
         let mut b = format!(
@@ -651,17 +642,11 @@ fn float32_coordinates_far_from_the_origin_are_named() {
         }
         let m = dir.path().join(format!("{name}.pcd"));
         std::fs::write(&m, b).unwrap();
-        let mut s: Vec<String> = Vec::new();
-        for (i, l) in survey_text.lines().enumerate() {
-            let mut f: Vec<String> = l.split(',').map(String::from).collect();
-            if i > 0 {
-                f[1] = format!("{:.4}", f[1].parse::<f64>().unwrap() + dx);
-                f[2] = format!("{:.4}", f[2].parse::<f64>().unwrap() + dy);
-            }
-            s.push(f.join(","));
-        }
         let sv = dir.path().join(format!("{name}.csv"));
-        std::fs::write(&sv, s.join("\n") + "\n").unwrap();
+        edit_survey(&survey, &sv, |f| {
+            add_to(&mut f[1], dx);
+            add_to(&mut f[2], dy);
+        });
         bin()
             .args(["eval", "--no-report", "--map"])
             .arg(&m)
@@ -696,20 +681,8 @@ fn float32_coordinates_far_from_the_origin_are_named() {
 fn a_failed_eval_still_saves_its_crops_and_reasons() {
     let dir = tempdir();
     let (map, survey) = scene(dir.path());
-    let text = std::fs::read_to_string(&survey).unwrap();
-    let moved: Vec<String> = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            let mut f: Vec<String> = l.split(',').map(String::from).collect();
-            if i > 0 {
-                f[2] = format!("{:.4}", f[2].parse::<f64>().unwrap() + 20.0);
-            }
-            f.join(",")
-        })
-        .collect();
     let sv = dir.path().join("moved.csv");
-    std::fs::write(&sv, moved.join("\n") + "\n").unwrap();
+    edit_survey(&survey, &sv, |f| add_to(&mut f[2], 20.0));
     let out = dir.path().join("out");
     let o = bin()
         .args([
