@@ -86,6 +86,16 @@ fn locate_target(map: &[Point], truth: &Truth, i: usize) -> Result<Point, String
 fn error_mm(map: &[Point], truth: &Truth, i: usize) -> Result<f64, String> {
     let c = locate_target(map, truth, i)?;
     let t = truth.targets[i].map;
+    // Every corner, to compare two builds seed by seed.
+    if std::env::var("CLUTTER_EACH").is_ok() {
+        eprintln!(
+            "corner of target {}: ({:+.4}, {:+.4}, {:+.4}) mm from the truth",
+            i + 1,
+            1e3 * (c.x - t[0]),
+            1e3 * (c.y - t[1]),
+            1e3 * (c.z - t[2])
+        );
+    }
     Ok(1e3 * (c.x - t[0]).hypot(c.y - t[1]))
 }
 

@@ -6,6 +6,7 @@
 use super::TightParams;
 use crate::frame::grid::TileMap;
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 /// A detected L: two perpendicular vertical planes in window-local terms.
 #[derive(Debug, Clone)]
@@ -105,28 +106,36 @@ pub(super) fn detect_l(
     let reach = (rw / step).ceil() as i64;
     let mut found: Vec<LShape> = Vec::new();
     let mut best_score = 0;
-    let mut window: Vec<Vector3<f64>> = Vec::new();
     let mut seen: Option<Rejected> = None;
-    for &(kx, ky) in &keys {
-        let centre = Vector3::new((kx as f64 + 0.5) * step, (ky as f64 + 0.5) * step, 0.0);
-        window.clear();
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                if let Some(ids) = cells.get(&(kx + dx, ky + dy)) {
-                    for &i in ids {
-                        let v = ap[i as usize];
-                        if (v.x - centre.x).powi(2) + (v.y - centre.y).powi(2) < rw * rw {
-                            window.push(v);
+    // Windows are independent: fitted in parallel (a dense crop's finder
+    // then uses the cores its neighbours' targets left idle), consumed in
+    // key order, so the choice is the same for any thread count.
+    let fits: Vec<Option<Result<LShape, Rejected>>> = keys
+        .par_iter()
+        .map_init(Vec::new, |window: &mut Vec<Vector3<f64>>, &(kx, ky)| {
+            let centre = Vector3::new((kx as f64 + 0.5) * step, (ky as f64 + 0.5) * step, 0.0);
+            window.clear();
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    if let Some(ids) = cells.get(&(kx + dx, ky + dy)) {
+                        for &i in ids {
+                            let v = ap[i as usize];
+                            if (v.x - centre.x).powi(2) + (v.y - centre.y).powi(2) < rw * rw {
+                                window.push(v);
+                            }
                         }
                     }
                 }
             }
-        }
-        if window.len() < 2 * params.min_plate_points {
-            continue;
-        }
-        let bounded = |l: &LShape| is_bounded(l, &cells, ap, step, up, params);
-        match fit_l(&window, up, params, bounded) {
+            if window.len() < 2 * params.min_plate_points {
+                return None;
+            }
+            let bounded = |l: &LShape| is_bounded(l, &cells, ap, step, up, params);
+            Some(fit_l(window, up, params, bounded))
+        })
+        .collect();
+    for fit in fits.into_iter().flatten() {
+        match fit {
             Ok(l) => {
                 best_score = best_score.max(l.score);
                 if l.score >= params.min_plate_points {
