@@ -273,11 +273,6 @@ class Accuracy:
 class Evaluation(Accuracy):
     """A map evaluated against a survey: what ``mapgauge eval`` computes and writes."""
 
-    @property
-    def warnings(self) -> List[str]:
-        """The pipeline's caveats, then result.json's ``warnings``."""
-        return list(self._core.pipeline_warnings()) + list(self._d()["warnings"])
-
     def crop(self, target_id: str, kind: str = "tight") -> np.ndarray:
         """The ``loose`` or ``tight`` crop of a target, (K, 3) float64, map frame."""
         return self._core.crop(self._index(target_id), kind)

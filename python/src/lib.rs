@@ -7,7 +7,7 @@
 use mapgauge::accuracy::{self, ScoreOptions};
 use mapgauge::cloud::{self, MapSource};
 use mapgauge::pipeline::{self, Config, Evaluation, MetricsConfig};
-use mapgauge::record::{EvalInfo, ResultFile, SCHEMA, refuse_overwrite};
+use mapgauge::record::{ResultFile, SCHEMA, refuse_overwrite};
 use mapgauge::render::{self, Grid, OutputFormat, TableFormat};
 use mapgauge::report::{self, html};
 use mapgauge::survey::{
@@ -315,10 +315,6 @@ impl EvalCore {
     fn to_json(&self) -> String {
         self.result.to_json()
     }
-    /// The pipeline's warnings (sphere crop without heights, ...).
-    fn pipeline_warnings(&self) -> Vec<String> {
-        self.ev.warnings.iter().map(|w| w.to_string()).collect()
-    }
     /// The loose or tight crop of target `index` (survey order), (K, 3).
     fn crop<'py>(
         &self,
@@ -417,8 +413,8 @@ fn _evaluate(
     });
     prog.finish()?;
     let ev = run.map_err(err)?;
-    let mut result = ResultFile::from_accuracy(&ev.accuracy, &survey.inner);
-    result.eval = Some(EvalInfo::from_evaluation(&ev, &survey.name));
+    // The same file as the CLI's, caveats included.
+    let result = ResultFile::from_evaluation(&ev, &survey.inner, &survey.name);
     Ok(EvalCore {
         ev,
         result,

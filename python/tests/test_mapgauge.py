@@ -39,6 +39,18 @@ def test_file_gives_the_cli_result_json_byte_for_byte(cli, scene, tmp_path):
     assert ev.to_dict() == json.loads(want)
 
 
+def test_a_levelled_map_keeps_the_pipeline_caveats_as_the_cli_does(cli, tmp_path):
+    """Issue 32: the pipeline's warnings (here: the map was levelled) are in
+    Python's result.json exactly as in the CLI's, once each."""
+    d = tmp_path / "tilted"
+    run_cli(cli, "synth", "--out", str(d), "--points", "1000000", "--seed", "3", "--tilt-deg", "2")
+    want = json.loads(cli_eval(cli, d, tmp_path / "cli"))
+    ev = mapgauge.evaluate(str(d / "map.ply"), str(d / "survey.csv"))
+    assert any("levelled" in w for w in want["warnings"]), want["warnings"]
+    assert ev.to_dict()["warnings"] == want["warnings"]
+    assert ev.warnings == want["warnings"]
+
+
 def test_array_gives_the_cli_numbers_bit_for_bit(cli, scene, tmp_path):
     want = json.loads(cli_eval(cli, scene, tmp_path / "cli"))
     pts = mapgauge.read_points(scene / "map.ply")

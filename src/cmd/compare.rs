@@ -87,10 +87,10 @@ pub fn run(a: Args) -> Result<()> {
                     compare::verdict(&c, &c.e_rel, "E_rel").into(),
                 );
             }
-            println!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+            outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
         }
         OutputFormat::Table(f @ (TableFormat::Text | TableFormat::Markdown)) => {
-            print!("{}", text(&c, f))
+            out!("{}", text(&c, f))
         }
         OutputFormat::Table(_) => {
             return Err(Error::Param("compare writes text, markdown or json".into()));

@@ -92,7 +92,7 @@ pub fn run(a: Args) -> Result<()> {
     let scaled = a
         .scale
         .map_or(String::new(), |s| format!(", coordinates × {s}"));
-    println!("{n} points written to {}{with}{scaled}", a.out.display());
+    outln!("{n} points written to {}{with}{scaled}", a.out.display());
     if st.skipped_nonfinite > 0 {
         eprintln!("{} non-finite points skipped", st.skipped_nonfinite);
     }

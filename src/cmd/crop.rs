@@ -122,11 +122,11 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    println!("{:<12} {:>10}  file", "id", "points");
+    outln!("{:<12} {:>10}  file", "id", "points");
     let mut empty = 0;
     for ((t, w), path) in survey.targets.iter().zip(writers).zip(&paths) {
         let n = w.finish()?;
-        println!("{:<12} {:>10}  {}", t.id, n, path.display());
+        outln!("{:<12} {:>10}  {}", t.id, n, path.display());
         if n == 0 {
             empty += 1;
             eprintln!(
@@ -205,7 +205,7 @@ fn write_tight(
     if let Some(p) = a.plate_size {
         (tight_params.plate_width, tight_params.plate_height) = super::plate_size(p)?;
     }
-    println!("{:<12} {:>10}  file", "id", "points");
+    outln!("{:<12} {:>10}  file", "id", "points");
     let mut written = 0;
     for ((t, pts), c) in survey.targets.iter().zip(&loose.points).zip(centres) {
         match mapgauge::crop::tight_crop(pts, c, &tight_params) {
@@ -215,11 +215,11 @@ fn write_tight(
                     .join(format!("{}.{}", file_stem(&t.id), a.format.extension()));
                 refuse_overwrite(&path, &[&a.map, &a.survey])?;
                 cloud::write(&path, a.format, &tc.points)?;
-                println!("{:<12} {:>10}  {}", t.id, tc.points.len(), path.display());
+                outln!("{:<12} {:>10}  {}", t.id, tc.points.len(), path.display());
                 written += 1;
             }
             Err(e) => {
-                println!("{:<12} {:>10}  -", t.id, 0);
+                outln!("{:<12} {:>10}  -", t.id, 0);
                 eprintln!("warning: target {}: no tight crop: {e}", t.id);
             }
         }

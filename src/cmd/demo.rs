@@ -75,58 +75,58 @@ pub fn run(a: Args) -> Result<()> {
     )?;
     let t_report = t3.elapsed().as_secs_f64();
 
-    print!("{}", render_report(&result, TableFormat::Text));
-    println!();
-    println!("Against the known truth (the scene's true target positions in the map):");
-    println!("  {:<6} {:>12} {:>12}", "mm", "measured", "truth");
-    println!(
+    out!("{}", render_report(&result, TableFormat::Text));
+    outln!();
+    outln!("Against the known truth (the scene's true target positions in the map):");
+    outln!("  {:<6} {:>12} {:>12}", "mm", "measured", "truth");
+    outln!(
         "  {:<6} {:>12.1} {:>12.1}",
         "E_abs",
         result.absolute.mean * 1e3,
         expected.absolute.mean * 1e3
     );
-    println!(
+    outln!(
         "  {:<6} {:>12.1} {:>12.1}",
         "σ_abs",
         result.absolute.std * 1e3,
         expected.absolute.std * 1e3
     );
-    println!(
+    outln!(
         "  {:<6} {:>12.1} {:>12.1}",
         "E_rel",
         result.relative.mean * 1e3,
         expected.relative.mean * 1e3
     );
-    println!(
+    outln!(
         "  {:<6} {:>12.1} {:>12.1}",
         "σ_rel",
         result.relative.std * 1e3,
         expected.relative.std * 1e3
     );
-    println!("  localisation error per target (horizontal, mm):");
+    outln!("  localisation error per target (horizontal, mm):");
     for (t, tt) in result.targets.iter().zip(&truth.targets) {
         match &t.map {
             Some(m) => {
                 let e = (Point::new(m.x, m.y, 0.0) - Point::new(tt.map[0], tt.map[1], 0.0)).norm();
-                println!("    target {:<4} {:>7.1}", t.id, e * 1000.0);
+                outln!("    target {:<4} {:>7.1}", t.id, e * 1000.0);
             }
-            None => println!(
+            None => outln!(
                 "    target {:<4} not found: {}",
                 t.id,
                 t.reason.as_deref().unwrap_or("")
             ),
         }
     }
-    println!();
-    println!(
+    outln!();
+    outln!(
         "scene:    {} (map, survey.csv, survey_llh.csv, truth.json)",
         files.map.parent().unwrap_or(&a.out).display()
     );
-    println!(
+    outln!(
         "results:  {} (result.json, targets.csv, pairs.csv, report.html, crops/)",
         out.display()
     );
-    println!(
+    outln!(
         "time:     synthesis {:.1} s, evaluation {:.1} s, report {:.2} s",
         (t1 - t0).as_secs_f64(),
         (t2 - t1).as_secs_f64(),

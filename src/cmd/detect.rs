@@ -87,7 +87,7 @@ pub fn run(a: Args) -> Result<()> {
     if !found.detections.is_empty() {
         s.push_str(&table(&found.detections));
     }
-    print!("{s}");
+    out!("{s}");
     if let Some(out) = &a.out {
         std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
         write_atomic(
@@ -98,7 +98,7 @@ pub fn run(a: Args) -> Result<()> {
             &out.join("detections.ply"),
             ply(&found.detections, &tight, &motion).as_bytes(),
         )?;
-        println!(
+        outln!(
             "wrote {} and {}",
             out.join("detections.csv").display(),
             out.join("detections.ply").display()

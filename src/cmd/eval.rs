@@ -6,7 +6,7 @@ use mapgauge::align::AlignMethod;
 use mapgauge::cloud::{self, MapSource, OutFormat};
 use mapgauge::crop::Shape;
 use mapgauge::pipeline::{self, Config, Evaluation};
-use mapgauge::record::{EvalInfo, ResultFile, refuse_overwrite};
+use mapgauge::record::{ResultFile, refuse_overwrite};
 use mapgauge::render::{self, OutputFormat, TableFormat};
 use mapgauge::report::{self, HashedInputs};
 use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey_for_map};
@@ -155,7 +155,7 @@ pub fn config(a: &Args) -> Result<Config> {
 pub fn run(a: Args) -> Result<()> {
     let cfg = config(&a)?;
     if a.print_config {
-        print!("{}", cfg.to_toml());
+        out!("{}", cfg.to_toml());
         return Ok(());
     }
     let (Some(map), Some(survey_path)) = (a.map.as_deref(), a.survey.as_deref()) else {
@@ -232,9 +232,9 @@ pub fn run(a: Args) -> Result<()> {
 pub fn print_result(result: &ResultFile, format: OutputFormat, verbose: bool) {
     match format {
         OutputFormat::Table(TableFormat::Text) => {
-            print!("{}", render::render_text(result, verbose))
+            out!("{}", render::render_text(result, verbose))
         }
-        OutputFormat::Table(TableFormat::Html) => print!(
+        OutputFormat::Table(TableFormat::Html) => out!(
             "{}",
             report::html::page(
                 "mapgauge result",
@@ -242,8 +242,8 @@ pub fn print_result(result: &ResultFile, format: OutputFormat, verbose: bool) {
                 &[]
             )
         ),
-        OutputFormat::Table(f) => print!("{}", render::render_report(result, f)),
-        OutputFormat::Json => print!("{}", result.to_json()),
+        OutputFormat::Table(f) => out!("{}", render::render_report(result, f)),
+        OutputFormat::Json => out!("{}", result.to_json()),
     }
 }
 
@@ -382,17 +382,9 @@ pub fn result_file(
     survey: &mapgauge::survey::Survey,
     survey_path: &Path,
 ) -> ResultFile {
-    let mut result = ResultFile::from_accuracy(&ev.accuracy, survey);
     // The pipeline's caveats (levelling, wrong objects rejected) belong in
     // the file and the report as much as on stderr.
-    result
-        .warnings
-        .extend(ev.warnings.iter().map(|w| w.to_string()));
-    result.eval = Some(EvalInfo::from_evaluation(
-        ev,
-        &survey_path.display().to_string(),
-    ));
-    result
+    ResultFile::from_evaluation(ev, survey, &survey_path.display().to_string())
 }
 
 /// Writes result files (and crops) into `out`.

@@ -164,15 +164,15 @@ pub fn run(args: Args) -> mapgauge::Result<()> {
 }
 
 fn print(rows: &[Row], format: OutFormat) -> mapgauge::Result<()> {
-    let stdout_err = |e: std::io::Error| mapgauge::Error::io("<stdout>", e);
     match format {
         OutFormat::Json => {
             let s = serde_json::to_string_pretty(rows)
                 .map_err(|e| mapgauge::Error::Input(e.to_string()))?;
-            println!("{s}");
+            outln!("{s}");
         }
         OutFormat::Csv => {
-            let mut w = csv::Writer::from_writer(std::io::stdout().lock());
+            // Into memory, then out! (a closed pipe is not an error).
+            let mut w = csv::Writer::from_writer(Vec::new());
             let csv_err = |e: csv::Error| mapgauge::Error::Input(format!("<stdout>: {e}"));
             w.write_record([
                 "id", "x", "y", "z", "std_x", "std_y", "std_z", "accepted", "attempts", "status",
@@ -193,17 +193,25 @@ fn print(rows: &[Row], format: OutFormat) -> mapgauge::Result<()> {
                 rec.push(r.reason.clone().unwrap_or_default());
                 w.write_record(&rec).map_err(csv_err)?;
             }
-            w.flush().map_err(stdout_err)?;
+            let bytes = w
+                .into_inner()
+                .map_err(|e| mapgauge::Error::Input(format!("<stdout>: {e}")))?;
+            out!("{}", String::from_utf8_lossy(&bytes));
         }
         OutFormat::Table => {
             let idw = rows.iter().map(|r| r.id.len()).max().unwrap_or(2).max(2);
-            println!(
+            outln!(
                 "{:<idw$}  {:>14}  {:>14}  {:>10}  {:>10}  {:>13}  status",
-                "id", "x", "y", "z", "spread_mm", "accepted"
+                "id",
+                "x",
+                "y",
+                "z",
+                "spread_mm",
+                "accepted"
             );
             for r in rows {
                 match &r.located {
-                    Some(l) => println!(
+                    Some(l) => outln!(
                         "{:<idw$}  {:>14.4}  {:>14.4}  {:>10.4}  {:>10.2}  {:>13}  ok",
                         r.id,
                         l.corner.x,
@@ -212,7 +220,7 @@ fn print(rows: &[Row], format: OutFormat) -> mapgauge::Result<()> {
                         l.spread() * 1000.0,
                         format!("{}/{}", l.accepted, l.attempts)
                     ),
-                    None => println!(
+                    None => outln!(
                         "{:<idw$}  {:>14}  {:>14}  {:>10}  {:>10}  {:>13}  {}",
                         r.id,
                         "-",

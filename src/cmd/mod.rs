@@ -1,4 +1,18 @@
-//! One module per subcommand: flag definitions and printing only.
+//! One module per subcommand: its flags, the library calls, and what it
+//! prints. Everything printed to stdout goes through [`out!`]/[`outln!`].
+
+/// `print!` that survives a closed stdout: `mapgauge table … | head -1`
+/// stops the printing, not the run (files are still written), and any
+/// other write error is said once on stderr instead of a panic.
+macro_rules! out {
+    ($($arg:tt)*) => { $crate::cmd::write_stdout(format_args!($($arg)*)) };
+}
+
+/// `println!` through [`out!`].
+macro_rules! outln {
+    () => { out!("\n") };
+    ($($arg:tt)*) => {{ out!($($arg)*); out!("\n") }};
+}
 
 pub mod compare;
 pub mod convert;
@@ -13,6 +27,26 @@ pub mod table;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set once stdout failed: nothing more is written to it.
+static STDOUT_GONE: AtomicBool = AtomicBool::new(false);
+
+/// What [`out!`] does: one formatted write to the locked stdout.
+pub fn write_stdout(args: std::fmt::Arguments) {
+    use std::io::Write;
+    if STDOUT_GONE.load(Ordering::Relaxed) {
+        return;
+    }
+    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
+        STDOUT_GONE.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!(
+                "warning: cannot write to stdout ({e}); the rest of the output is not printed"
+            );
+        }
+    }
+}
 
 /// A byte progress bar on stderr, or `None` when stderr is not a terminal.
 pub fn progress_bar(total: u64, what: &str) -> Option<ProgressBar> {

@@ -3,7 +3,6 @@
 use mapgauge::cloud::OutFormat;
 use mapgauge::synth::{self, SynthParams};
 use mapgauge::{Error, Result};
-use std::io::Write;
 use std::path::PathBuf;
 
 /// Generate a LiDAR-like map of L-targets with known truth (map, survey.csv, truth.json).
@@ -148,9 +147,7 @@ pub fn run(a: Args) -> Result<()> {
     let p = params(&a)?;
     if a.print_config {
         let text = toml::to_string(&p).map_err(|e| Error::Input(e.to_string()))?;
-        std::io::stdout()
-            .write_all(text.as_bytes())
-            .map_err(|e| Error::io("<stdout>", e))?;
+        out!("{text}");
         return Ok(());
     }
     let Some(dir) = a.out else {
@@ -182,32 +179,40 @@ pub fn run(a: Args) -> Result<()> {
         secs,
         truth.points as f64 / secs.max(1e-9) / 1e6
     );
-    println!("map         {}", files.map.display());
-    println!("survey      {}", files.survey.display());
-    println!("survey_llh  {}", files.survey_llh.display());
-    println!("truth       {}", files.truth.display());
-    println!(
+    outln!("map         {}", files.map.display());
+    outln!("survey      {}", files.survey.display());
+    outln!("survey_llh  {}", files.survey_llh.display());
+    outln!("truth       {}", files.truth.display());
+    outln!(
         "expected    E_abs {:.4} m, E_rel {:.4} m (true map positions, rigid2d)",
-        expected.absolute.mean, expected.relative.mean
+        expected.absolute.mean,
+        expected.relative.mean
     );
     let level = mapgauge::pipeline::Config::default().frame.level_above_deg;
     if p.distortion.tilt_deg > level {
-        println!(
+        outln!(
             "            (of the map as written, leaning {}°: eval levels a map leaning more than {level}°, so it measures without the tilt's share)",
             p.distortion.tilt_deg
         );
     }
     if p.clutter.decoys > 0 {
-        println!(
+        outln!(
             "decoys      {} placed of {} asked",
             truth.decoys.len(),
             p.clutter.decoys
         );
     }
     for t in &truth.targets {
-        println!(
+        outln!(
             "target {:>3}  world ({:9.3}, {:9.3}, {:7.3})  map ({:9.3}, {:9.3}, {:7.3})  {:>6} returns",
-            t.id, t.world[0], t.world[1], t.world[2], t.map[0], t.map[1], t.map[2], t.points
+            t.id,
+            t.world[0],
+            t.world[1],
+            t.world[2],
+            t.map[0],
+            t.map[1],
+            t.map[2],
+            t.points
         );
     }
     Ok(())

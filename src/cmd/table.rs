@@ -144,7 +144,7 @@ pub fn run(a: Args) -> Result<()> {
             o.insert("absolute".into(), st(absolute_grid(&runs)).to_json());
         }
         let text = serde_json::to_string_pretty(&serde_json::Value::Object(o)).unwrap_or_default();
-        println!("{text}");
+        outln!("{text}");
         return Ok(());
     };
     if fmt == TableFormat::Html {
@@ -160,17 +160,17 @@ pub fn run(a: Args) -> Result<()> {
             "<p class=\"sub\">Means and standard deviations in bold as in the paper; \
              a blank cell: the run has no such target; –: it has, but could not locate it.</p>",
         );
-        print!("{}", html::page("mapgauge tables", &body, &[]));
+        out!("{}", html::page("mapgauge tables", &body, &[]));
         return Ok(());
     }
     for (k, (caption, g)) in tables.iter().enumerate() {
         if k > 0 {
-            println!();
+            outln!();
         }
         if fmt == TableFormat::Markdown {
-            println!("**{caption}**\n");
+            outln!("**{caption}**\n");
         }
-        print!("{}", g.render(fmt));
+        out!("{}", g.render(fmt));
     }
     Ok(())
 }

@@ -47,6 +47,23 @@ impl ResultFile {
             eval: None,
         }
     }
+
+    /// The result file of a map evaluation, as `eval` writes it and Python's
+    /// `Result.to_dict()` returns it: the scores, then the pipeline's caveats
+    /// (levelling, wrong objects rejected, targets mapped twice), then how
+    /// the run went. `survey_name` names the survey as the user gave it.
+    pub fn from_evaluation(
+        ev: &crate::pipeline::Evaluation,
+        survey: &Survey,
+        survey_name: &str,
+    ) -> ResultFile {
+        let mut result = ResultFile::from_accuracy(&ev.accuracy, survey);
+        result
+            .warnings
+            .extend(ev.warnings.iter().map(|w| w.to_string()));
+        result.eval = Some(super::EvalInfo::from_evaluation(ev, survey_name));
+        result
+    }
 }
 
 /// The sentence a reader sees for a warning.
@@ -144,6 +161,7 @@ fn target_out(t: &accuracy::TargetScore) -> TargetOut {
         Status::NoEstimate => ("not_found", Some("no estimate with this id".to_string())),
         Status::NotFound(r) => ("not_found", Some(r.clone())),
         Status::Excluded(r) => ("excluded", Some(r.clone())),
+        Status::Ambiguous(r) => ("ambiguous", Some(r.clone())),
     };
     TargetOut {
         id: t.id.clone(),

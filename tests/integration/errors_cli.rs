@@ -410,3 +410,45 @@ fn geodetic_survey_reads_to_projs_east_north_up() {
         );
     }
 }
+
+/// Issue 32: stdout closed before anything is printed (`mapgauge … | head
+/// -1` after `head` exits) ends the printing, not the run: no panic, exit
+/// 0, and the files are still written.
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    let dir = tempdir();
+    let mut child = bin()
+        .args(["errors", "--survey"])
+        .arg(data("paper_seq5_survey.csv"))
+        .arg("--estimates")
+        .arg(data("paper_seq5_estimates.csv"))
+        .arg("--out")
+        .arg(dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The reader goes away first: every write the command makes fails.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {err}", out.status);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(dir.path().join("result.json").is_file());
+    let table = bin()
+        .arg("table")
+        .arg(dir.path().join("result.json"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut table = table;
+    drop(table.stdout.take());
+    let out = table.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && !err.contains("panicked"),
+        "{:?}: {err}",
+        out.status
+    );
+}
