@@ -65,6 +65,8 @@ pub enum Status {
     NotFound(String),
     /// The estimate says it was left out, and why.
     Excluded(String),
+    /// The estimate says it was seen twice (mapped twice), and where.
+    Ambiguous(String),
 }
 
 /// One surveyed target's numbers.
@@ -297,6 +299,10 @@ pub fn score_with_covariances(
                 }),
                 EstimateStatus::Excluded { reason } => targets.push(TargetScore {
                     status: Status::Excluded(reason.clone()),
+                    ..base
+                }),
+                EstimateStatus::Ambiguous { reason } => targets.push(TargetScore {
+                    status: Status::Ambiguous(reason.clone()),
                     ..base
                 }),
             },

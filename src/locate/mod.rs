@@ -36,6 +36,7 @@
 mod attempt;
 mod covariance;
 pub(crate) mod kmeans;
+mod layers;
 mod params;
 #[doc(hidden)]
 pub mod testgen;
@@ -49,6 +50,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 pub use kmeans::{Init, Space};
+pub use layers::{Doubled, Layering, PlateLayers, layering};
 pub use params::LocateParams;
 pub use types::{Label, LocateError, Located, PlateFit, Rejects};
 

@@ -60,6 +60,9 @@ pub enum Warning {
     /// Objects located for these targets were far from where the others put
     /// them and were rejected (the targets are not found).
     WrongObjects(Vec<String>),
+    /// These targets are mapped twice (their plates show two layers): they
+    /// are reported as ambiguous and left out of the fit.
+    Doubled(Vec<String>),
     /// Few targets were found where expected, and detection could not find
     /// another frame; the first guess was kept.
     DetectionFailed(String),
@@ -105,6 +108,12 @@ impl std::fmt::Display for Warning {
             Warning::OutliersExcluded(ids) => write!(
                 f,
                 "gross errors excluded and the alignment refitted without them: {}",
+                ids.join(", ")
+            ),
+            Warning::Doubled(ids) => write!(
+                f,
+                "{} {} mapped twice, the copies centimetres apart (the map has a seam there: a loop closed badly?): reported as ambiguous and left out of the fit",
+                if ids.len() == 1 { "target" } else { "targets" },
                 ids.join(", ")
             ),
             Warning::WrongObjects(ids) => write!(
@@ -609,6 +618,11 @@ fn evaluate(
         }
     }
     target::one_object_each(&mut found, cfg.tight.plate_width);
+    // A target mapped twice is neither copy: it leaves the fit, named.
+    let doubled = target::check_doubled(&mut found, cfg);
+    if !doubled.is_empty() {
+        warnings.push(Warning::Doubled(doubled));
+    }
     for (i, r) in found.iter().enumerate() {
         if matches!(
             r.outcome,
@@ -741,6 +755,13 @@ fn too_few_found(
             ". The map's frame was found by matching {} detected targets to the survey, but they could not be located there (see the reasons above)",
             matched.len()
         );
+    } else if found
+        .iter()
+        .any(|r| matches!(r.outcome, Err(Failure::Doubled(_))))
+    {
+        // Targets seen twice were seen where the survey puts them: the
+        // frame is right, the map has a seam.
+        msg += ". Targets mapped twice are where the survey places them: the map has a seam there (a loop closed badly?), which no frame or flag can mend; the copies are named above";
     } else if n_found < survey.targets.len()
         && !found
             .iter()
@@ -832,6 +853,9 @@ fn estimates(found: &[TargetRun]) -> Vec<Estimate> {
             id: r.id.clone(),
             status: match &r.outcome {
                 Ok(f) => EstimateStatus::Found(f.located.corner),
+                Err(e @ Failure::Doubled(_)) => EstimateStatus::Ambiguous {
+                    reason: e.to_string(),
+                },
                 Err(e) => EstimateStatus::NotFound {
                     reason: e.to_string(),
                 },

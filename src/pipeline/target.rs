@@ -54,6 +54,9 @@ pub enum Failure {
         /// it (not with hand crops, nor for a target flagged only at the end).
         searched: bool,
     },
+    /// The target is mapped twice (a loop closed badly): a plate shows two
+    /// layers, and the located corner is a blend of the copies.
+    Doubled(crate::locate::Doubled),
     /// The object located is the one another target was located at, and
     /// that target was expected nearer to it: no object serves two targets.
     SameObject {
@@ -71,7 +74,9 @@ impl Failure {
             Failure::NoLoosePoints => "loose",
             Failure::HandCrop(_) | Failure::Tight(_) => "tight",
             Failure::Locate(_) => "locate",
-            Failure::FarFromOthers { .. } | Failure::SameObject { .. } => "check",
+            Failure::FarFromOthers { .. } | Failure::SameObject { .. } | Failure::Doubled(_) => {
+                "check"
+            }
         }
     }
 }
@@ -127,6 +132,35 @@ impl std::fmt::Display for Failure {
                 } else {
                     f.write_str(": not this target, or a map or survey error (it was not searched for where they place it; with hand crops, check this target's crop)")
                 }
+            }
+            Failure::Doubled(d) => {
+                let [a, b] = d.copies;
+                let plates: Vec<String> = d
+                    .plates
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, p)| p.doubled)
+                    .map(|(k, p)| {
+                        format!(
+                            "plate {} two layers {:.0} mm apart ({} and {} points, each {:.0} mm thick)",
+                            k + 1,
+                            (p.offsets[1] - p.offsets[0]) * 1e3,
+                            p.counts[0],
+                            p.counts[1],
+                            p.sigma * 1e3
+                        )
+                    })
+                    .collect();
+                write!(
+                    f,
+                    "mapped twice (a seam where a loop closed badly?): {}; the copies' corners are near ({:.3}, {:.3}) and ({:.3}, {:.3}), {:.0} mm apart, and one fit through both would lie between them: not used in the fit",
+                    plates.join(", "),
+                    a.x,
+                    a.y,
+                    b.x,
+                    b.y,
+                    d.separation * 1e3
+                )
             }
             Failure::SameObject { other, at } => write!(
                 f,
@@ -296,6 +330,33 @@ fn hand_crop(dir: &Path, id: &str, plate_width: f64) -> Result<Vec<Point>> {
         "no tight crop {}/{stem}.ply|pcd|las|laz|xyz|e57",
         dir.display()
     )))
+}
+
+/// Located targets whose plates show two layers in the map around them,
+/// each as thin as this map's plates (`locate::layering`), are blends of two
+/// copies: they become `Doubled`. Returns their ids.
+pub(super) fn check_doubled(found: &mut [TargetRun], cfg: &Config) -> Vec<String> {
+    let (w, h) = (cfg.tight.plate_width, cfg.tight.plate_height);
+    let layering: Vec<Option<crate::locate::Layering>> = found
+        .iter()
+        .map(|r| {
+            let f = r.outcome.as_ref().ok()?;
+            crate::locate::layering(&r.loose, &f.located, &f.up, w, h)
+        })
+        .collect();
+    // What a plate of this map looks like: the median target's thinner
+    // plate (unknown with fewer than three targets located).
+    let mut thick: Vec<f64> = layering.iter().flatten().map(|l| l.thickness()).collect();
+    thick.sort_unstable_by(f64::total_cmp);
+    let plate = (thick.len() >= 3).then(|| thick[thick.len() / 2]);
+    let mut ids = Vec::new();
+    for (r, l) in found.iter_mut().zip(layering) {
+        if let Some(d) = l.and_then(|l| l.doubled(plate)) {
+            r.outcome = Err(Failure::Doubled(d));
+            ids.push(r.id.clone());
+        }
+    }
+    ids
 }
 
 /// No object serves two targets: when two located corners are closer than a

@@ -110,6 +110,12 @@ pub enum EstimateStatus {
         /// Human-readable cause.
         reason: String,
     },
+    /// The target was seen, but as two copies (mapped twice): no one
+    /// position is its (reported, never scored).
+    Ambiguous {
+        /// Human-readable cause, with both copies.
+        reason: String,
+    },
 }
 
 /// A target position estimated in the map frame (from `locate`, `eval`, or a file).
@@ -618,16 +624,23 @@ pub fn read_estimates(path: &Path) -> Result<Vec<Estimate>> {
             ));
         }
         let empty = |c: usize| rec.get(c).is_none_or(|s| s.is_empty());
-        let not_found = status_c.and_then(|c| rec.get(c)) == Some("not_found");
+        let status = status_c.and_then(|c| rec.get(c));
+        // (An excluded row keeps its position: `errors` judges it again.)
+        let not_found = matches!(status, Some("not_found" | "ambiguous"));
         if not_found || (empty(x_c) && empty(y_c)) {
             let reason = reason_c
                 .and_then(|c| rec.get(c))
                 .filter(|s| !s.is_empty())
                 .unwrap_or("no position in estimates file")
                 .to_string();
+            // A target eval saw twice stays ambiguous.
+            let status = match status {
+                Some("ambiguous") => EstimateStatus::Ambiguous { reason },
+                _ => EstimateStatus::NotFound { reason },
+            };
             out.push(Estimate {
                 id,
-                status: EstimateStatus::NotFound { reason },
+                status,
                 has_z: false,
             });
             continue;
@@ -815,7 +828,8 @@ mod tests {
              1,ok,,10,20,1,1.5,2.5,3.5,10\n\
              2,not_found,no target here,11,21,1,,,,\n\
              3,excluded,gross error,12,22,1,4,5,,12\n\
-             4,not_found,wrong object,13,23,1,7,8,9,\n",
+             4,not_found,wrong object,13,23,1,7,8,9,\n\
+             5,ambiguous,mapped twice,14,24,1,,,,\n",
         );
         let e = read_estimates(f.path()).unwrap();
         assert_eq!(
@@ -833,6 +847,9 @@ mod tests {
         assert!(!e[2].has_z);
         assert!(
             matches!(&e[3].status, EstimateStatus::NotFound { reason } if reason == "wrong object")
+        );
+        assert!(
+            matches!(&e[4].status, EstimateStatus::Ambiguous { reason } if reason == "mapped twice")
         );
     }
 }

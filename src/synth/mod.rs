@@ -23,6 +23,7 @@ pub use decoys::DecoyTruth;
 use distort::{DistortParams, Distortion};
 use geometry::Ground;
 use lidar::{LidarParams, Pose, Road};
+use nalgebra::Vector3;
 pub use obstacles::ObstacleParams;
 use rand::Rng;
 use rayon::prelude::*;
@@ -219,6 +220,37 @@ pub struct SynthParams {
     /// ```
     #[serde(skip_serializing_if = "Layout::is_road")]
     pub layout: Layout,
+    /// A second pass over the end of the road that the map did not merge
+    /// with the first (a loop closed badly): every object there is mapped
+    /// twice. Off by default, and then absent from the printed config and
+    /// truth.json.
+    ///
+    /// ```toml
+    /// [second_pass]
+    /// share = 0.5             # the last half of the road is driven again
+    /// offset_m = [0.05, -0.04, 0.0]
+    /// ```
+    #[serde(skip_serializing_if = "SecondPass::is_off")]
+    pub second_pass: SecondPass,
+}
+
+/// The end of the road driven again, its points landing `offset_m` from
+/// the first pass's: the seam a badly closed loop leaves (issue 30).
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SecondPass {
+    /// Share of the road, from its end, driven a second time (0: none).
+    pub share: f64,
+    /// Displacement of the second pass's points from the first's, map
+    /// frame, metres: the drift the loop closure left.
+    pub offset_m: [f64; 3],
+}
+
+impl SecondPass {
+    /// No second pass (the truth file then omits the section).
+    pub fn is_off(&self) -> bool {
+        self.share == 0.0
+    }
 }
 
 impl Default for SynthParams {
@@ -242,6 +274,7 @@ impl Default for SynthParams {
             origin_llh: [36.3725, 127.3631, 70.0],
             survey_false_origin_m: [0.0; 3],
             layout: Layout::Road,
+            second_pass: SecondPass::default(),
         }
     }
 }
@@ -326,6 +359,10 @@ impl SynthParams {
         {
             return bad("clutter.near_target_m must be in [0, 20]");
         }
+        let sp = &self.second_pass;
+        if !(0.0..=1.0).contains(&sp.share) || sp.offset_m.iter().any(|v| !(v.abs() <= 10.0)) {
+            return bad("second_pass: share in [0, 1], |offset_m| <= 10 m");
+        }
         self.obstacles.validate()?;
         self.lidar.validate()?;
         self.distortion.validate()?;
@@ -377,6 +414,17 @@ pub struct TargetTruth {
     pub road_distance_m: f64,
     /// Map points that are returns from this target (plates, post, stand, antenna).
     pub points: u64,
+    /// Where the second pass (`second_pass`) mapped this target again, map
+    /// frame, when it saw it: the copy `map` + `offset_m`. Absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ghost: Option<[f64; 3]>,
+    /// Of `points`, the returns of the second pass (the copy's).
+    #[serde(default, skip_serializing_if = "is_zero_u64")]
+    pub ghost_points: u64,
+}
+
+fn is_zero_u64(v: &u64) -> bool {
+    *v == 0
 }
 
 /// A clutter object, for inspection.
@@ -534,12 +582,61 @@ pub fn generate(
         }
         first = last;
     }
+    // The second pass: the last `share` of the stations driven again (scan
+    // indices after the first pass's, so its noise is its own), its points
+    // displaced by the drift the loop closure left.
+    let sp = &params.second_pass;
+    let mut seen_again = vec![0u64; n_obj];
+    if !sp.is_off() {
+        let offset = Vector3::from(sp.offset_m);
+        let again = ((n_scans as f64 * sp.share).round() as u64).min(n_scans);
+        let mut first = n_scans - again;
+        while first < n_scans {
+            let last = (first + batch_scans).min(n_scans);
+            let batch: Vec<(Vec<Point>, Vec<u64>)> = (first..last)
+                .into_par_iter()
+                .map(|i| {
+                    let mut out = Vec::with_capacity(per_scan as usize + per_scan as usize / 4);
+                    let mut cnt = vec![0u64; n_obj];
+                    lidar::scan(
+                        &world,
+                        &road,
+                        lidar,
+                        params.seed,
+                        n_scans + i,
+                        station(i),
+                        &mut out,
+                        &mut cnt,
+                    );
+                    for p in out.iter_mut() {
+                        *p = warp(p) + offset;
+                    }
+                    (out, cnt)
+                })
+                .collect();
+            for (i, (pts, cnt)) in (first..last).zip(batch) {
+                sink(&pts)?;
+                total += pts.len() as u64;
+                for ((a, s), b) in counts.iter_mut().zip(seen_again.iter_mut()).zip(cnt) {
+                    *a += b;
+                    *s += b;
+                }
+                path.push(lidar::pose_at(&world, &road, lidar, station(i)));
+            }
+            first = last;
+        }
+    }
 
     let mut noise = stream(params.seed, 4);
-    for (t, n) in targets.iter_mut().zip(&counts) {
+    for ((t, n), again) in targets.iter_mut().zip(&counts).zip(&seen_again) {
         t.points = *n;
         let m = warp(&Point::from(t.world));
         t.map = [m.x, m.y, m.z];
+        if *again > 0 {
+            let o = params.second_pass.offset_m;
+            t.ghost = Some([m.x + o[0], m.y + o[1], m.z + o[2]]);
+            t.ghost_points = *again;
+        }
         if params.survey_noise_m > 0.0 {
             let s = params.survey_noise_m;
             let mut e = || s * noise.sample::<f64, _>(rand_distr::StandardNormal);
@@ -592,7 +689,7 @@ pub fn generate(
         schema: "mapgauge.synth_truth/1".into(),
         params: params.clone(),
         points: total,
-        scans: n_scans,
+        scans: path.len() as u64,
         targets,
         distortion,
         ground: world.ground.clone(),

@@ -268,6 +268,8 @@ pub(super) fn add(
             antenna_top_z: ant,
             road_distance_m: (y - road.y(x)).abs(),
             points: 0,
+            ghost: None,
+            ghost_points: 0,
         });
     }
 

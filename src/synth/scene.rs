@@ -268,6 +268,8 @@ pub(super) fn build_scene(p: &SynthParams) -> Scene {
             antenna_top_z: ant,
             road_distance_m: dist,
             points: 0,
+            ghost: None,
+            ghost_points: 0,
         });
     }
 

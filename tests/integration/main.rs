@@ -15,6 +15,7 @@ mod cli_formats;
 mod cli_locate;
 mod clutter;
 mod demo_truth;
+mod doubled;
 mod errors_cli;
 mod eval_scenes;
 mod first_use;

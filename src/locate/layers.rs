@@ -1,0 +1,546 @@
+//! Is the located target mapped twice? (issue 30)
+//!
+//! Where a loop closed badly, the map holds two copies of whatever the
+//! seam crosses, a few centimetres apart. The locator then fits one plane
+//! through both copies of a plate and reports a corner between them with
+//! the confidence of a single target. A plate's points, measured along its
+//! normal, show it: one layer as thick as the map's noise, or two.
+//!
+//! Per plate, the points of the map (the loose crop: the tight crop keeps
+//! only ±8 cm about the finder's planes) over the plate's middle — away
+//! from the corner, where the other plate and the post stand, and from the
+//! far edge — within ±`REACH` of the located plane are split into two
+//! layers by a two-component mixture along the normal (one shared
+//! variance). Two layers are reported when each holds a fifth of the points
+//! and they stand apart by more than `MIN_SEPARATION_SIGMAS` of their own
+//! thickness (a mixture of two equal layers is bimodal beyond 2σ), and both
+//! layers stop where the plate stops: a wall seen through the grill or
+//! behind it goes on past the plate's far edge.
+//!
+//! Separations under about 2.5 σ of the map's noise (3 cm at 1.2 cm) do not
+//! show as two layers: that plate is only thicker than one plate.
+
+use super::Located;
+use crate::Point;
+use nalgebra::Vector3;
+
+/// Half-width of the slab about the located plane examined (m): doubling
+/// beyond it leaves the copies far enough apart that the finder takes one.
+const REACH: f64 = 0.2;
+/// Two layers must stand apart by this many of their shared σ.
+const MIN_SEPARATION_SIGMAS: f64 = 2.5;
+/// ... and by at least this much (m): below it the layers are the plate's
+/// own structure (a grill and its frame).
+const MIN_SEPARATION: f64 = 0.025;
+/// The smaller layer holds at least this share of the plate's points.
+const MIN_SHARE: f64 = 0.2;
+/// ... and at least this many points,
+const MIN_LAYER_POINTS: usize = 30;
+/// ... of a plate middle of at least this many: sparse plates (52–90
+/// points at 10–30 m on single-pass synthetic maps) split into two layers
+/// 26–32 mm apart, their points bunched by scan line and station, where
+/// the truth's plane shows one layer.
+const MIN_PLATE_POINTS: usize = 120;
+/// Each of two copies' layers is at most this many times as thick as the
+/// map's typical plate.
+const MAX_THICKNESS_RATIO: f64 = 1.8;
+/// A layer with more than this share of its points within a fifth of the
+/// plate's middle stands across the plate, not along it.
+const MAX_RUN_SHARE: f64 = 0.5;
+/// A layer that holds more than this share of its density on the plate
+/// past the plate's far edge is a surface going on (a wall).
+const GOING_ON_SHARE: f64 = 0.25;
+
+/// One plate's points along its normal.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct PlateLayers {
+    /// Points examined over the plate's middle.
+    pub points: usize,
+    /// The layers' offsets from the located plane along its normal (m),
+    /// the lower first; one entry when the plate is one layer.
+    pub offsets: [f64; 2],
+    /// Points in each layer.
+    pub counts: [usize; 2],
+    /// The layers' shared standard deviation along the normal (m).
+    pub sigma: f64,
+    /// Each layer's own standard deviation (m; both the same for one).
+    pub spreads: [f64; 2],
+    /// The plate's standard deviation along its normal as one layer (m).
+    pub single: f64,
+    /// Whether this plate is two layers (`offsets` differ).
+    pub doubled: bool,
+}
+
+/// A target mapped twice: both copies' corners and how far apart they are.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Doubled {
+    /// Each plate's layers.
+    pub plates: [PlateLayers; 2],
+    /// The two copies' corners as far as the map parts them: the located
+    /// corner moved by each layer's offset along the normal of each plate
+    /// that shows two layers (the located height).
+    pub copies: [Point; 2],
+    /// Horizontal distance between the copies (m).
+    pub separation: f64,
+}
+
+/// A located target's plates as the map around it shows them, before they
+/// are judged against the map's other targets ([`Layering::doubled`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layering {
+    corner: Point,
+    normals: [Vector3<f64>; 2],
+    /// Each plate's layers.
+    pub plates: [PlateLayers; 2],
+}
+
+/// Each located plate's points in `points` (the map near the target) along
+/// its normal, as one layer or two. `width`/`height` are the plates' size
+/// (m). `None` when the plates' normals are not usable.
+pub fn layering(
+    points: &[Point],
+    located: &Located,
+    up: &Vector3<f64>,
+    width: f64,
+    height: f64,
+) -> Option<Layering> {
+    let c = located.corner;
+    let n = located.plates.map(|p| {
+        let v = Vector3::from(p.normal);
+        (v - up * up.dot(&v)).normalize()
+    });
+    if n.iter().any(|v| !v.iter().all(|x| x.is_finite())) {
+        return None;
+    }
+    // Along plate k from the corner: ±n of the other plate, the side where
+    // most of the points near plate k's plane are.
+    let q: Vec<Vector3<f64>> = points.iter().map(|p| p - c).collect();
+    let along = |k: usize| {
+        let o = n[1 - k];
+        let side: f64 = q
+            .iter()
+            .filter(|v| n[k].dot(v).abs() < 0.05 && up.dot(v).abs() < height / 2.0)
+            .map(|v| o.dot(v).clamp(-width, width).signum())
+            .sum();
+        if side >= 0.0 { o } else { -o }
+    };
+    let u = [along(0), along(1)];
+    Some(Layering {
+        corner: c,
+        normals: n,
+        plates: [0, 1].map(|k| plate_layers(&q, &n[k], &u[k], up, width, height)),
+    })
+}
+
+impl Layering {
+    /// The thinner plate's thickness (σ along its normal as one layer, m):
+    /// what a plate of this map looks like, for [`Layering::doubled`].
+    pub fn thickness(&self) -> f64 {
+        self.plates[0].single.min(self.plates[1].single)
+    }
+
+    /// The copies, when a plate is two layers each as thin as a plate of
+    /// this map: `plate` is the typical plate thickness (the median of the
+    /// map's targets' [`Layering::thickness`]), or `None` when too few
+    /// targets were located to say (then any two layers count). A plate and
+    /// a volume beside it (foliage through the grill) are two layers, but
+    /// thick ones.
+    pub fn doubled(&self, plate: Option<f64>) -> Option<Doubled> {
+        let thin = |l: &PlateLayers| {
+            plate.is_none_or(|t| l.spreads[0].max(l.spreads[1]) <= MAX_THICKNESS_RATIO * t)
+        };
+        let two = self.plates.map(|l| l.doubled && thin(&l));
+        // The copies: each layer's offset from the blend along its plate's
+        // normal. With both plates two layers, the copies pair the larger
+        // layers (both passes see a target from the same road, so a copy's
+        // share of returns is alike on its two plates); with one, the
+        // copies differ along that plate's normal only, as far as the map
+        // shows (the other plate's layers lie within its noise).
+        let shift = |k: usize, j: usize| self.normals[k] * self.plates[k].offsets[j];
+        let larger = |k: usize| usize::from(self.plates[k].counts[1] > self.plates[k].counts[0]);
+        let (a, b) = match two {
+            [true, true] => {
+                let (a0, a1) = (larger(0), larger(1));
+                (
+                    shift(0, a0) + shift(1, a1),
+                    shift(0, 1 - a0) + shift(1, 1 - a1),
+                )
+            }
+            [true, false] => (shift(0, 0), shift(0, 1)),
+            [false, true] => (shift(1, 0), shift(1, 1)),
+            [false, false] => return None,
+        };
+        let mut plates = self.plates;
+        for (p, t) in plates.iter_mut().zip(two) {
+            p.doubled = t;
+        }
+        Some(Doubled {
+            plates,
+            copies: [self.corner + a, self.corner + b],
+            separation: (a - b).xy().norm(),
+        })
+    }
+}
+
+/// Plate `n`'s points over its middle (along `u` from the corner, a plate's
+/// height band about the corner) within ±`REACH`, as one or two layers.
+fn plate_layers(
+    q: &[Vector3<f64>],
+    n: &Vector3<f64>,
+    u: &Vector3<f64>,
+    up: &Vector3<f64>,
+    width: f64,
+    height: f64,
+) -> PlateLayers {
+    let on = |v: &Vector3<f64>, lo: f64, hi: f64| {
+        let t = u.dot(v);
+        t > lo && t < hi && up.dot(v).abs() < 0.4 * height && n.dot(v).abs() < REACH
+    };
+    // Distances from the plate's own least-squares plane through the middle
+    // points (offset kept from the located plane): a sparse plate's located
+    // plane may be turned a few degrees, which spreads one layer along the
+    // plate into a flat band that two layers would fit. Copies of a plate
+    // are parallel and cover the same part of it, so the tilt is theirs.
+    let mid: Vec<&Vector3<f64>> = q
+        .iter()
+        .filter(|v| on(v, 0.3 * width, 0.9 * width))
+        .collect();
+    let tilt = plane_tilt(&mid, n, u, up);
+    let dist =
+        |v: &Vector3<f64>| n.dot(v) - tilt.0 * (u.dot(v) - tilt.2) - tilt.1 * (up.dot(v) - tilt.3);
+    let mut d: Vec<f64> = mid.iter().map(|v| dist(v)).collect();
+    d.sort_unstable_by(f64::total_cmp);
+    let one = |d: &[f64]| {
+        let m = d.iter().sum::<f64>() / d.len().max(1) as f64;
+        let s = (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len().max(1) as f64).sqrt();
+        PlateLayers {
+            points: d.len(),
+            offsets: [m, m],
+            counts: [d.len(), 0],
+            sigma: s,
+            spreads: [s, s],
+            single: s,
+            doubled: false,
+        }
+    };
+    if d.len() < MIN_PLATE_POINTS {
+        return one(&d);
+    }
+    let Some(mix) = two_layers(&d) else {
+        return one(&d);
+    };
+    let apart = mix.means[1] - mix.means[0];
+    let small = mix.counts[0].min(mix.counts[1]);
+    let layered = small >= MIN_LAYER_POINTS
+        && small as f64 >= MIN_SHARE * d.len() as f64
+        && apart >= MIN_SEPARATION
+        && apart >= MIN_SEPARATION_SIGMAS * mix.sigma;
+    if !layered {
+        return one(&d);
+    }
+    // Either layer past the plate's far edge: a surface going on (a wall
+    // behind the plate, seen through the grill) has as many points per
+    // metre there as on the plate; both copies of a plate stop with it.
+    let band = 2.0 * mix.sigma;
+    let goes_on = |at: f64| {
+        let in_layer = |v: &&Vector3<f64>| (dist(v) - at).abs() < band;
+        let on_plate = q
+            .iter()
+            .filter(|v| on(v, 0.3 * width, 0.9 * width))
+            .filter(in_layer)
+            .count();
+        let past = q
+            .iter()
+            .filter(|v| on(v, width + 0.2, width + 0.8))
+            .filter(in_layer)
+            .count();
+        // Per metre along the plate: 0.6 w on the plate, 0.6 m past it.
+        past as f64 / 0.6 > GOING_ON_SHARE * on_plate as f64 / (0.6 * width)
+    };
+    if mix.means.iter().any(|&at| goes_on(at)) {
+        return one(&d);
+    }
+    // Each layer spread along the plate, as a copy of it is: a surface
+    // standing across the plate (a wall beside the other plate, a pole)
+    // puts its points at one distance from the corner.
+    let across = |at: f64| {
+        let mut t: Vec<f64> = q
+            .iter()
+            .filter(|v| on(v, 0.3 * width, 0.9 * width) && (dist(v) - at).abs() < band)
+            .map(|v| u.dot(v))
+            .collect();
+        t.sort_unstable_by(f64::total_cmp);
+        // A fifth of the span holds a fifth of an even layer's points.
+        densest_run(&t, 0.12 * width) as f64 > MAX_RUN_SHARE * t.len() as f64
+    };
+    if mix.means.iter().any(|&at| across(at)) {
+        return one(&d);
+    }
+    PlateLayers {
+        points: d.len(),
+        offsets: mix.means,
+        counts: mix.counts,
+        sigma: mix.sigma,
+        spreads: mix.spreads,
+        single: one(&d).single,
+        doubled: true,
+    }
+}
+
+/// Least squares of the distance along `n` on the position along the plate
+/// (`u`) and up: (slope along, slope up, mean along, mean up). Flat (zero
+/// slopes) when the points do not span the plate.
+fn plane_tilt(
+    pts: &[&Vector3<f64>],
+    n: &Vector3<f64>,
+    u: &Vector3<f64>,
+    up: &Vector3<f64>,
+) -> (f64, f64, f64, f64) {
+    let k = pts.len() as f64;
+    if pts.len() < 3 {
+        return (0.0, 0.0, 0.0, 0.0);
+    }
+    let tm = pts.iter().map(|v| u.dot(v)).sum::<f64>() / k;
+    let zm = pts.iter().map(|v| up.dot(v)).sum::<f64>() / k;
+    let dm = pts.iter().map(|v| n.dot(v)).sum::<f64>() / k;
+    let (mut stt, mut szz, mut stz, mut std_, mut szd) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for v in pts {
+        let (t, z, d) = (u.dot(v) - tm, up.dot(v) - zm, n.dot(v) - dm);
+        stt += t * t;
+        szz += z * z;
+        stz += t * z;
+        std_ += t * d;
+        szd += z * d;
+    }
+    let det = stt * szz - stz * stz;
+    if det <= 1e-12 * (stt * szz).max(1e-30) {
+        return (0.0, 0.0, tm, zm);
+    }
+    let b = (std_ * szz - szd * stz) / det;
+    let c = (szd * stt - std_ * stz) / det;
+    (b, c, tm, zm)
+}
+
+/// The most values of sorted `v` within any `span`.
+fn densest_run(v: &[f64], span: f64) -> usize {
+    let mut best = 0;
+    let mut j = 0;
+    for i in 0..v.len() {
+        while v[i] - v[j] > span {
+            j += 1;
+        }
+        best = best.max(i + 1 - j);
+    }
+    best
+}
+
+/// A two-component mixture along one axis.
+struct Mixture {
+    means: [f64; 2],
+    /// Points nearer each mean (by responsibility).
+    counts: [usize; 2],
+    /// The shared σ.
+    sigma: f64,
+    /// Each layer's own σ (responsibility-weighted).
+    spreads: [f64; 2],
+}
+
+/// Two normal layers with one shared σ fitted to sorted `d` by EM, started
+/// from the best split in two (k-means in one dimension, exact on sorted
+/// values). `None` when the values do not vary.
+fn two_layers(d: &[f64]) -> Option<Mixture> {
+    let n = d.len();
+    let mut prefix = vec![0.0; n + 1];
+    let mut prefix2 = vec![0.0; n + 1];
+    let m0 = d[n / 2];
+    for (i, x) in d.iter().enumerate() {
+        prefix[i + 1] = prefix[i] + (x - m0);
+        prefix2[i + 1] = prefix2[i] + (x - m0).powi(2);
+    }
+    let sse = |a: usize, b: usize| {
+        let k = (b - a) as f64;
+        let s = prefix[b] - prefix[a];
+        prefix2[b] - prefix2[a] - s * s / k
+    };
+    let split =
+        (1..n).min_by(|&i, &j| (sse(0, i) + sse(i, n)).total_cmp(&(sse(0, j) + sse(j, n))))?;
+    let mut mu = [
+        m0 + prefix[split] / split as f64,
+        m0 + (prefix[n] - prefix[split]) / (n - split) as f64,
+    ];
+    let mut w = [split as f64 / n as f64, (n - split) as f64 / n as f64];
+    let mut var = ((sse(0, split) + sse(split, n)) / n as f64).max(1e-10);
+    let mut r = vec![0.0; n];
+    for _ in 0..100 {
+        // E: responsibility of layer 1 for each value.
+        for (ri, x) in r.iter_mut().zip(d) {
+            let l0 = w[0] * (-(x - mu[0]).powi(2) / (2.0 * var)).exp();
+            let l1 = w[1] * (-(x - mu[1]).powi(2) / (2.0 * var)).exp();
+            *ri = if l0 + l1 > 0.0 { l1 / (l0 + l1) } else { 0.5 };
+        }
+        // M.
+        let s1: f64 = r.iter().sum();
+        let s0 = n as f64 - s1;
+        if s0 < 1.0 || s1 < 1.0 {
+            return None;
+        }
+        let new_mu = [
+            d.iter().zip(&r).map(|(x, ri)| x * (1.0 - ri)).sum::<f64>() / s0,
+            d.iter().zip(&r).map(|(x, ri)| x * ri).sum::<f64>() / s1,
+        ];
+        var = (d
+            .iter()
+            .zip(&r)
+            .map(|(x, ri)| (1.0 - ri) * (x - new_mu[0]).powi(2) + ri * (x - new_mu[1]).powi(2))
+            .sum::<f64>()
+            / n as f64)
+            .max(1e-10);
+        w = [s0 / n as f64, s1 / n as f64];
+        let moved = (new_mu[0] - mu[0]).abs() + (new_mu[1] - mu[1]).abs();
+        mu = new_mu;
+        if moved < 1e-7 {
+            break;
+        }
+    }
+    if mu[0] > mu[1] {
+        mu.swap(0, 1);
+        r.iter_mut().for_each(|x| *x = 1.0 - *x);
+    }
+    let c1 = r.iter().filter(|&&x| x > 0.5).count();
+    // Each layer's own spread about its mean, weighted by responsibility.
+    let spread = |j: usize| {
+        let (mut sw, mut s2) = (0.0, 0.0);
+        for (x, ri) in d.iter().zip(&r) {
+            let w = if j == 1 { *ri } else { 1.0 - ri };
+            sw += w;
+            s2 += w * (x - mu[j]).powi(2);
+        }
+        (s2 / sw.max(1e-12)).sqrt()
+    };
+    Some(Mixture {
+        means: mu,
+        counts: [n - c1, c1],
+        sigma: var.sqrt(),
+        spreads: [spread(0), spread(1)],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_distr::{Distribution, Normal};
+
+    fn values(seps: &[(f64, usize)], sigma: f64, seed: u64) -> Vec<f64> {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let noise = Normal::new(0.0, sigma).unwrap();
+        let mut v: Vec<f64> = seps
+            .iter()
+            .flat_map(|&(at, k)| (0..k).map(move |_| at).collect::<Vec<_>>())
+            .map(|at| at + noise.sample(&mut rng))
+            .collect();
+        v.sort_unstable_by(f64::total_cmp);
+        v
+    }
+
+    /// An L of two 0.6 m plates (corner at the origin, plate 1 along +x,
+    /// plate 2 along +y), points every 1.5 cm with 12 mm of noise along
+    /// each plate's normal, and a copy `shift` away when given.
+    fn l_target(shift: Option<Vector3<f64>>, seed: u64) -> Vec<Point> {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let noise = Normal::new(0.0, 0.012).unwrap();
+        let mut pts = Vec::new();
+        let copies = [Some(Vector3::zeros()), shift];
+        for s in copies.iter().flatten() {
+            for i in 0..40 {
+                for j in 0..40 {
+                    let (a, z) = (i as f64 * 0.015, j as f64 * 0.015 - 0.3);
+                    pts.push(Point::new(a, noise.sample(&mut rng), z) + s);
+                    pts.push(Point::new(noise.sample(&mut rng), a, z) + s);
+                }
+            }
+        }
+        pts
+    }
+
+    /// `doubled` of the map `loose` about the target located in `tight`
+    /// (here always the single target: the locator's gates may refuse a
+    /// blend outright, which is not what this checks).
+    fn check(loose: &[Point], tight: &[Point]) -> Option<Doubled> {
+        let l =
+            crate::locate::locate(tight, None, &crate::locate::LocateParams::default()).unwrap();
+        layering(loose, &l, &Vector3::z(), 0.6, 0.6)?.doubled(Some(0.012))
+    }
+
+    /// A copy 6 cm off is two layers on plate 2 (and 3 cm along plate 1's
+    /// normal, within its noise), the copies named 6 cm apart; one plate is
+    /// one layer; a wall 10 cm behind plate 1, seen through it and going
+    /// on past its edge, is not a copy.
+    #[test]
+    fn a_copy_is_two_layers_a_wall_behind_is_not() {
+        for seed in 0..3 {
+            let one = l_target(None, seed);
+            assert_eq!(check(&one, &one), None, "seed {seed}: one target");
+            let two = l_target(Some(Vector3::new(0.06, 0.03, 0.0)), seed);
+            let d = check(&two, &one).expect("a copy 6 cm off");
+            assert!(d.plates[1].doubled, "{d:?}");
+            let apart = d.plates[1].offsets[1] - d.plates[1].offsets[0];
+            assert!(
+                (apart - 0.06).abs() < 0.01,
+                "plate 2's layers {apart:.3} m apart"
+            );
+            // The copies as far as the map parts them: along plate 2's normal.
+            assert!(d.separation > 0.05 && d.separation < 0.07, "{d:?}");
+            let mut wall = one.clone();
+            let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed + 100);
+            let noise = Normal::new(0.0, 0.012).unwrap();
+            for i in 0..150 {
+                for j in 0..80 {
+                    let (x, z) = (i as f64 * 0.015 - 0.6, j as f64 * 0.015 - 0.6);
+                    wall.push(Point::new(x, -0.1 + noise.sample(&mut rng), z));
+                }
+            }
+            assert_eq!(check(&wall, &one), None, "seed {seed}: a wall behind");
+            // A wall 0.3 m inside the L along plate 1 crosses plate 2's
+            // middle at one distance from the corner.
+            let mut inside = one.clone();
+            for i in 0..150 {
+                for j in 0..80 {
+                    let (x, z) = (0.1 + i as f64 * 0.015, j as f64 * 0.015 - 0.6);
+                    inside.push(Point::new(x, 0.3 + noise.sample(&mut rng), z));
+                }
+            }
+            assert_eq!(check(&inside, &one), None, "seed {seed}: a wall inside");
+            // Foliage through the lower plates: a volume on both sides.
+            let mut bush = one.clone();
+            let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed + 200);
+            for _ in 0..3000 {
+                let (x, y, z): (f64, f64, f64) = (rng.random(), rng.random(), rng.random());
+                bush.push(Point::new(x * 1.6 - 0.5, 0.05 + 0.15 * y, z * 0.4 - 0.3));
+            }
+            assert_eq!(check(&bush, &one), None, "seed {seed}: foliage");
+        }
+    }
+
+    /// One layer's best two-component fit leaves its halves within 2.5 σ;
+    /// two layers 4 σ apart are found at their offsets.
+    #[test]
+    fn two_layers_stand_apart_one_does_not() {
+        for seed in 0..20 {
+            let one = values(&[(0.0, 400)], 0.015, seed);
+            let m = two_layers(&one).unwrap();
+            assert!(
+                m.means[1] - m.means[0] < MIN_SEPARATION_SIGMAS * m.sigma,
+                "seed {seed}: one layer split {:.4} apart at σ {:.4}",
+                m.means[1] - m.means[0],
+                m.sigma
+            );
+            let two = values(&[(-0.03, 250), (0.035, 150)], 0.015, seed);
+            let m = two_layers(&two).unwrap();
+            assert!((m.means[0] + 0.03).abs() < 0.006, "{:?}", m.means);
+            assert!((m.means[1] - 0.035).abs() < 0.008, "{:?}", m.means);
+            assert!(m.means[1] - m.means[0] > MIN_SEPARATION_SIGMAS * m.sigma);
+            assert!((m.counts[1] as f64 - 150.0).abs() < 30.0, "{:?}", m.counts);
+        }
+    }
+}
