@@ -43,7 +43,7 @@ def test_a_levelled_map_keeps_the_pipeline_caveats_as_the_cli_does(cli, tmp_path
     """Issue 32: the pipeline's warnings (here: the map was levelled) are in
     Python's result.json exactly as in the CLI's, once each."""
     d = tmp_path / "tilted"
-    run_cli(cli, "synth", "--out", str(d), "--points", "1000000", "--seed", "3", "--tilt-deg", "2")
+    run_cli(cli, "synth", "--out", str(d), "--points", "1000000", "--seed", "3", "--tilt-deg", "6")
     want = json.loads(cli_eval(cli, d, tmp_path / "cli"))
     ev = mapgauge.evaluate(str(d / "map.ply"), str(d / "survey.csv"))
     assert any("levelled" in w for w in want["warnings"]), want["warnings"]
