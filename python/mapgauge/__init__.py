@@ -185,7 +185,7 @@ class Target:
 
     id: str
     status: str
-    """``ok``, ``not_found`` or ``excluded``."""
+    """``ok``, ``not_found``, ``excluded`` or ``ambiguous`` (mapped twice)."""
     reason: Optional[str]
     role: Optional[str]
     survey: np.ndarray

@@ -111,8 +111,9 @@ pub fn run(a: Args) -> Result<()> {
                 outln!("    target {:<4} {:>7.1}", t.id, e * 1000.0);
             }
             None => outln!(
-                "    target {:<4} not found: {}",
+                "    target {:<4} {}: {}",
                 t.id,
+                t.status.replace('_', " "),
                 t.reason.as_deref().unwrap_or("")
             ),
         }

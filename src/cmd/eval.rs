@@ -441,6 +441,9 @@ fn save_failure(f: &pipeline::Failed, out: &Path, inputs: &[&Path]) -> Result<()
             let at = |k: usize| c.map_or(String::new(), |c| format!("{:.4}", c[k]));
             let (status, stage, reason) = match &t.outcome {
                 Ok(_) => ("located", String::new(), String::new()),
+                Err(e @ pipeline::Failure::Doubled(_)) => {
+                    ("ambiguous", e.stage().to_string(), e.to_string())
+                }
                 Err(e) => ("not_found", e.stage().to_string(), e.to_string()),
             };
             vec![

@@ -41,6 +41,12 @@ const MIN_LAYER_POINTS: usize = 30;
 /// 26–32 mm apart, their points bunched by scan line and station, where
 /// the truth's plane shows one layer.
 const MIN_PLATE_POINTS: usize = 120;
+/// Fewest points of a plate's middle whose spread counts as a thickness
+/// (a plate seen by a few rays has none to speak of).
+const MIN_THICKNESS_POINTS: usize = 20;
+/// Two copies stand at least this many of the map's typical plate
+/// thickness apart.
+const MIN_APART_PLATES: f64 = 2.0;
 /// Each of two copies' layers is at most this many times as thick as the
 /// map's typical plate.
 const MAX_THICKNESS_RATIO: f64 = 1.8;
@@ -119,8 +125,10 @@ pub fn layering(
         let o = n[1 - k];
         let side: f64 = q
             .iter()
-            .filter(|v| n[k].dot(v).abs() < 0.05 && up.dot(v).abs() < height / 2.0)
-            .map(|v| o.dot(v).clamp(-width, width).signum())
+            .filter(|v| {
+                n[k].dot(v).abs() < 0.05 && up.dot(v).abs() < height / 2.0 && o.dot(v).abs() < width
+            })
+            .map(|v| o.dot(v).signum())
             .sum();
         if side >= 0.0 { o } else { -o }
     };
@@ -135,8 +143,13 @@ pub fn layering(
 impl Layering {
     /// The thinner plate's thickness (σ along its normal as one layer, m):
     /// what a plate of this map looks like, for [`Layering::doubled`].
-    pub fn thickness(&self) -> f64 {
-        self.plates[0].single.min(self.plates[1].single)
+    /// `None` when neither plate has the points to say.
+    pub fn thickness(&self) -> Option<f64> {
+        self.plates
+            .iter()
+            .filter(|p| p.points >= MIN_THICKNESS_POINTS)
+            .map(|p| p.single)
+            .min_by(f64::total_cmp)
     }
 
     /// The copies, when a plate is two layers each as thin as a plate of
@@ -146,8 +159,14 @@ impl Layering {
     /// a volume beside it (foliage through the grill) are two layers, but
     /// thick ones.
     pub fn doubled(&self, plate: Option<f64>) -> Option<Doubled> {
+        // Each layer as thin as a plate, and the two further apart than a
+        // plate is thick: one flat band (a bent plate, a turned one) splits
+        // into halves a few σ of their own apart, but not of a plate's.
         let thin = |l: &PlateLayers| {
-            plate.is_none_or(|t| l.spreads[0].max(l.spreads[1]) <= MAX_THICKNESS_RATIO * t)
+            plate.is_none_or(|t| {
+                l.spreads[0].max(l.spreads[1]) <= MAX_THICKNESS_RATIO * t
+                    && l.offsets[1] - l.offsets[0] >= MIN_APART_PLATES * t
+            })
         };
         let two = self.plates.map(|l| l.doubled && thin(&l));
         // The copies: each layer's offset from the blend along its plate's
@@ -316,10 +335,16 @@ fn plane_tilt(
     if det <= 1e-12 * (stt * szz).max(1e-30) {
         return (0.0, 0.0, tm, zm);
     }
-    let b = (std_ * szz - szd * stz) / det;
-    let c = (szd * stt - std_ * stz) / det;
+    // At most a few degrees: the gates kept the plane within a degree of
+    // vertical, and a larger slope would be layers covering different
+    // parts of the plate, not a turned plane.
+    let b = ((std_ * szz - szd * stz) / det).clamp(-MAX_SLOPE, MAX_SLOPE);
+    let c = ((szd * stt - std_ * stz) / det).clamp(-MAX_SLOPE, MAX_SLOPE);
     (b, c, tm, zm)
 }
+
+/// Largest tilt removed from a plate's plane (tan 3°).
+const MAX_SLOPE: f64 = 0.052;
 
 /// The most values of sorted `v` within any `span`.
 fn densest_run(v: &[f64], span: f64) -> usize {

@@ -755,13 +755,16 @@ fn too_few_found(
             ". The map's frame was found by matching {} detected targets to the survey, but they could not be located there (see the reasons above)",
             matched.len()
         );
-    } else if found
-        .iter()
-        .any(|r| matches!(r.outcome, Err(Failure::Doubled(_))))
+    } else if n_found
+        + found
+            .iter()
+            .filter(|r| matches!(r.outcome, Err(Failure::Doubled(_))))
+            .count()
+        >= need
     {
-        // Targets seen twice were seen where the survey puts them: the
-        // frame is right, the map has a seam.
-        msg += ". Targets mapped twice are where the survey places them: the map has a seam there (a loop closed badly?), which no frame or flag can mend; the copies are named above";
+        // Counting the targets seen twice, enough were where the survey
+        // puts them: the frame is right, the map has a seam.
+        msg += ". Targets mapped twice are where the survey places them: the map has a seam there (a loop closed badly?), which no frame or flag can mend; each such target's reason names its copies";
     } else if n_found < survey.targets.len()
         && !found
             .iter()

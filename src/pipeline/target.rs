@@ -346,7 +346,11 @@ pub(super) fn check_doubled(found: &mut [TargetRun], cfg: &Config) -> Vec<String
         .collect();
     // What a plate of this map looks like: the median target's thinner
     // plate (unknown with fewer than three targets located).
-    let mut thick: Vec<f64> = layering.iter().flatten().map(|l| l.thickness()).collect();
+    let mut thick: Vec<f64> = layering
+        .iter()
+        .flatten()
+        .filter_map(|l| l.thickness())
+        .collect();
     thick.sort_unstable_by(f64::total_cmp);
     let plate = (thick.len() >= 3).then(|| thick[thick.len() / 2]);
     let mut ids = Vec::new();

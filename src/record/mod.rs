@@ -63,7 +63,7 @@ pub struct AlignmentOut {
 pub struct TargetOut {
     /// Target id.
     pub id: String,
-    /// `ok`, `not_found` or `excluded`.
+    /// `ok`, `not_found`, `excluded` or `ambiguous` (mapped twice).
     pub status: String,
     /// Why, when not ok.
     pub reason: Option<String>,

@@ -416,35 +416,34 @@ fn geodetic_survey_reads_to_projs_east_north_up() {
 /// 0, and the files are still written.
 #[test]
 fn a_closed_stdout_is_not_a_panic() {
+    // A pipe whose reader is gone before the command starts: every write
+    // to its stdout fails, whatever the timing.
+    let closed = || {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        writer
+    };
     let dir = tempdir();
-    let mut child = bin()
+    let out = bin()
         .args(["errors", "--survey"])
         .arg(data("paper_seq5_survey.csv"))
         .arg("--estimates")
         .arg(data("paper_seq5_estimates.csv"))
         .arg("--out")
         .arg(dir.path())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
+        .stdout(closed())
+        .output()
         .unwrap();
-    // The reader goes away first: every write the command makes fails.
-    drop(child.stdout.take());
-    let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{:?}: {err}", out.status);
     assert!(!err.contains("panicked"), "{err}");
     assert!(dir.path().join("result.json").is_file());
-    let table = bin()
+    let out = bin()
         .arg("table")
         .arg(dir.path().join("result.json"))
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
+        .stdout(closed())
+        .output()
         .unwrap();
-    let mut table = table;
-    drop(table.stdout.take());
-    let out = table.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         out.status.success() && !err.contains("panicked"),
