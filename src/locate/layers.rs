@@ -22,6 +22,7 @@
 
 use super::Located;
 use crate::Point;
+use crate::geom::densest_run;
 use nalgebra::Vector3;
 
 /// Half-width of the slab about the located plane examined (m): doubling
@@ -345,19 +346,6 @@ fn plane_tilt(
 
 /// Largest tilt removed from a plate's plane (tan 3°).
 const MAX_SLOPE: f64 = 0.052;
-
-/// The most values of sorted `v` within any `span`.
-fn densest_run(v: &[f64], span: f64) -> usize {
-    let mut best = 0;
-    let mut j = 0;
-    for i in 0..v.len() {
-        while v[i] - v[j] > span {
-            j += 1;
-        }
-        best = best.max(i + 1 - j);
-    }
-    best
-}
 
 /// A two-component mixture along one axis.
 struct Mixture {

@@ -545,52 +545,14 @@ pub fn generate(
     let station = |i: u64| road.x0 + (i as f64 + 0.5) * spacing;
 
     let mut total = 0u64;
-    let mut counts = vec![0u64; n_obj];
     let mut path = Vec::with_capacity(n_scans.min(1 << 24) as usize);
     let batch_scans = (BATCH_POINTS / per_scan).clamp(1, BATCH);
-    let mut first = 0u64;
-    while first < n_scans {
-        let last = (first + batch_scans).min(n_scans);
-        let batch: Vec<(Vec<Point>, Vec<u64>)> = (first..last)
-            .into_par_iter()
-            .map(|i| {
-                let mut out = Vec::with_capacity(per_scan as usize + per_scan as usize / 4);
-                let mut cnt = vec![0u64; n_obj];
-                lidar::scan(
-                    &world,
-                    &road,
-                    lidar,
-                    params.seed,
-                    i,
-                    station(i),
-                    &mut out,
-                    &mut cnt,
-                );
-                for p in out.iter_mut() {
-                    *p = warp(p);
-                }
-                (out, cnt)
-            })
-            .collect();
-        for (i, (pts, cnt)) in (first..last).zip(batch) {
-            sink(&pts)?;
-            total += pts.len() as u64;
-            for (a, b) in counts.iter_mut().zip(cnt) {
-                *a += b;
-            }
-            path.push(lidar::pose_at(&world, &road, lidar, station(i)));
-        }
-        first = last;
-    }
-    // The second pass: the last `share` of the stations driven again (scan
-    // indices after the first pass's, so its noise is its own), its points
-    // displaced by the drift the loop closure left.
-    let sp = &params.second_pass;
-    let mut seen_again = vec![0u64; n_obj];
-    if !sp.is_off() {
-        let offset = Vector3::from(sp.offset_m);
-        let again = ((n_scans as f64 * sp.share).round() as u64).min(n_scans);
-        let mut first = n_scans - again;
+    // One pass over stations `from..n_scans`: scan `index_base + i` at
+    // station i, its points warped and then displaced by `shift`, handed
+    // to the sink in scan order; returns per object the returns it saw.
+    let mut drive = |from: u64, index_base: u64, shift: Vector3<f64>| -> Result<Vec<u64>> {
+        let mut seen = vec![0u64; n_obj];
+        let mut first = from;
         while first < n_scans {
             let last = (first + batch_scans).min(n_scans);
             let batch: Vec<(Vec<Point>, Vec<u64>)> = (first..last)
@@ -603,13 +565,18 @@ pub fn generate(
                         &road,
                         lidar,
                         params.seed,
-                        n_scans + i,
+                        index_base + i,
                         station(i),
                         &mut out,
                         &mut cnt,
                     );
                     for p in out.iter_mut() {
-                        *p = warp(p) + offset;
+                        *p = warp(p);
+                    }
+                    if shift != Vector3::zeros() {
+                        for p in out.iter_mut() {
+                            *p += shift;
+                        }
                     }
                     (out, cnt)
                 })
@@ -617,15 +584,32 @@ pub fn generate(
             for (i, (pts, cnt)) in (first..last).zip(batch) {
                 sink(&pts)?;
                 total += pts.len() as u64;
-                for ((a, s), b) in counts.iter_mut().zip(seen_again.iter_mut()).zip(cnt) {
+                for (a, b) in seen.iter_mut().zip(cnt) {
                     *a += b;
-                    *s += b;
                 }
                 path.push(lidar::pose_at(&world, &road, lidar, station(i)));
             }
             first = last;
         }
-    }
+        Ok(seen)
+    };
+    let seen_first = drive(0, 0, Vector3::zeros())?;
+    // The second pass: the last `share` of the stations driven again (scan
+    // indices after the first pass's, so its noise is its own), its points
+    // displaced by the drift the loop closure left.
+    let sp = &params.second_pass;
+    let seen_again = if sp.is_off() {
+        vec![0u64; n_obj]
+    } else {
+        let again = ((n_scans as f64 * sp.share).round() as u64).min(n_scans);
+        drive(n_scans - again, n_scans, Vector3::from(sp.offset_m))?
+    };
+    drop(drive);
+    let counts: Vec<u64> = seen_first
+        .iter()
+        .zip(&seen_again)
+        .map(|(a, b)| a + b)
+        .collect();
 
     let mut noise = stream(params.seed, 4);
     for ((t, n), again) in targets.iter_mut().zip(&counts).zip(&seen_again) {

@@ -5,6 +5,7 @@
 
 use super::TightParams;
 use crate::frame::grid::TileMap;
+use crate::geom::densest_run;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -497,19 +498,6 @@ fn check_l(
         score: planar[0].min(planar[1]),
         widths: width,
     })
-}
-
-/// The most values of sorted `v` within any `span`.
-fn densest_run(v: &[f64], span: f64) -> usize {
-    let mut best = 0;
-    let mut j = 0;
-    for i in 0..v.len() {
-        while v[i] - v[j] > span {
-            j += 1;
-        }
-        best = best.max(i + 1 - j);
-    }
-    best
 }
 
 /// A point near one plate's plane, in that plate's terms.
