@@ -613,9 +613,9 @@ struct ByHeight {
     front: Vec<f64>,
     /// Heights in the shell behind (`d < 0`), same span along the plate.
     back: Vec<f64>,
-    /// (height, distance along the plate) in the slab with `t > 0`, by
-    /// height (the order among equal heights does not matter: a band takes
-    /// all of them or none, and a percentile of the rest).
+    /// (height, distance along the plate) in the slab with `t > 0`, unsorted:
+    /// `plate_wide` takes a percentile of a band's, which needs no order, and
+    /// few bands get that far.
     ext: Vec<(f64, f64)>,
 }
 
@@ -645,15 +645,62 @@ impl ByHeight {
         for v in [&mut b.slab, &mut b.front, &mut b.back] {
             v.sort_unstable_by(f64::total_cmp);
         }
-        b.ext.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         b
     }
 
-    /// `planar_count(near, 0.15 w, w, z0, z1).1`: the slab's points strictly
-    /// between the heights less twice the emptier shell's.
-    fn planar(&self, z0: f64, z1: f64) -> usize {
-        let between = |v: &[f64]| v.partition_point(|&x| x < z1) - v.partition_point(|&x| x <= z0);
-        between(&self.slab).saturating_sub(2 * between(&self.front).min(between(&self.back)))
+    /// Where the row edge `z` falls in the slab, front and back heights:
+    /// (points below it, points at or below it) in each.
+    fn edge(&self, z: f64) -> [(usize, usize); 3] {
+        [&self.slab, &self.front, &self.back].map(|v| {
+            let below = v.partition_point(|&x| x < z);
+            (
+                below,
+                below + v[below..].iter().take_while(|&&x| x == z).count(),
+            )
+        })
+    }
+
+    /// `planar_count(near, 0.15 w, w, a, b).1` of the row between two edges
+    /// (`a < b`): the slab's points strictly between them less twice the
+    /// emptier shell's.
+    fn planar(a: &[(usize, usize); 3], b: &[(usize, usize); 3]) -> usize {
+        let between = |k: usize| b[k].0 - a[k].1;
+        between(0).saturating_sub(2 * between(1).min(between(2)))
+    }
+
+    /// The planar counts of the 2 cm rows `[z0 + i ROW, z0 + (i + 1) ROW]`
+    /// for `i` in `rows`, in that order (up or down). Each edge is searched
+    /// for once, closing one row and opening the next: half the binary
+    /// searches of looking a row up by its two edges, which were most of
+    /// `plate_band`'s time in a cluttered crop (the edge `z0 + (i + 1) ROW`
+    /// may differ from `z0 + i ROW + ROW` in the last bit, and no point of a
+    /// map sits that close to it). Lazy: a walk that stops early searches no
+    /// further.
+    fn rows(
+        &self,
+        z0: f64,
+        mut rows: std::ops::Range<usize>,
+        down: bool,
+    ) -> impl Iterator<Item = usize> + '_ {
+        let at = move |i: usize| self.edge(z0 + i as f64 * ROW);
+        // The edge shared with the row before, in walking order.
+        let mut held: Option<(usize, [(usize, usize); 3])> = None;
+        std::iter::from_fn(move || {
+            let i = if down { rows.next_back() } else { rows.next() }?;
+            let (lo_i, hi_i) = (i, i + 1);
+            let (shared, other) = if down { (hi_i, lo_i) } else { (lo_i, hi_i) };
+            let first = match held.take() {
+                Some((j, e)) if j == shared => e,
+                _ => at(shared),
+            };
+            let second = at(other);
+            held = Some((other, second));
+            Some(if down {
+                Self::planar(&second, &first)
+            } else {
+                Self::planar(&first, &second)
+            })
+        })
     }
 }
 
@@ -662,12 +709,15 @@ impl ByHeight {
 /// from the corner, less the scatter of n points).
 fn plate_wide(pl: &ByHeight, lo: f64, hi: f64, w: f64) -> bool {
     let (a, b) = (lo - 0.05, hi + 0.05);
-    let e = &pl.ext;
-    let run = &e[e.partition_point(|x| x.0 <= a)..e.partition_point(|x| x.0 < b)];
-    if run.is_empty() {
+    let mut ext: Vec<f64> = pl
+        .ext
+        .iter()
+        .filter(|e| e.0 > a && e.0 < b)
+        .map(|e| e.1)
+        .collect();
+    if ext.is_empty() {
         return false;
     }
-    let mut ext: Vec<f64> = run.iter().map(|e| e.1).collect();
     let k = (ext.len() * 19) / 20;
     let width = *ext.select_nth_unstable_by(k, f64::total_cmp).1;
     width >= MIN_WIDTH_SHARE * w - 0.22 * w / (ext.len() as f64).sqrt()
@@ -683,15 +733,8 @@ fn plate_wide(pl: &ByHeight, lo: f64, hi: f64, w: f64) -> bool {
 /// Fixed thin strips were measured to fail here: a LiDAR's rings leave
 /// 8 cm strips of a cabinet's face nearly empty when the band ends in a lull.
 fn clear_beside(pl: &ByHeight, lo: f64, hi: f64) -> bool {
-    let rows = |z0: f64, n: usize| -> Vec<usize> {
-        (0..n)
-            .map(|i| {
-                let a = z0 + i as f64 * ROW;
-                pl.planar(a, a + ROW)
-            })
-            .collect()
-    };
-    let inside = rows(lo, ((hi - lo) / ROW).ceil().max(1.0) as usize);
+    let n_in = ((hi - lo) / ROW).ceil().max(1.0) as usize;
+    let inside: Vec<usize> = pl.rows(lo, 0..n_in, false).collect();
     let total: usize = inside.iter().sum();
     if total == 0 {
         return true;
@@ -706,13 +749,11 @@ fn clear_beside(pl: &ByHeight, lo: f64, hi: f64) -> bool {
     let allowed = ((gap_in as f64 * 1.5).ceil() as usize).max((MIN_GAP / ROW).round() as usize);
     let per_row = total as f64 / inside.len() as f64;
     let n_out = (REACH / ROW).round() as usize;
-    // Rows walking out from each edge, nearest first.
-    let above = rows(hi, n_out);
-    let mut below = rows(lo - REACH, n_out);
-    below.reverse();
-    [above, below].iter().all(|out| {
+    // Rows walking out from each edge, nearest first; below only when the
+    // plate is clear above.
+    let walk = |out: &mut dyn Iterator<Item = usize>| {
         let (mut last, mut empty, mut count) = (None, 0usize, 0usize);
-        for (i, &r) in out.iter().enumerate() {
+        for (i, r) in out.enumerate() {
             if r > 0 {
                 last = Some(i);
                 count += r;
@@ -730,7 +771,8 @@ fn clear_beside(pl: &ByHeight, lo: f64, hi: f64) -> bool {
         // noisy rows; a face going on fills what it reaches at 30 % or more
         // of the plate's own density.
         !(extent >= GOING_ON && count as f64 >= 0.3 * per_row * (last + 1) as f64)
-    })
+    };
+    walk(&mut pl.rows(hi, 0..n_out, false)) && walk(&mut pl.rows(lo - REACH, 0..n_out, true))
 }
 
 /// Most window points the heading search histograms at every heading (see
@@ -888,21 +930,65 @@ fn going_on(d: &[f64]) -> i64 {
 /// edges, and half (clutter seeds 7 and 8, wall 0.1 m behind: the wall won the
 /// heading search by raw count at 20° off the plates).
 fn sharp_peak(h: &[u32]) -> usize {
+    // Three-bin sums at the occupied bins only (called 60 times a window,
+    // on histograms mostly empty).
     let n = h.len();
-    let three: Vec<usize> = (0..n)
-        .map(|k| {
-            (k.saturating_sub(1)..(k + 2).min(n))
-                .map(|j| h[j] as usize)
-                .sum()
-        })
-        .collect();
-    let at = |k: usize| three.get(k).copied().unwrap_or(0);
+    let three = |k: usize| -> usize {
+        if k >= n {
+            return 0;
+        }
+        (k.saturating_sub(1)..(k + 2).min(n))
+            .map(|j| h[j] as usize)
+            .sum()
+    };
     (0..n)
         .filter(|&k| h[k] > 0)
         .map(|k| {
-            let sides = k.checked_sub(3).map_or(0, at) + at(k + 3);
-            three[k].saturating_sub(sides / 2)
+            let sides = k.checked_sub(3).map_or(0, three) + three(k + 3);
+            three(k).saturating_sub(sides / 2)
         })
         .max()
         .unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The row walk, up and down, counts what `planar_count` counts row by
+    /// row, edge ties included.
+    #[test]
+    fn rows_walk_counts_as_planar_count() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+        let w = 0.6;
+        let mut near: Vec<Near> = (0..3000)
+            .map(|_| Near {
+                d: rng.random_range(-0.09..0.09),
+                t: rng.random_range(-0.1..0.7),
+                z: rng.random_range(-0.5..1.0),
+            })
+            .collect();
+        // Points exactly on row edges, and several at one height.
+        let z0 = 0.013;
+        for i in [0usize, 3, 4, 17] {
+            for d in [0.0, 0.06, -0.07] {
+                near.push(Near {
+                    d,
+                    t: 0.3,
+                    z: z0 + i as f64 * ROW,
+                });
+            }
+        }
+        let pl = ByHeight::new(&near, w);
+        let direct = |i: usize| {
+            let a = z0 + i as f64 * ROW;
+            planar_count(&near, 0.15 * w, w, a, z0 + (i + 1) as f64 * ROW).1
+        };
+        let up: Vec<usize> = pl.rows(z0, 0..20, false).collect();
+        assert_eq!(up, (0..20).map(direct).collect::<Vec<_>>());
+        let down: Vec<usize> = pl.rows(z0, 0..20, true).collect();
+        assert_eq!(down, (0..20).rev().map(direct).collect::<Vec<_>>());
+        assert!(up.iter().any(|&r| r > 0));
+    }
 }
