@@ -6,7 +6,9 @@
 # table that runs off the page at 1280 px, or a plot frame without at least two
 # labelled ticks on each axis.
 # Usage: ci/browser_check.sh REPORT.html [SCREENSHOT.png] [RESULT.json]
-# (RESULT.json defaults to the one beside the report). ci/browser_check_test.sh
+# (RESULT.json defaults to the one beside the report). The page a run that
+# could not score writes is checked against its failed.csv instead (given as
+# the third argument): one figure per surveyed place. ci/browser_check_test.sh
 # runs it against deliberately broken pages.
 # Installs Debian's chromium (and python3) when missing (CI runs as root).
 set -euo pipefail
@@ -14,7 +16,7 @@ report=$(realpath "$1")
 shot=${2:-$(dirname "$report")/report.png}
 shot=$(realpath -m "$shot")
 result=$(realpath -m "${3:-$(dirname "$report")/result.json}")
-[ -s "$result" ] || { echo "browser check: no result.json at $result" >&2; exit 1; }
+[ -s "$result" ] || { echo "browser check: no result.json (or failed.csv) at $result" >&2; exit 1; }
 
 missing=()
 [ -x /usr/bin/chromium ] || missing+=(chromium)
@@ -136,7 +138,7 @@ timeout 90 /usr/bin/chromium "${flags[@]}" --user-data-dir="$work/profile-dom" \
 }
 
 python3 - "$report" "$result" "$shot" "$work/dom.html" "$work/shot.err" "$work/dom.err" <<'EOF'
-import html, json, re, struct, sys, zlib
+import csv, html, json, re, struct, sys, zlib
 
 report, result, shot, dom_path, *logs = sys.argv[1:]
 fail = []
@@ -154,16 +156,21 @@ for log in logs:
 # src/report/plots.rs), each a <figure> holding one <svg>.
 src = open(report, encoding="utf-8").read()
 dom = open(dom_path, encoding="utf-8", errors="replace").read()
+# A failed run's page: one figure per surveyed place, as failed.csv lists.
+failure = result.endswith("failed.csv")
 try:
-    n_targets = len(json.load(open(result, encoding="utf-8"))["targets"])
+    if failure:
+        n_targets = sum(1 for _ in csv.reader(open(result, encoding="utf-8"))) - 1
+    else:
+        n_targets = len(json.load(open(result, encoding="utf-8"))["targets"])
 except Exception as e:  # unreadable is a failed check, not a pass
     n_targets = None
-    fail.append(f"result.json unreadable: {e}")
+    fail.append(f"{result} unreadable: {e}")
 n_svg = len(re.findall(r"<svg[\s>]", dom))
 figs = re.findall(r'<figure id="(fig-[^"]*)"[^>]*>(.*?)</figure>', dom, re.S)
 ids = [i for i, _ in figs]
 if n_targets is not None:
-    want = 2 + n_targets
+    want = n_targets + (0 if failure else 2)
     if n_svg != want:
         fail.append(f"{n_svg} <svg> elements in the DOM, result.json implies {want}"
                     f" (overview, relative, {n_targets} targets)")
@@ -173,7 +180,7 @@ if n_targets is not None:
     m = re.search(r'<meta name="mapgauge-figures" content="(\d+)">', src)
     if m and int(m.group(1)) != want:
         fail.append(f"the page declares {m.group(1)} figures, result.json implies {want}")
-for need in ("fig-overview", "fig-relative"):
+for need in () if failure else ("fig-overview", "fig-relative"):
     if ids.count(need) != 1:
         fail.append(f"{ids.count(need)} figures {need}, want 1")
 for i, body in figs:
@@ -286,7 +293,7 @@ if fail:
     for f in fail:
         print("browser check FAILED:", f, file=sys.stderr)
     sys.exit(1)
-print(f"browser check: ok ({n_svg} figures, as result.json implies, each panel with labelled ticks; "
+print(f"browser check: ok ({n_svg} figures, as {result.rsplit('/', 1)[-1]} implies, each panel with labelled ticks; "
       "no table wider than the page at 1280 px; no console message; no failed or outside resource)")
 EOF
 echo "browser check: screenshot at $shot"

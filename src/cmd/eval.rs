@@ -25,7 +25,9 @@ pub struct Args {
     /// Survey CSV (id,x,y[,z][,antenna_height][,role] or id,lat,lon[,alt]...).
     #[arg(long, required_unless_present = "print_config")]
     pub survey: Option<PathBuf>,
-    /// Directory for result.json, targets.csv, pairs.csv (and crops with --save-crops).
+    /// Directory for result.json, targets.csv, pairs.csv and report.html (and
+    /// crops with --save-crops). A run that cannot score writes failed.csv
+    /// and report.html there instead: what each surveyed place showed.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// TOML file with any parameter (see --print-config); flags override it.
@@ -37,9 +39,8 @@ pub struct Args {
     /// Use hand-made tight crops DIR/<id>.ply|pcd|... instead of the automatic crop.
     #[arg(long)]
     pub crops: Option<PathBuf>,
-    /// Also write the loose and tight crops (PLY) under OUT/crops/; when too
-    /// few targets are found to score, they are written still, with
-    /// OUT/failed.csv saying what each surveyed place showed.
+    /// Also write the loose and tight crops (PLY) under OUT/crops/, also when
+    /// too few targets are found to score.
     #[arg(long, requires = "out")]
     pub save_crops: bool,
     /// Alignment map → survey: none, rigid2d, rigid2d+z, rigid3d, similarity2d, similarity3d, robust2d [default: rigid2d].
@@ -324,15 +325,31 @@ pub fn evaluate(
     let ev = match run {
         Ok(ev) => ev,
         Err(f) => {
-            // A run that cannot score still leaves what it saw, when asked to.
-            if let (true, Some(out), false) = (a.save_crops, &a.out, f.targets.is_empty()) {
-                match save_failure(&f, out, &[map, survey_path]) {
+            // A run that cannot score still leaves what it saw at each
+            // surveyed place: the reasons and a page of the crops always
+            // (small), the crops themselves when asked for.
+            if let (Some(out), false) = (&a.out, f.targets.is_empty()) {
+                let page = (!a.no_report).then(|| out.join("report.html"));
+                match save_failure(
+                    &f,
+                    out,
+                    a.save_crops,
+                    page.as_deref(),
+                    cfg,
+                    &[map, survey_path],
+                ) {
                     Ok(()) => eprintln!(
-                        "the crops of every surveyed place are in {}, and what each showed in {}",
-                        out.join("crops").display(),
-                        out.join("failed.csv").display()
+                        "what each surveyed place showed, and why no target was taken there: {}{}{}",
+                        out.join("failed.csv").display(),
+                        page.map(|p| format!(", {} (its crops drawn)", p.display()))
+                            .unwrap_or_default(),
+                        if a.save_crops {
+                            format!("; the crops in {}", out.join("crops").display())
+                        } else {
+                            "; `--save-crops` also writes the crops to open in a viewer".into()
+                        }
                     ),
-                    Err(e) => eprintln!("warning: the crops could not be saved: {e}"),
+                    Err(e) => eprintln!("warning: what each place showed could not be saved: {e}"),
                 }
             }
             return Err(f.error);
@@ -423,13 +440,24 @@ fn write_crops(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) ->
     Ok(())
 }
 
-/// `--save-crops` of a run that could not score: each target's crops, and
-/// `failed.csv` with what each surveyed place showed (the corner located
-/// there, or why none was), which is when a user needs them most.
-fn save_failure(f: &pipeline::Failed, out: &Path, inputs: &[&Path]) -> Result<()> {
+/// What a run that could not score leaves under `--out`: `failed.csv` with
+/// what each surveyed place showed (the corner located there, or why none
+/// was), the page `page` drawing each place's crops, and with `crops` the
+/// crops themselves: when a user needs them most.
+fn save_failure(
+    f: &pipeline::Failed,
+    out: &Path,
+    crops: bool,
+    page: Option<&Path>,
+    cfg: &Config,
+    inputs: &[&Path],
+) -> Result<()> {
     let targets = &f.targets;
     super::check_out_dir(out)?;
-    write_crops(targets, out, inputs)?;
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    if crops {
+        write_crops(targets, out, inputs)?;
+    }
     let rows = targets
         .iter()
         .map(|t| {
@@ -439,13 +467,13 @@ fn save_failure(f: &pipeline::Failed, out: &Path, inputs: &[&Path]) -> Result<()
                 .corner()
                 .map(|c| if l.is_identity() { c } else { l.invert(&c) });
             let at = |k: usize| c.map_or(String::new(), |c| format!("{:.4}", c[k]));
-            let (status, stage, reason) = match &t.outcome {
-                Ok(_) => ("located", String::new(), String::new()),
-                Err(e @ pipeline::Failure::Doubled(_)) => {
-                    ("ambiguous", e.stage().to_string(), e.to_string())
-                }
-                Err(e) => ("not_found", e.stage().to_string(), e.to_string()),
-            };
+            let (status, reason) = report::place_status(&t.outcome);
+            let stage = t
+                .outcome
+                .as_ref()
+                .err()
+                .map_or("", |e| e.stage())
+                .to_string();
             vec![
                 t.id.clone(),
                 status.into(),
@@ -479,5 +507,15 @@ fn save_failure(f: &pipeline::Failed, out: &Path, inputs: &[&Path]) -> Result<()
     };
     let path = out.join("failed.csv");
     refuse_overwrite(&path, inputs)?;
-    mapgauge::record::write_atomic(&path, g.render(TableFormat::Csv).as_bytes())
+    mapgauge::record::write_atomic(&path, g.render(TableFormat::Csv).as_bytes())?;
+    if let Some(p) = page {
+        refuse_overwrite(p, inputs)?;
+        let prov = report::Provenance::new(Some(cfg.locate.seed), Some(cfg.to_toml()));
+        let map = inputs
+            .first()
+            .map(|m| m.display().to_string())
+            .unwrap_or_default();
+        report::write_failure(p, &map, f, &prov)?;
+    }
+    Ok(())
 }

@@ -23,8 +23,10 @@ pub mod plots;
 pub mod png;
 pub mod svg;
 
+mod failure;
 mod files;
 
+pub use failure::{failure_page, place_status, write_failure};
 pub use files::{HashedInputs, Written, hash_inputs, write_report};
 
 use crate::align::Alignment;

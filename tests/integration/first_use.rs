@@ -674,6 +674,50 @@ fn float32_coordinates_far_from_the_origin_are_named() {
     );
 }
 
+/// Issue 31: a run that cannot score leaves, under `--out` and without any
+/// flag, `failed.csv` and a report page drawing what each surveyed place
+/// showed (its crop, the reason); the crops themselves only with
+/// `--save-crops`, and no result.
+#[test]
+fn a_failed_eval_leaves_a_failure_page() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let sv = dir.path().join("moved.csv");
+    edit_survey(&survey, &sv, |f| add_to(&mut f[2], 20.0));
+    let out = dir.path().join("out");
+    let o = bin()
+        .args(["eval", "--frame", "survey", "--map"])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&sv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("failed.csv") && e.contains("report.html") && e.contains("--save-crops"),
+        "{e}"
+    );
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        page.contains("no result"),
+        "the page says the run did not score"
+    );
+    assert!(
+        page.contains("only 0 of 5 targets found"),
+        "the page gives the error"
+    );
+    // One drawing per surveyed place, each with its reason.
+    assert_eq!(page.matches("<figure id=\"fig-target-").count(), 5);
+    assert!(page.matches("class=\"reason\"").count() >= 5);
+    let csv = std::fs::read_to_string(out.join("failed.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 6, "{csv}");
+    assert!(!out.join("crops").exists(), "crops only with --save-crops");
+    assert!(!out.join("result.json").exists());
+}
+
 /// Issue 31: `eval --save-crops` of a run that cannot score (the survey 20 m
 /// off, `--frame survey`) exits 1 and still writes every loose crop and
 /// `failed.csv` with each place's reason; it wrote nothing before.

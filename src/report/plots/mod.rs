@@ -13,6 +13,7 @@ mod target;
 
 pub use overview::{fit_line, fmt_len, overview, relative};
 use target::target_figure;
+pub use target::{LooseView, loose_figure};
 
 /// Most crop points drawn per view: keeps report.html small (a few hundred kB).
 pub const MAX_POINTS_PER_VIEW: usize = 3000;

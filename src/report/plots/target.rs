@@ -364,8 +364,58 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         .as_ref()
         .and_then(|e| e.targets.iter().find(|d| d.id == t.id).or(e.targets.get(i)));
     let expected = detail.map(|d| Point::new(d.expected[0], d.expected[1], d.expected[2]));
-    let c = expected.unwrap_or_else(|| survey_in_map(&rep.alignment, t));
-    let loose = view.loose;
+    let survey = survey_in_map(&rep.alignment, t);
+    loose_panels(
+        f,
+        &LooseView {
+            loose: view.loose,
+            tight: view.tight,
+            expected: expected.unwrap_or(survey),
+            survey: Some(survey),
+            seen: detail.and_then(|d| d.seen.as_ref()),
+            corner: None,
+            status: &t.status,
+            reason: t.reason.as_deref().unwrap_or("no reason recorded"),
+        },
+    );
+}
+
+/// What a target's loose-crop panels show: a target not found in a scored
+/// run, or any surveyed place of a run that could not score.
+pub struct LooseView<'a> {
+    /// Loose crop (map frame).
+    pub loose: &'a [Point],
+    /// Tight crop (map frame), empty when none was made.
+    pub tight: &'a [Point],
+    /// Where the target was looked for (map frame): the views' origin.
+    pub expected: Point,
+    /// The surveyed position in the map, when an alignment places it.
+    pub survey: Option<Point>,
+    /// The object the tight crop saw there and refused.
+    pub seen: Option<&'a crate::crop::Seen>,
+    /// A corner located there (a run that could not score still located some).
+    pub corner: Option<Point>,
+    /// `not_found`, `ambiguous`, `located`…
+    pub status: &'a str,
+    /// Why it was not taken (or what was found).
+    pub reason: &'a str,
+}
+
+/// A figure of one place's loose crop alone (`stem` names it).
+pub fn loose_figure(stem: &str, id: &str, v: &LooseView) -> Figure {
+    let title = format!(
+        "Target {}: {} — loose crop",
+        target_label(id),
+        v.status.replace('_', " ")
+    );
+    let mut f = Figure::new(stem, &title, 950.0, 366.0);
+    loose_panels(&mut f, v);
+    f
+}
+
+fn loose_panels(f: &mut Figure, v: &LooseView) {
+    let c = v.expected;
+    let loose = v.loose;
     let order = [palette::OUTLIER, palette::TIGHT];
     let top_of = |p: &Point| (p.x - c.x, p.y - c.y);
     let (bx, by) = if loose.is_empty() {
@@ -392,7 +442,7 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
     cloud(
         f,
         &top,
-        view.tight,
+        v.tight,
         top_of,
         |_| palette::TIGHT,
         &order,
@@ -401,7 +451,7 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
     f.marker(top.map(0.0, 0.0), MarkerKind::Ring, 6.0, palette::ESTIMATE);
     // The object the crop saw and refused: its faces as thick lines, so the
     // user sees what stood there (a wall, a cabinet, a neighbour's target).
-    let seen = detail.and_then(|d| d.seen.as_ref());
+    let seen = v.seen;
     if let Some(s) = seen {
         let at = (s.at[0] - c.x, s.at[1] - c.y);
         for e in s.faces.iter().flatten() {
@@ -413,13 +463,20 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
             f.marker(top.map(at.0, at.1), MarkerKind::Cross, 7.0, palette::ERROR);
         }
     }
-    let s = survey_in_map(&rep.alignment, t);
-    if top.contains(s.x - c.x, s.y - c.y) {
+    if let Some(s) = v.survey.filter(|s| top.contains(s.x - c.x, s.y - c.y)) {
         f.marker(
             top.map(s.x - c.x, s.y - c.y),
             MarkerKind::Diamond,
             6.0,
             palette::SURVEY,
+        );
+    }
+    if let Some(k) = v.corner.filter(|k| top.contains(k.x - c.x, k.y - c.y)) {
+        f.marker(
+            top.map(k.x - c.x, k.y - c.y),
+            MarkerKind::Plus,
+            8.0,
+            palette::ESTIMATE,
         );
     }
     let side_of = |p: &Point| (p.x - c.x, p.z - c.z);
@@ -447,7 +504,7 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
     cloud(
         f,
         &side,
-        view.tight,
+        v.tight,
         side_of,
         |_| palette::TIGHT,
         &order,
@@ -456,13 +513,12 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
     // The reason, wrapped, in the third column.
     f.bold(
         (THIRD.0, THIRD.1 - 10.0),
-        &format!("{}", t.status.replace('_', " ")),
+        &v.status.replace('_', " "),
         12.0,
         Anchor::Start,
     );
-    let reason = t.reason.as_deref().unwrap_or("no reason recorded");
     let mut y = THIRD.1 + 12.0;
-    for line in wrap(reason, 38).into_iter().take(14) {
+    for line in wrap(v.reason, 38).into_iter().take(14) {
         f.text((THIRD.0, y), &line, 11.0, palette::ERROR, Anchor::Start);
         y += 15.0;
     }
@@ -486,13 +542,25 @@ fn failed_panels(f: &mut Figure, rep: &Report, i: usize, t: &TargetOut, view: &T
         palette::ESTIMATE,
         "where it was looked for",
     );
-    legend_marker(
-        f,
-        (470.0, y),
-        MarkerKind::Diamond,
-        palette::SURVEY,
-        "survey (aligned into the map)",
-    );
+    // The third entry: the survey's position when an alignment places it,
+    // else the corner located there (a run that could not score).
+    if v.survey.is_some() {
+        legend_marker(
+            f,
+            (470.0, y),
+            MarkerKind::Diamond,
+            palette::SURVEY,
+            "survey (aligned into the map)",
+        );
+    } else if v.corner.is_some() {
+        legend_marker(
+            f,
+            (470.0, y),
+            MarkerKind::Plus,
+            palette::ESTIMATE,
+            "corner located",
+        );
+    }
     if seen.is_some() {
         legend_marker(
             f,
