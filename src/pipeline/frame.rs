@@ -127,6 +127,57 @@ pub(super) fn targets_there(found: &[TargetRun]) -> bool {
     n >= 3.min(found.len()).max(2)
 }
 
+/// Why map-wide detection gave no frame.
+#[derive(Debug)]
+pub(super) enum NoFrame {
+    /// The map could not be read, or a diagnosis that stands by itself (the
+    /// survey's x and y swapped).
+    Failed(Error),
+    /// Detection ran, and no frame put enough of its objects on surveyed
+    /// targets.
+    NotMatched {
+        /// Target-shaped objects detected map-wide.
+        detections: usize,
+        /// How the matching failed.
+        why: MatchError,
+    },
+}
+
+impl From<Error> for NoFrame {
+    fn from(e: Error) -> Self {
+        NoFrame::Failed(e)
+    }
+}
+
+impl NoFrame {
+    /// The remedy a failed match calls for.
+    pub(super) fn remedy(why: &MatchError) -> &'static str {
+        match why {
+            MatchError::Ambiguous { .. } => {
+                "give --hints FILE (id,x,y of 2 or more targets as seen in the map, ±0.5 m) to choose"
+            }
+            MatchError::TooFew { .. } => {
+                "give --hints FILE (id,x,y of 2 or more targets as seen in the map, ±0.5 m) or --init x,y,yaw_deg"
+            }
+        }
+    }
+
+    /// The error when detection was all there was to go by (`--frame
+    /// detect`, or a warning beside a frame that found enough).
+    pub(super) fn into_error(self) -> Error {
+        match self {
+            NoFrame::Failed(e) => e,
+            NoFrame::NotMatched { detections: 0, .. } => Error::Input(
+                "detection found no target-shaped object anywhere in the map: no frame can be matched to the survey (a map without these targets, or plates of another size than --plate-size?)".into(),
+            ),
+            NoFrame::NotMatched { why, .. } => Error::Input(format!(
+                "the map's frame could not be found by detection: {why}; {}",
+                NoFrame::remedy(&why)
+            )),
+        }
+    }
+}
+
 /// Detects targets map-wide and matches them to the survey.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn detect_and_match(
@@ -138,7 +189,7 @@ pub(super) fn detect_and_match(
     total: u64,
     progress: &mut impl FnMut(u64, u64),
     reads: &mut Vec<crate::cloud::PassRead>,
-) -> Result<(FrameHow, [f64; 3], f64, Vec<Detection>)> {
+) -> std::result::Result<(FrameHow, [f64; 3], f64, Vec<Detection>), NoFrame> {
     // The levelling's ground was a sample; detection needs the ground under
     // every cell of the map.
     let all = if ground.sampled {
@@ -184,26 +235,17 @@ pub(super) fn detect_and_match(
             Err(MatchError::Ambiguous { a, .. }) => *a,
         };
         if mm.matches.len() > given {
-            return Err(Error::Input(format!(
+            return Err(NoFrame::Failed(Error::Input(format!(
                 "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. Check the order of the survey's columns (id,x,y: x east, y north) and run again",
                 mm.matches.len(),
                 sur.len(),
                 mm.rms * 1e3
-            )));
+            ))));
         }
     }
-    let m = m.map_err(|e| {
-        let remedy = match e {
-            MatchError::Ambiguous { .. } => {
-                "; give --hints FILE (id,x,y of 2 or more targets as seen in the map, ±0.5 m) to choose"
-            }
-            MatchError::TooFew { .. } => {
-                "; give --hints FILE (id,x,y of 2 or more targets as seen in the map, ±0.5 m) or --init x,y,yaw_deg"
-            }
-        };
-        Error::Input(format!(
-            "the map is not in the survey frame and its frame could not be found: {e}{remedy}"
-        ))
+    let m = m.map_err(|why| NoFrame::NotMatched {
+        detections: found.detections.len(),
+        why,
     })?;
     let used: Vec<usize> = m.matches.iter().map(|x| x.1).collect();
     let unmatched = found

@@ -383,7 +383,8 @@ fn evaluate(
             total,
             &mut progress,
             &mut reads,
-        )?;
+        )
+        .map_err(frame::NoFrame::into_error)?;
     }
     // `--init` and the survey frame are the map's own; hints and detections
     // were moved into the levelled frame already.
@@ -475,17 +476,22 @@ fn evaluate(
             }
             // The first guess found enough to align: keep it, and say why
             // detection did not take over.
-            Err(e) if enough => warnings.push(Warning::DetectionFailed(e.to_string())),
+            Err(e) if enough => warnings.push(Warning::DetectionFailed(e.into_error().to_string())),
             // What was seen where the survey places the targets tells a
-            // wrong plate size from a map in another frame.
+            // wrong plate size from a map in another frame, and both from a
+            // survey that describes no target of this map.
             Err(error) => {
                 let error = match (error, other_plate_size(&found, cfg)) {
-                    (Error::Input(e), Some(size)) => Error::Input(format!(
-                        "{size}. (Read in the survey frame, the map showed {} of {} targets; and detection map-wide: {e})",
+                    (frame::NoFrame::Failed(e), _) => e,
+                    (e, Some(size)) => Error::Input(format!(
+                        "{size}. (Read in the survey frame, the map showed {} of {} targets; and detection map-wide: {})",
                         found.iter().filter(|r| r.outcome.is_ok()).count(),
-                        found.len()
+                        found.len(),
+                        e.into_error()
                     )),
-                    (error, _) => error,
+                    (frame::NoFrame::NotMatched { detections, why }, None) => {
+                        not_there(&map.name, &found, detections, &why, cfg)
+                    }
                 };
                 return Err(Failed {
                     error,
@@ -710,6 +716,72 @@ fn evaluate(
             unmatched,
         },
     })
+}
+
+/// What the surveyed places showed, counted by kind: "4 nothing standing
+/// above the ground, 1 no target-shaped object (closest: …)".
+fn places_seen(found: &[TargetRun]) -> String {
+    let mut kinds: Vec<(String, usize)> = Vec::new();
+    let mut closest: Option<&crop::Seen> = None;
+    for r in found {
+        let kind = match &r.outcome {
+            Ok(_) => "a target located",
+            Err(Failure::NoLoosePoints) | Err(Failure::Tight(crop::TightError::NoPoints)) => {
+                "no map points"
+            }
+            Err(Failure::Tight(crop::TightError::NothingAboveGround { .. })) => {
+                "nothing standing above the ground"
+            }
+            Err(Failure::Tight(crop::TightError::NoTargetShape { seen, .. })) => {
+                if let Some(s) = seen
+                    && closest.is_none_or(|c| s.from_expected < c.from_expected)
+                {
+                    closest = Some(s);
+                }
+                "no target-shaped object"
+            }
+            Err(Failure::Locate(_)) => "a target-shaped object that could not be located",
+            Err(_) => "an object refused by the checks",
+        };
+        match kinds.iter_mut().find(|k| k.0 == kind) {
+            Some(k) => k.1 += 1,
+            None => kinds.push((kind.to_string(), 1)),
+        }
+    }
+    kinds.sort_by(|a, b| b.1.cmp(&a.1));
+    let mut s = kinds
+        .iter()
+        .map(|(k, n)| format!("{n} {k}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if let Some(c) = closest {
+        s += &format!(" (the closest object seen: {})", c.what);
+    }
+    s
+}
+
+/// The error when the targets are not where the survey places them and
+/// detection found no frame: what each told, and the mistakes that fit
+/// (a map in another frame only when the map holds target-shaped objects).
+fn not_there(
+    map: &str,
+    found: &[TargetRun],
+    detections: usize,
+    why: &crate::frame::matching::MatchError,
+    cfg: &Config,
+) -> Error {
+    let places = places_seen(found);
+    let n = found.len();
+    if detections == 0 {
+        return Error::Input(format!(
+            "{map}: no target where the survey places them (of its {n} places: {places}), and none anywhere else: detection map-wide found no target-shaped object. The map holds none of the surveyed targets: is it the map of this survey's site, made while the targets stood? (For plates of another size than {:.2} × {:.2} m, give --plate-size W,H)",
+            cfg.tight.plate_width, cfg.tight.plate_height
+        ));
+    }
+    Error::Input(format!(
+        "{map}: no target where the survey places them (of its {n} places: {places}); detection map-wide found {detections} target-shaped object(s), but {why}. Either the map is in another frame than the survey ({}), or the survey does not describe the targets in this map (another site, another survey file)",
+        frame::NoFrame::remedy(why)
+    ))
 }
 
 /// The error when too few targets were located to align: which were not and

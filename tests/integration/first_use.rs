@@ -621,6 +621,78 @@ fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis(
     );
 }
 
+/// Issue 31: "the map is not in the survey frame" only when the map holds
+/// targets elsewhere. A survey that describes no target of the map (its x
+/// stretched: no rigid frame fits) is told apart from a map without targets
+/// at all, and each message first says what the surveyed places showed.
+#[test]
+fn a_survey_of_other_places_and_a_map_without_targets_are_told_apart() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let stretched = dir.path().join("stretched.csv");
+    edit_survey(&survey, &stretched, |f| {
+        let x: f64 = f[1].parse().unwrap();
+        f[1] = format!("{:.4}", 0.7 * x + 3.0);
+    });
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&stretched)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("no target where the survey places them (of its 5 places:")
+            && e.contains("detection map-wide found 5 target-shaped object(s)")
+            && e.contains("Either the map is in another frame than the survey")
+            && e.contains("or the survey does not describe the targets in this map"),
+        "{e}"
+    );
+    // The same map with its targets cut out.
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(map.with_file_name("truth.json")).unwrap())
+            .unwrap();
+    let at: Vec<[f64; 3]> = truth["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            let m = t["map"].as_array().unwrap();
+            [0, 1, 2].map(|k| m[k].as_f64().unwrap())
+        })
+        .collect();
+    let pts: Vec<mapgauge::Point> = mapgauge::cloud::read_all(&map)
+        .unwrap()
+        .into_iter()
+        .filter(|p| {
+            // Everything within 1.2 m of a target and above its plates'
+            // lowest edge (0.8 m below the corner's height, less a margin).
+            !at.iter()
+                .any(|c| (p.x - c[0]).hypot(p.y - c[1]) < 1.2 && p.z > c[2] - 0.9)
+        })
+        .collect();
+    let bare = dir.path().join("bare.ply");
+    mapgauge::cloud::write(&bare, mapgauge::cloud::OutFormat::Ply, &pts).unwrap();
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(&bare)
+        .arg("--survey")
+        .arg(&survey)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("no target where the survey places them")
+            && e.contains("detection map-wide found no target-shaped object")
+            && e.contains("The map holds none of the surveyed targets")
+            && !e.contains("another frame"),
+        "{e}"
+    );
+}
+
 /// Issue 31: a float32 map far from its origin. UTM northings (5.4e6 m)
 /// keep half-metre steps: refused, saying so (it was "no frame found");
 /// eastings alone (3e5 m, 31 mm steps) are measured, with a warning.
