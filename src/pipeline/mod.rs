@@ -847,6 +847,8 @@ fn too_few_found(
                 ". The survey is WGS84, placed in a local east-north-up frame about {:.7}, {:.7}; if the map's origin is elsewhere, give --origin LAT,LON[,ALT] of the map's origin (and --init x,y,yaw_deg if its axes are not east and north)",
                 o.lat, o.lon
             ),
+            // Told to look in the survey frame only: detection never ran.
+            _ if cfg.frame.mode == config::FrameMode::Survey => ". Is the map in the survey frame? If not, run without --frame survey (eval then looks for the targets map-wide) or give --init x,y,yaw_deg".into(),
             _ => ". Is the map in the survey frame? If not, give --init x,y,yaw_deg".into(),
         };
     }
