@@ -127,6 +127,18 @@ pub(super) fn targets_there(found: &[TargetRun]) -> bool {
     n >= 3.min(found.len()).max(2)
 }
 
+/// Unit mix-ups between the survey and the map: the factor that brings the
+/// survey to the map's unit, and what it means.
+const UNITS: [(f64, &str); 4] = [
+    (
+        0.3048,
+        "to be in feet (international or US survey) while the map is in metres",
+    ),
+    (1.0 / 0.3048, "to be in metres while the map is in feet"),
+    (0.001, "to be in millimetres while the map is in metres"),
+    (1000.0, "to be in metres while the map is in millimetres"),
+];
+
 /// Why map-wide detection gave no frame.
 #[derive(Debug)]
 pub(super) enum NoFrame {
@@ -241,6 +253,38 @@ pub(super) fn detect_and_match(
                 sur.len(),
                 mm.rms * 1e3
             ))));
+        }
+    }
+    // A survey in another unit than the map (feet, millimetres) is the map's
+    // layout scaled: no rigid motion fits it. Scaled back, it fitting is
+    // the mistake (about the survey's centroid: UTM-sized coordinates stay
+    // small).
+    if m.is_err() && sur.len() >= 3 {
+        let n = sur.len() as f64;
+        let c = sur
+            .iter()
+            .fold(nalgebra::Vector3::zeros(), |a, p| a + p.coords)
+            / n;
+        let given = match &m {
+            Err(MatchError::TooFew { best, .. }) => *best,
+            Err(MatchError::Ambiguous { a, .. }) => *a,
+            Ok(_) => 0,
+        };
+        for (factor, what) in UNITS {
+            let scaled: Vec<Point> = sur
+                .iter()
+                .map(|p| Point::from(c + (p.coords - c) * factor))
+                .collect();
+            if let Ok(sm) = match_frame(&cands, &scaled, survey.has_z(), &params)
+                && sm.matches.len() > given
+            {
+                return Err(NoFrame::Failed(Error::Input(format!(
+                    "the survey looks {what}: scaled by {factor}, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. mapgauge reads both files in metres: convert the survey, or the map (`mapgauge convert --scale`), and run again",
+                    sm.matches.len(),
+                    sur.len(),
+                    sm.rms * 1e3
+                ))));
+            }
         }
     }
     let m = m.map_err(|why| NoFrame::NotMatched {
@@ -422,6 +466,142 @@ pub(super) fn turn_targets(
             r.outcome = target::locate_with(&r.tight, &ups, cfg).map_err(Failure::Locate);
         }
     });
+}
+
+/// A map's distance between two targets may disagree with the survey's by
+/// at most this much (m) plus [`LAYOUT_REL`] of the distance: LiDAR odometry
+/// without loop closure drifts 0.5–2 % (KITTI's worst), a projection's grid
+/// scale is within 0.5 %, a target's corner is known to centimetres. Metres
+/// over tens of metres are no map's error but a wrong object, survey
+/// position, id or unit.
+const LAYOUT_ABS_M: f64 = 0.3;
+/// See [`LAYOUT_ABS_M`].
+const LAYOUT_REL: f64 = 0.02;
+
+/// Each pair of located targets: (index a, index b, |map − survey distance|,
+/// survey distance, map distance), horizontal unless a 3D score with both
+/// heights surveyed.
+fn layout_pairs(
+    at: &[(usize, Point)],
+    survey: &Survey,
+    d3: bool,
+) -> Vec<(usize, usize, f64, f64, f64)> {
+    let mut out = Vec::new();
+    for (k, &(i, a)) in at.iter().enumerate() {
+        for &(j, b) in &at[k + 1..] {
+            let (si, sj) = (&survey.targets[i], &survey.targets[j]);
+            // Differences first: survey coordinates may be UTM-sized.
+            let (ds, dm) = (si.reference() - sj.reference(), a - b);
+            let both_z = d3 && si.has_z && sj.has_z;
+            let len = |v: nalgebra::Vector3<f64>| {
+                if both_z { v.norm() } else { v.xy().norm() }
+            };
+            let (s, m) = (len(ds), len(dm));
+            out.push((i, j, (m - s).abs(), s, m));
+        }
+    }
+    out
+}
+
+/// Where each target was located: (index, corner), with the objects
+/// [`off_layout`] set aside.
+pub(super) fn placed(found: &[TargetRun]) -> Vec<(usize, Point)> {
+    found
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| match &r.outcome {
+            Err(Failure::OffLayout { at, .. }) => Some((i, *at)),
+            _ => r.corner().map(|c| (i, c)),
+        })
+        .collect()
+}
+
+/// The median ratio of map distances to the survey's between the objects
+/// `at` (1 for a map in the survey's unit and scale), over pairs 1 m or more
+/// apart.
+pub(super) fn distance_ratio(at: &[(usize, Point)], survey: &Survey) -> Option<f64> {
+    let mut r: Vec<f64> = layout_pairs(at, survey, false)
+        .into_iter()
+        .filter(|p| p.3 >= 1.0)
+        .map(|p| p.4 / p.3)
+        .collect();
+    if r.is_empty() {
+        return None;
+    }
+    r.sort_by(f64::total_cmp);
+    Some(r[r.len() / 2])
+}
+
+/// Located targets whose distances to the others disagree with the survey's
+/// by more than a map's error ([`LAYOUT_ABS_M`], [`LAYOUT_REL`]) become
+/// [`Failure::OffLayout`], whatever the frame mode and however few were
+/// located (`far_from_others` compares with the targets' median misfit,
+/// which needs four, and sees nothing when every one is off). The target in
+/// the most implausible pairs goes first while one stands out; when none
+/// does (two targets, or all of them off), each in an implausible pair goes.
+/// Returns how many were set aside.
+pub(super) fn off_layout(
+    found: &mut [TargetRun],
+    survey: &Survey,
+    opts: &crate::accuracy::ScoreOptions,
+) -> usize {
+    let d3 = opts.dim == crate::accuracy::Dim::D3;
+    let at: Vec<(usize, Point)> = found
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| r.corner().map(|c| (i, c)))
+        .collect();
+    let bad: Vec<(usize, usize, f64, f64)> = layout_pairs(&at, survey, d3)
+        .into_iter()
+        .filter(|&(_, _, miss, s, _)| miss > LAYOUT_ABS_M + LAYOUT_REL * s)
+        .map(|(i, j, miss, s, _)| (i, j, miss, s))
+        .collect();
+    let mut out: Vec<usize> = Vec::new();
+    let mut alone = true;
+    loop {
+        let live: Vec<&(usize, usize, f64, f64)> = bad
+            .iter()
+            .filter(|p| !out.contains(&p.0) && !out.contains(&p.1))
+            .collect();
+        if live.is_empty() {
+            break;
+        }
+        let mut count: Vec<(usize, usize)> = Vec::new();
+        for p in &live {
+            for i in [p.0, p.1] {
+                match count.iter_mut().find(|c| c.0 == i) {
+                    Some(c) => c.1 += 1,
+                    None => count.push((i, 1)),
+                }
+            }
+        }
+        let top = count.iter().map(|c| c.1).max().unwrap_or(0);
+        let worst: Vec<usize> = count.iter().filter(|c| c.1 == top).map(|c| c.0).collect();
+        if worst.len() == 1 {
+            out.push(worst[0]);
+        } else {
+            alone = false;
+            out.extend(count.iter().map(|c| c.0));
+            break;
+        }
+    }
+    for &i in &out {
+        let Some(at) = found[i].corner() else {
+            continue;
+        };
+        let (misfit, distance) = bad
+            .iter()
+            .filter(|p| p.0 == i || p.1 == i)
+            .map(|p| (p.2, p.3))
+            .fold((0.0, 0.0), |a, b| if b.0 > a.0 { b } else { a });
+        found[i].outcome = Err(Failure::OffLayout {
+            at,
+            misfit,
+            distance,
+            alone,
+        });
+    }
+    out.len()
 }
 
 /// Found targets far from where the others place them: (index, error, the

@@ -629,10 +629,15 @@ fn evaluate(
     if !doubled.is_empty() {
         warnings.push(Warning::Doubled(doubled));
     }
+    // Metres of disagreement with the survey's layout are no map's error,
+    // however few targets were located.
+    frame::off_layout(&mut found, survey, &opts);
     for (i, r) in found.iter().enumerate() {
         if matches!(
             r.outcome,
-            Err(Failure::FarFromOthers { .. } | Failure::SameObject { .. })
+            Err(Failure::FarFromOthers { .. }
+                | Failure::SameObject { .. }
+                | Failure::OffLayout { .. })
         ) {
             wrong.push(survey.targets[i].id.clone());
         }
@@ -804,6 +809,31 @@ fn too_few_found(
         survey.targets.len(),
         cfg.metrics.align.name(),
     );
+    // Objects located where the survey says, but in a layout no map bends
+    // to: the survey (or the unit) is the first suspect, not the frame.
+    if found
+        .iter()
+        .any(|r| matches!(r.outcome, Err(Failure::OffLayout { alone: false, .. })))
+    {
+        let off: Vec<String> = found
+            .iter()
+            .filter_map(|r| match &r.outcome {
+                Err(Failure::OffLayout {
+                    misfit, distance, ..
+                }) => Some(format!("{} {misfit:.2} m off over {distance:.1} m", r.id)),
+                _ => None,
+            })
+            .collect();
+        msg += &format!(
+            ". The objects located at the surveyed places do not stand as the survey places them (their distances to each other: {})",
+            off.join(", ")
+        );
+        if let Some(r) = frame::distance_ratio(&frame::placed(found), survey) {
+            msg += &format!("; map distances are {r:.3} × the survey's, median over the pairs");
+        }
+        msg += ", by more than any map's error: check the survey's positions, ids and unit (metres, both files), and that these objects are the targets";
+        return Error::Input(msg);
+    }
     // The plates' size first: the frame is not to blame.
     if let Some(size) = other_plate_size(found, cfg) {
         msg += ". ";

@@ -57,6 +57,19 @@ pub enum Failure {
     /// The target is mapped twice (a loop closed badly): a plate shows two
     /// layers, and the located corner is a blend of the copies.
     Doubled(crate::locate::Doubled),
+    /// Its distance to another located target disagrees with the survey's
+    /// by more than any map's error over that distance (`alone`: the others
+    /// agree with the survey; else no target agrees with the others).
+    OffLayout {
+        /// Where the object was (evaluation frame).
+        at: Point,
+        /// The largest disagreement of its distances with the survey's (m).
+        misfit: f64,
+        /// That pair's surveyed distance (m).
+        distance: f64,
+        /// Whether it alone was singled out.
+        alone: bool,
+    },
     /// The object located is the one another target was located at, and
     /// that target was expected nearer to it: no object serves two targets.
     SameObject {
@@ -74,9 +87,10 @@ impl Failure {
             Failure::NoLoosePoints => "loose",
             Failure::HandCrop(_) | Failure::Tight(_) => "tight",
             Failure::Locate(_) => "locate",
-            Failure::FarFromOthers { .. } | Failure::SameObject { .. } | Failure::Doubled(_) => {
-                "check"
-            }
+            Failure::FarFromOthers { .. }
+            | Failure::OffLayout { .. }
+            | Failure::SameObject { .. }
+            | Failure::Doubled(_) => "check",
         }
     }
 }
@@ -131,6 +145,23 @@ impl std::fmt::Display for Failure {
                     )
                 } else {
                     f.write_str(": not this target, or a map or survey error (it was not searched for where they place it; with hand crops, check this target's crop)")
+                }
+            }
+            Failure::OffLayout {
+                at,
+                misfit,
+                distance,
+                alone,
+            } => {
+                write!(
+                    f,
+                    "the object located at ({:.2}, {:.2}) is {misfit:.2} m off in its distance to another located target ({distance:.1} m apart in the survey): more than a map's error over that distance",
+                    at.x, at.y
+                )?;
+                if *alone {
+                    f.write_str(", where the other targets agree with the survey: not this target, or a wrong survey position or id")
+                } else {
+                    f.write_str(", and no located target agrees with the others: check the survey (positions, ids, unit) and that these objects are the targets")
                 }
             }
             Failure::Doubled(d) => {

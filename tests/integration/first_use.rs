@@ -693,6 +693,71 @@ fn a_survey_of_other_places_and_a_map_without_targets_are_told_apart() {
     );
 }
 
+/// Issue 30: objects located where the survey places them but in a layout
+/// no map bends to (metres off over tens of metres) were scored "ok" with
+/// metre-level errors when too few targets were found for the leave-one-out
+/// check; they are set aside, whatever the frame mode, and the run says the
+/// survey is the suspect. A survey in feet is named as such.
+#[test]
+fn a_layout_off_by_metres_is_refused_and_a_survey_in_feet_is_named() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    // Two and three targets, each moved 3 m a different way.
+    for (keep, name) in [(2usize, "two.csv"), (3, "three.csv")] {
+        let sv = dir.path().join(name);
+        let text = std::fs::read_to_string(&survey).unwrap();
+        let mut out = String::new();
+        for (i, l) in text.lines().enumerate() {
+            if i > keep {
+                break;
+            }
+            let mut f: Vec<String> = l.split(',').map(String::from).collect();
+            match i {
+                1 => add_to(&mut f[1], 3.0),
+                2 => add_to(&mut f[2], -3.0),
+                _ => {}
+            }
+            out += &(f.join(",") + "\n");
+        }
+        std::fs::write(&sv, out).unwrap();
+        let o = bin()
+            .args(["eval", "--frame", "survey", "--no-report", "--map"])
+            .arg(&map)
+            .arg("--survey")
+            .arg(&sv)
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{name}: {e}");
+        assert!(
+            e.contains("do not stand as the survey places them")
+                && e.contains("by more than any map's error")
+                && e.contains("map distances are"),
+            "{name}: {e}"
+        );
+    }
+    let feet = dir.path().join("feet.csv");
+    edit_survey(&survey, &feet, |f| {
+        for k in [1, 2, 3] {
+            let v: f64 = f[k].parse().unwrap();
+            f[k] = format!("{:.4}", v / 0.3048);
+        }
+    });
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&feet)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("the survey looks to be in feet") && e.contains("5 of its 5 targets"),
+        "{e}"
+    );
+}
+
 /// Issue 31: a float32 map far from its origin. UTM northings (5.4e6 m)
 /// keep half-metre steps: refused, saying so (it was "no frame found");
 /// eastings alone (3e5 m, 31 mm steps) are measured, with a warning.
