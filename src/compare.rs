@@ -3,6 +3,7 @@
 //! targets (seeded, sequential: deterministic). Definitions in
 //! `docs/uncertainty.md`.
 
+use crate::accuracy::{ScaleEstimate, t975};
 use crate::record::ResultFile;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -78,6 +79,64 @@ pub struct Comparison {
     pub e_abs: Difference,
     /// Mean relative error on the common pairs.
     pub e_rel: Difference,
+    /// Each map's horizontal scale and their difference, when both runs
+    /// scored 3 or more targets.
+    pub scale: Option<ScaleDiff>,
+}
+
+/// Two runs' scales (each from its own scored targets' layout) and B − A.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ScaleDiff {
+    /// A's scale.
+    pub a: ScaleEstimate,
+    /// B's scale.
+    pub b: ScaleEstimate,
+    /// B − A (ppm).
+    pub diff_ppm: f64,
+    /// 95 % interval of B − A (ppm): the two runs' half-widths added in
+    /// quadrature (their errors are independent).
+    pub ci95_ppm: [f64; 2],
+}
+
+/// A run's scale: result.json's, or (a file written before it was
+/// recorded) from its scored targets' survey and map positions.
+fn run_scale(r: &ResultFile) -> Option<ScaleEstimate> {
+    r.scale.or_else(|| {
+        let pairs: Vec<([f64; 2], [f64; 2])> = r
+            .targets
+            .iter()
+            .filter(|t| t.status == "ok")
+            .filter_map(|t| t.map.map(|m| ([t.survey.x, t.survey.y], [m.x, m.y])))
+            .collect();
+        crate::accuracy::layout_scale(&pairs)
+    })
+}
+
+/// The one-line verdict on the maps' scales, when both runs have one.
+pub fn scale_verdict(c: &Comparison) -> Option<String> {
+    let d = c.scale?;
+    let [a, b] = &c.names;
+    let [lo, hi] = d.ci95_ppm;
+    Some(if lo > 0.0 || hi < 0.0 {
+        format!(
+            "scale: {b}'s map is {} against {a}'s by {:.0} ppm, 95 % CI [{:.0}, {:.0}] ppm ({a} {:+.0}, {b} {:+.0} ppm against the survey)",
+            if d.diff_ppm > 0.0 {
+                "stretched"
+            } else {
+                "shrunk"
+            },
+            d.diff_ppm.abs(),
+            lo.abs().min(hi.abs()),
+            lo.abs().max(hi.abs()),
+            d.a.ppm,
+            d.b.ppm
+        )
+    } else {
+        format!(
+            "scale: no significant difference ({b} − {a} = {:+.0} ppm, 95 % CI [{:.0}, {:.0}] ppm)",
+            d.diff_ppm, lo, hi
+        )
+    })
 }
 
 /// Compares `b` with `a` on the targets both located.
@@ -171,6 +230,17 @@ pub fn compare(a: &ResultFile, b: &ResultFile, names: [String; 2]) -> crate::Res
             diff: e_rel_b - e_rel_a,
             ci95: if pairs.is_empty() { None } else { ci_rel },
         },
+        scale: run_scale(a).zip(run_scale(b)).map(|(sa, sb)| {
+            let half = |s: &ScaleEstimate| (s.ci95_ppm[1] - s.ci95_ppm[0]) / 2.0;
+            let h = half(&sa).hypot(half(&sb));
+            let diff_ppm = sb.ppm - sa.ppm;
+            ScaleDiff {
+                a: sa,
+                b: sb,
+                diff_ppm,
+                ci95_ppm: [diff_ppm - h, diff_ppm + h],
+            }
+        }),
         targets,
         pairs,
     })
@@ -359,21 +429,6 @@ pub struct AcrossRuns {
     /// low end clamped at 0: the values are error magnitudes, and a t
     /// interval of two runs (t = 12.7) reaches far below 0.
     pub ci95: [f64; 2],
-}
-
-/// Student's t 0.975 quantile for `dof` degrees of freedom (table to 30, then
-/// the normal limit with the first correction term).
-fn t975(dof: usize) -> f64 {
-    const T: [f64; 30] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-        2.052, 2.048, 2.045, 2.042,
-    ];
-    match dof {
-        0 => f64::NAN,
-        d if d <= 30 => T[d - 1],
-        d => 1.959_964 + 2.372 / d as f64,
-    }
 }
 
 /// Mean and 95 % interval of `values` (one per run: error magnitudes, never

@@ -6,10 +6,13 @@
 
 mod asprs;
 pub mod intervals;
+mod scale;
 mod stats;
 
 pub use asprs::{Asprs, AsprsCaveat};
 pub use intervals::{Ci95, Interval, Intervals};
+pub use scale::{ScaleEstimate, layout_scale};
+pub(crate) use stats::t975;
 pub use stats::{AxisStats, PairError, Summary, dist, leave_one_out, relative_errors, summarize};
 
 use crate::align::{self, AlignMethod, Alignment};
@@ -222,6 +225,9 @@ pub struct Accuracy {
     pub estimates_only: Vec<String>,
     /// 95 % intervals of E_abs, E_rel and RMSE_H (`intervals.rs`).
     pub intervals: Intervals,
+    /// The map's horizontal scale against the survey's, from the scored
+    /// targets' layout (3 or more), whatever the alignment.
+    pub scale: Option<ScaleEstimate>,
     /// Caveats for the reader.
     pub warnings: Vec<Warning>,
 }
@@ -504,8 +510,16 @@ pub fn score_with_covariances(
         })
         .collect();
     warnings.extend(gross_errors(&ids, &abs, &residuals, &covs_survey));
+    let scale = layout_scale(
+        &sur_pts
+            .iter()
+            .zip(&map_pts)
+            .map(|(s, m)| ([s.x, s.y], [m.x, m.y]))
+            .collect::<Vec<_>>(),
+    );
 
     Ok(Accuracy {
+        scale,
         dim,
         fit: Fit {
             alignment: al,

@@ -176,3 +176,18 @@ pub(crate) fn axis(v: &[f64]) -> AxisStats {
         rmse,
     }
 }
+
+/// Student's t 0.975 quantile for `dof` degrees of freedom (table to 30, then
+/// the normal limit with the first correction term).
+pub(crate) fn t975(dof: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    match dof {
+        0 => f64::NAN,
+        d if d <= 30 => T[d - 1],
+        d => 1.959_964 + 2.372 / d as f64,
+    }
+}

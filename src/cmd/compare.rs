@@ -86,6 +86,9 @@ pub fn run(a: Args) -> Result<()> {
                     "verdict_e_rel".into(),
                     compare::verdict(&c, &c.e_rel, "E_rel").into(),
                 );
+                if let Some(v) = compare::scale_verdict(&c) {
+                    o.insert("verdict_scale".into(), v.into());
+                }
             }
             outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
         }
@@ -165,7 +168,10 @@ fn text(c: &Comparison, f: TableFormat) -> String {
     for line in [
         compare::verdict(c, &c.e_abs, "E_abs"),
         compare::verdict(c, &c.e_rel, "E_rel"),
-    ] {
+    ]
+    .into_iter()
+    .chain(compare::scale_verdict(c))
+    {
         o += &line;
         o += if f == TableFormat::Markdown {
             "  \n"

@@ -43,6 +43,7 @@ impl ResultFile {
                 survey_only: acc.survey_only.clone(),
                 estimates_only: acc.estimates_only.clone(),
             },
+            scale: acc.scale,
             warnings: acc.warnings.iter().map(warning_text).collect(),
             eval: None,
         }

@@ -307,6 +307,11 @@ pub struct ResultFile {
     /// Ids on one side only.
     #[serde(default)]
     pub unmatched: Unmatched,
+    /// The map's horizontal scale against the survey's (ppm, with its 95 %
+    /// interval), from a similarity fit of the scored targets' layout
+    /// whatever the alignment used; absent with fewer than 3.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<crate::accuracy::ScaleEstimate>,
     /// Caveats for the reader.
     #[serde(default)]
     pub warnings: Vec<String>,

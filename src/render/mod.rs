@@ -12,7 +12,7 @@ pub use tables::{
     surveyed_elsewhere, target_label, targets_grid,
 };
 pub use text::render_text;
-pub(crate) use text::{fixed, mm};
+pub(crate) use text::{fixed, mm, signed_ppm};
 
 use crate::{Error, Result};
 use std::fmt::Write as _;

@@ -38,6 +38,16 @@ pub(crate) fn fixed(v: f64, d: usize) -> String {
     }
 }
 
+/// Parts per million with a sign and no decimals ("+1520", "−310", "0").
+pub(crate) fn signed_ppm(v: f64) -> String {
+    let r = v.round();
+    if r == 0.0 {
+        "0".into()
+    } else {
+        format!("{r:+.0}")
+    }
+}
+
 /// Every pair for the terminal: distances in metres, errors in millimetres as
 /// everywhere else on the terminal and in the report (`pairs.csv` keeps metres).
 fn pairs_mm(r: &ResultFile) -> Grid {
@@ -140,6 +150,25 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
                 let _ = writeln!(o, "    {k:<6} {v}");
             }
         }
+    }
+    if let Some(sc) = &r.scale {
+        let _ = writeln!(
+            o,
+            "  scale  {} ppm, 95 % [{}, {}] (the map's horizontal distances against the survey's, from {} targets{})",
+            signed_ppm(sc.ppm),
+            signed_ppm(sc.ci95_ppm[0]),
+            signed_ppm(sc.ci95_ppm[1]),
+            sc.n,
+            if sc.ci95_ppm[0] > 0.0 || sc.ci95_ppm[1] < 0.0 {
+                if sc.ppm > 0.0 {
+                    ": the map is stretched"
+                } else {
+                    ": the map is shrunk"
+                }
+            } else {
+                ""
+            }
+        );
     }
     let _ = writeln!(
         o,

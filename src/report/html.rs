@@ -364,6 +364,20 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
             crate::render::fixed(a.translation[1], 3)
         ),
     );
+    if let Some(sc) = &r.scale {
+        let ppm = crate::render::signed_ppm;
+        card(
+            &mut o,
+            "Scale",
+            &format!("{} ppm", ppm(sc.ppm)),
+            &format!(
+                "95 % [{}, {}] · the map's distances against the survey's, {} targets",
+                ppm(sc.ci95_ppm[0]),
+                ppm(sc.ci95_ppm[1]),
+                sc.n
+            ),
+        );
+    }
     card(
         &mut o,
         "Targets found",

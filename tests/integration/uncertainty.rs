@@ -257,3 +257,65 @@ fn table_stats_adds_mean_and_interval_rows() {
     );
     assert!(lo < 0.0164 && hi > 0.1793, "{lo} {hi}");
 }
+
+/// Issue 31: a map stretched by 1.5 ‰ came out "no significant difference"
+/// from the same map unstretched. Each run now states its horizontal scale
+/// with an interval, and `compare` the difference: +1500 ppm within its
+/// interval, which excludes 0.
+#[test]
+fn a_stretched_map_shows_its_scale_and_compare_says_so() {
+    use crate::util::{bin, stdout_ok, tempdir};
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    stdout_ok(
+        bin()
+            .args(["synth", "--points", "1000000", "--seed", "4", "--out"])
+            .arg(&scene),
+    );
+    let map = scene.join("map.ply");
+    let pts = mapgauge::cloud::read_all(&map).unwrap();
+    let c = pts
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |a, p| a + p.coords)
+        / pts.len() as f64;
+    let k = 1.0015;
+    let stretched: Vec<mapgauge::Point> = pts
+        .iter()
+        .map(|p| mapgauge::Point::new(c.x + k * (p.x - c.x), c.y + k * (p.y - c.y), p.z))
+        .collect();
+    let map_b = dir.path().join("stretched.ply");
+    mapgauge::cloud::write(&map_b, mapgauge::cloud::OutFormat::Ply, &stretched).unwrap();
+    let survey = scene.join("survey.csv");
+    let mut scales = Vec::new();
+    for (m, out) in [(&map, "a"), (&map_b, "b")] {
+        let text = stdout_ok(
+            bin()
+                .args(["eval", "--no-report", "--map"])
+                .arg(m)
+                .arg("--survey")
+                .arg(&survey)
+                .arg("--out")
+                .arg(dir.path().join(out)),
+        );
+        assert!(text.contains("  scale  "), "{text}");
+        let r: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(out).join("result.json")).unwrap(),
+        )
+        .unwrap();
+        scales.push(r["scale"]["ppm"].as_f64().unwrap());
+    }
+    // The synthetic map's own drift stretches it a little; the difference
+    // is the 1500 ppm put in.
+    assert!((scales[1] - scales[0] - 1500.0).abs() < 150.0, "{scales:?}");
+    let out = stdout_ok(
+        bin()
+            .arg("compare")
+            .arg(dir.path().join("a/result.json"))
+            .arg(dir.path().join("b/result.json"))
+            .args(["--names", "a,b"]),
+    );
+    assert!(
+        out.contains("scale: b's map is stretched against a's by 1"),
+        "{out}"
+    );
+}
