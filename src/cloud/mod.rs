@@ -274,6 +274,19 @@ pub fn map_projector(path: &Path) -> Result<Option<std::path::PathBuf>> {
     }
 }
 
+/// The coordinate reference system the map's header declares (LAS, LAZ,
+/// COPC), when it declares one: such a map is georeferenced, its z vertical
+/// by construction.
+pub fn declared_crs(path: &Path) -> Option<String> {
+    if is_tiled(path) {
+        return None;
+    }
+    match detect(path).ok()? {
+        Format::Las | Format::Laz => las::declared_crs(path),
+        _ => None,
+    }
+}
+
 /// Size of the map at `path` in bytes (a tiled map's tiles together), for
 /// progress; 0 when it cannot be told.
 pub fn map_bytes(path: &Path) -> u64 {

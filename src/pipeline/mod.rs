@@ -84,6 +84,14 @@ pub enum Warning {
         /// The farthest coordinate from the origin (m).
         reach_m: f64,
     },
+    /// The ground leans, but the map's header declares a coordinate
+    /// reference system: not levelled.
+    Georeferenced {
+        /// The CRS as named (`EPSG:32633`).
+        crs: String,
+        /// The ground's lean (degrees).
+        tilt_deg: f64,
+    },
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
         /// Total tilt corrected (degrees).
@@ -141,6 +149,10 @@ impl std::fmt::Display for Warning {
                 } else {
                     format!("{:.1} mm", step_m * 1e3)
                 }
+            ),
+            Warning::Georeferenced { crs, tilt_deg } => write!(
+                f,
+                "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines still may, when they all lean beyond their scatter)"
             ),
             Warning::Levelled {
                 tilt_deg,
@@ -349,10 +361,27 @@ fn evaluate(
     // `--align none` scores the map in the survey frame as it is: nothing
     // may turn it.
     let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
-    let mut motion = if no_turn {
-        RigidMotion::identity_at(ground.centre)
-    } else {
-        ground.levelling(cfg.frame.level_above_deg)
+    // A georeferenced map (its header declares a CRS) has z vertical by
+    // construction: a lean of its ground is the terrain's (an airborne
+    // scan of a hillside), not the map's.
+    let declared_crs = match source {
+        MapSource::File(p) => crate::cloud::declared_crs(p),
+        MapSource::Points(_) => None,
+    };
+    let leaning = ground
+        .level
+        .as_ref()
+        .filter(|l| l.tilt_deg > cfg.frame.level_above_deg);
+    let mut motion = match (no_turn, &declared_crs, leaning) {
+        (true, _, _) => RigidMotion::identity_at(ground.centre),
+        (false, Some(crs), Some(l)) => {
+            warnings.push(Warning::Georeferenced {
+                crs: crs.clone(),
+                tilt_deg: l.tilt_deg,
+            });
+            RigidMotion::identity_at(ground.centre)
+        }
+        _ => ground.levelling(cfg.frame.level_above_deg),
     };
     let ground_up = ground.level.as_ref().map(|l| l.up);
     // What each pass read, in order (result.json `eval.reads`).

@@ -656,3 +656,81 @@ fn a_levelled_maps_heights_move_within_the_stated_vertical_uncertainty() {
         "heights moved {worst} m, bound {bound} m"
     );
 }
+
+/// Issue 30: a map whose LAS header declares a coordinate reference system
+/// is georeferenced, its z vertical by construction: the lean of its ground
+/// is the terrain's (an airborne LAS on a 17° hillside was "levelled" by
+/// 5°), so the ground does not level it, and a warning says so. The same
+/// points without the CRS are levelled by the ground as before.
+#[test]
+fn a_georeferenced_las_is_not_levelled_by_its_ground() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    synth(
+        &scene,
+        &["--points", "1500000", "--tilt-deg", "7", "--seed", "3"],
+    );
+    let pts = mapgauge::cloud::read_all(&scene.join("map.pcd")).unwrap();
+    let c = pts[0];
+    let write = |name: &str, wkt: Option<&[u8]>| {
+        let mut b = las::Builder::from((1, 4));
+        b.point_format = las::point::Format::new(0).unwrap();
+        let t = |offset: f64| las::Transform {
+            scale: 0.0001,
+            offset: offset.round(),
+        };
+        b.transforms = las::Vector {
+            x: t(c.x),
+            y: t(c.y),
+            z: t(c.z),
+        };
+        let mut h = b.into_header().unwrap();
+        if let Some(w) = wkt {
+            h.set_wkt_crs(w.to_vec()).unwrap();
+        }
+        let path = dir.path().join(name);
+        let mut w = las::Writer::from_path(&path, h).unwrap();
+        for p in &pts {
+            w.write_point(las::Point {
+                x: p.x,
+                y: p.y,
+                z: p.z,
+                ..Default::default()
+            })
+            .unwrap();
+        }
+        w.close().unwrap();
+        path
+    };
+    let geo = write(
+        "geo.las",
+        Some(br#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84"]]"#),
+    );
+    let plain = write("plain.las", None);
+    let run = |map: &Path, out: &str| {
+        let o = bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(map)
+            .arg("--survey")
+            .arg(scene.join("survey.csv"))
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        (stderr(&o), result(&dir.path().join(out)))
+    };
+    let (e, r) = run(&geo, "geo");
+    assert!(
+        e.contains("declares a coordinate reference system (WGS 84 / UTM zone 33N)")
+            && e.contains("the ground does not level it"),
+        "{e}"
+    );
+    let lev = &r["eval"]["frame"]["levelling"];
+    println!("georeferenced: {lev}; warnings {}", r["warnings"]);
+    assert!(lev["ground_tilt_deg"].as_f64().unwrap() > 6.0, "{lev}");
+    let (e, r) = run(&plain, "plain");
+    assert!(!e.contains("coordinate reference system"), "{e}");
+    let lev = &r["eval"]["frame"]["levelling"];
+    assert!(lev["tilt_deg"].as_f64().unwrap() > 6.0, "{lev}");
+}

@@ -54,6 +54,34 @@ fn push_record(r: &[u8], t: &las::Vector<las::Transform>, out: &mut Vec<Point>) 
 }
 
 /// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
+/// The coordinate reference system a LAS/LAZ/COPC header declares (a
+/// `LASF_Projection` record: GeoTIFF keys or OGC WKT), named for a user
+/// (`EPSG:32633`, or the WKT's first name); `None` when it declares none or
+/// the header cannot be read (the points' reader says why).
+pub(super) fn declared_crs(path: &Path) -> Option<String> {
+    let reader = las::Reader::from_path(path).ok()?;
+    let h = reader.header();
+    if let Some(wkt) = h.get_wkt_crs_bytes() {
+        return Some(wkt_name(&String::from_utf8_lossy(wkt)));
+    }
+    let keys = h.get_geotiff_crs().ok()??;
+    // An EPSG code names it; user-defined (32767) and omitted (0) do not.
+    let code = keys
+        .get_projected_crs_geo_key_value()
+        .or(keys.get_geodetic_crs_geo_key_value())
+        .filter(|&c| c != 0 && c != 32767);
+    Some(code.map_or("GeoTIFF keys".into(), |c| format!("EPSG:{c}")))
+}
+
+/// A WKT's name: its first quoted string (`PROJCS["WGS 84 / UTM zone 33N", …`).
+fn wkt_name(wkt: &str) -> String {
+    let mut parts = wkt.split('"');
+    match (parts.next(), parts.next()) {
+        (Some(_), Some(name)) if !name.trim().is_empty() => name.trim().to_string(),
+        _ => "a WKT coordinate system".into(),
+    }
+}
+
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let chunked = std::env::var_os(chunked::CRATE_PATH_ENV).is_none();
     open_with(path, true, chunked)
