@@ -46,7 +46,13 @@ pub fn run(a: Args) -> Result<()> {
     }
     let source = MapSource::File(&a.map);
     let ground = ground_level(source, None, None, |_| {})?;
-    let motion = ground.levelling(a.level_above);
+    // A georeferenced map (its header declares a CRS) is vertical by
+    // construction, as in `eval`: its ground's lean is the terrain's.
+    let crs = mapgauge::cloud::declared_crs(&a.map);
+    let motion = match &crs {
+        Some(_) => mapgauge::cloud::RigidMotion::identity_at(ground.centre),
+        None => ground.levelling(a.level_above),
+    };
     let found = detect_map(
         source,
         &ground,
@@ -66,10 +72,12 @@ pub fn run(a: Args) -> Result<()> {
                 l.azimuth_deg,
                 100.0 * l.support,
                 l.blocks,
-                if motion.is_identity() {
-                    String::new()
-                } else {
-                    "; the map was levelled for detection".into()
+                match (&crs, motion.is_identity()) {
+                    (Some(c), _) if l.tilt_deg > a.level_above => format!(
+                        "; not levelled: the map declares a coordinate reference system ({c}), z vertical by construction"
+                    ),
+                    (_, false) => "; the map was levelled for detection".into(),
+                    _ => String::new(),
                 }
             );
         }

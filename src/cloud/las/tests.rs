@@ -615,3 +615,24 @@ fn laz14_header_count_caps_or_refuses() {
     // The crate path fails too (when reading).
     assert!(all_of(&path, true, false).is_err());
 }
+
+/// A real airborne LAS declares its CRS by GeoTIFF keys (Autzen: EPSG:2994,
+/// tests/data/real/README.md); a LAS written without one declares none.
+#[test]
+fn the_declared_crs_is_read_from_geotiff_keys() {
+    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/autzen.las");
+    assert_eq!(declared_crs(&real).as_deref(), Some("EPSG:2994"));
+    assert_eq!(
+        crate::cloud::declared_crs(&real).as_deref(),
+        Some("EPSG:2994")
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain.las");
+    write_with_crate(&plain, 0, (1, 2), &truth(10));
+    assert_eq!(declared_crs(&plain), None);
+    assert_eq!(
+        wkt_name("PROJCS[\"WGS 84 / UTM zone 33N\",GEOGCS"),
+        "WGS 84 / UTM zone 33N"
+    );
+    assert_eq!(wkt_name("garbage"), "a WKT coordinate system");
+}
