@@ -16,6 +16,23 @@ fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     (scene.join("map.ply"), scene.join("survey.csv"))
 }
 
+/// `eval --no-report` of `map` against `survey` with `extra` flags, which
+/// must be refused (exit 1): its stderr.
+fn eval_refused(map: &Path, survey: &Path, extra: &[&str]) -> String {
+    let o = bin()
+        .args(["eval", "--no-report"])
+        .args(extra)
+        .arg("--map")
+        .arg(map)
+        .arg("--survey")
+        .arg(survey)
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    e
+}
+
 #[test]
 fn crop_tight_then_locate_works_and_a_loose_crop_is_named() {
     let d = tempdir();
@@ -634,15 +651,7 @@ fn a_survey_of_other_places_and_a_map_without_targets_are_told_apart() {
         let x: f64 = f[1].parse().unwrap();
         f[1] = format!("{:.4}", 0.7 * x + 3.0);
     });
-    let o = bin()
-        .args(["eval", "--no-report", "--map"])
-        .arg(&map)
-        .arg("--survey")
-        .arg(&stretched)
-        .output()
-        .unwrap();
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    let e = eval_refused(&map, &stretched, &[]);
     assert!(
         e.contains("no target where the survey places them (of its 5 places:")
             && e.contains("detection map-wide found 5 target-shaped object(s)")
@@ -675,15 +684,7 @@ fn a_survey_of_other_places_and_a_map_without_targets_are_told_apart() {
         .collect();
     let bare = dir.path().join("bare.ply");
     mapgauge::cloud::write(&bare, mapgauge::cloud::OutFormat::Ply, &pts).unwrap();
-    let o = bin()
-        .args(["eval", "--no-report", "--map"])
-        .arg(&bare)
-        .arg("--survey")
-        .arg(&survey)
-        .output()
-        .unwrap();
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    let e = eval_refused(&bare, &survey, &[]);
     assert!(
         e.contains("no target where the survey places them")
             && e.contains("detection map-wide found no target-shaped object")
@@ -720,15 +721,7 @@ fn a_layout_off_by_metres_is_refused_and_a_survey_in_feet_is_named() {
             out += &(f.join(",") + "\n");
         }
         std::fs::write(&sv, out).unwrap();
-        let o = bin()
-            .args(["eval", "--frame", "survey", "--no-report", "--map"])
-            .arg(&map)
-            .arg("--survey")
-            .arg(&sv)
-            .output()
-            .unwrap();
-        let e = stderr(&o);
-        assert_eq!(o.status.code(), Some(1), "{name}: {e}");
+        let e = eval_refused(&map, &sv, &["--frame", "survey"]);
         assert!(
             e.contains("do not stand as the survey places them")
                 && e.contains("by more than any map's error")
@@ -743,15 +736,7 @@ fn a_layout_off_by_metres_is_refused_and_a_survey_in_feet_is_named() {
             f[k] = format!("{:.4}", v / 0.3048);
         }
     });
-    let o = bin()
-        .args(["eval", "--no-report", "--map"])
-        .arg(&map)
-        .arg("--survey")
-        .arg(&feet)
-        .output()
-        .unwrap();
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    let e = eval_refused(&map, &feet, &[]);
     assert!(
         e.contains("the survey looks to be in feet") && e.contains("5 of its 5 targets"),
         "{e}"

@@ -463,21 +463,15 @@ fn loose_panels(f: &mut Figure, v: &LooseView) {
             f.marker(top.map(at.0, at.1), MarkerKind::Cross, 7.0, palette::ERROR);
         }
     }
-    if let Some(s) = v.survey.filter(|s| top.contains(s.x - c.x, s.y - c.y)) {
-        f.marker(
-            top.map(s.x - c.x, s.y - c.y),
-            MarkerKind::Diamond,
-            6.0,
-            palette::SURVEY,
-        );
-    }
-    if let Some(k) = v.corner.filter(|k| top.contains(k.x - c.x, k.y - c.y)) {
-        f.marker(
-            top.map(k.x - c.x, k.y - c.y),
-            MarkerKind::Plus,
-            8.0,
-            palette::ESTIMATE,
-        );
+    // The survey's position (aligned into the map) and a corner located.
+    let marks = [
+        (v.survey, MarkerKind::Diamond, 6.0, palette::SURVEY),
+        (v.corner, MarkerKind::Plus, 8.0, palette::ESTIMATE),
+    ];
+    for (p, kind, size, color) in marks {
+        if let Some(p) = p.filter(|p| top.contains(p.x - c.x, p.y - c.y)) {
+            f.marker(top.map(p.x - c.x, p.y - c.y), kind, size, color);
+        }
     }
     let side_of = |p: &Point| (p.x - c.x, p.z - c.z);
     let (sx, sz) = if loose.is_empty() {
