@@ -94,7 +94,8 @@ pub struct ScaleDiff {
     /// B − A (ppm).
     pub diff_ppm: f64,
     /// 95 % interval of B − A (ppm): the two runs' half-widths added in
-    /// quadrature (their errors are independent).
+    /// quadrature, as if independent; against one survey its errors are
+    /// shared and cancel in B − A, so the interval is conservative.
     pub ci95_ppm: [f64; 2],
 }
 

@@ -416,6 +416,11 @@ pub fn write_outputs(
         refuse_overwrite(&out.join(name), inputs)?;
     }
     render::write_outputs(result, out)?;
+    // An earlier failed run's reasons would read as this run's.
+    let stale = out.join("failed.csv");
+    if stale.exists() && !inputs.iter().any(|i| *i == stale) {
+        std::fs::remove_file(&stale).map_err(|e| Error::io(&stale, e))?;
+    }
     if save_crops {
         write_crops(&ev.targets, out, inputs)?;
     }
@@ -455,6 +460,14 @@ fn save_failure(
     let targets = &f.targets;
     super::check_out_dir(out)?;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    // An earlier run's result beside this run's failure would read as this
+    // run's: said, not deleted (it is the user's).
+    if out.join("result.json").exists() {
+        eprintln!(
+            "warning: {} (and its targets.csv, pairs.csv) is from an earlier run: this run did not score",
+            out.join("result.json").display()
+        );
+    }
     if crops {
         write_crops(targets, out, inputs)?;
     }

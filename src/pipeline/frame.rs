@@ -471,12 +471,14 @@ pub(super) fn turn_targets(
 /// A map's distance between two targets may disagree with the survey's by
 /// at most this much (m) plus [`LAYOUT_REL`] of the distance: LiDAR odometry
 /// without loop closure drifts 0.5–2 % (KITTI's worst), a projection's grid
-/// scale is within 0.5 %, a target's corner is known to centimetres. Metres
-/// over tens of metres are no map's error but a wrong object, survey
-/// position, id or unit.
+/// scale is within 0.5 %, a target's corner is known to centimetres; 5 %
+/// leaves room for a map bent by a failed loop closure (a 3.5° heading error
+/// at a turn is 3.5 % over the diagonal), which must be measured, not set
+/// aside. Metres over tens of metres (a rock 4 m from a surveyed spot 30 m
+/// from the next, a survey in feet) are a wrong object, position, id or unit.
 const LAYOUT_ABS_M: f64 = 0.3;
 /// See [`LAYOUT_ABS_M`].
-const LAYOUT_REL: f64 = 0.02;
+const LAYOUT_REL: f64 = 0.05;
 
 /// Each pair of located targets: (index a, index b, |map − survey distance|,
 /// survey distance, map distance), horizontal unless a 3D score with both
@@ -536,10 +538,12 @@ pub(super) fn distance_ratio(at: &[(usize, Point)], survey: &Survey) -> Option<f
 /// by more than a map's error ([`LAYOUT_ABS_M`], [`LAYOUT_REL`]) become
 /// [`Failure::OffLayout`], whatever the frame mode and however few were
 /// located (`far_from_others` compares with the targets' median misfit,
-/// which needs four, and sees nothing when every one is off). The target in
-/// the most implausible pairs goes first while one stands out; when none
-/// does (two targets, or all of them off), each in an implausible pair goes.
-/// Returns how many were set aside.
+/// which needs four, and sees nothing when every one is off). Greedy: the
+/// target in the most implausible pairs goes first (ties: the larger summed
+/// misfit beyond the limit; a tie on that too, e.g. the two ends of the one
+/// bad pair, sends both), until no implausible pair is left. `alone` says
+/// the targets left agree among themselves (three or more, or more than
+/// were set aside). Returns how many were set aside.
 pub(super) fn off_layout(
     found: &mut [TargetRun],
     survey: &Survey,
@@ -557,34 +561,41 @@ pub(super) fn off_layout(
         .map(|(i, j, miss, s, _)| (i, j, miss, s))
         .collect();
     let mut out: Vec<usize> = Vec::new();
-    let mut alone = true;
     loop {
-        let live: Vec<&(usize, usize, f64, f64)> = bad
+        // Per target still in: (bad pairs, summed misfit beyond the limit).
+        let mut score: Vec<(usize, usize, f64)> = Vec::new();
+        for p in bad
             .iter()
             .filter(|p| !out.contains(&p.0) && !out.contains(&p.1))
-            .collect();
-        if live.is_empty() {
-            break;
-        }
-        let mut count: Vec<(usize, usize)> = Vec::new();
-        for p in &live {
+        {
+            let beyond = p.2 - (LAYOUT_ABS_M + LAYOUT_REL * p.3);
             for i in [p.0, p.1] {
-                match count.iter_mut().find(|c| c.0 == i) {
-                    Some(c) => c.1 += 1,
-                    None => count.push((i, 1)),
+                match score.iter_mut().find(|c| c.0 == i) {
+                    Some(c) => {
+                        c.1 += 1;
+                        c.2 += beyond;
+                    }
+                    None => score.push((i, 1, beyond)),
                 }
             }
         }
-        let top = count.iter().map(|c| c.1).max().unwrap_or(0);
-        let worst: Vec<usize> = count.iter().filter(|c| c.1 == top).map(|c| c.0).collect();
-        if worst.len() == 1 {
-            out.push(worst[0]);
-        } else {
-            alone = false;
-            out.extend(count.iter().map(|c| c.0));
+        let Some(top) = score
+            .iter()
+            .map(|c| (c.1, c.2))
+            .max_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)))
+        else {
             break;
-        }
+        };
+        // Every target with the top score (one, unless the tie is exact).
+        out.extend(
+            score
+                .iter()
+                .filter(|c| c.1 == top.0 && c.2 == top.1)
+                .map(|c| c.0),
+        );
     }
+    let agree = at.len() - out.len();
+    let alone = agree >= 3 || (agree >= 2 && agree > out.len());
     for &i in &out {
         let Some(at) = found[i].corner() else {
             continue;

@@ -860,7 +860,7 @@ fn too_few_found(
         if let Some(r) = frame::distance_ratio(&frame::placed(found), survey) {
             msg += &format!("; map distances are {r:.3} × the survey's, median over the pairs");
         }
-        msg += ", by more than any map's error: check the survey's positions, ids and unit (metres, both files), and that these objects are the targets";
+        msg += ", by more than a working map's error: check the survey's positions, ids and unit (metres, both files), that these objects are the targets, and the map itself (a failed loop closure bends a map by metres)";
         return Error::Input(msg);
     }
     // The plates' size first: the frame is not to blame.

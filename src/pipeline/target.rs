@@ -161,7 +161,7 @@ impl std::fmt::Display for Failure {
                 if *alone {
                     f.write_str(", where the other targets agree with the survey: not this target, or a wrong survey position or id")
                 } else {
-                    f.write_str(", and no located target agrees with the others: check the survey (positions, ids, unit) and that these objects are the targets")
+                    f.write_str(", and too few located targets agree with each other to tell which: check the survey (positions, ids, unit), that these objects are the targets, and the map (a failed loop closure bends a map by metres)")
                 }
             }
             Failure::Doubled(d) => {

@@ -152,9 +152,16 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
         }
     }
     if let Some(sc) = &r.scale {
+        // A WGS84 survey is placed in a local east-north-up frame: a map in
+        // a projected grid (UTM) carries the grid's scale against it.
+        let grid = if r.survey_frame == crate::survey::SurveyFrame::Wgs84Enu {
+            "; a map in a projected grid (UTM) differs from the WGS84 survey's local frame by its grid scale, up to ±1000 ppm"
+        } else {
+            ""
+        };
         let _ = writeln!(
             o,
-            "  scale  {} ppm, 95 % [{}, {}] (the map's horizontal distances against the survey's, from {} targets{})",
+            "  scale  {} ppm, 95 % [{}, {}] (the map's horizontal distances against the survey's, from {} targets{}{grid})",
             signed_ppm(sc.ppm),
             signed_ppm(sc.ci95_ppm[0]),
             signed_ppm(sc.ci95_ppm[1]),

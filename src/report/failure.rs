@@ -80,9 +80,12 @@ pub fn failure_page(map: &str, failed: &Failed, prov: &Provenance) -> String {
         stems.push(stem.clone());
         let corner = t.corner();
         let reason = if reason.is_empty() {
+            // In the map's own frame, as failed.csv gives it.
+            let l = &failed.levelling;
             corner.map_or(String::new(), |c| {
+                let c = if l.is_identity() { c } else { l.invert(&c) };
                 format!(
-                    "a corner located at ({:.3}, {:.3}, {:.3}) m in the map (levelled frame when the map was levelled)",
+                    "a corner located at ({:.3}, {:.3}, {:.3}) m in the map",
                     c.x, c.y, c.z
                 )
             })

@@ -724,7 +724,7 @@ fn a_layout_off_by_metres_is_refused_and_a_survey_in_feet_is_named() {
         let e = eval_refused(&map, &sv, &["--frame", "survey"]);
         assert!(
             e.contains("do not stand as the survey places them")
-                && e.contains("by more than any map's error")
+                && e.contains("by more than a working map's error")
                 && e.contains("map distances are"),
             "{name}: {e}"
         );

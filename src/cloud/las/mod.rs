@@ -53,25 +53,50 @@ fn push_record(r: &[u8], t: &las::Vector<las::Transform>, out: &mut Vec<Point>) 
     finite
 }
 
-/// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
-/// The coordinate reference system a LAS/LAZ/COPC header declares (a
-/// `LASF_Projection` record: GeoTIFF keys or OGC WKT), named for a user
-/// (`EPSG:32633`, or the WKT's first name); `None` when it declares none or
-/// the header cannot be read (the points' reader says why).
+/// The projected or geographic coordinate reference system a LAS/LAZ/COPC
+/// header declares (a `LASF_Projection` record: OGC WKT or GeoTIFF keys),
+/// named for a user (`EPSG:32633`, or the WKT's first name); `None` when it
+/// declares none, only a local or engineering one (a SLAM map's own frame
+/// written with a CRS record), or the header cannot be read (the points'
+/// reader says why).
 pub(super) fn declared_crs(path: &Path) -> Option<String> {
     let reader = las::Reader::from_path(path).ok()?;
     let h = reader.header();
     if let Some(wkt) = h.get_wkt_crs_bytes() {
-        return Some(wkt_name(&String::from_utf8_lossy(wkt)));
+        let wkt = String::from_utf8_lossy(wkt);
+        let kind = wkt.trim_start().split('[').next().unwrap_or("").trim();
+        const EARTH: [&str; 8] = [
+            "PROJCS",
+            "GEOGCS",
+            "COMPD_CS",
+            "PROJCRS",
+            "GEOGCRS",
+            "GEODCRS",
+            "COMPOUNDCRS",
+            "BOUNDCRS",
+        ];
+        return EARTH
+            .iter()
+            .any(|k| kind.eq_ignore_ascii_case(k))
+            .then(|| wkt_name(&wkt));
     }
     let keys = h.get_geotiff_crs().ok()??;
-    // An EPSG code names it; user-defined (32767) and omitted (0) do not.
+    // An EPSG code names it; user-defined (32767) and omitted (0) do not,
+    // but a model type of projected (1) or geographic (2) still says the
+    // frame is the Earth's.
     let code = keys
         .get_projected_crs_geo_key_value()
         .or(keys.get_geodetic_crs_geo_key_value())
         .filter(|&c| c != 0 && c != 32767);
-    Some(code.map_or("GeoTIFF keys".into(), |c| format!("EPSG:{c}")))
+    match (code, keys.get_gt_model_type_geo_key_value()) {
+        (Some(c), _) => Some(format!("EPSG:{c}")),
+        (None, Some(1)) => Some("a user-defined projected CRS".into()),
+        (None, Some(2)) => Some("a user-defined geographic CRS".into()),
+        _ => None,
+    }
 }
+
+/// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
 
 /// A WKT's name: its first quoted string (`PROJCS["WGS 84 / UTM zone 33N", …`).
 fn wkt_name(wkt: &str) -> String {

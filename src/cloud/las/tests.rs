@@ -635,4 +635,25 @@ fn the_declared_crs_is_read_from_geotiff_keys() {
         "WGS 84 / UTM zone 33N"
     );
     assert_eq!(wkt_name("garbage"), "a WKT coordinate system");
+    // A local frame written with a WKT record is no georeference.
+    let mut b = las::Builder::from((1, 4));
+    b.point_format = las::point::Format::new(0).unwrap();
+    for (name, wkt, want) in [
+        (
+            "local.las",
+            &br#"LOCAL_CS["SLAM map",UNIT["metre",1]]"#[..],
+            None,
+        ),
+        (
+            "utm.las",
+            &br#"PROJCRS["WGS 84 / UTM zone 33N",BASEGEOGCRS["WGS 84"]]"#[..],
+            Some("WGS 84 / UTM zone 33N"),
+        ),
+    ] {
+        let mut h = b.clone().into_header().unwrap();
+        h.set_wkt_crs(wkt.to_vec()).unwrap();
+        let p = dir.path().join(name);
+        las::Writer::from_path(&p, h).unwrap().close().unwrap();
+        assert_eq!(declared_crs(&p).as_deref(), want, "{name}");
+    }
 }

@@ -668,38 +668,42 @@ impl ByHeight {
         between(0).saturating_sub(2 * between(1).min(between(2)))
     }
 
-    /// The planar counts of the 2 cm rows `[z0 + i ROW, z0 + (i + 1) ROW]`
-    /// for `i` in `rows`, in that order (up or down). Each edge is searched
-    /// for once, closing one row and opening the next: half the binary
-    /// searches of looking a row up by its two edges, which were most of
-    /// `plate_band`'s time in a cluttered crop (the edge `z0 + (i + 1) ROW`
-    /// may differ from `z0 + i ROW + ROW` in the last bit, and no point of a
-    /// map sits that close to it). Lazy: a walk that stops early searches no
-    /// further.
+    /// The planar counts of the 2 cm rows `[a, a + ROW]`, `a = z0 + i ROW`,
+    /// for `i` in `rows`, in that order (up or down): exactly the old
+    /// per-row lookups. An edge a row shares with the one walked before
+    /// (`a + ROW` and the next row's `a`, equal but in the last bit) is
+    /// searched for once: half the binary searches, which were most of
+    /// `plate_band`'s time in a cluttered crop. Lazy: a walk that stops
+    /// early searches no further.
     fn rows(
         &self,
         z0: f64,
         mut rows: std::ops::Range<usize>,
         down: bool,
     ) -> impl Iterator<Item = usize> + '_ {
-        let at = move |i: usize| self.edge(z0 + i as f64 * ROW);
-        // The edge shared with the row before, in walking order.
-        let mut held: Option<(usize, [(usize, usize); 3])> = None;
+        // The edge last searched for, by its height.
+        let mut held: Option<(f64, [(usize, usize); 3])> = None;
+        let mut at = move |z: f64| match held {
+            Some((h, e)) if h.to_bits() == z.to_bits() => e,
+            _ => {
+                let e = self.edge(z);
+                held = Some((z, e));
+                e
+            }
+        };
         std::iter::from_fn(move || {
             let i = if down { rows.next_back() } else { rows.next() }?;
-            let (lo_i, hi_i) = (i, i + 1);
-            let (shared, other) = if down { (hi_i, lo_i) } else { (lo_i, hi_i) };
-            let first = match held.take() {
-                Some((j, e)) if j == shared => e,
-                _ => at(shared),
-            };
-            let second = at(other);
-            held = Some((other, second));
-            Some(if down {
-                Self::planar(&second, &first)
+            let a = z0 + i as f64 * ROW;
+            let b = a + ROW;
+            // The edge shared with the row before first, then the other.
+            let (ea, eb) = if down {
+                let eb = at(b);
+                (at(a), eb)
             } else {
-                Self::planar(&first, &second)
-            })
+                let ea = at(a);
+                (ea, at(b))
+            };
+            Some(Self::planar(&ea, &eb))
         })
     }
 }
@@ -983,7 +987,7 @@ mod tests {
         let pl = ByHeight::new(&near, w);
         let direct = |i: usize| {
             let a = z0 + i as f64 * ROW;
-            planar_count(&near, 0.15 * w, w, a, z0 + (i + 1) as f64 * ROW).1
+            planar_count(&near, 0.15 * w, w, a, a + ROW).1
         };
         let up: Vec<usize> = pl.rows(z0, 0..20, false).collect();
         assert_eq!(up, (0..20).map(direct).collect::<Vec<_>>());
