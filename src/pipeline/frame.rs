@@ -541,9 +541,9 @@ pub(super) fn distance_ratio(at: &[(usize, Point)], survey: &Survey) -> Option<f
 /// which needs four, and sees nothing when every one is off). Greedy: the
 /// target in the most implausible pairs goes first (ties: the larger summed
 /// misfit beyond the limit; a tie on that too, e.g. the two ends of the one
-/// bad pair, sends both), until no implausible pair is left. `alone` says
-/// the targets left agree among themselves (three or more, or more than
-/// were set aside). Returns how many were set aside.
+/// bad pair, sends both), until no implausible pair is left. The targets
+/// left are kept only when they are more than were set aside (`alone`);
+/// else every located target is set aside. Returns how many were.
 pub(super) fn off_layout(
     found: &mut [TargetRun],
     survey: &Survey,
@@ -594,8 +594,15 @@ pub(super) fn off_layout(
                 .map(|c| c.0),
         );
     }
+    // The targets left are trusted only as a majority of those located: two
+    // that agree where five were set aside (a survey moved 20 m lands some
+    // places on other targets) are as likely a coincidence, and then none is
+    // scored.
     let agree = at.len() - out.len();
-    let alone = agree >= 3 || (agree >= 2 && agree > out.len());
+    let alone = agree >= 2 && agree > out.len();
+    if !out.is_empty() && !alone {
+        out = at.iter().map(|a| a.0).collect();
+    }
     for &i in &out {
         let Some(at) = found[i].corner() else {
             continue;

@@ -849,7 +849,9 @@ fn too_few_found(
             .filter_map(|r| match &r.outcome {
                 Err(Failure::OffLayout {
                     misfit, distance, ..
-                }) => Some(format!("{} {misfit:.2} m off over {distance:.1} m", r.id)),
+                }) if *misfit > 0.0 => {
+                    Some(format!("{} {misfit:.2} m off over {distance:.1} m", r.id))
+                }
                 _ => None,
             })
             .collect();

@@ -153,11 +153,19 @@ impl std::fmt::Display for Failure {
                 distance,
                 alone,
             } => {
-                write!(
-                    f,
-                    "the object located at ({:.2}, {:.2}) is {misfit:.2} m off in its distance to another located target ({distance:.1} m apart in the survey): more than a map's error over that distance",
-                    at.x, at.y
-                )?;
+                if *misfit > 0.0 {
+                    write!(
+                        f,
+                        "the object located at ({:.2}, {:.2}) is {misfit:.2} m off in its distance to another located target ({distance:.1} m apart in the survey): more than a map's error over that distance",
+                        at.x, at.y
+                    )?;
+                } else {
+                    write!(
+                        f,
+                        "the object located at ({:.2}, {:.2}) agrees with too few of the others: most located targets stand metres from where the survey places them relative to each other",
+                        at.x, at.y
+                    )?;
+                }
                 if *alone {
                     f.write_str(", where the other targets agree with the survey: not this target, or a wrong survey position or id")
                 } else {
