@@ -2,10 +2,11 @@
 # Renders a report.html in headless Chromium and fails on a console message, a
 # resource that fails to load or comes from outside the page (the report is one
 # self-contained file), a blank page, a figure count other than the one
-# result.json implies (overview + relative + one per target, found or not), a
+# result.json implies (overview + relative + error CDF + one per target, found
+# or not; + error along the route when the 4th argument is `route`), a
 # table that runs off the page at 1280 px, or a plot frame without at least two
 # labelled ticks on each axis.
-# Usage: ci/browser_check.sh REPORT.html [SCREENSHOT.png] [RESULT.json]
+# Usage: ci/browser_check.sh REPORT.html [SCREENSHOT.png] [RESULT.json] [route]
 # (RESULT.json defaults to the one beside the report). The page a run that
 # could not score writes is checked against its failed.csv instead (given as
 # the third argument): one figure per surveyed place. ci/browser_check_test.sh
@@ -16,6 +17,7 @@ report=$(realpath "$1")
 shot=${2:-$(dirname "$report")/report.png}
 shot=$(realpath -m "$shot")
 result=$(realpath -m "${3:-$(dirname "$report")/result.json}")
+route=${4:-}
 [ -s "$result" ] || { echo "browser check: no result.json (or failed.csv) at $result" >&2; exit 1; }
 
 missing=()
@@ -137,10 +139,11 @@ timeout 90 /usr/bin/chromium "${flags[@]}" --user-data-dir="$work/profile-dom" \
     exit 1
 }
 
-python3 - "$report" "$result" "$shot" "$work/dom.html" "$work/shot.err" "$work/dom.err" <<'EOF'
+ROUTE="$route" python3 - "$report" "$result" "$shot" "$work/dom.html" "$work/shot.err" "$work/dom.err" <<'EOF'
 import csv, html, json, re, struct, sys, zlib
 
 report, result, shot, dom_path, *logs = sys.argv[1:]
+route = __import__("os").environ.get("ROUTE", "")
 fail = []
 
 # 1. Console messages. Headless Chromium logs every console message (errors,
@@ -152,8 +155,10 @@ for log in logs:
             fail.append("console: " + line.strip())
 
 # 2. Every figure is in the rendered DOM, as many as result.json implies: the
-# overview, the relative errors and one per target, found or not (figures() in
-# src/report/plots.rs), each a <figure> holding one <svg>.
+# overview, the relative errors, the errors' CDF, the errors along the route
+# (a run given --trajectory: asked for by `route`) and one per target, found
+# or not (figures() in src/report/plots/mod.rs), each a <figure> holding one
+# <svg>.
 src = open(report, encoding="utf-8").read()
 dom = open(dom_path, encoding="utf-8", errors="replace").read()
 # A failed run's page: one figure per surveyed place, as failed.csv lists.
@@ -170,17 +175,18 @@ n_svg = len(re.findall(r"<svg[\s>]", dom))
 figs = re.findall(r'<figure id="(fig-[^"]*)"[^>]*>(.*?)</figure>', dom, re.S)
 ids = [i for i, _ in figs]
 if n_targets is not None:
-    want = n_targets + (0 if failure else 2)
+    want = n_targets + (0 if failure else 3 + (route == "route"))
     if n_svg != want:
         fail.append(f"{n_svg} <svg> elements in the DOM, result.json implies {want}"
-                    f" (overview, relative, {n_targets} targets)")
+                    f" (overview, relative, error CDF{', route' if route else ''}, {n_targets} targets)")
     n_fig = sum(i.startswith("fig-target-") for i in ids)
     if n_fig != n_targets:
         fail.append(f"{n_fig} target figures, result.json has {n_targets} targets")
     m = re.search(r'<meta name="mapgauge-figures" content="(\d+)">', src)
     if m and int(m.group(1)) != want:
         fail.append(f"the page declares {m.group(1)} figures, result.json implies {want}")
-for need in () if failure else ("fig-overview", "fig-relative"):
+needed = ("fig-overview", "fig-relative", "fig-error-cdf") + (("fig-error-route",) if route == "route" else ())
+for need in () if failure else needed:
     if ids.count(need) != 1:
         fail.append(f"{ids.count(need)} figures {need}, want 1")
 for i, body in figs:

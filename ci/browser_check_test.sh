@@ -7,6 +7,8 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 report=$(realpath "$1")
 result=$(realpath "$2")
+# A page of a run given --trajectory has the route's figure too.
+route=$(grep -q 'id="fig-error-route"' "$report" && echo route || true)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 failures=0
@@ -27,7 +29,7 @@ open(d + "/report.html", "w", encoding="utf-8").write(s)
 json.dump(r, open(d + "/result.json", "w"))
 PY
     local rc=0
-    bash "$here/browser_check.sh" "$dir/report.html" "$dir/shot.png" "$dir/result.json" \
+    bash "$here/browser_check.sh" "$dir/report.html" "$dir/shot.png" "$dir/result.json" $route \
         >"$dir/out" 2>"$dir/err" || rc=$?
     if [ "$expect" = pass ]; then
         [ "$rc" = 0 ] && { echo "ok   $name: passes"; return; }

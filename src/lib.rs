@@ -19,6 +19,7 @@
 //! | render | [`render`] | the paper's tables and others as text, Markdown, LaTeX, CSV, HTML, JSON |
 //! | report | [`report`] | report.html, SVG and PNG figures of an evaluation |
 //! | test data | [`synth`] | LiDAR-like synthetic scenes with known truth |
+//! | route | [`trajectory`] | the sensor's route (TUM or KITTI poses), for error against distance driven |
 //!
 //! Locating a target in a tight crop:
 //!
@@ -93,6 +94,7 @@ pub mod render;
 pub mod report;
 pub mod survey;
 pub mod synth;
+pub mod trajectory;
 
 pub use error::{Error, Result};
 

@@ -373,6 +373,7 @@ impl EvalCore {
                     &in_paths,
                     Some(&html),
                     None,
+                    None,
                 )?;
             }
             Ok(())

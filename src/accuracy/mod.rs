@@ -198,6 +198,19 @@ pub enum Warning {
     },
 }
 
+impl Warning {
+    /// What it does to the numbers (as [`crate::pipeline::Warning::weight`]):
+    /// 0 a number may be wrong, 2 what could not be computed or matched, 3 the
+    /// stock caveat every 2D run carries (the terminal folds it into one line).
+    pub fn weight(&self) -> u8 {
+        match self {
+            Warning::GrossError { .. } => 0,
+            Warning::VerticalNotReported => 3,
+            _ => 2,
+        }
+    }
+}
+
 /// Everything [`score`] computes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Accuracy {

@@ -62,7 +62,12 @@ pub fn run(a: Args) -> Result<()> {
     let in_paths: [&Path; 2] = [&files.map, &files.survey];
     super::eval::write_outputs(&ev, &result, &out, true, &in_paths)?;
     let t3 = std::time::Instant::now();
-    let inputs: [(&str, &Path); 2] = [("map", &files.map), ("survey", &files.survey)];
+    let route = mapgauge::trajectory::Trajectory::read(&files.trajectory)?;
+    let inputs: [(&str, &Path); 3] = [
+        ("map", &files.map),
+        ("survey", &files.survey),
+        ("trajectory", &files.trajectory),
+    ];
     let hashed = report::hash_inputs(&inputs, &AtomicBool::new(false))?;
     super::eval::write_report(
         &ev,
@@ -72,6 +77,7 @@ pub fn run(a: Args) -> Result<()> {
         &in_paths,
         Some(&out.join("report.html")),
         None,
+        Some(&route),
     )?;
     let t_report = t3.elapsed().as_secs_f64();
 
@@ -120,7 +126,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     outln!();
     outln!(
-        "scene:    {} (map, survey.csv, survey_llh.csv, truth.json)",
+        "scene:    {} (map, survey.csv, survey_llh.csv, truth.json, trajectory.txt)",
         files.map.parent().unwrap_or(&a.out).display()
     );
     outln!(

@@ -100,6 +100,12 @@ pub struct Args {
     /// Also write the report's figures as DIR/<name>.svg and DIR/<name>.png.
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    /// The sensor's trajectory in the map's frame, as the SLAM software wrote
+    /// it: TUM (`t x y z qx qy qz qw`) or KITTI (3 × 4 pose matrix) lines. The
+    /// report draws it on the map and plots each target's error against the
+    /// distance driven to it [default: none].
+    #[arg(long, value_name = "FILE")]
+    pub trajectory: Option<PathBuf>,
 }
 
 /// Builds the configuration: defaults, then the TOML file, then flags.
@@ -172,9 +178,18 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = &a.plots {
         super::check_dir_flag(dir, "--plots")?;
     }
+    // Read before the run: a bad trajectory should cost nothing.
+    let route = a
+        .trajectory
+        .as_deref()
+        .map(mapgauge::trajectory::Trajectory::read)
+        .transpose()?;
     let mut inputs: Vec<(&str, &Path)> = vec![("map", map), ("survey", survey_path)];
     if let Some(c) = &a.config {
         inputs.push(("config", c));
+    }
+    if let Some(t) = &a.trajectory {
+        inputs.push(("trajectory", t));
     }
     let html = match &a.out {
         Some(out) if !a.no_report => Some(out.join("report.html")),
@@ -226,6 +241,7 @@ pub fn run(a: Args) -> Result<()> {
         &in_paths,
         html.as_deref(),
         a.plots.as_deref(),
+        route.as_ref(),
     )
 }
 
@@ -258,6 +274,7 @@ impl Drop for StopOnDrop<'_> {
 }
 
 /// Writes report.html and the figure files, and says what it cost on stderr.
+#[allow(clippy::too_many_arguments)]
 pub fn write_report(
     ev: &Evaluation,
     result: &ResultFile,
@@ -266,9 +283,10 @@ pub fn write_report(
     in_paths: &[&Path],
     html: Option<&Path>,
     plots: Option<&Path>,
+    route: Option<&mapgauge::trajectory::Trajectory>,
 ) -> Result<()> {
     let t_hash = hashed.as_ref().map_or(0.0, |h| h.seconds);
-    let w = report::write_report(ev, result, cfg, hashed, in_paths, html, plots)?;
+    let w = report::write_report(ev, result, cfg, hashed, in_paths, html, plots, route)?;
     if let (Some(h), Some(secs)) = (html, w.html_seconds) {
         eprintln!(
             "report written to {} in {secs:.2} s (SHA-256 of the inputs took {t_hash:.2} s)",
@@ -356,12 +374,16 @@ pub fn evaluate(
         }
     };
     let result = result_file(&ev, &survey, survey_path);
-    for w in &ev.warnings {
-        eprintln!("warning: {w}");
-    }
-    for t in &result.targets {
-        if let Some(r) = &t.reason {
-            eprintln!("warning: target {} {}: {r}", t.id, t.status);
+    // The text summary gives the warnings, ranked, and each target's reason
+    // in its table: saying them on stderr too would only double the noise.
+    if a.format != OutputFormat::Table(TableFormat::Text) {
+        for w in &ev.warnings {
+            eprintln!("warning: {w}");
+        }
+        for t in &result.targets {
+            if let Some(r) = &t.reason {
+                eprintln!("warning: target {} {}: {r}", t.id, t.status);
+            }
         }
     }
     // How the frame was found, where the user reads: a detected frame costs a
@@ -427,8 +449,38 @@ pub fn write_outputs(
     Ok(())
 }
 
-/// Each target's loose and tight crops as `out/crops/{loose,tight}/ID.ply`.
+/// Each located target's fitted plates and corner as a small PLY mesh: two
+/// quadrilaterals (blue, orange) and the corner as a red vertex, in the
+/// crops' frame, to open beside them in CloudCompare or MeshLab.
+fn fit_ply(t: &pipeline::TargetRun) -> Option<String> {
+    let located = &t.outcome.as_ref().ok()?.located;
+    let plates = located.plate_outlines(&t.tight)?;
+    let c = located.corner;
+    let mut o = String::from(
+        "ply\nformat ascii 1.0\ncomment mapgauge: the fitted plates and their corner\nelement vertex 9\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    for (quad, rgb) in plates.iter().zip(["31 119 180", "230 126 34"]) {
+        for p in quad {
+            o.push_str(&format!("{:.5} {:.5} {:.5} {rgb}\n", p.x, p.y, p.z));
+        }
+    }
+    o.push_str(&format!("{:.5} {:.5} {:.5} 220 30 30\n", c.x, c.y, c.z));
+    o.push_str("3 0 1 2\n3 0 2 3\n3 4 5 6\n3 4 6 7\n");
+    Some(o)
+}
+
+/// Each target's loose and tight crops as `out/crops/{loose,tight}/ID.ply`,
+/// and each located one's fitted plates as `out/crops/fit/ID.ply`.
 fn write_crops(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) -> Result<()> {
+    let dir = out.join("crops").join("fit");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    for t in targets {
+        if let Some(text) = fit_ply(t) {
+            let p = dir.join(format!("{}.ply", file_stem(&t.id)));
+            refuse_overwrite(&p, inputs)?;
+            mapgauge::record::write_atomic(&p, text.as_bytes())?;
+        }
+    }
     for kind in ["loose", "tight"] {
         let dir = out.join("crops").join(kind);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;

@@ -5,11 +5,12 @@ use mapgauge::synth::{self, SynthParams};
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
 
-/// Generate a LiDAR-like map of L-targets with known truth (map, survey.csv, truth.json).
+/// Generate a LiDAR-like map of L-targets with known truth (map, survey.csv, truth.json, trajectory.txt).
 #[derive(clap::Args)]
 #[command(allow_negative_numbers = true)]
 pub struct Args {
-    /// Output directory (created if missing): map.<ext>, survey.csv, truth.json.
+    /// Output directory (created if missing): map.<ext>, survey.csv, survey_llh.csv, truth.json,
+    /// trajectory.txt (the sensor's route in the map frame, TUM).
     #[arg(long, required_unless_present = "print_config")]
     out: Option<PathBuf>,
     /// Approximate number of map points [default: 2000000].
@@ -161,6 +162,7 @@ pub fn run(a: Args) -> Result<()> {
             "survey.csv",
             "survey_llh.csv",
             "truth.json",
+            "trajectory.txt",
         ] {
             mapgauge::record::refuse_overwrite(&dir.join(name), &[cfg])?;
         }

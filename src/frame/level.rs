@@ -54,6 +54,20 @@ impl GroundLevel {
     }
 }
 
+/// Most cells a [`Footprint`] keeps (a 1 km² site at 4 m).
+pub const FOOTPRINT_CELLS: usize = 65_536;
+
+/// The map from above: where it holds points (for the report's overview).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Footprint {
+    /// Cell side (m).
+    pub cell: f64,
+    /// Each cell that holds points: its centre (x, y) in the frame the
+    /// targets' map positions are given in (the levelled one), and the share
+    /// of its 0.5 m cells that do (a sampled ground pass leaves some out).
+    pub cells: Vec<([f64; 2], f32)>,
+}
+
 /// The map's ground as one pass saw it: its vertical, and the lowest point of
 /// every cell (for heights above ground in later passes).
 #[derive(Debug, Clone)]
@@ -109,6 +123,56 @@ impl MapGround {
         all.level = self.level.clone();
         all.centre = self.centre;
         Ok(all)
+    }
+
+    /// The map seen from above, in the frame `motion` moves it into: which
+    /// of the ground pass's 0.5 m cells hold a point, merged into cells of
+    /// 0.5 × 2^k m until at most [`FOOTPRINT_CELLS`] remain (a report's
+    /// figure is a few hundred pixels across). Rendered under the target
+    /// positions; costs no pass of its own.
+    pub fn footprint(&self, motion: &RigidMotion) -> Footprint {
+        let occupied: Vec<(i64, i64)> = self
+            .lowest
+            .cells()
+            .filter(|(_, z)| z.is_finite())
+            .map(|(k, _)| k)
+            .collect();
+        let mut f: i64 = 1;
+        while occupied.len() as i64 / (f * f) > FOOTPRINT_CELLS as i64 {
+            f *= 2;
+        }
+        // Coarse cells of a sparse set stay many: merged and counted by key.
+        let mut coarse: std::collections::BTreeMap<(i64, i64), u32> = Default::default();
+        loop {
+            coarse.clear();
+            for k in &occupied {
+                *coarse
+                    .entry((k.0.div_euclid(f), k.1.div_euclid(f)))
+                    .or_default() += 1;
+            }
+            if coarse.len() <= FOOTPRINT_CELLS {
+                break;
+            }
+            f *= 2;
+        }
+        let cell = CELL * f as f64;
+        let o = self.lowest.origin;
+        let z = motion.origin.z;
+        Footprint {
+            cell,
+            cells: coarse
+                .into_iter()
+                .map(|((x, y), n)| {
+                    let c = Point::new(
+                        o[0] + (x as f64 + 0.5) * cell,
+                        o[1] + (y as f64 + 0.5) * cell,
+                        z,
+                    );
+                    let q = motion.apply(&c);
+                    ([q.x, q.y], n as f32 / (f * f) as f32)
+                })
+                .collect(),
+        }
     }
 
     /// The ground's height under every 0.5 m cell of the frame `motion` moves

@@ -8,7 +8,7 @@ pub mod hints;
 pub mod level;
 pub mod matching;
 
-pub use level::{GroundLevel, MapGround, ground_level};
+pub use level::{Footprint, GroundLevel, MapGround, ground_level};
 
 /// 2D rigid least squares on local coordinates: the yaw and translation with
 /// `to ≈ R(yaw)·from + t` for the pairs `(from, to)`. Callers subtract an

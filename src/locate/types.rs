@@ -88,6 +88,45 @@ impl Located {
     pub fn sigma(&self) -> [f64; 3] {
         [0, 1, 2].map(|i| self.covariance[i][i].max(0.0).sqrt())
     }
+    /// The two fitted plates as quadrilaterals through the corner: each in
+    /// its reference plane, spanning the middle 96 % of its labelled points
+    /// (`pts`, the crop this was located in) along the plate and along the
+    /// plates' common axis. For drawing beside the map; `None` when a plate
+    /// has fewer than 3 points or the planes are near parallel.
+    pub fn plate_outlines(&self, pts: &[Point]) -> Option<[[Point; 4]; 2]> {
+        let n = self.plates.map(|p| Vector3::from(p.normal));
+        let mut d = n[0].cross(&n[1]);
+        if d.norm() < 0.1 {
+            return None;
+        }
+        d = d.normalize();
+        if d.z < 0.0 {
+            d = -d;
+        }
+        let c = self.corner;
+        let mut out = [[c; 4]; 2];
+        for (k, label) in [Label::Plate1, Label::Plate2].into_iter().enumerate() {
+            let u = d.cross(&n[k]).normalize();
+            let (mut a, mut b): (Vec<f64>, Vec<f64>) = pts
+                .iter()
+                .zip(&self.labels)
+                .filter(|(_, l)| **l == label)
+                .map(|(p, _)| ((p - c).dot(&u), (p - c).dot(&d)))
+                .unzip();
+            if a.len() < 3 {
+                return None;
+            }
+            let span = |v: &mut Vec<f64>| {
+                let m = v.len() - 1;
+                let lo = *v.select_nth_unstable_by(m / 50, f64::total_cmp).1;
+                let hi = *v.select_nth_unstable_by(m - m / 50, f64::total_cmp).1;
+                (lo, hi)
+            };
+            let ((a0, a1), (b0, b1)) = (span(&mut a), span(&mut b));
+            out[k] = [(a0, b0), (a1, b0), (a1, b1), (a0, b1)].map(|(s, t)| c + u * s + d * t);
+        }
+        Some(out)
+    }
     /// Fraction of attempts accepted.
     pub fn acceptance(&self) -> f64 {
         self.accepted as f64 / self.attempts.max(1) as f64

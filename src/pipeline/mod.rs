@@ -107,6 +107,25 @@ pub enum Warning {
     },
 }
 
+impl Warning {
+    /// What it does to the numbers, for ordering what a reader sees first:
+    /// 0 a number may be wrong or targets were set aside, 1 the frame was
+    /// chosen or turned, 2 how a step was done.
+    pub fn weight(&self) -> u8 {
+        match self {
+            Warning::Float32Steps { .. }
+            | Warning::Doubled(_)
+            | Warning::WrongObjects(_)
+            | Warning::OutliersExcluded(_) => 0,
+            Warning::Levelled { .. }
+            | Warning::Georeferenced { .. }
+            | Warning::GivenFrameReplaced { .. }
+            | Warning::DetectionFailed(_) => 1,
+            Warning::SphereWithoutHeights => 2,
+        }
+    }
+}
+
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -185,6 +204,9 @@ pub struct Evaluation {
     pub frame: FrameFound,
     /// What each pass over the map read, in order.
     pub reads: Vec<crate::cloud::PassRead>,
+    /// The map from above, as the ground pass saw it (the report draws the
+    /// target positions on it).
+    pub footprint: crate::frame::Footprint,
 }
 
 /// Points the levelling's ground pass reads of a bigger map by default
@@ -734,12 +756,14 @@ fn evaluate(
     // No pass may have read the whole map (a sampled ground, crops of some
     // tiles): the most any pass read is what is known of it.
     map.points = reads.iter().map(|r| r.points).fold(map.points, u64::max);
+    let footprint = ground.footprint(&motion);
     Ok(Evaluation {
         accuracy,
         targets: found,
         map,
         warnings,
         reads,
+        footprint,
         frame: FrameFound {
             how,
             init,

@@ -44,27 +44,40 @@ impl ResultFile {
                 estimates_only: acc.estimates_only.clone(),
             },
             scale: acc.scale,
-            warnings: acc.warnings.iter().map(warning_text).collect(),
+            warnings: ranked(acc.warnings.iter().map(|w| (w.weight(), warning_text(w)))),
             eval: None,
         }
     }
 
     /// The result file of a map evaluation, as `eval` writes it and Python's
-    /// `Result.to_dict()` returns it: the scores, then the pipeline's caveats
-    /// (levelling, wrong objects rejected, targets mapped twice), then how
-    /// the run went. `survey_name` names the survey as the user gave it.
+    /// `Result.to_dict()` returns it: the scores, the caveats of both the
+    /// scoring and the pipeline (levelling, wrong objects rejected, targets
+    /// mapped twice) ranked by what they do to the numbers, then how the run
+    /// went. `survey_name` names the survey as the user gave it.
     pub fn from_evaluation(
         ev: &crate::pipeline::Evaluation,
         survey: &Survey,
         survey_name: &str,
     ) -> ResultFile {
         let mut result = ResultFile::from_accuracy(&ev.accuracy, survey);
-        result
-            .warnings
-            .extend(ev.warnings.iter().map(|w| w.to_string()));
+        result.warnings = ranked(
+            ev.accuracy
+                .warnings
+                .iter()
+                .map(|w| (w.weight(), warning_text(w)))
+                .chain(ev.warnings.iter().map(|w| (w.weight(), w.to_string()))),
+        );
         result.eval = Some(super::EvalInfo::from_evaluation(ev, survey_name));
         result
     }
+}
+
+/// Warnings in the order a reader should meet them: what may make a number
+/// wrong first, the stock caveats last; in their own order within a weight.
+fn ranked(w: impl Iterator<Item = (u8, String)>) -> Vec<String> {
+    let mut w: Vec<(u8, String)> = w.collect();
+    w.sort_by_key(|x| x.0);
+    w.into_iter().map(|x| x.1).collect()
 }
 
 /// The sentence a reader sees for a warning.

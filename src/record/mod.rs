@@ -312,7 +312,8 @@ pub struct ResultFile {
     /// whatever the alignment used; absent with fewer than 3.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale: Option<crate::accuracy::ScaleEstimate>,
-    /// Caveats for the reader.
+    /// Caveats for the reader, what may make a number wrong first (a gross
+    /// error, targets set aside), the stock caveats last.
     #[serde(default)]
     pub warnings: Vec<String>,
     /// Provenance and per-target details of a map evaluation (`eval` only).

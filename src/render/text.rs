@@ -190,6 +190,12 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             String::new()
         }
     );
+    // What may change how the numbers read comes before the tables; the
+    // caveats every small 2D run carries, folded into one note at the end.
+    let stock = crate::record::warning_text(&crate::accuracy::Warning::VerticalNotReported);
+    for w in r.warnings.iter().filter(|w| **w != stock) {
+        let _ = writeln!(o, "warning: {w}");
+    }
     o.push('\n');
 
     let mut g = Grid {
@@ -228,12 +234,14 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     o.push('\n');
 
     if n <= PAPER_TABLES_UP_TO {
+        // In mm as the rest of the terminal: `table` and --format give the
+        // paper's metres.
         let runs = [("this run".to_string(), r)];
-        let _ = writeln!(o, "Relative error (m, {dim}) — paper Table I layout");
-        o.push_str(&relative_grid(&runs).render(TableFormat::Text));
+        let _ = writeln!(o, "Relative error (mm, {dim}) — paper Table I layout");
+        o.push_str(&in_mm(relative_grid(&runs)).render(TableFormat::Text));
         o.push('\n');
-        let _ = writeln!(o, "Absolute error (m, {dim}) — paper Table II layout");
-        o.push_str(&absolute_grid(&runs).render(TableFormat::Text));
+        let _ = writeln!(o, "Absolute error (mm, {dim}) — paper Table II layout");
+        o.push_str(&in_mm(absolute_grid(&runs)).render(TableFormat::Text));
         o.push('\n');
     }
     let _ = writeln!(o, "Statistics");
@@ -244,11 +252,17 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
         o.push_str(&pairs_mm(r).render(TableFormat::Text));
         o.push('\n');
     }
-    for l in &r.asprs.nssda_lines {
-        let _ = writeln!(o, "{l}");
-    }
-    for w in r.asprs.warnings.iter().chain(&r.warnings) {
-        let _ = writeln!(o, "warning: {w}");
+    let _ = writeln!(
+        o,
+        "NSSDA: tested {} mm horizontal accuracy at 95 % confidence level{}",
+        mm(r.asprs.nssda_horizontal_95),
+        r.asprs
+            .nssda_vertical_95
+            .map(|v| format!(", {} mm vertical", mm(v)))
+            .unwrap_or_default()
+    );
+    if let Some(note) = stock_note(r, &stock) {
+        let _ = writeln!(o, "note: {note}");
     }
     let mut more = Vec::new();
     if !verbose {
@@ -329,4 +343,42 @@ mod tests {
         let v = render_text(&r, true);
         assert!(v.lines().count() > t.lines().count() + 50);
     }
+}
+
+/// A paper table's numbers in millimetres (its cells from the values behind
+/// them, never parsed back from text).
+fn in_mm(mut g: Grid) -> Grid {
+    for (row, vals) in g.rows.iter_mut().zip(&g.values) {
+        for (cell, v) in row.iter_mut().zip(vals) {
+            if let Some(v) = v {
+                *cell = mm(*v);
+            }
+        }
+    }
+    g
+}
+
+/// The caveats that every run with few targets or a 2D alignment carries,
+/// in one line: how many checkpoints against what the standards ask, whether
+/// they also fitted the alignment, and the vertical not reported.
+fn stock_note(r: &ResultFile, vertical_text: &str) -> Option<String> {
+    let a = &r.asprs;
+    let mut parts = Vec::new();
+    match a.n_checkpoints {
+        n @ 0..20 => parts.push(format!(
+            "{n} checkpoints, where NSSDA asks for 20 and ASPRS (2023) for 30"
+        )),
+        n @ 20..30 => parts.push(format!("{n} checkpoints, where ASPRS (2023) asks for 30")),
+        _ => {}
+    }
+    if !a.independent {
+        parts.push(
+            "they also fitted the alignment, so the accuracy is optimistic (role=check targets are held out)"
+                .into(),
+        );
+    }
+    if r.warnings.iter().any(|w| w == vertical_text) {
+        parts.push("vertical not reported (an alignment that fits z: rigid2d+z, rigid3d)".into());
+    }
+    (!parts.is_empty()).then(|| parts.join("; "))
 }

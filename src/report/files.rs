@@ -46,7 +46,9 @@ pub struct Written {
 
 /// Writes report.html (when `html` is given; `hashed` names the inputs in its
 /// provenance) and the figures as SVG and PNG under `plots`, refusing to
-/// write over any of `inputs`.
+/// write over any of `inputs`; with the sensor's `route` (map frame), errors
+/// against the distance driven too.
+#[allow(clippy::too_many_arguments)]
 pub fn write_report(
     ev: &Evaluation,
     result: &ResultFile,
@@ -55,6 +57,7 @@ pub fn write_report(
     inputs: &[&Path],
     html: Option<&Path>,
     plots: Option<&Path>,
+    route: Option<&crate::trajectory::Trajectory>,
 ) -> Result<Written> {
     let mut written = Written::default();
     if html.is_none() && plots.is_none() {
@@ -65,7 +68,10 @@ pub fn write_report(
     if html.is_some() {
         prov.inputs = hashed.map(|h| h.files).unwrap_or_default();
     }
-    let report = Report::from_evaluation(ev, result, prov);
+    let mut report = Report::from_evaluation(ev, result, prov);
+    if let Some(t) = route {
+        report = report.with_trajectory(t, &ev.frame.levelling);
+    }
     if let Some(h) = html {
         refuse_overwrite(h, inputs)?;
         report.write_html(h)?;

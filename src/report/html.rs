@@ -137,32 +137,35 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
             f.init[0], f.init[1], f.init[2], f.dz
         ),
     );
+    // Three angles, each with the sentence that relates it to the others:
+    // the ground's lean and the plumb lines' are two estimates of the
+    // vertical, the turn is what was applied.
     let l = &f.levelling;
-    row(
-        "levelling",
-        if l.tilt_deg > 0.0 {
-            format!(
-                "the map was turned upright by {:.2}° about ({:.1}, {:.1}, {:.1}); positions in this report are in that levelled frame",
-                l.tilt_deg, l.origin[0], l.origin[1], l.origin[2]
-            )
-        } else {
-            "none: the map is level".to_string()
-        },
-    );
     if let (Some(t), Some(s)) = (l.ground_tilt_deg, l.ground_support) {
         row(
             "ground",
             format!(
-                "leans {t:.2}° from the map's +z ({:.0} % of 2 m ground blocks agree)",
+                "leans {t:.2}° from the map's +z ({:.0} % of 2 m ground blocks agree). The first estimate of the vertical, from the lowest points of 2 m blocks across the map; a site's own slope is in it too, so it turns a map only beyond frame.level_above_deg, and never one whose header declares a CRS",
                 100.0 * s
             ),
         );
     }
+    row(
+        "turned",
+        if l.tilt_deg > 0.0 {
+            format!(
+                "by {:.2}° about ({:.1}, {:.1}, {:.1}). The rotation applied to the map: positions in this report are in that levelled frame, and the map as stored differs from it by this angle",
+                l.tilt_deg, l.origin[0], l.origin[1], l.origin[2]
+            )
+        } else {
+            "not at all. The map was read as it is: neither the ground nor the plumb lines gave reason to turn it".to_string()
+        },
+    );
     if let (Some(t), Some(s)) = (l.plumb_tilt_deg, l.plumb_se_deg) {
         row(
             "targets' plumb lines",
             format!(
-                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}",
+                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}. Each target's plates meet in a line built plumb: their weighted mean is a second estimate of the vertical, from the targets themselves, and it turns the frame when it leans by more than 3 standard errors and 0.5°",
                 if l.plumb_applied {
                     "; the frame was turned to them"
                 } else {
@@ -412,7 +415,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
         frame_section(&mut o, &e.frame);
     }
 
-    let mut figs = figs.iter();
+    let mut figs = figs.iter().peekable();
     if let Some(f) = figs.next() {
         o.push_str("<section id=\"overview\"><h2>Target positions</h2>");
         figure(
@@ -429,6 +432,22 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
             f,
             "Every pair of located targets: | map distance − surveyed distance | against the surveyed distance. Relative errors need no alignment; a rising line means the map stretches or drifts with distance.",
         );
+        o.push_str("</section>\n");
+    }
+    while let Some(f) = figs.next_if(|f| f.name.starts_with("error-")) {
+        let (h, cap) = if f.name == "error-route" {
+            (
+                "Error against distance driven",
+                "Each located target's absolute error against the distance along the trajectory (given with --trajectory) to its closest point: SLAM drift grows with the distance driven, and a slope says by how much.",
+            )
+        } else {
+            (
+                "How the errors are distributed",
+                "The share of located targets whose absolute error is at most each value. NSSDA's 95 % figure assumes normal errors: about 95 % of the targets should lie left of its line, and a last step far to its right is a target worth checking.",
+            )
+        };
+        let _ = write!(o, "<section id=\"{}\"><h2>{h}</h2>", escape(&f.name));
+        figure(&mut o, f, cap);
         o.push_str("</section>\n");
     }
 
@@ -683,12 +702,13 @@ pub(crate) mod tests {
         prov.date_utc = "2026-01-01 00:00:00 UTC".into();
         let rep = Report::from_result(&r, prov);
         let figs = rep.figures();
-        assert_eq!(figs.len(), 2 + 4);
+        assert_eq!(figs.len(), 3 + 4);
         let html = rep.html();
-        // One panel per target, one figure each plus overview and relative.
+        // One panel per target, one figure each plus overview, relative and
+        // the errors' CDF.
         assert_eq!(html.matches("<div class=\"target").count(), 4);
-        assert_eq!(html.matches("<svg ").count(), 6);
-        assert!(html.contains("<meta name=\"mapgauge-figures\" content=\"6\">"));
+        assert_eq!(html.matches("<svg ").count(), 7);
+        assert!(html.contains("<meta name=\"mapgauge-figures\" content=\"7\">"));
         assert_eq!(html.matches("class=\"target failed\"").count(), 1);
         // Ids and reasons are escaped everywhere.
         assert!(!html.contains("<t&1>"), "raw id in the page");

@@ -206,6 +206,12 @@ pub struct Report<'a> {
     pub targets: Vec<TargetView<'a>>,
     /// Inputs, seed, date, parameters.
     pub provenance: Provenance,
+    /// The map from above, drawn under the target positions (levelled map
+    /// frame, as the targets' map positions).
+    pub footprint: Option<&'a crate::frame::Footprint>,
+    /// The sensor's route in the frame of the targets' map positions (see
+    /// [`Report::with_trajectory`]).
+    pub trajectory: Option<crate::trajectory::Trajectory>,
 }
 
 impl<'a> Report<'a> {
@@ -234,6 +240,8 @@ impl<'a> Report<'a> {
             alignment: ev.accuracy.fit.alignment.clone(),
             targets,
             provenance,
+            footprint: Some(&ev.footprint),
+            trajectory: None,
         }
     }
     /// A report of a result file alone (no crops: target panels say so).
@@ -243,7 +251,21 @@ impl<'a> Report<'a> {
             alignment: alignment_of(result),
             targets: Vec::new(),
             provenance,
+            footprint: None,
+            trajectory: None,
         }
+    }
+    /// This report with the sensor's route drawn on the overview and each
+    /// target's error plotted against the distance along it. `route` is in
+    /// the map's own frame, `levelling` the turn the evaluation gave the map
+    /// (`Evaluation::frame.levelling`).
+    pub fn with_trajectory(
+        mut self,
+        route: &crate::trajectory::Trajectory,
+        levelling: &crate::cloud::RigidMotion,
+    ) -> Self {
+        self.trajectory = Some(route.moved(levelling));
+        self
     }
     /// Every figure, in page order.
     pub fn figures(&self) -> Vec<figure::Figure> {

@@ -23,6 +23,8 @@ pub struct SceneFiles {
     pub survey_llh: PathBuf,
     /// The truth (JSON).
     pub truth: PathBuf,
+    /// The sensor's route in the map frame, TUM lines (`eval --trajectory`).
+    pub trajectory: PathBuf,
 }
 
 /// The truth plus what evaluating the true map positions gives: the errors a
@@ -49,6 +51,7 @@ pub fn write_scene(
         survey: dir.join("survey.csv"),
         survey_llh: dir.join("survey_llh.csv"),
         truth: dir.join("truth.json"),
+        trajectory: dir.join("trajectory.txt"),
     };
     let truth = write_map(&files.map, params, format)?;
 
@@ -72,6 +75,25 @@ pub fn write_scene(
             t.id, g.lat, g.lon, g.alt, s.antenna_height
         );
     }
+    // Positions in the map frame, as SLAM software writes its poses; the
+    // heading is the world's (only positions are read back).
+    let mut route = String::from(
+        "# mapgauge synth: sensor positions in the map frame (TUM: t x y z qx qy qz qw)\n",
+    );
+    for (i, (p, q)) in truth.path_in_map.iter().zip(&truth.path).enumerate() {
+        let h = q.yaw_deg.to_radians() / 2.0;
+        let _ = writeln!(
+            route,
+            "{:.3} {:.4} {:.4} {:.4} 0 0 {:.6} {:.6}",
+            i as f64 / params.lidar.rate_hz,
+            p[0],
+            p[1],
+            p[2],
+            h.sin(),
+            h.cos()
+        );
+    }
+    write_atomic(&files.trajectory, route.as_bytes())?;
     write_atomic(&files.survey, local.as_bytes())?;
     write_atomic(&files.survey_llh, llh.as_bytes())?;
 

@@ -471,6 +471,10 @@ pub struct Truth {
     pub road: Road,
     /// Sensor pose at the start of each scan, world frame, in emission order.
     pub path: Vec<Pose>,
+    /// The sensor's positions in the map frame, pose by pose (written as the
+    /// scene's `trajectory.txt`, not into truth.json).
+    #[serde(skip)]
+    pub path_in_map: Vec<[f64; 3]>,
     /// Clutter objects.
     pub clutter: Vec<ClutterInfo>,
     /// Scene-wide decoys (`clutter.decoys`), in placement order; absent from
@@ -634,6 +638,14 @@ pub fn generate(
         let m = warp(&Point::from(d.world));
         d.map = [m.x, m.y, m.z];
     }
+    // The route as the SLAM software would have written it: in the map.
+    let path_in_map: Vec<[f64; 3]> = path
+        .iter()
+        .map(|q| {
+            let m = warp(&Point::new(q.x, q.y, q.z));
+            [m.x, m.y, m.z]
+        })
+        .collect();
     drop(warp);
     let f = params.survey_false_origin_m;
     if f != [0.0; 3] {
@@ -679,6 +691,7 @@ pub fn generate(
         ground: world.ground.clone(),
         road,
         path,
+        path_in_map,
         clutter,
         decoys,
     })

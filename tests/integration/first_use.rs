@@ -893,3 +893,54 @@ fn a_failed_eval_still_saves_its_crops_and_reasons() {
         "no result from a run that did not score"
     );
 }
+
+/// Signal first (issue 31): what changed the numbers (here, the map was
+/// levelled) is said once, before the tables; the caveats every small 2D run
+/// carries fold into one note at the end; the terminal gives millimetres
+/// throughout.
+#[test]
+fn the_summary_ranks_its_warnings_and_folds_the_stock_ones() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    stdout_ok(
+        bin()
+            .args(["synth", "--points", "600000", "--tilt-deg", "6", "--out"])
+            .arg(&scene),
+    );
+    let o = bin()
+        .args(["eval", "--map"])
+        .arg(scene.join("map.ply"))
+        .arg("--survey")
+        .arg(scene.join("survey.csv"))
+        .output()
+        .unwrap();
+    let (out, err) = (String::from_utf8_lossy(&o.stdout).into_owned(), stderr(&o));
+    assert!(o.status.success(), "{err}");
+    let at = |s: &str| out.find(s).unwrap_or_else(|| panic!("no {s:?} in\n{out}"));
+    assert!(at("warning: the map leans") < at("\nTargets\n"), "{out}");
+    assert_eq!(
+        out.matches("levelled heights are uncertain").count(),
+        1,
+        "{out}"
+    );
+    assert!(!err.contains("levelled heights"), "said twice: {err}");
+    let notes: Vec<&str> = out.lines().filter(|l| l.starts_with("note: ")).collect();
+    assert_eq!(notes.len(), 1, "{out}");
+    for part in [
+        "5 checkpoints",
+        "NSSDA asks for 20",
+        "optimistic",
+        "vertical not reported",
+    ] {
+        assert!(notes[0].contains(part), "{part}: {}", notes[0]);
+    }
+    assert!(
+        !out.contains("warning: only") && !out.contains("warning: vertical"),
+        "{out}"
+    );
+    assert!(
+        !out.contains("Tested 0.") && out.contains("NSSDA: tested "),
+        "{out}"
+    );
+    assert!(out.contains("Relative error (mm, 2D)") && out.contains("Absolute error (mm, 2D)"));
+}

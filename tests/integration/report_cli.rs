@@ -35,8 +35,9 @@ fn eval_writes_report_and_plots() {
             .arg(&plots),
     );
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    // Overview, relative error, and one panel per target (5, one failed).
-    assert_eq!(html.matches("<svg ").count(), 7);
+    // Overview, relative error, the errors' CDF, and one panel per target
+    // (5, one failed).
+    assert_eq!(html.matches("<svg ").count(), 8);
     assert_eq!(html.matches("<div class=\"target").count(), 5);
     // The unsurveyable target fails (a sparse synthetic target may too).
     assert!(html.matches("class=\"target failed\"").count() >= 1);
@@ -73,10 +74,11 @@ fn eval_writes_report_and_plots() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names.len(), 14, "{names:?}");
+    assert_eq!(names.len(), 16, "{names:?}");
     for stem in [
         "overview",
         "relative",
+        "error-cdf",
         "target-1",
         "target-4",
         "target-_t_9_",
@@ -87,6 +89,116 @@ fn eval_writes_report_and_plots() {
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{stem}.png");
         assert!(png.len() > 10_000, "{stem}.png is {} bytes", png.len());
     }
+}
+
+/// What the report shows of the map itself (issue 31): its footprint under
+/// the target positions, the trajectory with each target's error against
+/// the distance driven, and with `--save-crops` each located target's
+/// fitted plates as a PLY mesh; a trajectory file that is not one is refused
+/// before any work, naming the line.
+#[test]
+fn the_report_shows_the_map_the_route_and_the_fitted_plates() {
+    let dir = tempdir();
+    scene(dir.path());
+    let out = dir.path().join("out");
+    stdout_ok(
+        bin()
+            .args(["eval", "--save-crops", "--map"])
+            .arg(dir.path().join("map.ply"))
+            .arg("--survey")
+            .arg(dir.path().join("survey.csv"))
+            .arg("--trajectory")
+            .arg(dir.path().join("trajectory.txt"))
+            .arg("--out")
+            .arg(&out),
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    // Overview, relative, CDF, route, 4 targets.
+    assert_eq!(html.matches("<svg ").count(), 8);
+    for id in ["fig-error-cdf", "fig-error-route"] {
+        assert_eq!(
+            html.matches(&format!("<figure id=\"{id}\"")).count(),
+            1,
+            "{id}"
+        );
+    }
+    let overview = html
+        .split("<figure id=\"fig-overview\">")
+        .nth(1)
+        .and_then(|s| s.split("</figure>").next())
+        .unwrap();
+    // The footprint's shaded squares (runs of them merged) and the route.
+    let shades = ["#eef0f3", "#dde1e7", "#cbd1d9", "#b6bec9"]
+        .iter()
+        .map(|c| overview.matches(&format!("fill=\"{c}\"")).count())
+        .sum::<usize>();
+    assert!(shades > 100, "{shades} footprint rectangles");
+    assert!(overview.contains("the trajectory") && overview.contains("the map from above"));
+    let route = html
+        .split("<figure id=\"fig-error-route\">")
+        .nth(1)
+        .unwrap();
+    assert!(route.contains("slope") && route.contains("poses"));
+    // The fitted plates: two quads through the corner that result.json gives.
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    let mut meshes = 0;
+    for t in r["targets"].as_array().unwrap() {
+        let id = t["id"].as_str().unwrap();
+        let ply = out.join("crops").join("fit").join(format!("{id}.ply"));
+        if t["status"] != "ok" {
+            continue;
+        }
+        let text = std::fs::read_to_string(&ply).unwrap();
+        assert!(text.contains("element vertex 9") && text.contains("element face 4"));
+        let v: Vec<Vec<f64>> = text
+            .split("end_header\n")
+            .nth(1)
+            .unwrap()
+            .lines()
+            .take(9)
+            .map(|l| l.split(' ').take(3).map(|x| x.parse().unwrap()).collect())
+            .collect();
+        let m = &t["map"];
+        let corner = [
+            m["x"].as_f64().unwrap(),
+            m["y"].as_f64().unwrap(),
+            m["z"].as_f64().unwrap(),
+        ];
+        for k in 0..3 {
+            assert!(
+                (v[8][k] - corner[k]).abs() < 1e-4,
+                "{id}: corner {v:?} vs {corner:?}"
+            );
+        }
+        // Each plate about the configured 0.6 m high, reaching at most that far.
+        for q in [&v[0..4], &v[4..8]] {
+            let h = q[3][2] - q[0][2];
+            assert!((0.4..0.7).contains(&h), "{id}: plate height {h}");
+            let far = ((q[1][0] - v[8][0]).hypot(q[1][1] - v[8][1])).max(1e-9);
+            assert!(far < 0.75, "{id}: plate reaches {far} m");
+        }
+        meshes += 1;
+    }
+    assert!(meshes >= 3, "{meshes} meshes");
+    // A file of other lines is refused before the map is read.
+    let bad = dir.path().join("poses.txt");
+    std::fs::write(&bad, "0 1 2 3 0 0 0 1\n1 2 3\n").unwrap();
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(dir.path().join("map.ply"))
+        .arg("--survey")
+        .arg(dir.path().join("survey.csv"))
+        .arg("--trajectory")
+        .arg(&bad)
+        .output()
+        .unwrap();
+    let e = crate::util::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("poses.txt:2: 3 numbers") && e.contains("TUM"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -8,9 +8,11 @@ use crate::record::TargetOut;
 use crate::report::Report;
 use crate::report::figure::{Anchor, Color, Figure, Item, MarkerKind, palette};
 
+mod errors;
 mod overview;
 mod target;
 
+pub use errors::{along_route, cdf};
 pub use overview::{fit_line, fmt_len, overview, relative};
 use target::target_figure;
 pub use target::{LooseView, loose_figure};
@@ -20,7 +22,18 @@ pub const MAX_POINTS_PER_VIEW: usize = 3000;
 
 /// Every figure of a report, in page order.
 pub fn figures(rep: &Report) -> Vec<Figure> {
-    let mut v = vec![overview(rep.result), relative(rep.result)];
+    let mut v = vec![
+        overview(
+            rep.result,
+            rep.footprint.map(|f| (f, &rep.alignment)),
+            rep.trajectory.as_ref(),
+        ),
+        relative(rep.result),
+        cdf(rep.result),
+    ];
+    if let Some(t) = &rep.trajectory {
+        v.push(along_route(rep.result, t));
+    }
     let mut stems: Vec<String> = Vec::new();
     for (i, t) in rep.result.targets.iter().enumerate() {
         let mut stem = format!("target-{}", crate::survey::file_stem(&t.id));
@@ -143,11 +156,13 @@ mod tests {
             alignment: crate::report::alignment_of(&r),
             targets: views,
             provenance: Default::default(),
+            footprint: None,
+            trajectory: None,
         };
         let figs = figures(&rep);
-        assert_eq!(figs.len(), 6);
+        assert_eq!(figs.len(), 7);
         // Two crop views each, at most MAX_POINTS_PER_VIEW apiece, plus samples and legend.
-        for f in &figs[2..] {
+        for f in &figs[3..] {
             assert!(
                 f.dot_count() <= 2 * MAX_POINTS_PER_VIEW + 100 + 10,
                 "{}: {}",
@@ -155,9 +170,9 @@ mod tests {
                 f.dot_count()
             );
         }
-        assert!(figs[2].dot_count() > 2000, "the located target is drawn");
+        assert!(figs[3].dot_count() > 2000, "the located target is drawn");
         assert!(
-            figs[5].dot_count() > 2000,
+            figs[6].dot_count() > 2000,
             "the failed target's crops are drawn"
         );
     }
@@ -195,8 +210,10 @@ mod tests {
             alignment: crate::report::alignment_of(&r),
             targets: views,
             provenance: Default::default(),
+            footprint: None,
+            trajectory: None,
         };
-        let fig = &figures(&rep)[5];
+        let fig = &figures(&rep)[6];
         let faces = fig
             .items
             .iter()
@@ -219,8 +236,10 @@ mod tests {
                 v
             },
             provenance: Default::default(),
+            footprint: None,
+            trajectory: None,
         };
-        let fig = &figures(&rep)[5];
+        let fig = &figures(&rep)[6];
         assert!(!fig.items.iter().any(|it| matches!(it, Item::Line { color, width, .. } if *color == palette::ERROR && *width == 3.0)));
     }
 }

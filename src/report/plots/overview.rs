@@ -2,14 +2,24 @@
 //! vectors, and relative error against pair distance.
 
 use super::{legend_dot, legend_marker};
+use crate::Point;
+use crate::align::Alignment;
+use crate::frame::Footprint;
 use crate::record::ResultFile;
 use crate::render::target_label;
 use crate::report::figure::{
-    Anchor, Figure, Item, MarkerKind, Panel, nice_floor, nice_step, palette,
+    Anchor, Color, Figure, Item, MarkerKind, Panel, nice_floor, nice_step, palette,
 };
+use crate::trajectory::Trajectory;
 
-/// Surveyed positions and the aligned estimates, error vectors magnified.
-pub fn overview(r: &ResultFile) -> Figure {
+/// Surveyed positions and the aligned estimates, error vectors magnified,
+/// over the map seen from above when its footprint is given (with the
+/// map → survey alignment that places it).
+pub fn overview(
+    r: &ResultFile,
+    map: Option<(&Footprint, &Alignment)>,
+    route: Option<&Trajectory>,
+) -> Figure {
     let mut f = Figure::new(
         "overview",
         "Surveyed target positions and aligned map estimates (error vectors magnified)",
@@ -59,7 +69,38 @@ pub fn overview(r: &ResultFile) -> Figure {
             format!("{a} (m, survey frame)")
         }
     };
+    let base = f.items.len();
     panel.axes(&mut f, "", &lab("x"), &lab("y"));
+    let mut shaded = false;
+    if let Some((fp, al)) = map {
+        // Over the panel's white ground, under its grid and everything else.
+        let tiles = footprint_tiles(fp, al, &panel, (ox, oy));
+        shaded = !tiles.is_empty();
+        f.items.splice(base + 1..base + 1, tiles);
+    }
+    // The route over the map, under the targets: drawn through the same
+    // alignment as the map, clipped to the panel.
+    let drawn_route = match (route, map) {
+        (Some(t), Some((_, al))) => {
+            let mut last: Option<(f64, f64)> = None;
+            for p in &t.positions {
+                let q = al.apply(p);
+                let q = (q.x - ox, q.y - oy);
+                if let Some(a) = last
+                    && (a.0 - q.0).hypot(a.1 - q.1) * panel.scale() >= 2.0
+                {
+                    if let Some((pa, pb)) = panel.clip(a, q) {
+                        f.line(pa, pb, palette::SAMPLE, 1.5, false);
+                    }
+                    last = Some(q);
+                } else if last.is_none() {
+                    last = Some(q);
+                }
+            }
+            true
+        }
+        _ => false,
+    };
 
     let errs: Vec<Option<(f64, f64)>> = r
         .targets
@@ -198,6 +239,38 @@ pub fn overview(r: &ResultFile) -> Figure {
             Anchor::Start,
         );
     }
+    if drawn_route {
+        f.line((lx, 330.0), (lx + 22.0, 330.0), palette::SAMPLE, 1.5, false);
+        f.text(
+            (lx + 30.0, 330.0),
+            "the trajectory",
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+    }
+    if shaded {
+        f.items.push(Item::Rect {
+            at: (lx, 288.0),
+            size: (18.0, 12.0),
+            fill: Some(FOOTPRINT_SHADES[2]),
+            stroke: None,
+        });
+        f.text(
+            (lx + 24.0, 294.0),
+            "the map from above",
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+        f.text(
+            (lx + 24.0, 308.0),
+            "(darker: more covered)",
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+    }
     let n_ok = r.targets.iter().filter(|t| t.status == "ok").count();
     f.text(
         (lx, 252.0),
@@ -214,6 +287,66 @@ pub fn overview(r: &ResultFile) -> Figure {
         Anchor::Start,
     );
     f
+}
+
+/// Shades of the map's footprint, from a few points in a pixel's square to
+/// every part of it holding some.
+const FOOTPRINT_SHADES: [Color; 4] = [
+    Color(0xee, 0xf0, 0xf3),
+    Color(0xdd, 0xe1, 0xe7),
+    Color(0xcb, 0xd1, 0xd9),
+    Color(0xb6, 0xbe, 0xc9),
+];
+
+/// The footprint as shaded squares of at least 3 px in the panel (survey
+/// frame less `off`), each row's runs of one shade merged into one
+/// rectangle: a few thousand items however big the map.
+fn footprint_tiles(fp: &Footprint, al: &Alignment, panel: &Panel, off: (f64, f64)) -> Vec<Item> {
+    let scale = panel.scale();
+    if fp.cells.is_empty() || !(scale > 0.0) || !(fp.cell > 0.0) {
+        return Vec::new();
+    }
+    let (l, t, w, h) = panel.px;
+    let pc = (fp.cell * scale).max(3.0);
+    let (nx, ny) = ((w / pc).ceil() as usize, (h / pc).ceil() as usize);
+    let mut area = vec![0.0f64; nx * ny];
+    for (c, share) in &fp.cells {
+        let q = al.apply(&Point::new(c[0], c[1], 0.0));
+        let (px, py) = panel.map(q.x - off.0, q.y - off.1);
+        let (i, j) = (((px - l) / pc).floor(), ((py - t) / pc).floor());
+        if i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny {
+            area[j as usize * nx + i as usize] += *share as f64 * fp.cell * fp.cell;
+        }
+    }
+    let bin = (pc / scale).powi(2);
+    let shade = |a: f64| -> Option<usize> {
+        (a > 0.0).then(|| (((a / bin).min(1.0) * 4.0).ceil() as usize).clamp(1, 4) - 1)
+    };
+    let mut items = Vec::new();
+    for j in 0..ny {
+        let mut i = 0;
+        while i < nx {
+            let Some(s) = shade(area[j * nx + i]) else {
+                i += 1;
+                continue;
+            };
+            let start = i;
+            while i < nx && shade(area[j * nx + i]) == Some(s) {
+                i += 1;
+            }
+            let (x0, y0) = (l + start as f64 * pc, t + j as f64 * pc);
+            items.push(Item::Rect {
+                at: (x0, y0),
+                size: (
+                    ((i - start) as f64 * pc).min(l + w - x0),
+                    pc.min(t + h - y0),
+                ),
+                fill: Some(FOOTPRINT_SHADES[s]),
+                stroke: None,
+            });
+        }
+    }
+    items
 }
 
 /// A label's box in pixels: left, top, right, bottom.
