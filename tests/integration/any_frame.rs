@@ -718,7 +718,9 @@ fn a_georeferenced_las_is_not_levelled_by_its_ground() {
             .output()
             .unwrap();
         assert!(o.status.success(), "{}", stderr(&o));
-        (stderr(&o), result(&dir.path().join(out)))
+        // The warnings are in the summary on stdout.
+        let said = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+        (said, result(&dir.path().join(out)))
     };
     let (e, r) = run(&geo, "geo");
     assert!(

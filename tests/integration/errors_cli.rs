@@ -172,14 +172,16 @@ fn cli_table_json_and_out_dir() {
     );
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
-        text.contains("E_rel") && text.contains("0.0633") && text.contains("0.0431"),
+        text.contains("E_rel") && text.contains("63.3") && text.contains("43.1"),
         "{text}"
     );
     assert!(
-        text.contains("t1 & t2") && text.contains("0.0516") && text.contains("0.0110"),
+        text.contains("t1 & t2") && text.contains("51.6") && text.contains("11.0"),
         "{text}"
     );
-    assert!(text.contains("horizontal accuracy at 95% confidence level"));
+    // Millimetres on the terminal, the NSSDA statement too.
+    assert!(text.contains("Relative error (mm, 2D)"), "{text}");
+    assert!(text.contains("NSSDA: tested 91.3 mm horizontal accuracy at 95 % confidence level"));
     let r = RunResult::from_json_file(&dir.path().join("result.json")).unwrap();
     assert_eq!(r, paper_roundtrip());
     let v: serde_json::Value =

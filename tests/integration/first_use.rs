@@ -789,6 +789,8 @@ fn float32_coordinates_far_from_the_origin_are_named() {
     let o = shifted("east", 3e5, 0.0);
     let e = stderr(&o);
     assert!(o.status.success(), "{e}");
+    // A scored run's warnings are in its summary (stdout), once.
+    let e = String::from_utf8_lossy(&o.stdout);
     assert!(
         e.contains("warning: the map stores its coordinates as float32")
             && e.contains("steps of 31.2 mm"),
