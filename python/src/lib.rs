@@ -358,9 +358,8 @@ impl EvalCore {
             }
             let in_paths: Vec<&Path> = inputs.iter().map(|i| i.1).collect();
             std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
-            for name in ["result.json", "targets.csv", "pairs.csv", "report.html"] {
-                refuse_overwrite(&out.join(name), &in_paths)?;
-            }
+            render::refuse_overwriting_inputs(&out, &in_paths)?;
+            refuse_overwrite(&out.join("report.html"), &in_paths)?;
             render::write_outputs(&self.result, &out)?;
             if report {
                 let hashed = report::hash_inputs(&inputs, &AtomicBool::new(false))?;
@@ -453,9 +452,7 @@ impl ScoreCore {
         py.detach(|| {
             std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
             let inputs: Vec<&Path> = self.inputs.iter().map(|p| p.as_path()).collect();
-            for name in ["result.json", "targets.csv", "pairs.csv"] {
-                refuse_overwrite(&out.join(name), &inputs)?;
-            }
+            render::refuse_overwriting_inputs(&out, &inputs)?;
             render::write_outputs(&self.result, &out)
         })
         .map_err(err)

@@ -2,7 +2,7 @@
 
 use mapgauge::compare::{self, Comparison};
 use mapgauge::record::ResultFile;
-use mapgauge::render::{Grid, OutputFormat, TableFormat};
+use mapgauge::render::{Grid, OutputFormat, TableFormat, mm};
 use mapgauge::{Error, Result};
 use std::path::PathBuf;
 
@@ -100,10 +100,6 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     Ok(())
-}
-
-fn mm(v: f64) -> String {
-    format!("{:.1}", v * 1000.0)
 }
 
 fn text(c: &Comparison, f: TableFormat) -> String {

@@ -2,7 +2,7 @@
 
 use mapgauge::accuracy::{Dim, ScoreOptions, score};
 use mapgauge::align::AlignMethod;
-use mapgauge::record::{ResultFile, refuse_overwrite};
+use mapgauge::record::ResultFile;
 use mapgauge::render::{OutputFormat, write_outputs};
 use mapgauge::survey::{Geodetic, SurveyOptions, read_estimates, read_survey};
 use mapgauge::{Error, Result};
@@ -66,9 +66,7 @@ pub fn run(a: Args) -> Result<()> {
     )?;
     let result = ResultFile::from_accuracy(&acc, &survey);
     if let Some(dir) = &a.out {
-        for name in ["result.json", "targets.csv", "pairs.csv"] {
-            refuse_overwrite(&dir.join(name), &[&a.survey, &a.estimates])?;
-        }
+        mapgauge::render::refuse_overwriting_inputs(dir, &[&a.survey, &a.estimates])?;
         write_outputs(&result, dir)?;
         eprintln!("wrote {}", dir.join("result.json").display());
     }

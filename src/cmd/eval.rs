@@ -171,9 +171,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(out) = &a.out {
         // Before the work, not after it: a refused output should cost nothing.
         super::check_out_dir(out)?;
-        for name in ["result.json", "targets.csv", "pairs.csv"] {
-            refuse_overwrite(&out.join(name), &[map, survey_path])?;
-        }
+        render::refuse_overwriting_inputs(out, &[map, survey_path])?;
     }
     if let Some(dir) = &a.plots {
         super::check_dir_flag(dir, "--plots")?;
@@ -434,9 +432,7 @@ pub fn write_outputs(
     save_crops: bool,
     inputs: &[&Path],
 ) -> Result<()> {
-    for name in ["result.json", "targets.csv", "pairs.csv"] {
-        refuse_overwrite(&out.join(name), inputs)?;
-    }
+    render::refuse_overwriting_inputs(out, inputs)?;
     render::write_outputs(result, out)?;
     // An earlier failed run's reasons would read as this run's.
     let stale = out.join("failed.csv");

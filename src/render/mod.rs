@@ -6,13 +6,16 @@ mod summary;
 mod tables;
 mod text;
 
-pub use summary::{render_csv, render_report, write_outputs};
+pub use summary::{
+    OUTPUT_FILES, refuse_overwriting_inputs, render_csv, render_report, write_outputs,
+};
 pub use tables::{
     absolute_grid, extra_grid, merged_ids, pairs_grid, relative_grid, survey_mismatches,
     surveyed_elsewhere, target_label, targets_grid,
 };
+pub use text::mm;
 pub use text::render_text;
-pub(crate) use text::{fixed, mm, signed_ppm};
+pub(crate) use text::{fixed, signed_ppm};
 
 use crate::{Error, Result};
 use std::fmt::Write as _;

@@ -140,17 +140,30 @@ pub fn render_csv(r: &ResultFile) -> String {
     g.render(TableFormat::Csv)
 }
 
-/// Writes `result.json`, `targets.csv` and `pairs.csv` into `dir` (created if
-/// needed), each atomically (temporary file + rename).
+/// The files [`write_outputs`] writes into a run's directory.
+pub const OUTPUT_FILES: [&str; 3] = ["result.json", "targets.csv", "pairs.csv"];
+
+/// Refuses (before any work) when writing [`OUTPUT_FILES`] into `dir` would
+/// overwrite one of `inputs`.
+pub fn refuse_overwriting_inputs(dir: &Path, inputs: &[&Path]) -> Result<()> {
+    for name in OUTPUT_FILES {
+        crate::record::refuse_overwrite(&dir.join(name), inputs)?;
+    }
+    Ok(())
+}
+
+/// Writes [`OUTPUT_FILES`] (`result.json`, `targets.csv`, `pairs.csv`) into
+/// `dir` (created if needed), each atomically (temporary file + rename).
 pub fn write_outputs(r: &ResultFile, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    write_atomic(&dir.join("result.json"), r.to_json().as_bytes())?;
+    let [json, targets, pairs] = OUTPUT_FILES;
+    write_atomic(&dir.join(json), r.to_json().as_bytes())?;
     write_atomic(
-        &dir.join("targets.csv"),
+        &dir.join(targets),
         targets_grid(r).render(TableFormat::Csv).as_bytes(),
     )?;
     write_atomic(
-        &dir.join("pairs.csv"),
+        &dir.join(pairs),
         pairs_grid(r).render(TableFormat::Csv).as_bytes(),
     )?;
     Ok(())

@@ -16,7 +16,7 @@ use std::fmt::Write as _;
 const PAPER_TABLES_UP_TO: usize = 6;
 
 /// Millimetres with one decimal, never "-0.0".
-pub(crate) fn mm(m: f64) -> String {
+pub fn mm(m: f64) -> String {
     if !m.is_finite() {
         return "–".into();
     }

@@ -71,9 +71,10 @@ pub fn page(title: &str, body: &str, meta: &[(&str, String)]) -> String {
     o
 }
 
+/// Millimetres with the unit, as the terminal rounds them (never "-0.0").
 fn mm(v: f64) -> String {
     if v.is_finite() {
-        format!("{:.1} mm", v * 1000.0)
+        format!("{} mm", crate::render::mm(v))
     } else {
         "–".into()
     }
