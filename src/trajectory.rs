@@ -44,13 +44,16 @@ pub struct Station {
 /// file of tens of millions of lines is another file.
 const MAX_POSES: usize = 10_000_000;
 
+/// A file bigger than this is refused unread: [`MAX_POSES`] KITTI lines of
+/// twelve numbers at up to 20 characters each.
+const MAX_BYTES: u64 = MAX_POSES as u64 * 12 * 20;
+
 impl Trajectory {
     /// Reads a TUM or KITTI trajectory file.
     pub fn read(path: &Path) -> Result<Trajectory> {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-        // At least ~16 bytes a pose line: a bigger file holds more poses than
-        // accepted, and is not read into memory to find out.
-        if meta.len() > 16 * MAX_POSES as u64 * 8 {
+        // Not read into memory to find out that it holds too many poses.
+        if meta.len() > MAX_BYTES {
             return Err(Error::Input(format!(
                 "{}: {} bytes is too big for a trajectory (at most {MAX_POSES} poses)",
                 path.display(),

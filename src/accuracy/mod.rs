@@ -204,7 +204,8 @@ impl Warning {
     /// stock caveat every 2D run carries (the terminal folds it into one line).
     pub fn weight(&self) -> u8 {
         match self {
-            Warning::GrossError { .. } => 0,
+            // A gross error, or every 3D number biased by the height datum.
+            Warning::GrossError { .. } | Warning::HeightDatumNotCorrected(_) => 0,
             Warning::VerticalNotReported => 3,
             _ => 2,
         }

@@ -193,6 +193,11 @@ pub fn run(a: Args) -> Result<()> {
         Some(out) if !a.no_report => Some(out.join("report.html")),
         _ => None,
     };
+    if route.is_some() && html.is_none() && a.plots.is_none() {
+        eprintln!(
+            "warning: --trajectory is drawn in the report: it needs --out (without --no-report) or --plots"
+        );
+    }
     // The report's SHA-256 reads the map once more (1.3 GB/s: 3.7 s of a 5.8 s
     // eval of a 200 M-point map when done after the run), so it runs on a
     // thread of its own alongside the pipeline, and stops if the run fails.
@@ -223,6 +228,9 @@ pub fn run(a: Args) -> Result<()> {
         Err(e) => (None, Some(e)),
     };
     print_result(&result, a.format, a.verbose);
+    if let Some(route) = &route {
+        warn_off_route(route, &ev, &result);
+    }
     if let Some(out) = &a.out {
         write_outputs(&ev, &result, out, a.save_crops, &[map, survey_path])?;
         eprintln!("results written to {}", out.display());
@@ -241,6 +249,28 @@ pub fn run(a: Args) -> Result<()> {
         a.plots.as_deref(),
         route.as_ref(),
     )
+}
+
+/// Says when located targets lie far from every point of the trajectory: a
+/// route in another frame than the map's (or of another run) would plot
+/// nonsense against the distance driven.
+fn warn_off_route(route: &mapgauge::trajectory::Trajectory, ev: &Evaluation, result: &ResultFile) {
+    let moved = route.moved(&ev.frame.levelling);
+    let far = result
+        .targets
+        .iter()
+        .filter(|t| t.status == "ok")
+        .filter_map(|t| t.map)
+        .filter_map(|m| moved.station(&mapgauge::Point::new(m.x, m.y, m.z.unwrap_or(0.0))))
+        .map(|s| s.off)
+        .fold(0.0, f64::max);
+    if far > report::plots::ROUTE_FAR_M {
+        eprintln!(
+            "warning: a located target is {far:.0} m from the trajectory ({} poses, {:.0} m): is it in the map's frame, and of this run? (the report's error-against-distance figure assumes so)",
+            route.positions.len(),
+            route.length()
+        );
+    }
 }
 
 /// Prints a result on stdout in `format`.
@@ -471,10 +501,14 @@ fn write_crops(targets: &[pipeline::TargetRun], out: &Path, inputs: &[&Path]) ->
     let dir = out.join("crops").join("fit");
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     for t in targets {
-        if let Some(text) = fit_ply(t) {
-            let p = dir.join(format!("{}.ply", file_stem(&t.id)));
-            refuse_overwrite(&p, inputs)?;
-            mapgauge::record::write_atomic(&p, text.as_bytes())?;
+        let p = dir.join(format!("{}.ply", file_stem(&t.id)));
+        refuse_overwrite(&p, inputs)?;
+        match fit_ply(t) {
+            Some(text) => mapgauge::record::write_atomic(&p, text.as_bytes())?,
+            // An earlier run's plates for a target not located now would
+            // read as this run's.
+            None if p.exists() => std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?,
+            None => {}
         }
     }
     for kind in ["loose", "tight"] {

@@ -201,6 +201,18 @@ impl<T: Copy> CellGrid<T> {
         self.last = None;
     }
 
+    /// The extent (m) across the tiles made so far, along x and y.
+    pub(crate) fn extent(&self) -> [f64; 2] {
+        if self.tiles.is_empty() {
+            return [0.0; 2];
+        }
+        let side = TILE as f64 * self.cell;
+        [
+            (self.span[2] - self.span[0] + 1) as f64 * side,
+            (self.span[3] - self.span[1] + 1) as f64 * side,
+        ]
+    }
+
     /// Bytes held by the tiles (for the memory bound).
     pub(crate) fn bytes(&self) -> usize {
         self.tiles.len() * (TILE * TILE) as usize * std::mem::size_of::<T>()

@@ -62,10 +62,11 @@ pub const FOOTPRINT_CELLS: usize = 65_536;
 pub struct Footprint {
     /// Cell side (m).
     pub cell: f64,
-    /// Each cell that holds points: its centre (x, y) in the frame the
-    /// targets' map positions are given in (the levelled one), and the share
-    /// of its 0.5 m cells that do (a sampled ground pass leaves some out).
-    pub cells: Vec<([f64; 2], f32)>,
+    /// Each cell that holds points: its centre at the ground (x, y, z) in
+    /// the frame the targets' map positions are given in (the levelled one),
+    /// and the share of its 0.5 m cells that do (a sampled ground pass leaves
+    /// some out).
+    pub cells: Vec<([f64; 3], f32)>,
 }
 
 /// The map's ground as one pass saw it: its vertical, and the lowest point of
@@ -131,25 +132,26 @@ impl MapGround {
     /// figure is a few hundred pixels across). Rendered under the target
     /// positions; costs no pass of its own.
     pub fn footprint(&self, motion: &RigidMotion) -> Footprint {
-        let occupied: Vec<(i64, i64)> = self
-            .lowest
-            .cells()
-            .filter(|(_, z)| z.is_finite())
-            .map(|(k, _)| k)
-            .collect();
+        // Counted first and folded straight from the grid: a list of every
+        // occupied 0.5 m cell would take four times the grid's memory.
+        let occupied = self.lowest.cells().filter(|(_, z)| z.is_finite()).count() as i64;
         let mut f: i64 = 1;
-        while occupied.len() as i64 / (f * f) > FOOTPRINT_CELLS as i64 {
+        while occupied / (f * f) > FOOTPRINT_CELLS as i64 {
             f *= 2;
         }
-        // Coarse cells of a sparse set stay many: merged and counted by key.
-        let mut coarse: std::collections::BTreeMap<(i64, i64), u32> = Default::default();
+        // Coarse cell → (0.5 m cells occupied, their summed ground height).
+        type Coarse = std::collections::BTreeMap<(i64, i64), (u32, f64)>;
+        let mut coarse: Coarse = Default::default();
         loop {
             coarse.clear();
-            for k in &occupied {
-                *coarse
+            for (k, &z) in self.lowest.cells().filter(|(_, z)| z.is_finite()) {
+                let c = coarse
                     .entry((k.0.div_euclid(f), k.1.div_euclid(f)))
-                    .or_default() += 1;
+                    .or_default();
+                c.0 += 1;
+                c.1 += z as f64;
             }
+            // Coarse cells of a sparse set stay many.
             if coarse.len() <= FOOTPRINT_CELLS {
                 break;
             }
@@ -157,19 +159,20 @@ impl MapGround {
         }
         let cell = CELL * f as f64;
         let o = self.lowest.origin;
-        let z = motion.origin.z;
         Footprint {
             cell,
             cells: coarse
                 .into_iter()
-                .map(|((x, y), n)| {
+                .map(|((x, y), (n, zs))| {
+                    // Turned at the ground's own height, as `floor` does: a
+                    // tilted map's cells move sideways by height × angle.
                     let c = Point::new(
                         o[0] + (x as f64 + 0.5) * cell,
                         o[1] + (y as f64 + 0.5) * cell,
-                        z,
+                        self.z0 + zs / n as f64,
                     );
                     let q = motion.apply(&c);
-                    ([q.x, q.y], n as f32 / (f * f) as f32)
+                    ([q.x, q.y, q.z], n as f32 / (f * f) as f32)
                 })
                 .collect(),
         }
@@ -222,12 +225,26 @@ struct Lowest {
     reach: f64,
 }
 
+/// What the error of a map spread too thin says first (the pipeline adds
+/// the survey's extent to it).
+pub(crate) const TOO_THIN: &str = "the map's points are spread too thin for a map in metres";
+
 /// The error of a pass whose grid was spread too thin
-/// ([`CellGrid::spread_thin`]).
-pub(crate) fn too_thin(source: &MapSource) -> crate::Error {
+/// ([`CellGrid::spread_thin`]), `extent` (m) the points' spread when it
+/// stopped.
+pub(crate) fn too_thin(source: &MapSource, extent: [f64; 2]) -> crate::Error {
+    let km = |m: f64| {
+        if m >= 1e4 {
+            format!("{:.0} km", m / 1e3)
+        } else {
+            format!("{:.1} km", m / 1e3)
+        }
+    };
     crate::Error::Input(format!(
-        "{}: the map's points are spread too thin for a map in metres: over {} squares of 32 m held fewer than {} points each on average, where a map's surfaces give thousands a square. Is it in millimetres or another unit? mapgauge reads coordinates as metres (for millimetres: `mapgauge convert --map MAP --out MAP_m.pcd --scale 0.001`, then run again); reading stopped before its memory grew with that extent",
+        "{}: {TOO_THIN}: the points read so far span {} × {}, and over {} squares of 32 m held fewer than {} points each on average, where a map's surfaces give thousands a square. Is it in millimetres or another unit? mapgauge reads coordinates as metres (for millimetres: `mapgauge convert --map MAP --out MAP_m.pcd --scale 0.001`, then run again); reading stopped before its memory grew with that extent",
         source.name(),
+        km(extent[0]),
+        km(extent[1]),
         super::grid::THIN_TILES,
         super::grid::THIN_PER_TILE,
     ))
@@ -355,7 +372,7 @@ pub fn ground_level(
         progress,
     )?;
     if low.thin {
-        return Err(too_thin(&source));
+        return Err(too_thin(&source, low.grid.extent()));
     }
     let n = low.count.max(1) as f64 * 1000.0;
     let centre = Point::new(

@@ -357,7 +357,8 @@ fn evaluate(
         MapSource::Points(_) => 0,
     };
     let sample = (cfg.frame.ground_sample > 0).then_some(cfg.frame.ground_sample);
-    let ground = crate::frame::ground_level(source, None, sample, |b| progress(b, total))?;
+    let ground = crate::frame::ground_level(source, None, sample, |b| progress(b, total))
+        .map_err(|e| against_survey(e, survey))?;
     // The map's counts as far as this pass saw them; the crops' pass, when
     // it reads the whole map, gives every point's.
     map.bytes = total;
@@ -774,6 +775,32 @@ fn evaluate(
             unmatched,
         },
     })
+}
+
+/// A map too spread out to be in metres, set against the survey: a map in
+/// millimetres spans a thousand times the site the survey covers.
+fn against_survey(e: Error, survey: &Survey) -> Error {
+    match e {
+        Error::Input(m) if m.contains(crate::frame::level::TOO_THIN) => {
+            let (lo, hi) = survey.targets.iter().fold(
+                ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+                |(lo, hi), t| {
+                    let p = t.position;
+                    (
+                        [lo[0].min(p.x), lo[1].min(p.y)],
+                        [hi[0].max(p.x), hi[1].max(p.y)],
+                    )
+                },
+            );
+            let span = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+            if span.is_finite() {
+                Error::Input(format!("{m}. The survey's targets span {span:.0} m"))
+            } else {
+                Error::Input(m)
+            }
+        }
+        e => e,
+    }
 }
 
 /// What the surveyed places showed, counted by kind: "4 nothing standing

@@ -364,16 +364,19 @@ fn in_mm(mut g: Grid) -> Grid {
 fn stock_note(r: &ResultFile, vertical_text: &str) -> Option<String> {
     let a = &r.asprs;
     let mut parts = Vec::new();
-    match a.n_checkpoints {
-        n @ 0..20 => parts.push(format!(
-            "{n} checkpoints, where NSSDA asks for 20 and ASPRS (2023) for 30"
+    let n = a.n_checkpoints;
+    let s = if n == 1 { "" } else { "s" };
+    match n {
+        0..20 => parts.push(format!(
+            "{n} checkpoint{s}, where NSSDA asks for 20 and ASPRS (2023) for 30"
         )),
-        n @ 20..30 => parts.push(format!("{n} checkpoints, where ASPRS (2023) asks for 30")),
+        20..30 => parts.push(format!("{n} checkpoints, where ASPRS (2023) asks for 30")),
         _ => {}
     }
-    if !a.independent {
+    // `--align none` fits nothing: its checkpoints are not "used".
+    if !a.independent && r.alignment.method != "none" {
         parts.push(
-            "they also fitted the alignment, so the accuracy is optimistic (role=check targets are held out)"
+            "the checkpoints also fitted the alignment, so the accuracy is optimistic (role=check targets are held out of it)"
                 .into(),
         );
     }

@@ -159,7 +159,7 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
                 l.tilt_deg, l.origin[0], l.origin[1], l.origin[2]
             )
         } else {
-            "not at all. The map was read as it is: neither the ground nor the plumb lines gave reason to turn it".to_string()
+            "not at all. The map was read as it is (the ground and plumb-line rows, and the warnings above, say what it showed)".to_string()
         },
     );
     if let (Some(t), Some(s)) = (l.plumb_tilt_deg, l.plumb_se_deg) {

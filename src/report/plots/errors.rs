@@ -8,15 +8,22 @@ use crate::render::target_label;
 use crate::report::figure::{Anchor, Figure, Item, Panel, palette};
 use crate::trajectory::Trajectory;
 
+/// A target farther than this from every point of the route (m) was not seen
+/// from it: the trajectory is likely in another frame.
+pub const ROUTE_FAR_M: f64 = 100.0;
+
 /// Legend column's left edge.
 const LX: f64 = 592.0;
 
-/// The scored targets' absolute errors (mm) with their labels, smallest first.
+/// The checkpoints' absolute errors (mm) with their labels, smallest first:
+/// the targets NSSDA's figure is computed from (role=check ones when the
+/// survey holds some out of the fit, else every scored target).
 fn scored(r: &ResultFile) -> Vec<(f64, String)> {
     let mut e: Vec<(f64, String)> = r
         .targets
         .iter()
         .filter(|t| t.status == "ok")
+        .filter(|t| !r.asprs.independent || t.role == Some(crate::survey::Role::Check))
         .filter_map(|t| t.abs_error.map(|e| (e * 1000.0, target_label(&t.id))))
         .collect();
     e.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -35,7 +42,13 @@ pub fn cdf(r: &ResultFile) -> Figure {
         380.0,
     );
     let e = scored(r);
-    let nssda = r.asprs.nssda_horizontal_95 * 1000.0;
+    // NSSDA's figure is horizontal: beside 3D errors it would mislead.
+    let horizontal = r.dim == crate::accuracy::Dim::D2;
+    let nssda = if horizontal {
+        r.asprs.nssda_horizontal_95 * 1000.0
+    } else {
+        f64::NAN
+    };
     let xmax = e
         .iter()
         .map(|x| x.0)
@@ -47,8 +60,12 @@ pub fn cdf(r: &ResultFile) -> Figure {
     panel.axes(
         &mut f,
         "",
-        "absolute error (mm)",
-        "share of targets within it",
+        if horizontal {
+            "absolute error (mm, horizontal)"
+        } else {
+            "absolute error (mm, 3D)"
+        },
+        "share of checkpoints within it",
     );
     let n = e.len() as f64;
     let mut pts = vec![panel.map(0.0, 0.0)];
@@ -103,17 +120,42 @@ pub fn cdf(r: &ResultFile) -> Figure {
         palette::INK,
         Anchor::Start,
     );
-    f.line((LX, 118.0), (LX + 22.0, 118.0), palette::SURVEY, 1.0, true);
-    f.text(
-        (LX + 30.0, 118.0),
-        "NSSDA 95 % horizontal",
-        11.0,
-        palette::INK,
-        Anchor::Start,
-    );
+    if nssda.is_finite() {
+        f.line((LX, 118.0), (LX + 22.0, 118.0), palette::SURVEY, 1.0, true);
+        f.text(
+            (LX + 30.0, 118.0),
+            "NSSDA 95 % horizontal",
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+    } else {
+        f.text(
+            (LX, 118.0),
+            "3D errors: NSSDA's horizontal",
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+        f.text(
+            (LX, 132.0),
+            "figure is not drawn",
+            11.0,
+            palette::INK,
+            Anchor::Start,
+        );
+    }
     f.text(
         (LX, 150.0),
-        &format!("{} targets scored", e.len()),
+        &format!(
+            "{} {}",
+            e.len(),
+            if r.asprs.independent {
+                "check targets (held out of the fit)"
+            } else {
+                "targets scored"
+            }
+        ),
         11.0,
         palette::INK,
         Anchor::Start,
@@ -201,9 +243,16 @@ pub fn along_route(r: &ResultFile, route: &Trajectory) -> Figure {
     );
     match fit {
         Some((_, b)) => line(&mut f, format!("slope {:.2} mm per 100 m", b * 100.0)),
+        None if xy.len() >= 2 => line(&mut f, "no spread along the route for a line".into()),
         None => line(&mut f, "too few targets for a line".into()),
     }
     let far = xy.iter().map(|p| p.3).fold(0.0, f64::max);
     line(&mut f, format!("farthest target {far:.1} m off the route"));
+    if far > ROUTE_FAR_M {
+        // A sensor sees its targets from tens of metres: a route farther
+        // from them is another frame's (or another run's).
+        line(&mut f, "far from the route: is the trajectory".into());
+        line(&mut f, "in the map's frame, of this run?".into());
+    }
     f
 }

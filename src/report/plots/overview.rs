@@ -82,6 +82,7 @@ pub fn overview(
     // alignment as the map, clipped to the panel.
     let drawn_route = match (route, map) {
         (Some(t), Some((_, al))) => {
+            let mut drawn = false;
             let mut last: Option<(f64, f64)> = None;
             for p in &t.positions {
                 let q = al.apply(p);
@@ -91,13 +92,14 @@ pub fn overview(
                 {
                     if let Some((pa, pb)) = panel.clip(a, q) {
                         f.line(pa, pb, palette::SAMPLE, 1.5, false);
+                        drawn = true;
                     }
                     last = Some(q);
                 } else if last.is_none() {
                     last = Some(q);
                 }
             }
-            true
+            drawn
         }
         _ => false,
     };
@@ -307,15 +309,27 @@ fn footprint_tiles(fp: &Footprint, al: &Alignment, panel: &Panel, off: (f64, f64
         return Vec::new();
     }
     let (l, t, w, h) = panel.px;
-    let pc = (fp.cell * scale).max(3.0);
+    // A whole number of cells a square (an unturned map's cells then fall
+    // in one square each), and each cell's area spread over it by 3 × 3
+    // samples: a turned map's cells straddle squares, and a cell counted
+    // whole in the square of its centre leaves a moiré of holes.
+    let cell_px = fp.cell * scale;
+    let pc = cell_px * (3.0 / cell_px).ceil().max(1.0);
     let (nx, ny) = ((w / pc).ceil() as usize, (h / pc).ceil() as usize);
     let mut area = vec![0.0f64; nx * ny];
+    const SUB: usize = 3;
     for (c, share) in &fp.cells {
-        let q = al.apply(&Point::new(c[0], c[1], 0.0));
-        let (px, py) = panel.map(q.x - off.0, q.y - off.1);
-        let (i, j) = (((px - l) / pc).floor(), ((py - t) / pc).floor());
-        if i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny {
-            area[j as usize * nx + i as usize] += *share as f64 * fp.cell * fp.cell;
+        let a = *share as f64 * fp.cell * fp.cell / (SUB * SUB) as f64;
+        for si in 0..SUB {
+            for sj in 0..SUB {
+                let d = |s: usize| ((s as f64 + 0.5) / SUB as f64 - 0.5) * fp.cell;
+                let q = al.apply(&Point::new(c[0] + d(si), c[1] + d(sj), c[2]));
+                let (px, py) = panel.map(q.x - off.0, q.y - off.1);
+                let (i, j) = (((px - l) / pc).floor(), ((py - t) / pc).floor());
+                if i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny {
+                    area[j as usize * nx + i as usize] += a;
+                }
+            }
         }
     }
     let bin = (pc / scale).powi(2);
