@@ -385,3 +385,42 @@ fn stock_note(r: &ResultFile, vertical_text: &str) -> Option<String> {
     }
     (!parts.is_empty()).then(|| parts.join("; "))
 }
+
+#[cfg(test)]
+mod note_tests {
+    use super::*;
+
+    /// The folded note's wording (issue 31): singular for one checkpoint, no
+    /// "fitted" clause when nothing was fitted, a subject of its own when the
+    /// count needs no mention, nothing when nothing is to be said.
+    #[test]
+    fn the_stock_note_reads_right_for_every_count() {
+        let mut r = crate::report::html::tests::result(&["1", "2", "3", "4"]);
+        r.warnings.clear();
+        let v = "vertical";
+        r.asprs.n_checkpoints = 1;
+        r.asprs.independent = true;
+        let n = stock_note(&r, v).unwrap();
+        assert!(n.starts_with("1 checkpoint, where NSSDA"), "{n}");
+        r.asprs.independent = false;
+        r.alignment.method = "none".into();
+        assert!(!stock_note(&r, v).unwrap().contains("fitted"));
+        r.alignment.method = "rigid2d".into();
+        r.asprs.n_checkpoints = 25;
+        let n = stock_note(&r, v).unwrap();
+        assert!(
+            n.starts_with(
+                "25 checkpoints, where ASPRS (2023) asks for 30; the checkpoints also fitted"
+            ),
+            "{n}"
+        );
+        r.asprs.n_checkpoints = 35;
+        let n = stock_note(&r, v).unwrap();
+        assert!(n.starts_with("the checkpoints also fitted"), "{n}");
+        r.warnings.push(v.into());
+        assert!(stock_note(&r, v).unwrap().ends_with("rigid2d+z, rigid3d)"));
+        r.warnings.clear();
+        r.asprs.independent = true;
+        assert_eq!(stock_note(&r, v), None);
+    }
+}

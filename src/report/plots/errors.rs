@@ -2,7 +2,7 @@
 //! (what share of targets is within a given error, against the NSSDA 95 %
 //! figure), and against the distance driven, where SLAM drift grows.
 
-use super::{fit_line, legend_dot};
+use super::{fit_line, legend_dot, legend_line};
 use crate::record::ResultFile;
 use crate::render::target_label;
 use crate::report::figure::{Anchor, Figure, Item, Panel, palette};
@@ -112,22 +112,22 @@ pub fn cdf(r: &ResultFile) -> Figure {
     );
     f.bold((LX, 50.0), "Legend", 12.0, Anchor::Start);
     legend_dot(&mut f, (LX + 6.0, 74.0), palette::PLATE1, "one target");
-    f.line((LX, 96.0), (LX + 22.0, 96.0), palette::OUTLIER, 1.0, true);
-    f.text(
-        (LX + 30.0, 96.0),
+    legend_line(
+        &mut f,
+        (LX, 96.0),
+        palette::OUTLIER,
+        1.0,
+        true,
         "E_abs (mean)",
-        11.0,
-        palette::INK,
-        Anchor::Start,
     );
     if nssda.is_finite() {
-        f.line((LX, 118.0), (LX + 22.0, 118.0), palette::SURVEY, 1.0, true);
-        f.text(
-            (LX + 30.0, 118.0),
+        legend_line(
+            &mut f,
+            (LX, 118.0),
+            palette::SURVEY,
+            1.0,
+            true,
             "NSSDA 95 % horizontal",
-            11.0,
-            palette::INK,
-            Anchor::Start,
         );
     } else {
         f.text(
@@ -224,13 +224,13 @@ pub fn along_route(r: &ResultFile, route: &Trajectory) -> Figure {
     }
     f.bold((LX, 50.0), "Legend", 12.0, Anchor::Start);
     legend_dot(&mut f, (LX + 6.0, 74.0), palette::PLATE1, "one target");
-    f.line((LX, 96.0), (LX + 22.0, 96.0), palette::SAMPLE, 2.0, false);
-    f.text(
-        (LX + 30.0, 96.0),
+    legend_line(
+        &mut f,
+        (LX, 96.0),
+        palette::SAMPLE,
+        2.0,
+        false,
         "least-squares line",
-        11.0,
-        palette::INK,
-        Anchor::Start,
     );
     let mut y = 128.0;
     let mut line = |f: &mut Figure, s: String| {

@@ -62,6 +62,19 @@ pub(super) fn legend_dot(f: &mut Figure, at: (f64, f64), color: Color, text: &st
     f.text((at.0 + 10.0, at.1), text, 11.0, palette::INK, Anchor::Start);
 }
 
+/// A legend entry: a short line of `color` (dashed or not) and its text.
+pub(super) fn legend_line(
+    f: &mut Figure,
+    at: (f64, f64),
+    color: Color,
+    width: f64,
+    dashed: bool,
+    text: &str,
+) {
+    f.line(at, (at.0 + 22.0, at.1), color, width, dashed);
+    f.text((at.0 + 30.0, at.1), text, 11.0, palette::INK, Anchor::Start);
+}
+
 pub(super) fn legend_marker(
     f: &mut Figure,
     at: (f64, f64),

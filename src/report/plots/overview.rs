@@ -1,7 +1,7 @@
 //! The run-wide figures: survey and aligned positions with magnified error
 //! vectors, and relative error against pair distance.
 
-use super::{legend_dot, legend_marker};
+use super::{legend_dot, legend_line, legend_marker};
 use crate::Point;
 use crate::align::Alignment;
 use crate::frame::Footprint;
@@ -242,13 +242,13 @@ pub fn overview(
         );
     }
     if drawn_route {
-        f.line((lx, 330.0), (lx + 22.0, 330.0), palette::SAMPLE, 1.5, false);
-        f.text(
-            (lx + 30.0, 330.0),
+        legend_line(
+            &mut f,
+            (lx, 330.0),
+            palette::SAMPLE,
+            1.5,
+            false,
             "the trajectory",
-            11.0,
-            palette::INK,
-            Anchor::Start,
         );
     }
     if shaded {
@@ -555,21 +555,21 @@ pub fn relative(r: &ResultFile) -> Figure {
     let lx = 592.0;
     f.bold((lx, 50.0), "Legend", 12.0, Anchor::Start);
     legend_dot(&mut f, (lx + 6.0, 74.0), palette::PLATE1, "one target pair");
-    f.line((lx, 96.0), (lx + 22.0, 96.0), palette::SAMPLE, 2.0, false);
-    f.text(
-        (lx + 30.0, 96.0),
+    legend_line(
+        &mut f,
+        (lx, 96.0),
+        palette::SAMPLE,
+        2.0,
+        false,
         "least-squares line",
-        11.0,
-        palette::INK,
-        Anchor::Start,
     );
-    f.line((lx, 118.0), (lx + 22.0, 118.0), palette::OUTLIER, 1.0, true);
-    f.text(
-        (lx + 30.0, 118.0),
+    legend_line(
+        &mut f,
+        (lx, 118.0),
+        palette::OUTLIER,
+        1.0,
+        true,
         "E_rel (mean)",
-        11.0,
-        palette::INK,
-        Anchor::Start,
     );
     let mut y = 150.0;
     let mut line = |f: &mut Figure, s: String| {
