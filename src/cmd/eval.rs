@@ -256,13 +256,9 @@ pub fn run(a: Args) -> Result<()> {
 /// nonsense against the distance driven.
 fn warn_off_route(route: &mapgauge::trajectory::Trajectory, ev: &Evaluation, result: &ResultFile) {
     let moved = route.moved(&ev.frame.levelling);
-    let far = result
-        .targets
+    let far = report::plots::located_stations(result, &moved)
         .iter()
-        .filter(|t| t.status == "ok")
-        .filter_map(|t| t.map)
-        .filter_map(|m| moved.station(&mapgauge::Point::new(m.x, m.y, m.z.unwrap_or(0.0))))
-        .map(|s| s.off)
+        .map(|(_, s)| s.off)
         .fold(0.0, f64::max);
     if far > report::plots::ROUTE_FAR_M {
         eprintln!(

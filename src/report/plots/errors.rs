@@ -3,14 +3,33 @@
 //! figure), and against the distance driven, where SLAM drift grows.
 
 use super::{fit_line, legend_dot, legend_line};
-use crate::record::ResultFile;
+use crate::record::{ResultFile, TargetOut};
 use crate::render::target_label;
 use crate::report::figure::{Anchor, Figure, Item, Panel, palette};
-use crate::trajectory::Trajectory;
+use crate::trajectory::{Station, Trajectory};
 
 /// A target farther than this from every point of the route (m) was not seen
 /// from it: the trajectory is likely in another frame.
 pub const ROUTE_FAR_M: f64 = 100.0;
+
+/// Each located target with where it stands against `route` (in the frame
+/// of the targets' map positions).
+pub fn located_stations<'a>(
+    r: &'a ResultFile,
+    route: &Trajectory,
+) -> Vec<(&'a TargetOut, Station)> {
+    r.targets
+        .iter()
+        .filter(|t| t.status == "ok")
+        .filter_map(|t| {
+            let m = t.map?;
+            Some((
+                t,
+                route.station(&crate::Point::new(m.x, m.y, m.z.unwrap_or(0.0)))?,
+            ))
+        })
+        .collect()
+}
 
 /// Legend column's left edge.
 const LX: f64 = 592.0;
@@ -183,15 +202,9 @@ pub fn along_route(r: &ResultFile, route: &Trajectory) -> Figure {
         780.0,
         380.0,
     );
-    let mut xy: Vec<(f64, f64, String, f64)> = r
-        .targets
-        .iter()
-        .filter(|t| t.status == "ok")
-        .filter_map(|t| {
-            let m = t.map?;
-            let s = route.station(&crate::Point::new(m.x, m.y, m.z.unwrap_or(0.0)))?;
-            Some((s.along, t.abs_error? * 1000.0, target_label(&t.id), s.off))
-        })
+    let mut xy: Vec<(f64, f64, String, f64)> = located_stations(r, route)
+        .into_iter()
+        .filter_map(|(t, s)| Some((s.along, t.abs_error? * 1000.0, target_label(&t.id), s.off)))
         .collect();
     xy.sort_by(|a, b| a.0.total_cmp(&b.0));
     let length = route.length();

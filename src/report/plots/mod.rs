@@ -12,7 +12,7 @@ mod errors;
 mod overview;
 mod target;
 
-pub use errors::{ROUTE_FAR_M, along_route, cdf};
+pub use errors::{ROUTE_FAR_M, along_route, cdf, located_stations};
 pub use overview::{fit_line, fmt_len, overview, relative};
 use target::target_figure;
 pub use target::{LooseView, loose_figure};
