@@ -276,13 +276,29 @@ fn fit_l(
         strong_peaks(&h, base, bin, p.min_plate_points)
     };
     let (pa, pb) = (peaks(&na), peaks(&nb));
-    let mut pairs: Vec<(usize, f64, f64)> = pa
-        .iter()
-        .flat_map(|a| pb.iter().map(move |b| (a.0.min(b.0), a.1, b.1)))
+    let mut pairs: Vec<(usize, usize, usize)> = (0..pa.len())
+        .flat_map(|i| (0..pb.len()).map(move |j| (i, j)))
+        .map(|(i, j)| (pa[i].0.min(pb[j].0), i, j))
         .collect();
     pairs.sort_by_key(|x| std::cmp::Reverse(x.0));
-    for (score, oa, ob) in pairs {
-        let checked = check_l(win, up, p, [na, nb], [oa, ob], score).and_then(|l| {
+    // Each peak's plane is gathered from the window once, when a pairing
+    // first needs it: up to nine pairings share six planes (each pairing
+    // used to rescan the window for both of its planes and sort what it
+    // found, most of a dense window's time).
+    // The window in height order, once, so that every plane's points come
+    // out in height order without sorting each.
+    let mut by_height: Vec<(f64, Vector3<f64>)> = Vec::new();
+    let mut planes_a: Vec<Option<PlanePoints>> = vec![None; pa.len()];
+    let mut planes_b: Vec<Option<PlanePoints>> = vec![None; pb.len()];
+    for (score, i, j) in pairs {
+        let (oa, ob) = (pa[i].1, pb[j].1);
+        if by_height.is_empty() {
+            by_height = win.iter().map(|v| (up.dot(v), *v)).collect();
+            by_height.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        let a = &*planes_a[i].get_or_insert_with(|| PlanePoints::gather(&by_height, &na, oa, &nb));
+        let b = &*planes_b[j].get_or_insert_with(|| PlanePoints::gather(&by_height, &nb, ob, &na));
+        let checked = check_l(p, [na, nb], [oa, ob], [a, b], score).and_then(|l| {
             if bounded(&l) {
                 Ok(l)
             } else {
@@ -313,11 +329,10 @@ fn fit_l(
 /// goes on). Every other check looks inside that band only, so an object at
 /// the target's feet or foliage below the plates cannot make it "too tall".
 fn check_l(
-    win: &[Vector3<f64>],
-    up: &Vector3<f64>,
     p: &TightParams,
     [na, nb]: [Vector3<f64>; 2],
     [oa, ob]: [f64; 2],
+    planes: [&PlanePoints; 2],
     score: usize,
 ) -> Result<LShape, Rejected> {
     let w = p.plate_width;
@@ -341,31 +356,25 @@ fn check_l(
     // Each plate's near points: (distance from the plane, along the plate
     // from the corner, height). The side of the corner the plate lies on is
     // the side most of its slab points near the corner are.
+    // Ordered by height, as their planes' points are.
     let mut near: [Vec<Near>; 2] = [Vec::new(), Vec::new()];
-    for (k, (n, off, dir)) in [(na, oa, nb), (nb, ob, na)].into_iter().enumerate() {
-        let pts: Vec<Near> = win
-            .iter()
-            .filter_map(|v| {
-                let d = n.dot(v) - off;
-                (d.abs() < SHELL.1).then(|| Near {
-                    d,
-                    t: dir.dot(&(*v - corner)),
-                    z: up.dot(v),
-                })
-            })
-            .collect();
+    // Per plate, the corner's position along it and the side it lies on.
+    let mut placed = [(0.0, 1.0); 2];
+    for (k, dir) in [nb, na].into_iter().enumerate() {
+        let plane = planes[k];
+        // Distance along the plane from the corner: `s` less the corner's.
+        let c = dir.dot(&corner);
         // Points spread along the plane, less its densest 0.12 m: a surface
         // standing across the plane (a wall behind the other plate) puts
         // many points at one distance from the corner, a plate spreads them.
         // (The count itself is checked whole: a sparse plate's frame edge
-        // may hold a third of its points.)
+        // may hold a third of its points.) `x - c` grows with `x`, so the
+        // slab's sorted `s` give the sorted distances of a span by two
+        // binary searches.
         let side = |lo: f64, hi: f64| {
-            let mut t: Vec<f64> = pts
-                .iter()
-                .filter(|q| q.d.abs() < SLAB && q.t > lo && q.t < hi)
-                .map(|q| q.t)
-                .collect();
-            t.sort_unstable_by(f64::total_cmp);
+            let s = &plane.slab;
+            let span = s.partition_point(|a| a.0 - c <= lo)..s.partition_point(|a| a.0 - c < hi);
+            let t: Vec<f64> = s[span].iter().map(|a| a.0 - c).collect();
             (t.len() - densest_run(&t, 0.12), t.len())
         };
         let (pos, neg) = (side(0.05, w + 0.15), side(-w - 0.15, -0.05));
@@ -378,22 +387,21 @@ fn check_l(
             no!(String::new());
         }
         along[k] = dir * sign;
-        near[k] = pts
-            .into_iter()
-            .map(|q| Near { t: q.t * sign, ..q })
+        placed[k] = (c, sign);
+        near[k] = plane
+            .pts
+            .iter()
+            .map(|q| Near {
+                t: (q.t - c) * sign,
+                ..*q
+            })
             .collect();
     }
     let Some((lo, hi)) = plate_band(&near, p) else {
-        let mut z: Vec<f64> = near
-            .iter()
-            .flatten()
-            .filter(|q| q.d.abs() < SLAB && q.t > 0.1 * w && q.t < w)
-            .map(|q| q.z)
-            .collect();
+        let z = on_plate_heights(&near, w);
         if z.len() < 2 * p.min_plate_points {
             no!(String::new());
         }
-        z.sort_unstable_by(f64::total_cmp);
         let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
         // Its faces stop within a few plate heights: an L of taller plates.
         if tall < 2.5 * p.plate_height {
@@ -403,11 +411,12 @@ fn check_l(
             "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
         ));
     };
-    let in_band = |q: &&Near| q.z > lo - 0.05 && q.z < hi + 0.05 && q.d.abs() < SLAB;
     let mut planar = [0usize; 2];
     let mut counts = [0usize; 2];
     for k in 0..2 {
-        let ts: Vec<f64> = near[k].iter().filter(in_band).map(|q| q.t).collect();
+        // The slab's distances along the plate in the band, ascending.
+        let (c, sign) = placed[k];
+        let ts = planes[k].slab_distances(c, sign, lo - 0.05, hi + 0.05);
         let major = ts.iter().filter(|&&t| t > 0.05).count();
         if major < p.min_plate_points {
             no!(String::new());
@@ -416,14 +425,12 @@ fn check_l(
         // this plate's plane crosses whatever stands parallel behind the
         // other plate (a wall seen through its grill): those points sit at
         // one distance, while a plate going on spreads along its plane.
-        let mut behind: Vec<f64> = ts.iter().copied().filter(|&t| t < -0.05).collect();
-        behind.sort_unstable_by(f64::total_cmp);
-        let minor = behind.len() - densest_run(&behind, 0.12);
+        let behind = &ts[..ts.partition_point(|&t| t < -0.05)];
+        let minor = behind.len() - densest_run(behind, 0.12);
         if minor * 3 > major {
             no!("a plane running through the corner (a T or a cross)".into());
         }
-        let mut ext: Vec<f64> = ts.into_iter().filter(|&t| t > 0.0).collect();
-        ext.sort_unstable_by(f64::total_cmp);
+        let ext = &ts[ts.partition_point(|&t| t <= 0.0)..];
         let far = ext[(ext.len() * 9) / 10];
         if far > w + 0.15 {
             // A plane that stops within a few plate widths: a wider plate.
@@ -500,6 +507,85 @@ fn check_l(
     })
 }
 
+/// One histogram peak's plane in a window: the points within the shells'
+/// reach of it, gathered once for every pairing that uses it.
+#[derive(Clone)]
+struct PlanePoints {
+    /// Points within `SHELL.1` of the plane, ordered by height; `t` holds
+    /// the position along the plane from the window's origin (the other
+    /// plate's normal · point), which a pairing turns into the distance from
+    /// its corner by a subtraction, keeping the order.
+    pts: Vec<Near>,
+    /// The slab's points (`|d| < SLAB`) as (position, height), ordered by
+    /// position: a pairing's distances along the plate come out sorted.
+    slab: Vec<(f64, f64)>,
+}
+
+impl PlanePoints {
+    /// The plane `n · x = off`, positions along `dir`, from the window's
+    /// points in height order (height, point).
+    fn gather(
+        by_height: &[(f64, Vector3<f64>)],
+        n: &Vector3<f64>,
+        off: f64,
+        dir: &Vector3<f64>,
+    ) -> Self {
+        let pts: Vec<Near> = by_height
+            .iter()
+            .filter_map(|(z, v)| {
+                let d = n.dot(v) - off;
+                (d.abs() < SHELL.1).then(|| Near {
+                    d,
+                    t: dir.dot(v),
+                    z: *z,
+                })
+            })
+            .collect();
+        let mut slab: Vec<(f64, f64)> = pts
+            .iter()
+            .filter(|q| q.d.abs() < SLAB)
+            .map(|q| (q.t, q.z))
+            .collect();
+        slab.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        PlanePoints { pts, slab }
+    }
+
+    /// Distances from the corner (`x - c`, times `sign`) of the slab's
+    /// points with heights in `(z0, z1)`, ascending.
+    fn slab_distances(&self, c: f64, sign: f64, z0: f64, z1: f64) -> Vec<f64> {
+        let t = |&(x, z): &(f64, f64)| (z > z0 && z < z1).then_some((x - c) * sign);
+        if sign > 0.0 {
+            self.slab.iter().filter_map(t).collect()
+        } else {
+            self.slab.iter().rev().filter_map(t).collect()
+        }
+    }
+}
+
+/// Heights of both plates' slab points over the plate away from the post
+/// (`0.1 w < t < w`), sorted: a merge, since each plate's are in height
+/// order already.
+fn on_plate_heights(near: &[Vec<Near>; 2], w: f64) -> Vec<f64> {
+    let on_plate = |q: &&Near| q.d.abs() < SLAB && q.t > 0.1 * w && q.t < w;
+    let mut a = near[0].iter().filter(on_plate).map(|q| q.z).peekable();
+    let mut b = near[1].iter().filter(on_plate).map(|q| q.z).peekable();
+    let mut z = Vec::new();
+    loop {
+        let next = match (a.peek(), b.peek()) {
+            (Some(x), Some(y)) if x.total_cmp(y).is_le() => a.next(),
+            (Some(_), Some(_)) => b.next(),
+            (Some(_), None) => a.next(),
+            (None, _) => b.next(),
+        };
+        match next {
+            Some(v) => z.push(v),
+            None => break,
+        }
+    }
+    debug_assert!(z.is_sorted_by(|a, b| a.total_cmp(b).is_le()));
+    z
+}
+
 /// A point near one plate's plane, in that plate's terms.
 #[derive(Clone, Copy)]
 struct Near {
@@ -549,17 +635,10 @@ fn planar_count(near: &[Near], t0: f64, t1: f64, z0: f64, z1: f64) -> (usize, us
 /// from below shows only its upper part). `None` when every band's faces go on.
 fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
     let w = p.plate_width;
-    let on_plate = |q: &&Near| q.d.abs() < SLAB && q.t > 0.1 * w && q.t < w;
-    let mut z: Vec<f64> = near
-        .iter()
-        .flatten()
-        .filter(on_plate)
-        .map(|q| q.z)
-        .collect();
+    let z = on_plate_heights(near, w);
     if z.len() < 2 * p.min_plate_points {
         return None;
     }
-    z.sort_unstable_by(f64::total_cmp);
     let h = p.plate_height + 0.04;
     let count = |a: f64, b: f64| z.partition_point(|&x| x < b) - z.partition_point(|&x| x < a);
     let mut bands: Vec<(usize, f64)> = Vec::new();
@@ -642,6 +721,9 @@ impl ByHeight {
                 if q.d > 0.0 { &mut b.front } else { &mut b.back }.push(q.z);
             }
         }
+        // `near` is in height order (`PlanePoints`), so each list is too;
+        // sorting an already sorted list is one pass, kept so that the index
+        // holds for any input (the unit tests' shuffled plates).
         for v in [&mut b.slab, &mut b.front, &mut b.back] {
             v.sort_unstable_by(f64::total_cmp);
         }
