@@ -480,6 +480,7 @@ fn _errors(
         method: m.align,
         dim: m.dim,
         survey_sigma: m.survey_sigma_h.map(|h| (h, m.survey_sigma_v)),
+        vertical: None,
     };
     let survey = survey.get();
     let mut inputs: Vec<PathBuf> = survey.path.iter().cloned().collect();

@@ -64,6 +64,8 @@ pub(crate) struct Inputs<'a> {
     pub(crate) survey: &'a [Point],
     /// Per-target covariance (map frame), all or nothing.
     pub(crate) covariances: Option<Vec<Matrix3<f64>>>,
+    /// A levelled frame's vertical: one tilt shared by every target per draw.
+    pub(crate) vertical: Option<super::Vertical>,
     /// Survey horizontal σ folded into RMSE_H.
     pub(crate) survey_sigma_h: f64,
     /// Whether RMSE_H intervals apply (ASPRS on all targets, not check targets).
@@ -146,6 +148,14 @@ pub(crate) fn intervals(inp: &Inputs) -> Intervals {
             for (k, p) in moved.iter_mut().enumerate() {
                 let z = Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal));
                 *p = inp.map[k] + roots[k] * z;
+            }
+            // Drawn after the targets', so a level map's draws are as before.
+            if let Some(v) = inp.vertical {
+                let mut d = || v.se_rad * rng.sample::<f64, _>(StandardNormal);
+                let tilt = nalgebra::Rotation3::from_scaled_axis(Vector3::new(d(), d(), 0.0));
+                for p in moved.iter_mut() {
+                    *p = v.origin + tilt * (*p - v.origin);
+                }
             }
             if let Some(v) = headline(inp, &moved, inp.survey, inp.ids) {
                 draws.push(v);
@@ -244,6 +254,7 @@ mod tests {
             map: &map,
             survey: &survey,
             covariances,
+            vertical: None,
             survey_sigma_h: 0.0,
             rmse_h: true,
         })

@@ -55,6 +55,20 @@ pub struct ScoreOptions {
     /// The survey's own 1-σ error (horizontal RMSE, optional vertical), folded into
     /// the ASPRS figures as √(measured² + survey²).
     pub survey_sigma: Option<(f64, Option<f64>)>,
+    /// The levelled frame's vertical and its standard error (radians), when
+    /// the map was turned upright: one shared tilt per Monte Carlo draw of
+    /// the measurement intervals (it moves every target together, by its
+    /// height above the origin horizontally).
+    pub vertical: Option<Vertical>,
+}
+
+/// The vertical a levelled map was turned to, as far as it is known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vertical {
+    /// Point the map was turned about (levelled frame).
+    pub origin: Point,
+    /// Standard error of the vertical in each horizontal direction (radians).
+    pub se_rad: f64,
 }
 
 /// How one surveyed target fared.
@@ -505,6 +519,7 @@ pub fn score_with_covariances(
         map: &map_pts,
         survey: &sur_pts,
         covariances: covs,
+        vertical: opts.vertical,
         survey_sigma_h: opts.survey_sigma.map_or(0.0, |s| s.0),
         rmse_h: !asprs.independent,
     });
@@ -797,6 +812,7 @@ mod tests {
             &est,
             &ScoreOptions {
                 survey_sigma: Some((0.02, None)),
+                vertical: None,
                 ..Default::default()
             },
         )
@@ -846,6 +862,7 @@ mod tests {
             method: AlignMethod::Rigid2dZ,
             dim: Dim::D3,
             survey_sigma: None,
+            vertical: None,
         };
         let r = score(&s, &est, &opts).unwrap();
         assert!((r.absolute.mean - 0.01).abs() < 1e-9, "{:?}", r.absolute);
@@ -861,6 +878,7 @@ mod tests {
             method: AlignMethod::None,
             dim: Dim::D3,
             survey_sigma: None,
+            vertical: None,
         };
         let r3 = score(&s, &est, &none).unwrap();
         assert!(r3.asprs.rmse_v.unwrap() > 99.0);

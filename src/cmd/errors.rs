@@ -62,6 +62,7 @@ pub fn run(a: Args) -> Result<()> {
             method: a.align,
             dim: a.dim,
             survey_sigma: a.survey_sigma,
+            vertical: None,
         },
     )?;
     let result = ResultFile::from_accuracy(&acc, &survey);

@@ -92,6 +92,18 @@ pub enum Warning {
         /// The ground's lean (degrees).
         tilt_deg: f64,
     },
+    /// The surveyed heights lean otherwise than the targets' plumb lines,
+    /// by more than both their uncertainties allow: not used to level.
+    HeightsDisagree {
+        /// The heights' lean and its standard error (degrees).
+        heights_deg: f64,
+        /// See `heights_deg`.
+        heights_se_deg: f64,
+        /// The plumb lines' lean and its standard error (degrees).
+        plumb_deg: f64,
+        /// See `plumb_deg`.
+        plumb_se_deg: f64,
+    },
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
         /// Total tilt corrected (degrees).
@@ -118,6 +130,7 @@ impl Warning {
             | Warning::WrongObjects(_)
             | Warning::OutliersExcluded(_) => 0,
             Warning::Levelled { .. }
+            | Warning::HeightsDisagree { .. }
             | Warning::Georeferenced { .. }
             | Warning::GivenFrameReplaced { .. }
             | Warning::DetectionFailed(_) => 1,
@@ -172,6 +185,15 @@ impl std::fmt::Display for Warning {
             Warning::Georeferenced { crs, tilt_deg } => write!(
                 f,
                 "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines still may, when they all lean beyond their scatter)"
+            ),
+            Warning::HeightsDisagree {
+                heights_deg,
+                heights_se_deg,
+                plumb_deg,
+                plumb_se_deg,
+            } => write!(
+                f,
+                "the surveyed heights say the map leans {heights_deg:.2}° ± {heights_se_deg:.2}° and its targets' plumb lines {plumb_deg:.2}° ± {plumb_se_deg:.2}° (1σ): further apart than both allow, so the heights were not used to level it. The map's heights may drift (odometry's vertical drift bends a map without leaning it: evaluate heights with care), or the survey's heights are not the targets' corners' (check the antenna heights and the height datum)"
             ),
             Warning::Levelled {
                 tilt_deg,
@@ -553,12 +575,12 @@ fn evaluate(
             }
         }
     }
-    // The targets' plumb lines refine the vertical, once: each line is a
-    // plain plane fit of the target's own points, which turn with the frame,
-    // so a second look would see the same lines (plus the noise of the
-    // planes' point selection, which is not worth chasing).
+    // The targets' plumb lines, and their surveyed heights when five or
+    // more have them, refine the vertical, once: each line is a plain plane
+    // fit of the target's own points and each height the located corner's,
+    // which turn with the frame, so a second look would see the same.
     let turned = !motion.is_identity();
-    let plumb = frame::plumb(&found, turned)
+    let plumb = frame::plumb(&found, survey, turned)
         .filter(|_| !no_turn)
         .map(|(p, rot)| {
             if let Some(rot) = rot {
@@ -572,11 +594,19 @@ fn evaluate(
                 }
                 motion = motion.then(&rot);
             }
+            if let Some(h) = p.heights.as_ref().filter(|h| !h.agrees) {
+                warnings.push(Warning::HeightsDisagree {
+                    heights_deg: h.tilt_deg,
+                    heights_se_deg: h.se_deg,
+                    plumb_deg: p.tilt_deg,
+                    plumb_se_deg: p.se_deg,
+                });
+            }
             p
         });
     let tilt = motion.tilt_deg();
     if tilt > 0.0 {
-        let se_deg = frame::vertical_se_deg(plumb.as_ref(), turned);
+        let se_deg = frame::vertical_se_deg(plumb.as_ref());
         let a = se_deg.to_radians();
         let o = motion.origin;
         let (mut height_m, mut across_mm) = (0.0_f64, 0.0_f64);
@@ -596,6 +626,13 @@ fn evaluate(
         });
     }
 
+    // A turned frame's vertical is known to its standard error: shared by
+    // every target, it goes into the intervals as one tilt per draw, and
+    // into each target's covariance as what it does there alone.
+    let vertical = (!motion.is_identity()).then(|| accuracy::Vertical {
+        origin: motion.origin,
+        se_rad: frame::vertical_se_deg(plumb.as_ref()).to_radians(),
+    });
     let opts = ScoreOptions {
         method: cfg.metrics.align,
         dim: cfg.metrics.dim,
@@ -603,6 +640,7 @@ fn evaluate(
             .metrics
             .survey_sigma_h
             .map(|h| (h, cfg.metrics.survey_sigma_v)),
+        vertical,
     };
     // Objects far from where the others put them are looked for again there.
     let far = if crops_dir.is_none() {
@@ -710,10 +748,13 @@ fn evaluate(
     let covariances = found
         .iter()
         .filter_map(|r| {
-            r.outcome
-                .as_ref()
-                .ok()
-                .map(|f| (r.id.clone(), f.located.covariance))
+            r.outcome.as_ref().ok().map(|f| {
+                let mut c = f.located.covariance;
+                if let Some(v) = vertical {
+                    tilt_covariance(&mut c, &f.located.corner, &v);
+                }
+                (r.id.clone(), c)
+            })
         })
         .collect();
     let mut est = estimates(&found);
@@ -779,6 +820,18 @@ fn evaluate(
 
 /// A map too spread out to be in metres, set against the survey: a map in
 /// millimetres spans a thousand times the site the survey covers.
+/// Adds what an error of the vertical does to a corner of a turned map: a
+/// tilt δ (each horizontal direction σ) moves it horizontally by its height
+/// above the origin times δ, and vertically by its distance from the origin
+/// times δ (small angles; the two parts' correlation is left out).
+fn tilt_covariance(c: &mut [[f64; 3]; 3], p: &Point, v: &accuracy::Vertical) {
+    let d = p - v.origin;
+    let s2 = v.se_rad * v.se_rad;
+    c[0][0] += s2 * d.z * d.z;
+    c[1][1] += s2 * d.z * d.z;
+    c[2][2] += s2 * (d.x * d.x + d.y * d.y);
+}
+
 fn against_survey(e: Error, survey: &Survey) -> Error {
     match e {
         Error::Input(m) if m.contains(crate::frame::level::TOO_THIN) => {

@@ -91,6 +91,24 @@ pub struct Levelling {
     pub plumb_se_deg: Option<f64>,
     /// Whether the plumb lines were applied.
     pub plumb_applied: bool,
+    /// The surveyed heights' lean (degrees): the located corners' heights
+    /// less the survey's, as a plane over the site (five or more targets
+    /// with surveyed heights).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heights_tilt_deg: Option<f64>,
+    /// Standard error of `heights_tilt_deg` in its least certain direction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heights_se_deg: Option<f64>,
+    /// Targets that plane was fitted to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heights_targets: Option<usize>,
+    /// Whether the heights agreed with the plumb lines and so were used.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heights_used: Option<bool>,
+    /// Standard error of the vertical the frame was turned to (degrees;
+    /// every estimate used, together), when it was turned.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertical_se_deg: Option<f64>,
 }
 
 /// What map-wide detection found and matched.
@@ -185,6 +203,7 @@ fn frame_info(f: &FrameFound) -> FrameInfo {
         }),
         _ => None,
     };
+    let heights = f.plumb.as_ref().and_then(|p| p.heights.as_ref());
     FrameInfo {
         how: f.how.name().into(),
         init: f.init,
@@ -207,6 +226,15 @@ fn frame_info(f: &FrameFound) -> FrameInfo {
             plumb_tilt_deg: f.plumb.as_ref().map(|p| p.tilt_deg),
             plumb_se_deg: f.plumb.as_ref().map(|p| p.se_deg),
             plumb_applied: f.plumb.as_ref().is_some_and(|p| p.applied),
+            heights_tilt_deg: heights.map(|h| h.tilt_deg),
+            heights_se_deg: heights.map(|h| h.se_deg),
+            heights_targets: heights.map(|h| h.targets),
+            heights_used: heights.map(|h| h.agrees),
+            vertical_se_deg: f
+                .plumb
+                .as_ref()
+                .filter(|p| p.applied)
+                .map(|p| p.turned_se_deg),
         },
         detection,
     }

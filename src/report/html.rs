@@ -166,12 +166,30 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
         row(
             "targets' plumb lines",
             format!(
-                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}. Each target's plates meet in a line built plumb: their weighted mean is a second estimate of the vertical, from the targets themselves, and it turns the frame when it leans by more than 3 standard errors and 0.5°",
+                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}. Each target's plates meet in a line built plumb: their weighted mean is a second estimate of the vertical, from the targets themselves, and it turns the frame when it leans by more than 3 standard errors and 0.5° (0.1° with the surveyed heights)",
                 if l.plumb_applied {
                     "; the frame was turned to them"
                 } else {
                     ""
                 }
+            ),
+        );
+    }
+    if let (Some(t), Some(s), Some(n)) = (l.heights_tilt_deg, l.heights_se_deg, l.heights_targets) {
+        row(
+            "surveyed heights",
+            format!(
+                "lean {t:.3}° ± {s:.3}° over {n} targets ({}). The located corners' heights less the surveyed ones, fitted as a plane over the site: a lean raises a corner by its distance times the angle, so heights hundreds of metres apart give it far more precisely than plumb lines. Used with the plumb lines when the two agree within their uncertainties{}",
+                if l.heights_used == Some(true) {
+                    "used"
+                } else {
+                    "not used: they disagree with the plumb lines"
+                },
+                l.vertical_se_deg
+                    .map(|v| format!(
+                        "; the vertical the frame was turned to is known to ±{v:.3}° (1σ)"
+                    ))
+                    .unwrap_or_default()
             ),
         );
     }
@@ -692,6 +710,7 @@ pub(crate) mod tests {
             method: Default::default(),
             dim: Dim::D2,
             survey_sigma: None,
+            vertical: None,
         };
         crate::record::ResultFile::from_accuracy(&score(&survey, &est, &opts).unwrap(), &survey)
     }
