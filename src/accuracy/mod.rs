@@ -71,6 +71,26 @@ pub struct Vertical {
     pub se_rad: f64,
 }
 
+impl Vertical {
+    /// `c` plus what this vertical's error does at `p` on its own: a tilt
+    /// ω = (ωx, ωy, 0) about the origin moves p by ω × d (d = p − origin),
+    /// so x and y by the height dz times ω and z by the horizontal distance
+    /// (small angles, each ω component of variance σ²).
+    pub fn add_to(&self, c: &[[f64; 3]; 3], p: &Point) -> [[f64; 3]; 3] {
+        let d = p - self.origin;
+        let s2 = self.se_rad * self.se_rad;
+        let mut c = *c;
+        c[0][0] += s2 * d.z * d.z;
+        c[1][1] += s2 * d.z * d.z;
+        c[2][2] += s2 * (d.x * d.x + d.y * d.y);
+        for (i, di) in [(0, d.x), (1, d.y)] {
+            c[i][2] -= s2 * di * d.z;
+            c[2][i] -= s2 * di * d.z;
+        }
+        c
+    }
+}
+
 /// How one surveyed target fared.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Status {
@@ -323,7 +343,9 @@ pub fn score_with_covariances(
                     targets.push(TargetScore {
                         map: Some(*p),
                         map_has_z: e.has_z,
-                        map_covariance: covariances.get(&st.id).copied(),
+                        map_covariance: covariances
+                            .get(&st.id)
+                            .map(|c| opts.vertical.map_or(*c, |v| v.add_to(c, p))),
                         ..base
                     });
                 }
@@ -528,10 +550,16 @@ pub fn score_with_covariances(
     }
     let residuals: Vec<nalgebra::Vector3<f64>> =
         aligned.iter().zip(&sur_pts).map(|(a, s)| a - s).collect();
+    // Each target's own, as reported (the vertical's share included: the
+    // alignment does not absorb what it does to one target alone).
+    let reported: HashMap<&str, [[f64; 3]; 3]> = targets
+        .iter()
+        .filter_map(|t| t.map_covariance.map(|c| (t.id.as_str(), c)))
+        .collect();
     let covs_survey: Vec<Option<nalgebra::Matrix3<f64>>> = used
         .iter()
         .map(|&k| {
-            covariances.get(&survey.targets[k].id).map(|c| {
+            reported.get(survey.targets[k].id.as_str()).map(|c| {
                 let c = nalgebra::Matrix3::from_fn(|i, j| c[i][j]);
                 let r = al.rotation * al.scale;
                 r * c * r.transpose()

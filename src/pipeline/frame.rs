@@ -85,14 +85,14 @@ pub struct Plumb {
 /// The map's lean as the surveyed heights show it: the located corners'
 /// heights less the survey's, fitted as a plane over the site. A map leaning
 /// θ raises a corner d metres off by d·tan θ, so over a site of hundreds of
-/// metres centimetre heights give the lean to a few thousandths of a degree,
+/// metres centimetre heights give the lean to a few hundredths of a degree,
 /// far better than a plumb line's plates do; a constant datum offset (an
 /// ellipsoidal survey, a map starting at 0) falls into the plane's height.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HeightsLean {
     /// Angle of the lean (degrees).
     pub tilt_deg: f64,
-    /// Its standard error, the larger of its two directions' (degrees).
+    /// Its standard error (degrees; of the angle, both directions together).
     pub se_deg: f64,
     /// Targets fitted (after setting aside heights off the plane).
     pub targets: usize,
@@ -137,10 +137,11 @@ impl Lean {
             .is_some_and(|w| (d.transpose() * w * d)[0] > 13.8)
     }
 
-    /// Standard error in its least certain direction (degrees).
+    /// Standard error of the lean's angle, both directions together (the
+    /// RMS of the angle between the estimate and the truth: √ of the
+    /// covariance's trace), in degrees, as the plumb lines' scatter gives it.
     fn se_deg(&self) -> f64 {
-        let e = self.cov.symmetric_eigenvalues();
-        e.max().max(0.0).sqrt().to_degrees()
+        self.cov.trace().max(0.0).sqrt().to_degrees()
     }
 
     /// The vertical as a unit vector.
@@ -158,10 +159,10 @@ const HEIGHT_SIGMA_FLOOR_M: f64 = 0.02;
 
 /// The surveyed heights' lean (see [`HeightsLean`]): a least-squares plane
 /// through (corner z − survey z) over the corners' horizontal positions,
-/// setting aside up to two heights more than 3 robust σ (and 5 cm) off it
-/// (a target whose lower plates were hidden, a wrong object). Five targets
-/// or more, spread over both horizontal directions enough to give a finite
-/// covariance.
+/// setting aside, while more than five remain, up to two heights more than
+/// 3 robust σ (and 5 cm) off it (a target whose lower plates were hidden, a
+/// wrong object). Five targets or more, spread over both horizontal
+/// directions enough to give a finite covariance.
 fn heights_lean(found: &[TargetRun], survey: &Survey) -> Option<(Lean, HeightsLean)> {
     let pts: Vec<(Vector2<f64>, f64)> = found
         .iter()
@@ -211,14 +212,22 @@ fn lean_of_heights(mut pts: Vec<(Vector2<f64>, f64)>) -> Option<(Lean, HeightsLe
         }
         let sse: f64 = res.iter().map(|r| r * r).sum();
         let sigma = (sse / (n - 3) as f64).sqrt().max(HEIGHT_SIGMA_FLOOR_M);
-        let cov = inv.fixed_view::<2, 2>(1, 1).into_owned() * sigma * sigma;
-        // Heights rise along g in the located frame: the true vertical,
-        // seen from it, leans the other way.
+        // σ from n − 3 degrees of freedom is itself uncertain: the
+        // covariance is widened so its normal 95 % bounds are Student's.
+        let widen = (crate::accuracy::t975(n - 3) / 1.959_964).powi(2);
+        let cov_g = inv.fixed_view::<2, 2>(1, 1).into_owned() * sigma * sigma * widen;
+        // Heights rise along the slope g in the located frame: the true
+        // vertical u, seen from it, leans the other way, g = -u_xy / u_z, so
+        // u_xy = -g / √(1 + |g|²) (the plumb lines' terms), its covariance
+        // carried through that function's Jacobian.
+        let g = Vector2::new(x[1], x[2]);
+        let k = 1.0 + g.norm_squared();
+        let jac = (Matrix2::identity() - g * g.transpose() / k) / k.sqrt();
         let lean = Lean {
-            t: -Vector2::new(x[1], x[2]),
-            cov,
+            t: -g / k.sqrt(),
+            cov: jac * cov_g * jac.transpose(),
         };
-        let tilt_deg = lean.t.norm().atan().to_degrees();
+        let tilt_deg = g.norm().atan().to_degrees();
         let info = HeightsLean {
             tilt_deg,
             se_deg: lean.se_deg(),
@@ -519,17 +528,19 @@ pub(super) fn plumb(
     // (odometry's vertical drift bends a map without leaning it) or the
     // survey's heights are not the corners': they are set aside and a
     // warning says so.
+    // `se` (like the ground's 2°) is of the angle, both directions
+    // together: half its square in each.
     let sp = se.max(1e-6).to_radians();
     let plumb_lean = Lean {
         t: Vector2::new(mean.x, mean.y),
-        cov: Matrix2::identity() * sp * sp,
+        cov: Matrix2::identity() * sp * sp / 2.0,
     };
     let mut leans = vec![plumb_lean];
     if turned {
         let g = GROUND_SIGMA_DEG.to_radians();
         leans.push(Lean {
             t: Vector2::zeros(),
-            cov: Matrix2::identity() * g * g,
+            cov: Matrix2::identity() * g * g / 2.0,
         });
     }
     let heights = heights_lean(found, survey).map(|(lean, mut info)| {
@@ -577,7 +588,7 @@ pub(super) fn plumb(
 /// Standard error (degrees) of the vertical a levelled frame was turned to:
 /// every estimate's together when the targets turned it (the plumb step),
 /// else the ground's alone (its error is the site's slope).
-pub(super) fn vertical_se_deg(plumb: Option<&Plumb>) -> f64 {
+pub(crate) fn vertical_se_deg(plumb: Option<&Plumb>) -> f64 {
     match plumb {
         Some(p) if p.applied => p.turned_se_deg,
         _ => GROUND_SIGMA_DEG,

@@ -22,7 +22,8 @@ mod passes;
 mod target;
 
 pub use config::{Config, FrameConfig, FrameMode, MetricsConfig};
-pub use frame::{FrameFound, FrameHow, Plumb};
+pub(crate) use frame::vertical_se_deg;
+pub use frame::{FrameFound, FrameHow, HeightsLean, Plumb};
 pub use target::{Failure, FarBy, Found, Pass, TargetRun, locate_with};
 
 use crate::accuracy::{self, Accuracy, ScoreOptions};
@@ -202,7 +203,7 @@ impl std::fmt::Display for Warning {
                 across_mm,
             } => write!(
                 f,
-                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back). The vertical is known to ±{se_deg:.2}° (1σ): the targets' levelled heights are uncertain by up to {height_m:.2} m (distance from the levelling origin × that angle) and their horizontal positions by up to {across_mm:.1} mm (height above it × that angle), beyond the σ given per target"
+                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back). The vertical is known to ±{se_deg:.2}° (1σ): the targets' levelled heights are uncertain by up to {height_m:.2} m (distance from the levelling origin × that angle) and their horizontal positions by up to {across_mm:.1} mm (height above it × that angle): included in each target's σ and in the intervals (as one tilt shared by all)"
             ),
         }
     }
@@ -631,7 +632,8 @@ fn evaluate(
     // into each target's covariance as what it does there alone.
     let vertical = (!motion.is_identity()).then(|| accuracy::Vertical {
         origin: motion.origin,
-        se_rad: frame::vertical_se_deg(plumb.as_ref()).to_radians(),
+        // Of the angle: half its square in each direction.
+        se_rad: frame::vertical_se_deg(plumb.as_ref()).to_radians() / std::f64::consts::SQRT_2,
     });
     let opts = ScoreOptions {
         method: cfg.metrics.align,
@@ -748,13 +750,10 @@ fn evaluate(
     let covariances = found
         .iter()
         .filter_map(|r| {
-            r.outcome.as_ref().ok().map(|f| {
-                let mut c = f.located.covariance;
-                if let Some(v) = vertical {
-                    tilt_covariance(&mut c, &f.located.corner, &v);
-                }
-                (r.id.clone(), c)
-            })
+            r.outcome
+                .as_ref()
+                .ok()
+                .map(|f| (r.id.clone(), f.located.covariance))
         })
         .collect();
     let mut est = estimates(&found);
@@ -820,18 +819,6 @@ fn evaluate(
 
 /// A map too spread out to be in metres, set against the survey: a map in
 /// millimetres spans a thousand times the site the survey covers.
-/// Adds what an error of the vertical does to a corner of a turned map: a
-/// tilt δ (each horizontal direction σ) moves it horizontally by its height
-/// above the origin times δ, and vertically by its distance from the origin
-/// times δ (small angles; the two parts' correlation is left out).
-fn tilt_covariance(c: &mut [[f64; 3]; 3], p: &Point, v: &accuracy::Vertical) {
-    let d = p - v.origin;
-    let s2 = v.se_rad * v.se_rad;
-    c[0][0] += s2 * d.z * d.z;
-    c[1][1] += s2 * d.z * d.z;
-    c[2][2] += s2 * (d.x * d.x + d.y * d.y);
-}
-
 fn against_survey(e: Error, survey: &Survey) -> Error {
     match e {
         Error::Input(m) if m.contains(crate::frame::level::TOO_THIN) => {

@@ -105,8 +105,9 @@ pub struct Levelling {
     /// Whether the heights agreed with the plumb lines and so were used.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heights_used: Option<bool>,
-    /// Standard error of the vertical the frame was turned to (degrees;
-    /// every estimate used, together), when it was turned.
+    /// Standard error of the vertical the frame was turned to (degrees; of
+    /// the angle, both directions together), whenever it was turned: the
+    /// ground's 2° alone, or every estimate the plumb step combined.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vertical_se_deg: Option<f64>,
 }
@@ -230,11 +231,8 @@ fn frame_info(f: &FrameFound) -> FrameInfo {
             heights_se_deg: heights.map(|h| h.se_deg),
             heights_targets: heights.map(|h| h.targets),
             heights_used: heights.map(|h| h.agrees),
-            vertical_se_deg: f
-                .plumb
-                .as_ref()
-                .filter(|p| p.applied)
-                .map(|p| p.turned_se_deg),
+            vertical_se_deg: (!f.levelling.is_identity())
+                .then(|| crate::pipeline::vertical_se_deg(f.plumb.as_ref())),
         },
         detection,
     }

@@ -166,7 +166,7 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
         row(
             "targets' plumb lines",
             format!(
-                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}. Each target's plates meet in a line built plumb: their weighted mean is a second estimate of the vertical, from the targets themselves, and it turns the frame when it leans by more than 3 standard errors and 0.5° (0.1° with the surveyed heights)",
+                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}. Each target's plates meet in a line built plumb: their weighted mean is a second estimate of the vertical, from the targets themselves. With the ground's (in a frame the ground turned) and the surveyed heights' (below), it turns a ground-levelled frame always, and a map read as it is when their combined lean exceeds 3 standard errors and 0.5° (0.1° with the surveyed heights)",
                 if l.plumb_applied {
                     "; the frame was turned to them"
                 } else {
@@ -179,9 +179,9 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
         row(
             "surveyed heights",
             format!(
-                "lean {t:.3}° ± {s:.3}° over {n} targets ({}). The located corners' heights less the surveyed ones, fitted as a plane over the site: a lean raises a corner by its distance times the angle, so heights hundreds of metres apart give it far more precisely than plumb lines. Used with the plumb lines when the two agree within their uncertainties{}",
+                "lean {t:.3}° ± {s:.3}° over {n} targets ({}). The located corners' heights less the surveyed ones, fitted as a plane over the site: a lean raises a corner by its distance times the angle, so heights hundreds of metres apart give it far more precisely than plumb lines. Combined with the plumb lines when the two agree within their uncertainties{}",
                 if l.heights_used == Some(true) {
-                    "used"
+                    "they agree with the plumb lines"
                 } else {
                     "not used: they disagree with the plumb lines"
                 },
