@@ -55,6 +55,10 @@ pub struct Args {
     /// Run the reference algorithm exactly (3D k-means, random start, no refit, 10,000 attempts).
     #[arg(long)]
     paper: bool,
+    /// Plate width and height `W[,H]` in metres [default: 0.6,0.6]: a crop
+    /// much wider than the plates is refused as a loose crop.
+    #[arg(long, value_name = "W[,H]", value_parser = super::one_or_two, allow_hyphen_values = true)]
+    plate_size: Option<(f64, Option<f64>)>,
 }
 
 fn parse_up(s: &str) -> Result<Vector3<f64>, String> {
@@ -118,6 +122,10 @@ struct Row {
 /// Runs the command.
 pub fn run(args: Args) -> mapgauge::Result<()> {
     let params = args.params();
+    let width = match args.plate_size {
+        Some(p) => super::plate_size(p)?.0,
+        None => mapgauge::crop::TightParams::default().plate_width,
+    };
     let mut rows = Vec::with_capacity(args.files.len());
     for path in &args.files {
         let id = path
@@ -126,7 +134,7 @@ pub fn run(args: Args) -> mapgauge::Result<()> {
             .unwrap_or_default();
         let result = mapgauge::cloud::read_all(path)
             .map_err(|e| e.to_string())
-            .and_then(|pts| match mapgauge::crop::looks_loose(&pts, 0.6) {
+            .and_then(|pts| match mapgauge::crop::looks_loose(&pts, width) {
                 Some(span) => Err(format!(
                     "{}: {}",
                     path.display(),

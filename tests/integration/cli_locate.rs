@@ -243,3 +243,41 @@ fn unreadable_file_is_a_row_not_a_crash() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("missing.ply"), "{}", stderr(&o));
 }
+
+/// A tight crop of bigger plates (the scene's scaled ×3 about its corner, so
+/// wider than any crop of 0.6 m plates) is refused as a loose crop by
+/// default and located with `--plate-size`, its corner where the scaled one is.
+#[test]
+fn plate_size_reaches_the_loose_crop_check() {
+    let s = scene();
+    let files = tight_crops(s);
+    let good = &files[0];
+    let id = good.file_stem().unwrap().to_str().unwrap();
+    let c = s.truth[id];
+    let corner = Point::new(c[0], c[1], c[2]);
+    let big: Vec<Point> = mapgauge::cloud::read_all(good)
+        .unwrap()
+        .iter()
+        .map(|p| corner + (p - corner) * 3.0)
+        .collect();
+    let dir = tempdir();
+    let file = dir.path().join("big.ply");
+    mapgauge::cloud::write(&file, mapgauge::cloud::OutFormat::Ply, &big).unwrap();
+    let o = locate(&["--format", "csv"], std::slice::from_ref(&file));
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("looks like a loose crop"),
+        "{}",
+        stderr(&o)
+    );
+    let o = locate(
+        &["--format", "csv", "--plate-size", "1.8"],
+        std::slice::from_ref(&file),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8(o.stdout).unwrap();
+    let row: Vec<&str> = out.lines().nth(1).expect("a row").split(',').collect();
+    let got = [row[1], row[2]].map(|v| v.parse::<f64>().unwrap());
+    let d = ((got[0] - c[0]).powi(2) + (got[1] - c[1]).powi(2)).sqrt();
+    assert!(d < 0.06, "corner {d:.3} m from the scaled truth: {out}");
+}
