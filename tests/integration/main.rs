@@ -23,6 +23,7 @@ mod golden;
 mod hostile;
 mod locate_acceptance;
 mod pipeline;
+mod real_corpus;
 mod report_cli;
 mod synth_cli;
 mod tiled;

@@ -1,0 +1,161 @@
+//! Real files (`tests/data/real`, provenance and licences in its README.md),
+//! none holding a survey target: each is read exactly as an independent
+//! reader reads it (`manifest.json`, written by `measure.py` with numpy's own
+//! PCD/PTS/CSV parsing, laspy, plyfile and pye57), `detect` finds no target
+//! in it, and the ground spots of a fake survey are never located (issue 30).
+//! `MAPGAUGE_CORPUS=DIR` runs the same checks on another folder with its own
+//! manifest.json (`fetch_more.sh --download DIR`, then
+//! `measure.py DIR/* > DIR/manifest.json`).
+
+use crate::util::{bin, stderr, tempdir};
+use serde_json::Value;
+use std::path::PathBuf;
+
+/// Files `detect` still takes a target from, with why: each a known failure
+/// of issue 30 item 3, asserted so that its fix shows here.
+const KNOWN_FALSE: &[(&str, usize, &str)] = &[(
+    "small_gicp_source.ply",
+    1,
+    "a 0.52 × 0.55 m L 0.35 m tall of 15 returns 5 m from a Velodyne: plate support is not yet weighed against range",
+)];
+
+fn corpus() -> (PathBuf, Vec<Value>) {
+    let dir = std::env::var_os("MAPGAUGE_CORPUS").map_or_else(
+        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/real"),
+        PathBuf::from,
+    );
+    let m: Vec<Value> =
+        serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).expect("manifest.json"))
+            .expect("manifest.json is a list");
+    assert!(!m.is_empty());
+    (dir, m)
+}
+
+fn triple(v: &Value) -> [f64; 3] {
+    [0, 1, 2].map(|i| v[i].as_f64().expect("a number"))
+}
+
+#[test]
+fn every_real_file_reads_as_an_independent_reader_reads_it() {
+    let (dir, manifest) = corpus();
+    let mut bad = Vec::new();
+    for e in &manifest {
+        let name = e["file"].as_str().unwrap();
+        let pts = match mapgauge::cloud::read_all(&dir.join(name)) {
+            Ok(p) => p,
+            Err(err) => {
+                bad.push(format!("{name}: {err}"));
+                continue;
+            }
+        };
+        let want = e["points"].as_u64().unwrap() - e["nan_points"].as_u64().unwrap();
+        if pts.len() as u64 != want {
+            bad.push(format!("{name}: {} points, {want} expected", pts.len()));
+            continue;
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in &pts {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let first = [pts[0].x, pts[0].y, pts[0].z];
+        // Float32 and integer sources convert exactly; scaled integers
+        // (LAS, E57) may differ in the last bit of a double.
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
+        for (what, got, want) in [
+            ("min", lo, triple(&e["min"])),
+            ("max", hi, triple(&e["max"])),
+            ("first point", first, triple(&e["first"])),
+        ] {
+            if !(0..3).all(|k| close(got[k], want[k])) {
+                bad.push(format!("{name}: {what} {got:?}, {want:?} expected"));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+#[test]
+fn detect_finds_no_target_in_real_maps_without_any() {
+    let (dir, manifest) = corpus();
+    let tmp = tempdir();
+    let mut bad = Vec::new();
+    for e in &manifest {
+        let name = e["file"].as_str().unwrap();
+        let out = tmp.path().join(name);
+        let o = bin()
+            .arg("detect")
+            .arg("--map")
+            .arg(dir.join(name))
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let csv = std::fs::read_to_string(out.join("detections.csv")).unwrap();
+        let found = csv.lines().skip(1).filter(|l| !l.trim().is_empty()).count();
+        let known = KNOWN_FALSE.iter().find(|k| k.0 == name).map_or(0, |k| k.1);
+        if found != known {
+            bad.push(format!(
+                "{name}: {found} detections, {known} expected\n{csv}"
+            ));
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// Five spots on the ground of each real scan 10 m across or more (the
+/// lowest point within 1 m of points spread through the file), surveyed as
+/// targets and evaluated in the survey's frame: nothing is located there.
+#[test]
+fn ground_spots_of_a_fake_survey_are_never_located() {
+    let (dir, manifest) = corpus();
+    let tmp = tempdir();
+    let mut tried = 0;
+    for e in &manifest {
+        let (lo, hi) = (triple(&e["min"]), triple(&e["max"]));
+        if e["points"].as_u64().unwrap() < 1000 || hi[0] - lo[0] < 10.0 || hi[1] - lo[1] < 10.0 {
+            continue;
+        }
+        let name = e["file"].as_str().unwrap();
+        let pts = mapgauge::cloud::read_all(&dir.join(name)).unwrap();
+        let mut survey = String::from("id,x,y,z\n");
+        for i in 0..5 {
+            let c = pts[(2 * i + 1) * pts.len() / 10];
+            let low = pts
+                .iter()
+                .filter(|p| (p.x - c.x).hypot(p.y - c.y) < 1.0)
+                .min_by(|a, b| a.z.total_cmp(&b.z))
+                .unwrap();
+            survey += &format!("s{i},{:.3},{:.3},{:.3}\n", low.x, low.y, low.z);
+        }
+        let s = tmp.path().join(format!("{name}.csv"));
+        std::fs::write(&s, survey).unwrap();
+        let out = tmp.path().join(format!("{name}.out"));
+        let o = bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(dir.join(name))
+            .arg("--survey")
+            .arg(&s)
+            .arg("--out")
+            .arg(&out)
+            .args(["--frame", "survey", "--no-report"])
+            .output()
+            .unwrap();
+        let listed = ["targets.csv", "failed.csv"]
+            .iter()
+            .filter_map(|f| std::fs::read_to_string(out.join(f)).ok())
+            .collect::<String>();
+        assert!(
+            !listed.contains(",ok,"),
+            "{name}: a ground spot was located:\n{listed}\n{}",
+            stderr(&o)
+        );
+        assert!(!o.status.success(), "{name}: scored ground spots");
+        tried += 1;
+    }
+    assert!(tried >= 3, "only {tried} real scans wide enough");
+}
