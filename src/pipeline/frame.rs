@@ -101,6 +101,9 @@ pub struct HeightsLean {
     /// Whether it agreed with the plumb lines within their uncertainties
     /// (else it was not used, and a warning says so).
     pub agrees: bool,
+    /// How far apart the two verticals are (degrees): leans of one size in
+    /// two directions may differ by more than either.
+    pub apart_deg: f64,
 }
 
 /// One estimate of the true vertical as seen in the frame the targets were
@@ -234,6 +237,7 @@ fn lean_of_heights(mut pts: Vec<(Vector2<f64>, f64)>) -> Option<(Lean, HeightsLe
             targets: n,
             rms_m: (sse / n as f64).sqrt(),
             agrees: true,
+            apart_deg: 0.0,
         };
         return Some((lean, info));
     }
@@ -545,6 +549,7 @@ pub(super) fn plumb(
     }
     let heights = heights_lean(found, survey).map(|(lean, mut info)| {
         info.agrees = !lean.disagrees(&plumb_lean);
+        info.apart_deg = (lean.t - plumb_lean.t).norm().asin().to_degrees();
         if info.agrees {
             leans.push(lean);
         }
@@ -558,12 +563,16 @@ pub(super) fn plumb(
     // A map read as it is turns only beyond three standard errors, and
     // beyond half a degree on plumb lines alone (their noise must not turn
     // a level map: a 0.2° turn moves targets 2 m apart in height by 7 mm),
-    // a tenth of one with the surveyed heights (smaller leans there are as
-    // likely a vertical drift as a lean). Up to 20°: beyond, a few targets
-    // agreeing is more likely a mistake.
+    // a tenth of one with the surveyed heights. The heights only refine a
+    // lean the map itself shows (its plumb lines beyond two standard
+    // errors): heights alone cannot tell a lean from odometry's vertical
+    // drift, which bends a map's heights and leaves it level where the
+    // targets stand, and turning such a map would move its targets by
+    // their heights times the drift's slope. Up to 20°: beyond, a few
+    // targets agreeing is more likely a mistake.
     let bar = if turned {
         0.005
-    } else if with_heights {
+    } else if with_heights && tilt > 2.0 * se {
         (3.0 * se_c).max(0.1)
     } else {
         (3.0 * se_c).max(0.5)

@@ -104,6 +104,8 @@ pub enum Warning {
         plumb_deg: f64,
         /// See `plumb_deg`.
         plumb_se_deg: f64,
+        /// Angle between the two verticals (degrees).
+        apart_deg: f64,
     },
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
@@ -192,9 +194,10 @@ impl std::fmt::Display for Warning {
                 heights_se_deg,
                 plumb_deg,
                 plumb_se_deg,
+                apart_deg,
             } => write!(
                 f,
-                "the surveyed heights say the map leans {heights_deg:.2}° ± {heights_se_deg:.2}° and its targets' plumb lines {plumb_deg:.2}° ± {plumb_se_deg:.2}° (1σ): further apart than both allow, so the heights were not used to level it. The map's heights may drift (odometry's vertical drift bends a map without leaning it: evaluate heights with care), or the survey's heights are not the targets' corners' (check the antenna heights and the height datum)"
+                "the surveyed heights say the map leans {heights_deg:.2}° ± {heights_se_deg:.2}° and its targets' plumb lines {plumb_deg:.2}° ± {plumb_se_deg:.2}° (1σ), verticals {apart_deg:.2}° apart: further than both allow, so the heights were not used to level it. The map's heights may drift (odometry's vertical drift bends a map without leaning it: evaluate heights with care), or the survey's heights are not the targets' corners' (check the antenna heights and the height datum)"
             ),
             Warning::Levelled {
                 tilt_deg,
@@ -601,6 +604,7 @@ fn evaluate(
                     heights_se_deg: h.se_deg,
                     plumb_deg: p.tilt_deg,
                     plumb_se_deg: p.se_deg,
+                    apart_deg: h.apart_deg,
                 });
             }
             p

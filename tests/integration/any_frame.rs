@@ -796,4 +796,34 @@ fn a_tilted_400_m_site_is_levelled_by_its_surveyed_heights() {
         );
         assert!((got - want).abs() < 0.003, "{which} {got} against {want}");
     }
+    // The level map against survey heights that drift 2 m over the site
+    // (as a map's heights drift against a survey's under odometry's
+    // vertical drift): its plumb lines see no lean, so the heights alone
+    // do not turn it, and its errors stay the level scene's.
+    let level = dir.path().join("level");
+    crate::util::edit_survey(&level.join("survey.csv"), &level.join("drift.csv"), |row| {
+        let x: f64 = row[1].parse().unwrap();
+        let z: f64 = row[3].parse().unwrap();
+        row[3] = format!("{:.4}", z - 0.005 * x);
+    });
+    let res = dir.path().join("drift");
+    let out = bin()
+        .arg("eval")
+        .arg("--map")
+        .arg(level.join("map.pcd"))
+        .arg("--survey")
+        .arg(level.join("drift.csv"))
+        .arg("--out")
+        .arg(&res)
+        .arg("--no-report")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = result(&res);
+    let l = &r["eval"]["frame"]["levelling"];
+    assert_eq!(l["tilt_deg"].as_f64(), Some(0.0), "{l}");
+    assert!(l["heights_tilt_deg"].as_f64().unwrap() > 0.2, "{l}");
+    let got = r["absolute"]["mean"].as_f64().unwrap();
+    let want = truths[1]["expected"]["absolute"]["mean"].as_f64().unwrap();
+    assert!((got - want).abs() < 0.003, "E_abs {got} against {want}");
 }
