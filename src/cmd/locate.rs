@@ -56,7 +56,8 @@ pub struct Args {
     #[arg(long)]
     paper: bool,
     /// Plate width and height `W[,H]` in metres [default: 0.6,0.6]: a crop
-    /// much wider than the plates is refused as a loose crop.
+    /// much wider than the plates is refused as a loose crop (the width is
+    /// what counts here; the height is accepted for the flag's common form).
     #[arg(long, value_name = "W[,H]", value_parser = super::one_or_two, allow_hyphen_values = true)]
     plate_size: Option<(f64, Option<f64>)>,
 }

@@ -104,6 +104,9 @@ pub struct HeightsLean {
     /// How far apart the two verticals are (degrees): leans of one size in
     /// two directions may differ by more than either.
     pub apart_deg: f64,
+    /// Whether it entered the vertical: it agreed, and the frame was turned
+    /// by the ground or its plumb lines lean beyond 2 standard errors.
+    pub used: bool,
 }
 
 /// One estimate of the true vertical as seen in the frame the targets were
@@ -214,11 +217,16 @@ fn lean_of_heights(mut pts: Vec<(Vector2<f64>, f64)>) -> Option<(Lean, HeightsLe
             continue;
         }
         let sse: f64 = res.iter().map(|r| r * r).sum();
-        let sigma = (sse / (n - 3) as f64).sqrt().max(HEIGHT_SIGMA_FLOOR_M);
-        // σ from n − 3 degrees of freedom is itself uncertain: the
-        // covariance is widened so its normal 95 % bounds are Student's.
-        let widen = (crate::accuracy::t975(n - 3) / 1.959_964).powi(2);
-        let cov_g = inv.fixed_view::<2, 2>(1, 1).into_owned() * sigma * sigma * widen;
+        // σ from n − 3 degrees of freedom is itself uncertain: an estimated
+        // σ is widened so its normal 95 % bounds are Student's (the floor,
+        // a known bound, is not).
+        let fitted = (sse / (n - 3) as f64).sqrt();
+        let var = if fitted > HEIGHT_SIGMA_FLOOR_M {
+            fitted * fitted * (crate::accuracy::t975(n - 3) / 1.959_964).powi(2)
+        } else {
+            HEIGHT_SIGMA_FLOOR_M * HEIGHT_SIGMA_FLOOR_M
+        };
+        let cov_g = inv.fixed_view::<2, 2>(1, 1).into_owned() * var;
         // Heights rise along the slope g in the located frame: the true
         // vertical u, seen from it, leans the other way, g = -u_xy / u_z, so
         // u_xy = -g / √(1 + |g|²) (the plumb lines' terms), its covariance
@@ -238,6 +246,7 @@ fn lean_of_heights(mut pts: Vec<(Vector2<f64>, f64)>) -> Option<(Lean, HeightsLe
             rms_m: (sse / n as f64).sqrt(),
             agrees: true,
             apart_deg: 0.0,
+            used: false,
         };
         return Some((lean, info));
     }
@@ -549,13 +558,16 @@ pub(super) fn plumb(
     }
     let heights = heights_lean(found, survey).map(|(lean, mut info)| {
         info.agrees = !lean.disagrees(&plumb_lean);
-        info.apart_deg = (lean.t - plumb_lean.t).norm().asin().to_degrees();
-        if info.agrees {
+        info.apart_deg = lean.up().angle(&plumb_lean.up()).to_degrees();
+        // In a map read as it is, the heights only refine a lean its plumb
+        // lines show (see the bar below).
+        info.used = info.agrees && (turned || tilt > 2.0 * se);
+        if info.used {
             leans.push(lean);
         }
         info
     });
-    let with_heights = heights.as_ref().is_some_and(|h| h.agrees);
+    let with_heights = heights.as_ref().is_some_and(|h| h.used);
     let lean = Lean::combine(&leans);
     let up = lean.up();
     let angle = up.angle(&Vector3::z()).to_degrees();
@@ -572,7 +584,7 @@ pub(super) fn plumb(
     // targets agreeing is more likely a mistake.
     let bar = if turned {
         0.005
-    } else if with_heights && tilt > 2.0 * se {
+    } else if with_heights {
         (3.0 * se_c).max(0.1)
     } else {
         (3.0 * se_c).max(0.5)

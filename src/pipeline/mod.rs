@@ -197,7 +197,7 @@ impl std::fmt::Display for Warning {
                 apart_deg,
             } => write!(
                 f,
-                "the surveyed heights say the map leans {heights_deg:.2}° ± {heights_se_deg:.2}° and its targets' plumb lines {plumb_deg:.2}° ± {plumb_se_deg:.2}° (1σ), verticals {apart_deg:.2}° apart: further than both allow, so the heights were not used to level it. The map's heights may drift (odometry's vertical drift bends a map without leaning it: evaluate heights with care), or the survey's heights are not the targets' corners' (check the antenna heights and the height datum)"
+                "the surveyed heights say the map leans {heights_deg:.2}° ± {heights_se_deg:.2}° and its targets' plumb lines {plumb_deg:.2}° ± {plumb_se_deg:.2}° (1σ), verticals {apart_deg:.2}° apart: further apart than their uncertainties together allow, so the heights were not used for the vertical. The map's heights may drift (odometry's vertical drift bends a map without leaning it: evaluate heights with care), or the survey's heights are not the targets' corners' (check the antenna heights and the height datum)"
             ),
             Warning::Levelled {
                 tilt_deg,
@@ -615,8 +615,9 @@ fn evaluate(
         let a = se_deg.to_radians();
         let o = motion.origin;
         let (mut height_m, mut across_mm) = (0.0_f64, 0.0_f64);
+        // The angle's error in the one direction that raises a target.
         for e in &expected {
-            height_m = height_m.max(a * (e.x - o.x).hypot(e.y - o.y));
+            height_m = height_m.max(a / std::f64::consts::SQRT_2 * (e.x - o.x).hypot(e.y - o.y));
         }
         // Heights from the located corners: the expected positions carry the
         // survey's heights, whose datum need not be the map's.

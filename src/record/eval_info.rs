@@ -96,13 +96,16 @@ pub struct Levelling {
     /// with surveyed heights).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heights_tilt_deg: Option<f64>,
-    /// Standard error of `heights_tilt_deg` in its least certain direction.
+    /// Standard error of `heights_tilt_deg` (of the angle, both directions
+    /// together: √ of its covariance's trace).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heights_se_deg: Option<f64>,
     /// Targets that plane was fitted to.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heights_targets: Option<usize>,
-    /// Whether the heights agreed with the plumb lines and so were used.
+    /// Whether the heights entered the vertical: they agreed with the plumb
+    /// lines, and the ground turned the map or its plumb lines lean beyond
+    /// 2 standard errors (heights alone never turn a map).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heights_used: Option<bool>,
     /// Standard error of the vertical the frame was turned to (degrees; of
@@ -230,7 +233,7 @@ fn frame_info(f: &FrameFound) -> FrameInfo {
             heights_tilt_deg: heights.map(|h| h.tilt_deg),
             heights_se_deg: heights.map(|h| h.se_deg),
             heights_targets: heights.map(|h| h.targets),
-            heights_used: heights.map(|h| h.agrees),
+            heights_used: heights.map(|h| h.used),
             vertical_se_deg: (!f.levelling.is_identity())
                 .then(|| crate::pipeline::vertical_se_deg(f.plumb.as_ref())),
         },

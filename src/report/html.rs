@@ -179,11 +179,11 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
         row(
             "surveyed heights",
             format!(
-                "lean {t:.3}° ± {s:.3}° over {n} targets ({}). The located corners' heights less the surveyed ones, fitted as a plane over the site: a lean raises a corner by its distance times the angle, so heights hundreds of metres apart give it far more precisely than plumb lines. Combined with the plumb lines when the two agree within their uncertainties{}",
+                "lean {t:.3}° ± {s:.3}° over {n} targets ({}). The located corners' heights less the surveyed ones, fitted as a plane over the site: a lean raises a corner by its distance times the angle, so heights hundreds of metres apart give it far more precisely than plumb lines. Combined with the plumb lines when the two agree within their uncertainties and the map itself shows a lean (the ground turned it, or its plumb lines lean beyond 2 standard errors): heights alone cannot tell a lean from a vertical drift{}",
                 if l.heights_used == Some(true) {
-                    "they agree with the plumb lines"
+                    "used"
                 } else {
-                    "not used: they disagree with the plumb lines"
+                    "not used"
                 },
                 l.vertical_se_deg
                     .map(|v| format!(

@@ -244,9 +244,10 @@ fn unreadable_file_is_a_row_not_a_crash() {
     assert!(stderr(&o).contains("missing.ply"), "{}", stderr(&o));
 }
 
-/// A tight crop of bigger plates (the scene's scaled ×3 about its corner, so
-/// wider than any crop of 0.6 m plates) is refused as a loose crop by
-/// default and located with `--plate-size`, its corner where the scaled one is.
+/// A tight crop of bigger plates (the scene's scaled ×4 about its corner: at
+/// least 2.4 m across whatever its heading, wider than any crop of 0.6 m
+/// plates) is refused as a loose crop by default and located with
+/// `--plate-size`, its corner where the scaled one is.
 #[test]
 fn plate_size_reaches_the_loose_crop_check() {
     let s = scene();
@@ -258,7 +259,7 @@ fn plate_size_reaches_the_loose_crop_check() {
     let big: Vec<Point> = mapgauge::cloud::read_all(good)
         .unwrap()
         .iter()
-        .map(|p| corner + (p - corner) * 3.0)
+        .map(|p| corner + (p - corner) * 4.0)
         .collect();
     let dir = tempdir();
     let file = dir.path().join("big.ply");
@@ -271,7 +272,7 @@ fn plate_size_reaches_the_loose_crop_check() {
         stderr(&o)
     );
     let o = locate(
-        &["--format", "csv", "--plate-size", "1.8"],
+        &["--format", "csv", "--plate-size", "2.4"],
         std::slice::from_ref(&file),
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -279,5 +280,5 @@ fn plate_size_reaches_the_loose_crop_check() {
     let row: Vec<&str> = out.lines().nth(1).expect("a row").split(',').collect();
     let got = [row[1], row[2]].map(|v| v.parse::<f64>().unwrap());
     let d = ((got[0] - c[0]).powi(2) + (got[1] - c[1]).powi(2)).sqrt();
-    assert!(d < 0.06, "corner {d:.3} m from the scaled truth: {out}");
+    assert!(d < 0.08, "corner {d:.3} m from the scaled truth: {out}");
 }

@@ -61,9 +61,9 @@ fn every_real_file_reads_as_an_independent_reader_reads_it() {
             }
         }
         let first = [pts[0].x, pts[0].y, pts[0].z];
-        // Float32 and integer sources convert exactly; scaled integers
-        // (LAS, E57) may differ in the last bit of a double.
-        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
+        // Float32, integer and text sources convert exactly; scaled
+        // integers (LAS, E57) may differ in the last bits of a double.
+        let close = |a: f64, b: f64| (a - b).abs() <= 4.0 * f64::EPSILON * a.abs().max(1.0);
         for (what, got, want) in [
             ("min", lo, triple(&e["min"])),
             ("max", hi, triple(&e["max"])),
@@ -106,9 +106,11 @@ fn detect_finds_no_target_in_real_maps_without_any() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
-/// Five spots on the ground of each real scan 10 m across or more (the
-/// lowest point within 1 m of points spread through the file), surveyed as
-/// targets and evaluated in the survey's frame: nothing is located there.
+/// Five spots on the ground of each real scan 10 m across or more and dense
+/// enough for a target to show (10 points a square metre over its extent:
+/// the Velodyne frames, not the airborne tiles), each the lowest point
+/// within 1 m of points spread through the file, surveyed as targets and
+/// evaluated in the survey's frame: every spot is `not_found`.
 #[test]
 fn ground_spots_of_a_fake_survey_are_never_located() {
     let (dir, manifest) = corpus();
@@ -116,7 +118,9 @@ fn ground_spots_of_a_fake_survey_are_never_located() {
     let mut tried = 0;
     for e in &manifest {
         let (lo, hi) = (triple(&e["min"]), triple(&e["max"]));
-        if e["points"].as_u64().unwrap() < 1000 || hi[0] - lo[0] < 10.0 || hi[1] - lo[1] < 10.0 {
+        let (w, d) = (hi[0] - lo[0], hi[1] - lo[1]);
+        let n = e["points"].as_u64().unwrap() as f64;
+        if w < 10.0 || d < 10.0 || n / (w * d) < 10.0 {
             continue;
         }
         let name = e["file"].as_str().unwrap();
@@ -145,17 +149,19 @@ fn ground_spots_of_a_fake_survey_are_never_located() {
             .args(["--frame", "survey", "--no-report"])
             .output()
             .unwrap();
-        let listed = ["targets.csv", "failed.csv"]
-            .iter()
-            .filter_map(|f| std::fs::read_to_string(out.join(f)).ok())
-            .collect::<String>();
-        assert!(
-            !listed.contains(",ok,"),
-            "{name}: a ground spot was located:\n{listed}\n{}",
-            stderr(&o)
-        );
         assert!(!o.status.success(), "{name}: scored ground spots");
+        // A run that cannot score lists every place with its status.
+        let failed = std::fs::read_to_string(out.join("failed.csv"))
+            .unwrap_or_else(|e| panic!("{name}: no failed.csv ({e}): {}", stderr(&o)));
+        let rows: Vec<&str> = failed.lines().skip(1).collect();
+        assert_eq!(rows.len(), 5, "{name}:\n{failed}");
+        for r in rows {
+            assert!(
+                r.split(',').nth(1) == Some("not_found"),
+                "{name}: a ground spot was not refused:\n{r}"
+            );
+        }
         tried += 1;
     }
-    assert!(tried >= 3, "only {tried} real scans wide enough");
+    assert!(tried >= 2, "only {tried} real scans wide and dense enough");
 }
