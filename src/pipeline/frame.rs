@@ -158,10 +158,12 @@ impl Lean {
     }
 }
 
-/// Corner heights are known to a couple of centimetres at best (the plates'
-/// mean height against the surveyed point on them), whatever their scatter
-/// about the plane says with few targets (m).
-const HEIGHT_SIGMA_FLOOR_M: f64 = 0.02;
+/// Corner heights are known to a few centimetres at best, whatever their
+/// scatter about the plane says with few targets (m): the plates' mean
+/// height against the surveyed point on them moves with how the scan lines
+/// fall on the plate (located minus true corner heights scattered 12–24 mm
+/// over four 8-target scenes), and the survey's own height error adds to it.
+const HEIGHT_SIGMA_FLOOR_M: f64 = 0.03;
 
 /// The surveyed heights' lean (see [`HeightsLean`]): a least-squares plane
 /// through (corner z − survey z) over the corners' horizontal positions,
