@@ -111,9 +111,10 @@ pub(super) fn detect_l(
     // Windows are independent: fitted in parallel (a dense crop's finder
     // then uses the cores its neighbours' targets left idle), consumed in
     // key order, so the choice is the same for any thread count.
+    let flat = Flat::new(ap, up);
     let fits: Vec<Option<Result<LShape, Rejected>>> = keys
         .par_iter()
-        .map_init(Vec::new, |window: &mut Vec<Vector3<f64>>, &(kx, ky)| {
+        .map_init(Vec::new, |window: &mut Vec<u32>, &(kx, ky)| {
             let centre = Vector3::new((kx as f64 + 0.5) * step, (ky as f64 + 0.5) * step, 0.0);
             window.clear();
             for dy in -reach..=reach {
@@ -122,7 +123,7 @@ pub(super) fn detect_l(
                         for &i in ids {
                             let v = ap[i as usize];
                             if (v.x - centre.x).powi(2) + (v.y - centre.y).powi(2) < rw * rw {
-                                window.push(v);
+                                window.push(i);
                             }
                         }
                     }
@@ -132,7 +133,7 @@ pub(super) fn detect_l(
                 return None;
             }
             let bounded = |l: &LShape| is_bounded(l, &cells, ap, step, up, params);
-            Some(fit_l(window, up, params, bounded))
+            Some(fit_l(&flat, window, up, params, bounded))
         })
         .collect();
     for fit in fits.into_iter().flatten() {
@@ -192,38 +193,88 @@ pub(super) fn detect_l(
     (chosen, n, best_score, None)
 }
 
+/// The crop's points as the L finder reads them, computed once per crop
+/// (each point lies in some twenty overlapping windows): in the horizontal
+/// basis `e1, e2` orthogonal to "up" (a heading's normals are
+/// `na = e1 cos θ + e2 sin θ` and `nb = up × na = e2 cos θ − e1 sin θ`, so a
+/// projection is two products), and in height order.
+struct Flat {
+    e: [Vector3<f64>; 2],
+    /// `[e1 · v, e2 · v]` of each point.
+    xy: Vec<[f64; 2]>,
+    /// (height, `xy`) of every point, by height.
+    sorted: Vec<(f64, [f64; 2])>,
+    /// Each point's place in `sorted`.
+    rank: Vec<u32>,
+}
+
+impl Flat {
+    fn new(ap: &[Vector3<f64>], up: &Vector3<f64>) -> Self {
+        let e1 = (Vector3::x() - up * up.x).normalize();
+        let e2 = up.cross(&e1);
+        let xy: Vec<[f64; 2]> = ap.iter().map(|v| [e1.dot(v), e2.dot(v)]).collect();
+        let mut order: Vec<(f64, u32)> = ap
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (up.dot(v), i as u32))
+            .collect();
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut rank = vec![0u32; ap.len()];
+        for (r, &(_, i)) in order.iter().enumerate() {
+            rank[i as usize] = r as u32;
+        }
+        let sorted = order.iter().map(|&(z, i)| (z, xy[i as usize])).collect();
+        Flat {
+            e: [e1, e2],
+            xy,
+            sorted,
+            rank,
+        }
+    }
+
+    /// A window's points (by index) in height order: its ranks sorted, which
+    /// is cheaper than sorting its heights.
+    fn by_height(&self, win: &[u32]) -> Vec<(f64, [f64; 2])> {
+        let mut r: Vec<u32> = win.iter().map(|&i| self.rank[i as usize]).collect();
+        r.sort_unstable();
+        r.into_iter().map(|k| self.sorted[k as usize]).collect()
+    }
+}
+
 /// Best perpendicular pair of vertical planes in one window, or `None` when the
 /// support does not look like an L of the configured size.
 fn fit_l(
-    win: &[Vector3<f64>],
+    flat: &Flat,
+    win: &[u32],
     up: &Vector3<f64>,
     p: &TightParams,
     bounded: impl Fn(&LShape) -> bool,
 ) -> Result<LShape, Rejected> {
-    // Horizontal basis orthogonal to up.
-    let e1 = (Vector3::x() - up * up.x).normalize();
-    let e2 = up.cross(&e1);
+    let [e1, e2] = flat.e;
     let bin = 0.02;
-    let first = *win.first().ok_or(Rejected::unnamed(0))?;
+    let [f1, f2] = flat.xy[*win.first().ok_or(Rejected::unnamed(0))? as usize];
     // Histograms over a fixed range around the first point (every window point
     // is within two window radii of it, plus what a slightly tilted "up" adds):
     // arrays, not hash maps, since this loop is most of a dense map's crop time.
     let half = ((4.0 * p.plate_width + 0.3) / bin).ceil() as i64 + 2;
     let mut hist_a = vec![0u32; (2 * half + 1) as usize];
     let mut hist_b = vec![0u32; (2 * half + 1) as usize];
+    let xy: Vec<[f64; 2]> = win.iter().map(|&i| flat.xy[i as usize]).collect();
     // The heading (1.5° steps) where the weaker plate's peak is sharpest;
     // ties keep the lower angle.
-    let mut score = |deg: f64, stride: usize| {
-        let th = f64::to_radians(deg);
-        let na = e1 * th.cos() + e2 * th.sin();
-        let nb = up.cross(&na);
-        let base_a = (na.dot(&first) / bin).floor() as i64 - half;
-        let base_b = (nb.dot(&first) / bin).floor() as i64 - half;
+    let mut score = |deg: f64, pts: &[[f64; 2]]| {
+        // In bins: a product, not a division, per point (a point within an
+        // ulp of a bin's edge may fall in the other bin than `peaks` puts
+        // it; this only ranks headings).
+        let (sn, cs) = f64::to_radians(deg).sin_cos();
+        let (sn, cs) = (sn / bin, cs / bin);
+        let base_a = (cs * f1 + sn * f2).floor() as i64 - half;
+        let base_b = (cs * f2 - sn * f1).floor() as i64 - half;
         hist_a.fill(0);
         hist_b.fill(0);
-        for v in win.iter().step_by(stride) {
-            let ia = ((na.dot(v) / bin).floor() as i64 - base_a).clamp(0, 2 * half);
-            let ib = ((nb.dot(v) / bin).floor() as i64 - base_b).clamp(0, 2 * half);
+        for &[x, y] in pts {
+            let ia = ((cs * x + sn * y).floor() as i64 - base_a).clamp(0, 2 * half);
+            let ib = ((cs * y - sn * x).floor() as i64 - base_b).clamp(0, 2 * half);
             hist_a[ia as usize] += 1;
             hist_b[ib as usize] += 1;
         }
@@ -241,10 +292,11 @@ fn fit_l(
     // sample ranks the best heading below `HEADING_RESCORE` others.
     let stride = win.len().div_ceil(HEADING_POINTS).max(1);
     if stride > 1 {
+        let sample: Vec<[f64; 2]> = xy.iter().step_by(stride).copied().collect();
         let mut ranked: Vec<(usize, usize)> = headings
             .iter()
             .enumerate()
-            .map(|(k, &d)| (score(d, stride), k))
+            .map(|(k, &d)| (score(d, &sample), k))
             .collect();
         ranked.sort_unstable_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
         let mut keep: Vec<usize> = ranked.iter().take(HEADING_RESCORE).map(|r| r.1).collect();
@@ -253,29 +305,32 @@ fn fit_l(
     }
     let mut best = (0, 0.0);
     for deg in headings {
-        let support = score(deg, 1);
+        let support = score(deg, &xy);
         if support > best.0 {
             best = (support, deg);
         }
     }
     let deg = best.1;
     let mut why = Rejected::unnamed(0);
-    let th = deg.to_radians();
-    let na = e1 * th.cos() + e2 * th.sin();
+    let (sn, cs) = deg.to_radians().sin_cos();
+    let na = e1 * cs + e2 * sn;
     let nb = up.cross(&na);
     // At the winning heading, every strong peak of each histogram: a wall or a
     // container parallel behind a plate makes a peak of its own, often the
     // highest. Each pairing is checked in turn, strongest first; the plate
     // is the one that stops where a plate stops.
-    let peaks = |n: &Vector3<f64>| {
-        let base = (n.dot(&first) / bin).floor() as i64 - half;
+    let peaks = |proj: &dyn Fn(f64, f64) -> f64| {
+        let base = (proj(f1, f2) / bin).floor() as i64 - half;
         let mut h = vec![0u32; (2 * half + 1) as usize];
-        for v in win {
-            h[((n.dot(v) / bin).floor() as i64 - base).clamp(0, 2 * half) as usize] += 1;
+        for &[x, y] in &xy {
+            h[((proj(x, y) / bin).floor() as i64 - base).clamp(0, 2 * half) as usize] += 1;
         }
         strong_peaks(&h, base, bin, p.min_plate_points)
     };
-    let (pa, pb) = (peaks(&na), peaks(&nb));
+    let (pa, pb) = (
+        peaks(&|x, y| cs * x + sn * y),
+        peaks(&|x, y| cs * y - sn * x),
+    );
     let mut pairs: Vec<(usize, usize, usize)> = (0..pa.len())
         .flat_map(|i| (0..pb.len()).map(move |j| (i, j)))
         .map(|(i, j)| (pa[i].0.min(pb[j].0), i, j))
@@ -287,17 +342,17 @@ fn fit_l(
     // found, most of a dense window's time).
     // The window in height order, once, so that every plane's points come
     // out in height order without sorting each.
-    let mut by_height: Vec<(f64, Vector3<f64>)> = Vec::new();
+    let mut by_height: Vec<(f64, [f64; 2])> = Vec::new();
     let mut planes_a: Vec<Option<PlanePoints>> = vec![None; pa.len()];
     let mut planes_b: Vec<Option<PlanePoints>> = vec![None; pb.len()];
+    let (ca, cb) = ([cs, sn], [-sn, cs]);
     for (score, i, j) in pairs {
         let (oa, ob) = (pa[i].1, pb[j].1);
         if by_height.is_empty() {
-            by_height = win.iter().map(|v| (up.dot(v), *v)).collect();
-            by_height.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+            by_height = flat.by_height(win);
         }
-        let a = &*planes_a[i].get_or_insert_with(|| PlanePoints::gather(&by_height, &na, oa, &nb));
-        let b = &*planes_b[j].get_or_insert_with(|| PlanePoints::gather(&by_height, &nb, ob, &na));
+        let a = &*planes_a[i].get_or_insert_with(|| PlanePoints::gather(&by_height, ca, oa, cb));
+        let b = &*planes_b[j].get_or_insert_with(|| PlanePoints::gather(&by_height, cb, ob, ca));
         let checked = check_l(p, [na, nb], [oa, ob], [a, b], score).and_then(|l| {
             if bounded(&l) {
                 Ok(l)
@@ -397,8 +452,10 @@ fn check_l(
             })
             .collect();
     }
-    let Some((lo, hi)) = plate_band(&near, p) else {
-        let z = on_plate_heights(&near, w);
+    // The plates' heights, once: the band is chosen from them, and when
+    // none is clear they say how tall the faces are.
+    let z = on_plate_heights(&near, w);
+    let Some((lo, hi)) = plate_band(&near, &z, p) else {
         if z.len() < 2 * p.min_plate_points {
             no!(String::new());
         }
@@ -524,20 +581,15 @@ struct PlanePoints {
 impl PlanePoints {
     /// The plane `n · x = off`, positions along `dir`, from the window's
     /// points in height order (height, point).
-    fn gather(
-        by_height: &[(f64, Vector3<f64>)],
-        n: &Vector3<f64>,
-        off: f64,
-        dir: &Vector3<f64>,
-    ) -> Self {
+    fn gather(by_height: &[(f64, [f64; 2])], n: [f64; 2], off: f64, dir: [f64; 2]) -> Self {
         let pts: Vec<Near> = by_height
             .iter()
-            .filter_map(|(z, v)| {
-                let d = n.dot(v) - off;
+            .filter_map(|&(z, [x, y])| {
+                let d = (n[0] * x + n[1] * y) - off;
                 (d.abs() < SHELL.1).then(|| Near {
                     d,
-                    t: dir.dot(v),
-                    z: *z,
+                    t: dir[0] * x + dir[1] * y,
+                    z,
                 })
             })
             .collect();
@@ -633,9 +685,9 @@ fn planar_count(near: &[Near], t0: f64, t1: f64, z0: f64, z1: f64) -> (usize, us
 /// plus the noise), the best supported whose planes are clear just above and
 /// below it on both plates; its 2nd–98th percentile heights (a plate hidden
 /// from below shows only its upper part). `None` when every band's faces go on.
-fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
+/// `z`: the plates' on-plate heights in order (`on_plate_heights`).
+fn plate_band(near: &[Vec<Near>; 2], z: &[f64], p: &TightParams) -> Option<(f64, f64)> {
     let w = p.plate_width;
-    let z = on_plate_heights(near, w);
     if z.len() < 2 * p.min_plate_points {
         return None;
     }
@@ -681,17 +733,69 @@ fn plate_band(near: &[Vec<Near>; 2], p: &TightParams) -> Option<(f64, f64)> {
     first_clear
 }
 
+/// Heights in order, with an index of 5 mm buckets: how many lie below a
+/// height is one lookup and a search of three buckets, where a binary search
+/// of the whole list took a dozen unpredictable branches. `clear_beside` asks
+/// it some seventy times a band, and a wall's window tries every band (half
+/// of a dense crop's L finder went there).
+struct Indexed {
+    v: Vec<f64>,
+    z0: f64,
+    /// `start[k]`: how many heights lie below `z0 + k BUCKET`; the last
+    /// entry is above every height.
+    start: Vec<u32>,
+}
+
+/// `Indexed`'s bucket (m).
+const BUCKET: f64 = 0.005;
+
+impl Indexed {
+    fn new(mut v: Vec<f64>) -> Self {
+        // `near` is in height order (`PlanePoints`), so the lists are too:
+        // sorting a sorted list is one pass, kept so that the index holds
+        // for any input (the unit tests' shuffled plates).
+        if !v.is_sorted_by(|a, b| a.total_cmp(b).is_le()) {
+            v.sort_unstable_by(f64::total_cmp);
+        }
+        let z0 = v.first().copied().unwrap_or(0.0);
+        let n = v.last().map_or(0, |&l| ((l - z0) / BUCKET) as usize + 2);
+        let mut start = Vec::with_capacity(n + 1);
+        let mut i = 0;
+        for k in 0..=n {
+            let e = z0 + k as f64 * BUCKET;
+            while i < v.len() && v[i] < e {
+                i += 1;
+            }
+            start.push(i as u32);
+        }
+        Indexed { v, z0, start }
+    }
+
+    /// `v.partition_point(|&x| x < z)`, exactly: the buckets either side of
+    /// `z`'s are searched too, so a rounded bucket edge cannot misplace it.
+    fn below(&self, z: f64) -> usize {
+        let f = (z - self.z0) / BUCKET;
+        // Below the second bucket, within two of the top, or no index.
+        if !(f >= 1.0) || f + 3.0 >= self.start.len() as f64 {
+            return self.v.partition_point(|&x| x < z);
+        }
+        let k = f as usize;
+        let (lo, hi) = (self.start[k - 1] as usize, self.start[k + 2] as usize);
+        lo + self.v[lo..hi].partition_point(|&x| x < z)
+    }
+}
+
 /// One plate's near points sorted by height, for `plate_band`'s per-band
 /// checks: the slab and the two shells beside it over the plate's width
 /// away from the post (`clear_beside`'s rows), and the slab's points on the
 /// plate's side of the corner with their distance along it (`plate_wide`).
 struct ByHeight {
     /// Heights in the slab, `0.15 w < t < w`.
-    slab: Vec<f64>,
+    slab: Indexed,
     /// Heights in the shell in front (`d > 0`), same span along the plate.
-    front: Vec<f64>,
+    front: Indexed,
     /// Heights in the shell behind (`d < 0`), same span along the plate.
-    back: Vec<f64>,
+    back: Indexed,
     /// (height, distance along the plate) in the slab with `t > 0`, unsorted:
     /// `plate_wide` takes a percentile of a band's, which needs no order, and
     /// few bands get that far.
@@ -701,43 +805,43 @@ struct ByHeight {
 impl ByHeight {
     fn new(near: &[Near], w: f64) -> Self {
         let (t0, t1) = (0.15 * w, w);
-        let mut b = ByHeight {
-            slab: Vec::new(),
-            front: Vec::new(),
-            back: Vec::new(),
-            ext: Vec::new(),
-        };
+        let cap = near.len();
+        let (mut slab, mut front, mut back, mut ext) = (
+            Vec::with_capacity(cap),
+            Vec::with_capacity(cap / 2),
+            Vec::with_capacity(cap / 2),
+            Vec::with_capacity(cap),
+        );
         for q in near {
             let a = q.d.abs();
             if a < SLAB && q.t > 0.0 {
-                b.ext.push((q.z, q.t));
+                ext.push((q.z, q.t));
             }
             if q.t <= t0 || q.t >= t1 {
                 continue;
             }
             if a < SLAB {
-                b.slab.push(q.z);
+                slab.push(q.z);
             } else if a > SHELL.0 && a < SHELL.1 {
-                if q.d > 0.0 { &mut b.front } else { &mut b.back }.push(q.z);
+                if q.d > 0.0 { &mut front } else { &mut back }.push(q.z);
             }
         }
-        // `near` is in height order (`PlanePoints`), so each list is too;
-        // sorting an already sorted list is one pass, kept so that the index
-        // holds for any input (the unit tests' shuffled plates).
-        for v in [&mut b.slab, &mut b.front, &mut b.back] {
-            v.sort_unstable_by(f64::total_cmp);
+        ByHeight {
+            slab: Indexed::new(slab),
+            front: Indexed::new(front),
+            back: Indexed::new(back),
+            ext,
         }
-        b
     }
 
     /// Where the row edge `z` falls in the slab, front and back heights:
     /// (points below it, points at or below it) in each.
     fn edge(&self, z: f64) -> [(usize, usize); 3] {
-        [&self.slab, &self.front, &self.back].map(|v| {
-            let below = v.partition_point(|&x| x < z);
+        [&self.slab, &self.front, &self.back].map(|h| {
+            let below = h.below(z);
             (
                 below,
-                below + v[below..].iter().take_while(|&&x| x == z).count(),
+                below + h.v[below..].iter().take_while(|&&x| x == z).count(),
             )
         })
     }
@@ -1014,24 +1118,26 @@ fn going_on(d: &[f64]) -> i64 {
 /// heading search by raw count at 20° off the plates).
 fn sharp_peak(h: &[u32]) -> usize {
     // Three-bin sums at the occupied bins only (called 60 times a window,
-    // on histograms mostly empty).
+    // on histograms mostly empty), indexed directly: the iterator chain
+    // this replaces cost ten times the instructions.
     let n = h.len();
     let three = |k: usize| -> usize {
         if k >= n {
             return 0;
         }
-        (k.saturating_sub(1)..(k + 2).min(n))
-            .map(|j| h[j] as usize)
-            .sum()
+        let below = if k > 0 { h[k - 1] as usize } else { 0 };
+        let above = if k + 1 < n { h[k + 1] as usize } else { 0 };
+        below + h[k] as usize + above
     };
-    (0..n)
-        .filter(|&k| h[k] > 0)
-        .map(|k| {
-            let sides = k.checked_sub(3).map_or(0, three) + three(k + 3);
-            three(k).saturating_sub(sides / 2)
-        })
-        .max()
-        .unwrap_or(0)
+    let mut best = 0;
+    for (k, &c) in h.iter().enumerate() {
+        if c == 0 {
+            continue;
+        }
+        let sides = if k >= 3 { three(k - 3) } else { 0 } + three(k + 3);
+        best = best.max(three(k).saturating_sub(sides / 2));
+    }
+    best
 }
 
 #[cfg(test)]
