@@ -141,6 +141,35 @@ pub fn layering(
     })
 }
 
+/// How a map's plates let its targets' doubling be seen: the closest two
+/// copies of a plate that [`Layering::doubled`] tells apart, given the map's
+/// typical plate thickness. Closer copies look like one plate a little
+/// thicker than the others, and the locator fits one corner between them
+/// with a single target's confidence: a limit of the map, stated with every
+/// result (issue 30: 3 cm copies of 17 mm-thick synthetic plates blend,
+/// 6-9 sigma from either copy).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DoublingLimit {
+    /// The map's typical plate thickness: the median located target's
+    /// thinner plate, as the standard deviation of its points along the
+    /// plate's normal (m).
+    pub plate_thickness_m: f64,
+    /// Copies at least this far apart along a plate's normal are seen
+    /// (reported `ambiguous`); closer ones are not (m).
+    pub resolved_from_m: f64,
+}
+
+impl DoublingLimit {
+    /// The limit for plates `thickness` thick (m).
+    pub fn of(thickness: f64) -> Self {
+        DoublingLimit {
+            plate_thickness_m: thickness,
+            resolved_from_m: (MIN_SEPARATION_SIGMAS.max(MIN_APART_PLATES) * thickness)
+                .max(MIN_SEPARATION),
+        }
+    }
+}
+
 impl Layering {
     /// The thinner plate's thickness (σ along its normal as one layer, m):
     /// what a plate of this map looks like, for [`Layering::doubled`].

@@ -50,7 +50,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 pub use kmeans::{Init, Space};
-pub use layers::{Doubled, Layering, PlateLayers, layering};
+pub use layers::{Doubled, DoublingLimit, Layering, PlateLayers, layering};
 pub use params::LocateParams;
 pub use types::{Label, LocateError, Located, PlateFit, Rejects};
 

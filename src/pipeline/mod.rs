@@ -233,6 +233,9 @@ pub struct Evaluation {
     /// The map from above, as the ground pass saw it (the report draws the
     /// target positions on it).
     pub footprint: crate::frame::Footprint,
+    /// How close two copies of a target (a seam) may be and still be seen
+    /// in this map; `None` with fewer than three targets located.
+    pub doubling: Option<crate::locate::DoublingLimit>,
 }
 
 /// Points the levelling's ground pass reads of a bigger map by default
@@ -724,7 +727,7 @@ fn evaluate(
     }
     target::one_object_each(&mut found, cfg.tight.plate_width);
     // A target mapped twice is neither copy: it leaves the fit, named.
-    let doubled = target::check_doubled(&mut found, cfg);
+    let (doubled, doubling) = target::check_doubled(&mut found, cfg);
     if !doubled.is_empty() {
         warnings.push(Warning::Doubled(doubled));
     }
@@ -812,6 +815,7 @@ fn evaluate(
         warnings,
         reads,
         footprint,
+        doubling,
         frame: FrameFound {
             how,
             init,

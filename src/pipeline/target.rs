@@ -373,8 +373,12 @@ fn hand_crop(dir: &Path, id: &str, plate_width: f64) -> Result<Vec<Point>> {
 
 /// Located targets whose plates show two layers in the map around them,
 /// each as thin as this map's plates (`locate::layering`), are blends of two
-/// copies: they become `Doubled`. Returns their ids.
-pub(super) fn check_doubled(found: &mut [TargetRun], cfg: &Config) -> Vec<String> {
+/// copies: they become `Doubled`. Returns their ids, and how close two
+/// copies may be and still be seen (unknown with fewer than three targets).
+pub(super) fn check_doubled(
+    found: &mut [TargetRun],
+    cfg: &Config,
+) -> (Vec<String>, Option<crate::locate::DoublingLimit>) {
     let (w, h) = (cfg.tight.plate_width, cfg.tight.plate_height);
     let layering: Vec<Option<crate::locate::Layering>> = found
         .iter()
@@ -399,7 +403,7 @@ pub(super) fn check_doubled(found: &mut [TargetRun], cfg: &Config) -> Vec<String
             ids.push(r.id.clone());
         }
     }
-    ids
+    (ids, plate.map(crate::locate::DoublingLimit::of))
 }
 
 /// No object serves two targets: when two located corners are closer than a

@@ -153,6 +153,12 @@ pub struct EvalInfo {
     /// ground pass, detection's when it ran, the crops, a second pass.
     #[serde(default)]
     pub reads: Vec<crate::cloud::PassRead>,
+    /// How close two copies of a target may be and still be reported
+    /// `ambiguous` in this map (its plates' thickness sets it); closer
+    /// copies blend into one corner unflagged. Absent with fewer than three
+    /// targets located.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub doubling: Option<crate::locate::DoublingLimit>,
 }
 
 impl EvalInfo {
@@ -182,6 +188,7 @@ impl EvalInfo {
                 .collect(),
             frame: frame_info(&ev.frame),
             reads: ev.reads.clone(),
+            doubling: ev.doubling,
         }
     }
 }

@@ -102,7 +102,11 @@ fn figure(o: &mut String, f: &Figure, caption: &str) {
 
 /// How the map's frame was found: the transform, its residual, the levelling,
 /// detections left unmatched.
-fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
+fn frame_section(
+    o: &mut String,
+    f: &crate::record::FrameInfo,
+    doubling: Option<&crate::locate::DoublingLimit>,
+) {
     o.push_str("<section id=\"frame\"><h2>Map frame</h2><table class=\"grid\"><tbody>");
     let mut row = |k: &str, v: String| {
         let _ = write!(
@@ -190,6 +194,16 @@ fn frame_section(o: &mut String, f: &crate::record::FrameInfo) {
                         "; the vertical the frame was turned to is known to ±{v:.3}° (1σ)"
                     ))
                     .unwrap_or_default()
+            ),
+        );
+    }
+    if let Some(d) = doubling {
+        row(
+            "targets mapped twice",
+            format!(
+                "copies {:.0} mm or more apart along a plate's normal, each with a fifth of its points, are seen (reported ambiguous and left out of the fit); this map's plates are {:.0} mm thick (1σ of their points along the normal, the median target's thinner plate), and closer copies (a seam of a few centimetres) look like one plate and blend into one corner between them, unflagged",
+                d.resolved_from_m * 1000.0,
+                d.plate_thickness_m * 1000.0
             ),
         );
     }
@@ -431,7 +445,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     o.push_str("</section>\n");
 
     if let Some(e) = &r.eval {
-        frame_section(&mut o, &e.frame);
+        frame_section(&mut o, &e.frame, e.doubling.as_ref());
     }
 
     let mut figs = figs.iter().peekable();

@@ -106,6 +106,13 @@ fn a_target_mapped_twice_is_never_a_confident_blend() {
         let Some((result, truth)) = run(dir.path(), seed, offset) else {
             continue;
         };
+        let limit = result["eval"]["doubling"]["resolved_from_m"]
+            .as_f64()
+            .expect("a run with 3+ targets located states the doubling it can see");
+        assert!(
+            (0.025..0.1).contains(&limit),
+            "seed {seed}: doubling seen from {limit} m"
+        );
         let mut here_ambiguous = 0;
         for t in result["targets"].as_array().unwrap() {
             let id = t["id"].as_str().unwrap();
@@ -162,4 +169,28 @@ fn a_target_mapped_twice_is_never_a_confident_blend() {
         ambiguous * 10 >= doubled * 8,
         "{ambiguous} of {doubled} doubled targets found ambiguous"
     );
+}
+
+/// Copies closer than the plates' thickness lets the layers part (3 cm
+/// here, against ~17 mm-thick synthetic plates) blend into one corner with
+/// a single target's confidence: no evidence in the map tells them from
+/// one plate. The run must say so: the result states the closest copies
+/// this map lets it see, and that is farther apart than these.
+#[test]
+fn copies_too_close_to_see_are_below_the_stated_limit() {
+    let dir = tempdir();
+    let offset = [0.03, 0.0];
+    let (result, _) = run(dir.path(), 2, offset).expect("3 cm copies leave a scorable run");
+    let limit = result["eval"]["doubling"]["resolved_from_m"]
+        .as_f64()
+        .expect("the doubling limit is stated");
+    assert!(
+        limit > offset[0],
+        "copies {} m apart blend, yet the stated limit is {limit} m",
+        offset[0]
+    );
+    let thick = result["eval"]["doubling"]["plate_thickness_m"]
+        .as_f64()
+        .unwrap();
+    assert!((0.005..0.04).contains(&thick), "plate thickness {thick} m");
 }
