@@ -7,6 +7,7 @@ use std::path::PathBuf;
 /// Messages are one line and name the file (and line or field) they are about,
 /// so the CLI can print `error: {err}` and the user knows where to look.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// The operating system refused a read or write.
     #[error("{}: {source}", path.display())]
@@ -40,6 +41,36 @@ pub enum Error {
     /// A parameter or configuration value is out of range.
     #[error("invalid parameter: {0}")]
     Param(String),
+    /// Too few targets were located to align the map to the survey: the run
+    /// cannot score. `msg` says why each was not found and what to try.
+    #[error("{msg}")]
+    TooFewFound {
+        /// Targets located.
+        found: usize,
+        /// Targets the alignment needs.
+        need: usize,
+        /// The whole explanation, one line.
+        msg: String,
+    },
+    /// Map-wide detection could not match the map's target-shaped objects to
+    /// the survey, so the map's frame is unknown.
+    #[error("{msg}")]
+    FrameNotFound {
+        /// Target-shaped objects detected in the map.
+        detections: usize,
+        /// What was seen and what to try.
+        msg: String,
+    },
+    /// The map's points are spread too thin for coordinates in metres (a
+    /// map in millimetres or another unit): reading stopped before its
+    /// memory grew with that extent.
+    #[error("{msg}")]
+    NotMetres {
+        /// The points' horizontal spread when reading stopped (m).
+        extent: [f64; 2],
+        /// What was seen and what to do.
+        msg: String,
+    },
 }
 
 impl Error {

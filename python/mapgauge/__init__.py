@@ -9,7 +9,10 @@ The same Rust core as the ``mapgauge`` command-line tool, with numpy in and out:
 
 Every number is the CLI's: ``ev.to_dict()`` is exactly the ``result.json`` that
 ``mapgauge eval`` writes. Bad input raises :class:`MapgaugeError` (a
-``ValueError``) with the CLI's one-line message. Rust works without the GIL.
+``ValueError``) with the CLI's one-line message; a run that cannot score
+raises one of its subclasses :class:`TooFewFoundError` (``found``,
+``need``), :class:`FrameNotFoundError` (``detections``) or
+:class:`NotMetresError` (a map in millimetres). Rust works without the GIL.
 """
 
 from __future__ import annotations
@@ -25,13 +28,23 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _mapgauge
-from ._mapgauge import MapgaugeError, Survey, read_points
+from ._mapgauge import (
+    FrameNotFoundError,
+    MapgaugeError,
+    NotMetresError,
+    Survey,
+    TooFewFoundError,
+    read_points,
+)
 from ._mapgauge import read_survey as _read_survey
 
 __version__: str = _mapgauge.__version__
 
 __all__ = [
     "MapgaugeError",
+    "TooFewFoundError",
+    "FrameNotFoundError",
+    "NotMetresError",
     "Survey",
     "Target",
     "Accuracy",

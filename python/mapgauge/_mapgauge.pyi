@@ -12,6 +12,18 @@ __version__: str
 class MapgaugeError(ValueError):
     """Bad input or a failed evaluation; the message is the CLI's one-line error."""
 
+class TooFewFoundError(MapgaugeError):
+    """Too few targets were located to align the map to the survey."""
+    found: int
+    need: int
+
+class FrameNotFoundError(MapgaugeError):
+    """Map-wide detection could not match the map to the survey: its frame is unknown."""
+    detections: int
+
+class NotMetresError(MapgaugeError):
+    """The map's points are spread too thin for metres (a map in millimetres?)."""
+
 class Survey:
     """A survey: the ground truth every map is measured against."""
 

@@ -33,9 +33,49 @@ create_exception!(
     "Bad input or a failed evaluation; the message is the CLI's one-line error."
 );
 
-/// The CLI's message as a Python exception.
+create_exception!(
+    mapgauge,
+    TooFewFoundError,
+    MapgaugeError,
+    "Too few targets were located to align the map to the survey (`found`, `need`)."
+);
+create_exception!(
+    mapgauge,
+    FrameNotFoundError,
+    MapgaugeError,
+    "Map-wide detection could not match the map to the survey: its frame is unknown."
+);
+create_exception!(
+    mapgauge,
+    NotMetresError,
+    MapgaugeError,
+    "The map's points are spread too thin for metres (a map in millimetres?)."
+);
+
+/// The CLI's message as a Python exception: a subclass of `MapgaugeError`
+/// for the failures a caller may act on, with their numbers as attributes.
 fn err(e: Error) -> PyErr {
-    MapgaugeError::new_err(e.to_string())
+    let msg = e.to_string();
+    match e {
+        Error::TooFewFound { found, need, .. } => {
+            let pe = TooFewFoundError::new_err(msg);
+            Python::attach(|py| {
+                let v = pe.value(py);
+                let _ = v.setattr("found", found);
+                let _ = v.setattr("need", need);
+            });
+            pe
+        }
+        Error::FrameNotFound { detections, .. } => {
+            let pe = FrameNotFoundError::new_err(msg);
+            Python::attach(|py| {
+                let _ = pe.value(py).setattr("detections", detections);
+            });
+            pe
+        }
+        Error::NotMetres { .. } => NotMetresError::new_err(msg),
+        _ => MapgaugeError::new_err(msg),
+    }
 }
 
 fn input_err(msg: impl Into<String>) -> PyErr {
@@ -773,6 +813,12 @@ fn render_tables(
 #[pymodule]
 fn _mapgauge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MapgaugeError", m.py().get_type::<MapgaugeError>())?;
+    m.add("TooFewFoundError", m.py().get_type::<TooFewFoundError>())?;
+    m.add(
+        "FrameNotFoundError",
+        m.py().get_type::<FrameNotFoundError>(),
+    )?;
+    m.add("NotMetresError", m.py().get_type::<NotMetresError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PySurvey>()?;
     m.add_class::<EvalCore>()?;

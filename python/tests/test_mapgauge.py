@@ -195,8 +195,13 @@ def test_too_few_targets_found_is_an_error():
     # not a map, before any target is looked for).
     g = np.arange(40) * 0.5
     ground = np.c_[np.repeat(g, 40), np.tile(g, 40), np.zeros(1600)]
-    with pytest.raises(mapgauge.MapgaugeError, match="only 0 of 2 targets found"):
+    with pytest.raises(mapgauge.MapgaugeError, match="only 0 of 2 targets found") as e:
         mapgauge.evaluate(ground, {"a": (100, 100), "b": (200, 200)})
+    # Typed (issue 32): a caller can tell it from bad input without parsing.
+    assert isinstance(e.value, mapgauge.TooFewFoundError)
+    assert (e.value.found, e.value.need) == (0, 2)
+    assert issubclass(mapgauge.FrameNotFoundError, mapgauge.MapgaugeError)
+    assert issubclass(mapgauge.NotMetresError, mapgauge.MapgaugeError)
     with pytest.raises(mapgauge.MapgaugeError, match="only 10 finite points.*is this the map"):
         mapgauge.evaluate(np.zeros((10, 3)), {"a": (100, 100), "b": (200, 200)})
 

@@ -240,14 +240,15 @@ pub(crate) fn too_thin(source: &MapSource, extent: [f64; 2]) -> crate::Error {
             format!("{:.1} km", m / 1e3)
         }
     };
-    crate::Error::Input(format!(
+    let msg = format!(
         "{}: {TOO_THIN}: the points read so far span {} × {}, and over {} squares of 32 m held fewer than {} points each on average, where a map's surfaces give thousands a square. Is it in millimetres or another unit? mapgauge reads coordinates as metres (for millimetres: `mapgauge convert --map MAP --out MAP_m.pcd --scale 0.001`, then run again); reading stopped before its memory grew with that extent",
         source.name(),
         km(extent[0]),
         km(extent[1]),
         super::grid::THIN_TILES,
         super::grid::THIN_PER_TILE,
-    ))
+    );
+    crate::Error::NotMetres { extent, msg }
 }
 
 /// Streams the map once and estimates its vertical from the ground. `None`

@@ -358,13 +358,17 @@ impl NoFrame {
     pub(super) fn into_error(self) -> Error {
         match self {
             NoFrame::Failed(e) => e,
-            NoFrame::NotMatched { detections: 0, .. } => Error::Input(
-                "detection found no target-shaped object anywhere in the map: no frame can be matched to the survey (a map without these targets, or plates of another size than --plate-size?)".into(),
-            ),
-            NoFrame::NotMatched { why, .. } => Error::Input(format!(
-                "the map's frame could not be found by detection: {why}; {}",
-                NoFrame::remedy(&why)
-            )),
+            NoFrame::NotMatched { detections: 0, .. } => Error::FrameNotFound {
+                detections: 0,
+                msg: "detection found no target-shaped object anywhere in the map: no frame can be matched to the survey (a map without these targets, or plates of another size than --plate-size?)".into(),
+            },
+            NoFrame::NotMatched { why, detections } => Error::FrameNotFound {
+                detections,
+                msg: format!(
+                    "the map's frame could not be found by detection: {why}; {}",
+                    NoFrame::remedy(&why)
+                ),
+            },
         }
     }
 }

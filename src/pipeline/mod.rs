@@ -832,7 +832,7 @@ fn evaluate(
 /// millimetres spans a thousand times the site the survey covers.
 fn against_survey(e: Error, survey: &Survey) -> Error {
     match e {
-        Error::Input(m) if m.contains(crate::frame::level::TOO_THIN) => {
+        Error::NotMetres { extent, msg: m } => {
             let (lo, hi) = survey.targets.iter().fold(
                 ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
                 |(lo, hi), t| {
@@ -844,11 +844,12 @@ fn against_survey(e: Error, survey: &Survey) -> Error {
                 },
             );
             let span = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-            if span.is_finite() {
-                Error::Input(format!("{m}. The survey's targets span {span:.0} m"))
+            let msg = if span.is_finite() {
+                format!("{m}. The survey's targets span {span:.0} m")
             } else {
-                Error::Input(m)
-            }
+                m
+            };
+            Error::NotMetres { extent, msg }
         }
         e => e,
     }
@@ -965,13 +966,21 @@ fn too_few_found(
             msg += &format!("; map distances are {r:.3} × the survey's, median over the pairs");
         }
         msg += ", by more than a working map's error: check the survey's positions, ids and unit (metres, both files), that these objects are the targets, and the map itself (a failed loop closure bends a map by metres)";
-        return Error::Input(msg);
+        return Error::TooFewFound {
+            found: n_found,
+            need,
+            msg,
+        };
     }
     // The plates' size first: the frame is not to blame.
     if let Some(size) = other_plate_size(found, cfg) {
         msg += ". ";
         msg += &size;
-        return Error::Input(msg);
+        return Error::TooFewFound {
+            found: n_found,
+            need,
+            msg,
+        };
     }
     if !why.is_empty() {
         msg += "; ";
@@ -1015,7 +1024,11 @@ fn too_few_found(
             _ => ". Is the map in the survey frame? If not, give --init x,y,yaw_deg".into(),
         };
     }
-    Error::Input(msg)
+    Error::TooFewFound {
+        found: n_found,
+        need,
+        msg,
+    }
 }
 
 /// The sentence for L's of one other size seen at two or more of the
@@ -1191,4 +1204,61 @@ fn read_crops(
     }
     let read = crate::cloud::PassRead::of("crops", reader.as_ref());
     Ok((crop.points.into_iter().zip(crop.offered).collect(), read))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::survey::{SurveyFrame, SurveyTarget};
+
+    fn survey(at: &[(f64, f64)]) -> Survey {
+        Survey {
+            targets: at
+                .iter()
+                .enumerate()
+                .map(|(i, &(x, y))| SurveyTarget {
+                    id: format!("t{i}"),
+                    position: Point::new(x, y, 0.0),
+                    has_z: false,
+                    role: None,
+                    antenna_height: 0.0,
+                    line: i as u64 + 2,
+                })
+                .collect(),
+            frame: SurveyFrame::Local,
+            origin: None,
+        }
+    }
+
+    /// The failures a caller acts on come typed, with their numbers (issue
+    /// 32): a patch of bare ground locates no target, and the same ground
+    /// read in millimetres is not a map in metres.
+    #[test]
+    fn failures_to_act_on_are_typed() {
+        let ground: Vec<Point> = (0..4_000)
+            .map(|i| Point::new((i % 60) as f64 * 0.5, (i / 60) as f64 * 0.5, 0.0))
+            .collect();
+        let s = survey(&[(5.0, 5.0), (20.0, 20.0)]);
+        let cfg = Config::default();
+        match run(MapSource::Points(&ground), &s, &cfg, |_, _| ()) {
+            Err(Error::TooFewFound {
+                found: 0,
+                need: 2,
+                msg,
+            }) => {
+                assert!(msg.contains("only 0 of 2 targets found"), "{msg}")
+            }
+            other => panic!("{:?}", other.map(|_| ())),
+        }
+        // A site of tens of metres in millimetres: tens of kilometres.
+        let mm: Vec<Point> = (0..400_000)
+            .map(|i| Point::new((i % 600) as f64 * 50.0, (i / 600) as f64 * 50.0, 0.0))
+            .collect();
+        match run(MapSource::Points(&mm), &s, &cfg, |_, _| ()) {
+            Err(Error::NotMetres { extent, msg }) => {
+                assert!(extent[0] > 1e3 && msg.contains("millimetres"), "{msg}")
+            }
+            other => panic!("{:?}", other.map(|_| ())),
+        }
+    }
 }
