@@ -15,7 +15,6 @@ PointCloudLibrary/pcl|1fdb03883eab28f642e938d9bf4d317903212cb4|doc/tutorials/con
 PDAL/PDAL|ccf0ab7046072f68cab78734e90d0d3149f3af10|test/data/las/autzen_trim.las|BSD-3-Clause|3.7 MB Autzen airborne LiDAR (uncompressed twin of autzen_trim.laz)
 PDAL/PDAL|ccf0ab7046072f68cab78734e90d0d3149f3af10|test/data/las/autzen_trim_7.las|BSD-3-Clause|4.0 MB Autzen, LAS 1.4 point format 7
 PDAL/PDAL|ccf0ab7046072f68cab78734e90d0d3149f3af10|test/data/copc/lone-star.copc.laz|BSD-3-Clause|2.7 MB Lone Star (TX) airborne LiDAR, COPC
-PDAL/PDAL|ccf0ab7046072f68cab78734e90d0d3149f3af10|test/data/ept/source/lone-star.laz|BSD-3-Clause|2.4 MB Lone Star airborne LiDAR, LAZ
 PDAL/PDAL|ccf0ab7046072f68cab78734e90d0d3149f3af10|test/data/laz/las_with_several_extra_byte_bloc.laz|BSD-3-Clause|3.2 MB LAZ with extra-byte dims
 PDAL/PDAL|ccf0ab7046072f68cab78734e90d0d3149f3af10|test/data/draco/red-rocks.laz|BSD-3-Clause|>=4 MiB (absent from mirror) Red Rocks amphitheatre LiDAR
 PDAL/PDAL|ccf0ab7046072f68cab78734e90d0d3149f3af10|test/data/las/4_6.las|BSD-3-Clause|>=4 MiB (absent from mirror) LAS 1.4 pf6 (4_6_crop.las is its 0.8 MB crop)
