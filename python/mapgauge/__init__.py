@@ -9,8 +9,8 @@ The same Rust core as the ``mapgauge`` command-line tool, with numpy in and out:
 
 Every number is the CLI's: ``ev.to_dict()`` is exactly the ``result.json`` that
 ``mapgauge eval`` writes. Bad input raises :class:`MapgaugeError` (a
-``ValueError``) with the CLI's one-line message; a run that cannot score
-raises one of its subclasses :class:`TooFewFoundError` (``found``,
+``ValueError``) with the CLI's one-line message; the failures a caller may
+act on raise its subclasses :class:`TooFewFoundError` (``found``,
 ``need``), :class:`FrameNotFoundError` (``detections``) or
 :class:`NotMetresError` (a map in millimetres). Rust works without the GIL.
 """

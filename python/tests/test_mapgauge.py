@@ -200,6 +200,10 @@ def test_too_few_targets_found_is_an_error():
     # Typed (issue 32): a caller can tell it from bad input without parsing.
     assert isinstance(e.value, mapgauge.TooFewFoundError)
     assert (e.value.found, e.value.need) == (0, 2)
+    # Three places: nothing there, and nothing target-shaped map-wide.
+    with pytest.raises(mapgauge.FrameNotFoundError, match="none anywhere else") as e:
+        mapgauge.evaluate(ground, {"a": (5, 5), "b": (15, 15), "c": (18, 3)})
+    assert e.value.detections == 0
     assert issubclass(mapgauge.FrameNotFoundError, mapgauge.MapgaugeError)
     assert issubclass(mapgauge.NotMetresError, mapgauge.MapgaugeError)
     with pytest.raises(mapgauge.MapgaugeError, match="only 10 finite points.*is this the map"):

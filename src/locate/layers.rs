@@ -141,21 +141,26 @@ pub fn layering(
     })
 }
 
-/// How a map's plates let its targets' doubling be seen: the closest two
-/// copies of a plate that [`Layering::doubled`] tells apart, given the map's
-/// typical plate thickness. Closer copies look like one plate a little
-/// thicker than the others, and the locator fits one corner between them
-/// with a single target's confidence: a limit of the map, stated with every
-/// result (issue 30: 3 cm copies of 17 mm-thick synthetic plates blend,
-/// 6-9 sigma from either copy).
+/// How a map's plates let its targets' doubling be seen: about how far
+/// apart two copies of a plate must stand for [`Layering::doubled`] to tell
+/// them apart, given the map's typical plate thickness. It is a scale, not a
+/// sharp cut: the test is against each plate's own layers (2.5 of their σ,
+/// a little under the plate's thickness as one layer), on plates of 120+
+/// middle points with a fifth of them in each copy; copies at the limit are
+/// seen about half the time, at 1.1 times it nearly always, at 0.6 times
+/// hardly ever. Closer copies look like one plate a little thicker than the
+/// others, and the locator fits one corner between them with a single
+/// target's confidence: a limit of the map, stated with every result
+/// (issue 30: 3 cm copies of 17 mm-thick synthetic plates blend, 6-9 sigma
+/// from either copy).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DoublingLimit {
-    /// The map's typical plate thickness: the median located target's
-    /// thinner plate, as the standard deviation of its points along the
-    /// plate's normal (m).
+    /// The map's typical plate thickness: the median target's thinner
+    /// plate (of those not found doubled), as the standard deviation of its
+    /// points along the plate's normal (m).
     pub plate_thickness_m: f64,
-    /// Copies at least this far apart along a plate's normal are seen
-    /// (reported `ambiguous`); closer ones are not (m).
+    /// Copies about this far apart along a plate's normal or more are
+    /// usually seen (reported `ambiguous`); closer ones hardly ever (m).
     pub resolved_from_m: f64,
 }
 
@@ -562,6 +567,34 @@ mod tests {
             }
             assert_eq!(check(&bush, &one), None, "seed {seed}: foliage");
         }
+    }
+
+    /// The stated limit is where copies start to be seen: a copy 0.6 times
+    /// it away along plate 1's normal is hardly ever two layers, one 1.4
+    /// times it away nearly always (12 mm plates: a 30 mm limit).
+    #[test]
+    fn the_stated_limit_is_where_copies_start_to_be_seen() {
+        let limit = DoublingLimit::of(0.012).resolved_from_m;
+        assert!((limit - 0.03).abs() < 1e-12, "{limit}");
+        let seen = |k: f64| {
+            (0..6)
+                .filter(|&seed| {
+                    let one = l_target(None, seed);
+                    let two = l_target(Some(Vector3::new(0.0, k * limit, 0.0)), seed);
+                    check(&two, &one).is_some()
+                })
+                .count()
+        };
+        assert!(
+            seen(0.6) <= 1,
+            "{} of 6 seen at 0.6 times the limit",
+            seen(0.6)
+        );
+        assert!(
+            seen(1.4) >= 5,
+            "{} of 6 seen at 1.4 times the limit",
+            seen(1.4)
+        );
     }
 
     /// One layer's best two-component fit leaves its halves within 2.5 σ;

@@ -566,12 +566,18 @@ fn evaluate(
             Err(error) => {
                 let error = match (error, other_plate_size(&found, cfg)) {
                     (frame::NoFrame::Failed(e), _) => e,
-                    (e, Some(size)) => Error::Input(format!(
-                        "{size}. (Read in the survey frame, the map showed {} of {} targets; and detection map-wide: {})",
-                        found.iter().filter(|r| r.outcome.is_ok()).count(),
-                        found.len(),
-                        e.into_error()
-                    )),
+                    (e, Some(size)) => {
+                        let n_ok = found.iter().filter(|r| r.outcome.is_ok()).count();
+                        Error::TooFewFound {
+                            found: n_ok,
+                            need: cfg.metrics.align.min_points().max(2),
+                            msg: format!(
+                                "{size}. (Read in the survey frame, the map showed {n_ok} of {} targets; and detection map-wide: {})",
+                                found.len(),
+                                e.into_error()
+                            ),
+                        }
+                    }
                     (frame::NoFrame::NotMatched { detections, why }, None) => {
                         not_there(&map.name, &found, detections, &why, cfg)
                     }
@@ -910,15 +916,21 @@ fn not_there(
     let places = places_seen(found);
     let n = found.len();
     if detections == 0 {
-        return Error::Input(format!(
-            "{map}: no target where the survey places them (of its {n} places: {places}), and none anywhere else: detection map-wide found no target-shaped object. The map holds none of the surveyed targets: is it the map of this survey's site, made while the targets stood? (For plates of another size than {:.2} × {:.2} m, give --plate-size W,H)",
-            cfg.tight.plate_width, cfg.tight.plate_height
-        ));
+        return Error::FrameNotFound {
+            detections,
+            msg: format!(
+                "{map}: no target where the survey places them (of its {n} places: {places}), and none anywhere else: detection map-wide found no target-shaped object. The map holds none of the surveyed targets: is it the map of this survey's site, made while the targets stood? (For plates of another size than {:.2} × {:.2} m, give --plate-size W,H)",
+                cfg.tight.plate_width, cfg.tight.plate_height
+            ),
+        };
     }
-    Error::Input(format!(
-        "{map}: no target where the survey places them (of its {n} places: {places}); detection map-wide found {detections} target-shaped object(s), but {why}. Either the map is in another frame than the survey ({}), or the survey does not describe the targets in this map (another site, another survey file)",
-        frame::NoFrame::remedy(why)
-    ))
+    Error::FrameNotFound {
+        detections,
+        msg: format!(
+            "{map}: no target where the survey places them (of its {n} places: {places}); detection map-wide found {detections} target-shaped object(s), but {why}. Either the map is in another frame than the survey ({}), or the survey does not describe the targets in this map (another site, another survey file)",
+            frame::NoFrame::remedy(why)
+        ),
+    }
 }
 
 /// The error when too few targets were located to align: which were not and
@@ -1247,6 +1259,14 @@ mod tests {
                 msg,
             }) => {
                 assert!(msg.contains("only 0 of 2 targets found"), "{msg}")
+            }
+            other => panic!("{:?}", other.map(|_| ())),
+        }
+        // Three places (auto mode then looks map-wide): no frame.
+        let s3 = survey(&[(5.0, 5.0), (20.0, 20.0), (25.0, 5.0)]);
+        match run(MapSource::Points(&ground), &s3, &cfg, |_, _| ()) {
+            Err(Error::FrameNotFound { detections: 0, msg }) => {
+                assert!(msg.contains("none anywhere else"), "{msg}")
             }
             other => panic!("{:?}", other.map(|_| ())),
         }

@@ -397,13 +397,27 @@ pub(super) fn check_doubled(
     thick.sort_unstable_by(f64::total_cmp);
     let plate = (thick.len() >= 3).then(|| thick[thick.len() / 2]);
     let mut ids = Vec::new();
+    // The limit stated with the results: from the targets left single (a
+    // doubled one measured as one layer is thicker, and would raise it the
+    // more of the map is doubled).
+    let mut single: Vec<f64> = Vec::new();
     for (r, l) in found.iter_mut().zip(layering) {
-        if let Some(d) = l.and_then(|l| l.doubled(plate)) {
+        let Some(l) = l else { continue };
+        if let Some(d) = l.doubled(plate) {
             r.outcome = Err(Failure::Doubled(d));
             ids.push(r.id.clone());
+        } else if let Some(t) = l.thickness() {
+            single.push(t);
         }
     }
-    (ids, plate.map(crate::locate::DoublingLimit::of))
+    // With most of the map doubled, the few single targets say it (or, with
+    // none, the median of all: an upper bound). Stated once three targets'
+    // plates are measured.
+    single.sort_unstable_by(f64::total_cmp);
+    let limit = plate.map(|all| {
+        crate::locate::DoublingLimit::of(single.get(single.len() / 2).copied().unwrap_or(all))
+    });
+    (ids, limit)
 }
 
 /// No object serves two targets: when two located corners are closer than a

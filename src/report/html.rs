@@ -201,7 +201,7 @@ fn frame_section(
         row(
             "targets mapped twice",
             format!(
-                "copies {:.0} mm or more apart along a plate's normal, each with a fifth of its points, are seen (reported ambiguous and left out of the fit); this map's plates are {:.0} mm thick (1σ of their points along the normal, the median target's thinner plate), and closer copies (a seam of a few centimetres) look like one plate and blend into one corner between them, unflagged",
+                "copies about {:.0} mm or more apart along a plate's normal are usually seen (reported ambiguous and left out of the fit; each copy needs a fifth of a plate's points, on plates of 120 or more points in their middle); this map's plates are {:.0} mm thick (1σ of their points along the normal, the median single target's thinner plate), and closer copies (a seam of a few centimetres) look like one plate and blend into one corner between them, unflagged",
                 d.resolved_from_m * 1000.0,
                 d.plate_thickness_m * 1000.0
             ),
