@@ -658,26 +658,10 @@ fn gross_errors(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::survey::{SurveyFrame, SurveyTarget};
     use nalgebra::Vector3;
 
     fn survey(pts: &[(f64, f64, f64)]) -> Survey {
-        Survey {
-            targets: pts
-                .iter()
-                .enumerate()
-                .map(|(i, p)| SurveyTarget {
-                    id: format!("t{}", i + 1),
-                    position: Point::new(p.0, p.1, p.2),
-                    has_z: true,
-                    role: None,
-                    antenna_height: 0.0,
-                    line: i as u64 + 2,
-                })
-                .collect(),
-            frame: SurveyFrame::Local,
-            origin: None,
-        }
+        Survey::local(pts, true)
     }
 
     #[test]

@@ -1221,25 +1221,10 @@ fn read_crops(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::survey::{SurveyFrame, SurveyTarget};
 
     fn survey(at: &[(f64, f64)]) -> Survey {
-        Survey {
-            targets: at
-                .iter()
-                .enumerate()
-                .map(|(i, &(x, y))| SurveyTarget {
-                    id: format!("t{i}"),
-                    position: Point::new(x, y, 0.0),
-                    has_z: false,
-                    role: None,
-                    antenna_height: 0.0,
-                    line: i as u64 + 2,
-                })
-                .collect(),
-            frame: SurveyFrame::Local,
-            origin: None,
-        }
+        let at: Vec<(f64, f64, f64)> = at.iter().map(|&(x, y)| (x, y, 0.0)).collect();
+        Survey::local(&at, false)
     }
 
     /// The failures a caller acts on come typed, with their numbers (issue

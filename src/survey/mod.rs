@@ -78,6 +78,28 @@ pub struct Survey {
 }
 
 impl Survey {
+    /// A local-frame survey of `positions`, ids `t1`, `t2`, … (the unit
+    /// tests' scenes).
+    #[cfg(test)]
+    pub(crate) fn local(positions: &[(f64, f64, f64)], has_z: bool) -> Survey {
+        Survey {
+            targets: positions
+                .iter()
+                .enumerate()
+                .map(|(i, p)| SurveyTarget {
+                    id: format!("t{}", i + 1),
+                    position: Point::new(p.0, p.1, p.2),
+                    has_z,
+                    role: None,
+                    antenna_height: 0.0,
+                    line: i as u64 + 2,
+                })
+                .collect(),
+            frame: SurveyFrame::Local,
+            origin: None,
+        }
+    }
+
     /// True when every target has a height (3D metrics are possible).
     pub fn has_z(&self) -> bool {
         !self.targets.is_empty() && self.targets.iter().all(|t| t.has_z)

@@ -20,12 +20,17 @@ fn synth(scene: &Path, args: &[&str]) -> Value {
 }
 
 fn eval(scene: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    eval_against(scene, &scene.join("survey.csv"), out, extra)
+}
+
+/// `eval` of the scene's map against another survey.
+fn eval_against(scene: &Path, survey: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     bin()
         .arg("eval")
         .arg("--map")
         .arg(scene.join("map.pcd"))
         .arg("--survey")
-        .arg(scene.join("survey.csv"))
+        .arg(survey)
         .arg("--out")
         .arg(out)
         .args(extra)
@@ -807,17 +812,7 @@ fn a_tilted_400_m_site_is_levelled_by_its_surveyed_heights() {
         row[3] = format!("{:.4}", z - 0.005 * x);
     });
     let res = dir.path().join("drift");
-    let out = bin()
-        .arg("eval")
-        .arg("--map")
-        .arg(level.join("map.pcd"))
-        .arg("--survey")
-        .arg(level.join("drift.csv"))
-        .arg("--out")
-        .arg(&res)
-        .arg("--no-report")
-        .output()
-        .unwrap();
+    let out = eval_against(&level, &level.join("drift.csv"), &res, &["--no-report"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let r = result(&res);
     let l = &r["eval"]["frame"]["levelling"];
