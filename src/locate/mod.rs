@@ -35,6 +35,7 @@
 
 mod attempt;
 mod covariance;
+mod height;
 pub(crate) mod kmeans;
 mod layers;
 mod params;
@@ -49,6 +50,7 @@ use attempt::{Ctx, Sample, Scratch};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+pub use height::HeightSeen;
 pub use kmeans::{Init, Space};
 pub use layers::{Doubled, DoublingLimit, Layering, PlateLayers, layering};
 pub use params::LocateParams;

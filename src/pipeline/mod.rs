@@ -107,6 +107,19 @@ pub enum Warning {
         /// Angle between the two verticals (degrees).
         apart_deg: f64,
     },
+    /// These targets' plates were seen over part of their height only, or
+    /// their points crowd toward part of it: their heights' σ was raised to
+    /// cover what that leaves open.
+    HeightsUncertain {
+        /// The targets.
+        ids: Vec<String>,
+        /// The least and most plate height seen among them (m).
+        seen_m: (f64, f64),
+        /// The plates' configured height (m).
+        plate_height_m: f64,
+        /// The largest vertical σ after widening (m).
+        sigma_m: f64,
+    },
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
         /// Total tilt corrected (degrees).
@@ -130,6 +143,7 @@ impl Warning {
         match self {
             Warning::Float32Steps { .. }
             | Warning::Doubled(_)
+            | Warning::HeightsUncertain { .. }
             | Warning::WrongObjects(_)
             | Warning::OutliersExcluded(_) => 0,
             Warning::Levelled { .. }
@@ -159,6 +173,32 @@ impl std::fmt::Display for Warning {
                 if ids.len() == 1 { "target" } else { "targets" },
                 ids.join(", ")
             ),
+            Warning::HeightsUncertain {
+                ids,
+                seen_m,
+                plate_height_m,
+                sigma_m,
+            } => {
+                let one = ids.len() == 1;
+                let span = if seen_m.1 - seen_m.0 < 0.005 {
+                    format!("{:.2} m", seen_m.0)
+                } else {
+                    format!("{:.2}-{:.2} m", seen_m.0, seen_m.1)
+                };
+                write!(
+                    f,
+                    "the {} {} {} uncertain by up to {:.0} mm (1σ): {} plates' points cover {span} of the {plate_height_m:.2} m plate height, or crowd toward part of it (a barrier, grass or a vehicle hiding the plates from below, or sparse scan lines), and the reference point at mid plate height is placed only to within that. The vertical σ includes it; horizontal positions are unaffected while the plates stand upright",
+                    if one {
+                        "height of target"
+                    } else {
+                        "heights of targets"
+                    },
+                    ids.join(", "),
+                    if one { "is" } else { "are" },
+                    sigma_m * 1e3,
+                    if one { "its" } else { "their" },
+                )
+            }
             Warning::WrongObjects(ids) => write!(
                 f,
                 "objects located for {} are not those targets (far from where the other targets place them, or another target's object): reported as not found, each with its reason",
@@ -736,6 +776,19 @@ fn evaluate(
     let (doubled, doubling) = target::check_doubled(&mut found, cfg);
     if !doubled.is_empty() {
         warnings.push(Warning::Doubled(doubled));
+    }
+    // A height from plates seen in part is known only as well as the part.
+    let widened = target::widen_heights(&mut found, cfg.tight.plate_height);
+    if !widened.is_empty() {
+        warnings.push(Warning::HeightsUncertain {
+            ids: widened.iter().map(|w| w.0.clone()).collect(),
+            seen_m: widened
+                .iter()
+                .map(|w| w.1.seen_m.min(w.1.plate_height_m))
+                .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
+            plate_height_m: cfg.tight.plate_height,
+            sigma_m: widened.iter().map(|w| w.2).fold(0.0, f64::max),
+        });
     }
     // Metres of disagreement with the survey's layout are no map's error,
     // however few targets were located.

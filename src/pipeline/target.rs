@@ -420,6 +420,32 @@ pub(super) fn check_doubled(
     (ids, limit)
 }
 
+/// A located target whose plates were not seen evenly from bottom to top
+/// (a barrier or grass hides the lower plates from the road) has its height
+/// less well known than its points' scatter says: its covariance is raised to
+/// cover what the span seen leaves open (`locate::HeightSeen`). Returns those
+/// whose height may be off by a tenth of the plate height or more, with what
+/// was seen and their vertical σ after.
+pub(super) fn widen_heights(
+    found: &mut [TargetRun],
+    plate_height: f64,
+) -> Vec<(String, crate::locate::HeightSeen, f64)> {
+    let mut widened = Vec::new();
+    for r in found.iter_mut() {
+        let Ok(f) = r.outcome.as_mut() else { continue };
+        let Some(seen) = crate::locate::HeightSeen::of(&r.tight, &f.located, &f.up, plate_height)
+        else {
+            continue;
+        };
+        let normals = f.located.plates.map(|p| Vector3::from(p.normal));
+        f.located.covariance = seen.widen(&f.located.covariance, normals, &f.up);
+        if seen.worst_m() >= 0.1 * plate_height {
+            widened.push((r.id.clone(), seen, f.located.sigma()[2]));
+        }
+    }
+    widened
+}
+
 /// No object serves two targets: when two located corners are closer than a
 /// plate's width, the target expected farther from the object loses it.
 pub(super) fn one_object_each(found: &mut [TargetRun], plate_width: f64) {

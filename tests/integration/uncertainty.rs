@@ -319,3 +319,85 @@ fn a_stretched_map_shows_its_scale_and_compare_says_so() {
         "{out}"
     );
 }
+
+/// Issue 30: a target whose lower plates are hidden (a barrier between it
+/// and the road, grass through the plates) has its corner's height placed in
+/// the middle of what is seen, 5–18 cm above the plates' middle. Its vertical
+/// σ must say so (it said 7–15 mm: 8–22 σ off), and the run must name it. The
+/// other targets' heights (the scan lines crowd toward part of a plate) must
+/// be covered too (they were up to 4.3 σ off).
+#[test]
+fn heights_of_plates_seen_in_part_are_covered() {
+    let tmp = crate::util::tempdir();
+    let mut worst: f64 = 0.0;
+    for (case, seed) in [
+        ("hide_lower = 0.5", 1),
+        ("hide_lower = 0.5", 2),
+        ("grass_m = 0.4", 2),
+    ] {
+        let dir = tmp.path().join(format!("{}-{seed}", &case[..4]));
+        let cfg = tmp.path().join("obstacles.toml");
+        std::fs::write(&cfg, format!("[obstacles]\n{case}\n")).unwrap();
+        crate::util::stdout_ok(crate::util::bin().args([
+            "synth",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--seed",
+            &seed.to_string(),
+            "--points",
+            "2000000",
+            "--out",
+            dir.to_str().unwrap(),
+        ]));
+        let out = dir.join("out");
+        let run = crate::util::bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(dir.join("map.ply"))
+            .arg("--survey")
+            .arg(dir.join("survey.csv"))
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", crate::util::stderr(&run));
+        let r = crate::truth::Run::read(&out.join("result.json"), &dir.join("truth.json"));
+        let errors = r.corner_errors().expect("every target found");
+        for e in &errors {
+            let t = r.result["targets"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|t| t["id"] == e.id.as_str())
+                .unwrap();
+            let sz = 1e3 * t["map_covariance"][2][2].as_f64().unwrap().sqrt();
+            let z = e.dz / sz;
+            println!(
+                "{case}, seed {seed}, target {}: dz {:+.1} mm, σz {sz:.1} mm, {z:+.2} σ",
+                e.id, e.dz
+            );
+            worst = worst.max(z.abs());
+            if e.id == "1" && case.starts_with("hide") {
+                assert!(
+                    e.dz > 50.0,
+                    "the barrier no longer hides the plates: {}",
+                    e.dz
+                );
+            }
+        }
+        // "the heights of targets 1, 4 are uncertain by up to …"
+        let said = r.result["warnings"].as_array().unwrap().iter().any(|w| {
+            let w = w.as_str().unwrap();
+            w.strip_prefix("the height of target ")
+                .or_else(|| w.strip_prefix("the heights of targets "))
+                .and_then(|w| w.split(" uncertain by").next())
+                .is_some_and(|ids| ids.split([' ', ',']).any(|id| id == "1"))
+        });
+        assert!(
+            !case.starts_with("hide") || said,
+            "{}",
+            r.result["warnings"]
+        );
+    }
+    // Measured 2.02 at most over 6 seeds of each of four such cases.
+    assert!(worst < 2.5, "a height {worst:.2} σ from the truth");
+}
