@@ -9,8 +9,14 @@
 # peak RSS are the median of RUNS runs; the crops of both must be identical
 # byte for byte (the script fails otherwise).
 #
+# With SCENE=synth, the cloud is instead a `mapgauge synth` scene (5 targets,
+# written as LAS, then as COPC by the same script) and the rows are `crop`
+# and `eval` of its survey on the COPC file (issue 29: eval reads the ground
+# sample and the crops' nodes only): wall, CPU and bytes read per pass.
+#
 # Usage: bench/copc.sh [POINTS]        (default 20000000; 50 M: ~350 MB of disk)
 # Env:   DIR   data directory (default /tmp/mapgauge-copc)
+#        SCENE random (default) or synth (200 M: ~4 GB of LAS beside the COPC)
 #        RUNS  runs per measurement, odd (default 3)
 #        PY    a python with copclib and numpy (default: a venv made in DIR
 #              with `pip install copclib==2.6.3 numpy`)
@@ -34,6 +40,42 @@ if [[ -z ${PY:-} ]]; then
     fi
     PY=$DIR/venv/bin/python
 fi
+median() { sort -n | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
+
+if [[ ${SCENE:-random} == synth ]]; then
+    scene=$DIR/synth$N
+    copc=$DIR/synth$N.copc.laz
+    [[ -s $scene/map.las ]] || "$BIN" synth --points "$N" --format las --out "$scene" >/dev/null
+    [[ -s $copc ]] || COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" "$scene/map.las" "$copc"
+    cat "$copc" >/dev/null
+    echo "| tool | points | wall s | CPU s | RSS MB | read |"
+    echo "| --- | ---: | ---: | ---: | ---: | --- |"
+    for tool in crop eval "eval --no-report"; do
+        times=() cpus=() rss=()
+        for ((r = 0; r < RUNS; r++)); do
+            rm -rf "$DIR/out-synth"
+            # shellcheck disable=SC2086
+            /usr/bin/time -f '%e %U %S %M' -o "$DIR/time-synth" \
+                "$BIN" $tool --map "$copc" --survey "$scene/survey.csv" --out "$DIR/out-synth" \
+                >/dev/null 2>"$DIR/err-synth"
+            read -r t u s m <"$DIR/time-synth"
+            times+=("$t")
+            cpus+=("$(echo "$u + $s" | bc)")
+            rss+=("$m")
+        done
+        read_=$(grep -o 'COPC nodes: .*' "$DIR/err-synth" || true)
+        if [[ -s $DIR/out-synth/result.json ]]; then
+            read_=$("$PY" -c 'import json,sys; r=json.load(open(sys.argv[1]))["eval"]["reads"]; print("; ".join("%s: %d points, %.1f MB" % (p["pass"], p["points"], p["bytes"] / 1e6) for p in r))' "$DIR/out-synth/result.json")
+        fi
+        printf '| %s | %s | %s | %s | %s | %s |\n' "$tool" "$N" \
+            "$(printf '%s\n' "${times[@]}" | median)" "$(printf '%s\n' "${cpus[@]}" | median)" \
+            "$(($(printf '%s\n' "${rss[@]}" | median) / 1024))" "$read_"
+    done
+    echo
+    echo "file $(($(stat -L -c %s "$copc") / 1000000)) MB; $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
+    exit 0
+fi
+
 copc=$DIR/r$N.copc.laz
 plain=$DIR/r$N.plain.laz
 [[ -s $copc ]] || COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" --random "$N" 3 "$copc"
@@ -50,8 +92,6 @@ survey=$DIR/survey.csv
     done
 } >"$survey"
 cat "$copc" "$plain" >/dev/null
-
-median() { sort -n | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
 
 row() { # label map
     local label=$1 map=$2 times=() rss=() r
