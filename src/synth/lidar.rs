@@ -1,13 +1,22 @@
-//! The spinning LiDAR and the road it is driven along.
+//! The LiDAR and the road it is driven along.
 //!
-//! One scan is a full revolution: `ncols` azimuth columns of `beams` rays each,
-//! emitted column by column as a real sensor does. The sensor moves during the
-//! revolution (each column is cast from where the vehicle is at that instant),
-//! which is what a SLAM map with perfect de-skewing contains.
+//! Spinning (the default): one scan is a full revolution, `ncols` azimuth
+//! columns of `beams` rays each, emitted column by column as a real sensor
+//! does. The sensor moves during the revolution (each column is cast from
+//! where the vehicle is at that instant), which is what a SLAM map with
+//! perfect de-skewing contains.
+//!
+//! Rosette: a forward-looking Risley-prism sensor (Livox-like): two wedge
+//! prisms turning in opposite directions at incommensurate rates deflect one
+//! beam along a rose curve that never repeats, densest at the centre of a
+//! round field of view `fov_deg` wide. One scan is `columns × beams` rays over
+//! 1/`rate_hz` seconds; with `sway_deg`, the boresight wobbles in yaw and
+//! pitch as a hand-held sensor does.
 
 use super::geometry::{Hit, Ray, World, splitmix, unit_from};
 use crate::Point;
 use nalgebra::Vector3;
+use std::f64::consts::TAU;
 
 /// The sensor model.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -33,7 +42,27 @@ pub struct LidarParams {
     pub height_m: f64,
     /// Vehicle speed, m/s (motion within a revolution).
     pub speed_mps: f64,
+    /// How the rays sweep the scene.
+    pub pattern: ScanPattern,
+    /// Rosette: full width of the round field of view around the heading, degrees.
+    pub fov_deg: f64,
+    /// Rosette: amplitude of a hand-held sensor's wobble in yaw and pitch, degrees.
+    pub sway_deg: f64,
 }
+
+/// How a LiDAR's rays sweep the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ScanPattern {
+    /// Rings of `beams` elevations, all around (Velodyne, Ouster, Hesai).
+    #[default]
+    Spinning,
+    /// A non-repetitive rose curve in a forward cone (Livox Mid/Avia/HAP).
+    Rosette,
+}
+
+/// The prisms' rates (Hz): Livox Mid-40's motors, 7 294 and −4 664 rpm.
+const PRISM_HZ: [f64; 2] = [7294.0 / 60.0, -4664.0 / 60.0];
 
 impl Default for LidarParams {
     fn default() -> Self {
@@ -48,6 +77,9 @@ impl Default for LidarParams {
             min_range_m: 1.0,
             height_m: 1.8,
             speed_mps: 5.0,
+            pattern: ScanPattern::Spinning,
+            fov_deg: 70.0,
+            sway_deg: 0.0,
         }
     }
 }
@@ -89,6 +121,12 @@ impl LidarParams {
         }
         if !(self.speed_mps >= 0.0 && self.speed_mps < 100.0) {
             return bad("speed_mps must be in [0, 100)");
+        }
+        if !(self.fov_deg >= 1.0 && self.fov_deg <= 120.0) {
+            return bad("fov_deg must be in [1, 120]");
+        }
+        if !(self.sway_deg >= 0.0 && self.sway_deg <= 30.0) {
+            return bad("sway_deg must be in [0, 30]");
         }
         Ok(())
     }
@@ -177,6 +215,51 @@ pub fn scan(
     let start = pose_at(world, road, lidar, x_start);
     let centre = Vector3::new(start.x, start.y, start.z);
     let active = world.near(&centre, lidar.max_range_m + dx_rev);
+    let scan_key = splitmix(seed ^ splitmix(scan_index.wrapping_add(0x1234_5678)));
+    // One return per ray: cast, add range noise, keep within range.
+    let mut shoot = |o: Vector3<f64>, dir: Vector3<f64>, key: u64| {
+        let ray = Ray::new(o, dir);
+        let Some(Hit { t, object }) = world.cast(&ray, lidar.max_range_m, &active, key) else {
+            return;
+        };
+        let r = t + lidar.range_noise_m * normal_from(key ^ 0x0F0F_0F0F_0F0F_0F0F);
+        if r < lidar.min_range_m || r > lidar.max_range_m {
+            return;
+        }
+        if let Some(i) = object
+            && let Some(n) = per_target.get_mut(i as usize)
+        {
+            *n += 1;
+        }
+        out.push(Point::from(ray.at(r)));
+    };
+    if lidar.pattern == ScanPattern::Rosette {
+        let rays = lidar.rays_per_scan();
+        let half = (lidar.fov_deg / 2.0).to_radians();
+        // Scan i covers [i, i + 1) / rate_hz: the curve goes on from scan to scan.
+        let t0 = (scan_index % (1 << 40)) as f64 / lidar.rate_hz;
+        for k in 0..rays {
+            let f = k as f64 / rays as f64;
+            let t = t0 + f / lidar.rate_hz;
+            let p = pose_at(world, road, lidar, x_start + dx_rev * f);
+            let o = Vector3::new(p.x, p.y, p.z);
+            // Each prism deflects by half the cone's half-angle.
+            let (a1, a2) = (TAU * PRISM_HZ[0] * t, TAU * PRISM_HZ[1] * t);
+            let dy = 0.5 * half * (a1.cos() + a2.cos());
+            let dz = 0.5 * half * (a1.sin() + a2.sin());
+            let sway = lidar.sway_deg.to_radians();
+            let yaw = p.yaw_deg.to_radians() + dy + sway * (TAU * 0.7 * t).sin();
+            let pitch = dz + sway * (TAU * 1.1 * t).sin();
+            let (sy, cy) = yaw.sin_cos();
+            let (sp, cp) = pitch.sin_cos();
+            shoot(
+                o,
+                Vector3::new(cp * cy, cp * sy, sp),
+                splitmix(scan_key ^ k),
+            );
+        }
+        return;
+    }
     let elev: Vec<(f64, f64)> = (0..beams)
         .map(|b| {
             let f = if beams > 1 {
@@ -188,7 +271,6 @@ pub fn scan(
             (e.cos(), e.sin())
         })
         .collect();
-    let scan_key = splitmix(seed ^ splitmix(scan_index.wrapping_add(0x1234_5678)));
     let az_step = lidar.az_step_deg.to_radians();
     for c in 0..ncols {
         let x = x_start + dx_rev * c as f64 / ncols as f64;
@@ -197,21 +279,8 @@ pub fn scan(
         let az = p.yaw_deg.to_radians() + c as f64 * az_step;
         let (sa, ca) = az.sin_cos();
         for (b, &(ce, se)) in elev.iter().enumerate() {
-            let ray = Ray::new(o, Vector3::new(ce * ca, ce * sa, se));
             let key = splitmix(scan_key ^ (c as u64 * beams as u64 + b as u64));
-            let Some(Hit { t, object }) = world.cast(&ray, lidar.max_range_m, &active, key) else {
-                continue;
-            };
-            let r = t + lidar.range_noise_m * normal_from(key ^ 0x0F0F_0F0F_0F0F_0F0F);
-            if r < lidar.min_range_m || r > lidar.max_range_m {
-                continue;
-            }
-            if let Some(i) = object
-                && let Some(n) = per_target.get_mut(i as usize)
-            {
-                *n += 1;
-            }
-            out.push(Point::from(ray.at(r)));
+            shoot(o, Vector3::new(ce * ca, ce * sa, se), key);
         }
     }
 }

@@ -662,3 +662,26 @@ fn square_layout_targets_are_all_seen_from_the_road() {
         }
     }
 }
+
+/// A forward-looking rosette sensor driven along +x never sees behind where
+/// it started; a spinning one sees the ground there. Its returns crowd at the
+/// centre of its field of view (the rose curve passes through it every turn).
+#[test]
+fn a_rosette_sensor_looks_forward_only() {
+    let mut p = small(3, 150_000);
+    let spinning = collect(&p);
+    p.lidar.pattern = lidar::ScanPattern::Rosette;
+    p.lidar.fov_deg = 70.0;
+    let rosette = collect(&p);
+    let x0 = spinning.1.path[0].x;
+    let behind = |pts: &[Point]| pts.iter().filter(|q| q.x < x0 - 5.0).count();
+    assert!(behind(&spinning.0) > 1000, "{}", behind(&spinning.0));
+    assert_eq!(behind(&rosette.0), 0);
+    assert!(rosette.0.len() > 100_000, "{}", rosette.0.len());
+    // Beyond 120° of field the sensor is refused.
+    p.lidar.fov_deg = 150.0;
+    assert!(matches!(
+        generate(&p, &mut |_| Ok(())),
+        Err(Error::Param(_))
+    ));
+}

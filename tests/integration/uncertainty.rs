@@ -401,3 +401,87 @@ fn heights_of_plates_seen_in_part_are_covered() {
     // Measured 2.02 at most over 6 seeds of each of four such cases.
     assert!(worst < 2.5, "a height {worst:.2} σ from the truth");
 }
+
+/// Issue 30: the covariance must hold for scan patterns other than a
+/// spinning LiDAR's. A hand-held Livox-like sensor (a rosette in a 70°
+/// forward cone, 240 k points/s, walking pace, 3° of sway) sees each target
+/// from one side, obliquely, densest where the rose passes its centre.
+/// `ROSETTE_SEEDS=N` runs seeds 1..=N and prints every target (measured over
+/// 12 seeds at 3 M points and 4 at 6 M: 64 of 70 located targets inside their
+/// 95 % ellipse, see docs/uncertainty.md); the test asserts seeds 1–2.
+#[test]
+fn covariance_holds_for_a_rosette_scan() {
+    let seeds: u64 = std::env::var("ROSETTE_SEEDS").map_or(2, |s| s.parse().unwrap());
+    let tmp = crate::util::tempdir();
+    let cfg = tmp.path().join("rosette.toml");
+    std::fs::write(
+        &cfg,
+        "[lidar]\npattern = \"rosette\"\nfov_deg = 70.0\nsway_deg = 3.0\nbeams = 1\n\
+         az_step_deg = 0.015\nspeed_mps = 1.4\nheight_m = 1.5\nmax_range_m = 60.0\n",
+    )
+    .unwrap();
+    let (mut located, mut inside, mut targets) = (0, 0, 0);
+    for seed in 1..=seeds {
+        let dir = tmp.path().join(format!("s{seed}"));
+        crate::util::stdout_ok(crate::util::bin().args([
+            "synth",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--seed",
+            &seed.to_string(),
+            "--points",
+            "3000000",
+            "--out",
+            dir.to_str().unwrap(),
+        ]));
+        let out = dir.join("out");
+        crate::util::stdout_ok(
+            crate::util::bin()
+                .args(["eval", "--no-report", "--map"])
+                .arg(dir.join("map.ply"))
+                .arg("--survey")
+                .arg(dir.join("survey.csv"))
+                .arg("--out")
+                .arg(&out),
+        );
+        let r = crate::truth::Run::read(&out.join("result.json"), &dir.join("truth.json"));
+        let truth = r.truth["targets"].as_array().unwrap();
+        targets += truth.len();
+        for t in r.result["targets"].as_array().unwrap() {
+            if t["status"] != "ok" {
+                println!("seed {seed}, target {}: {}", t["id"], t["reason"]);
+                continue;
+            }
+            let tt = truth.iter().find(|x| x["id"] == t["id"]).unwrap();
+            let got = |k: &str| t["map"][k].as_f64().unwrap();
+            let want = |i: usize| tt["map"][i].as_f64().unwrap();
+            let d = Vector3::new(got("x") - want(0), got("y") - want(1), got("z") - want(2));
+            let c = |i: usize, j: usize| t["map_covariance"][i][j].as_f64().unwrap();
+            let m = Matrix2::new(c(0, 0), c(0, 1), c(1, 0), c(1, 1));
+            let dxy = Vector2::new(d.x, d.y);
+            let chi2 = (dxy.transpose() * m.try_inverse().unwrap() * dxy)[(0, 0)];
+            let z = d.z / c(2, 2).sqrt();
+            println!(
+                "seed {seed}, target {}: {:.1} mm off horizontally, chi2 {chi2:.2}, height {z:+.2} σ",
+                t["id"],
+                1e3 * dxy.norm()
+            );
+            located += 1;
+            inside += usize::from(chi2 <= CHI2_95);
+            if seeds <= 2 {
+                // Seeds 1-2: the largest is 6.9 (99 % ellipse: 9.21).
+                assert!(
+                    chi2 < 9.21,
+                    "seed {seed}, target {}: chi2 {chi2:.2}",
+                    t["id"]
+                );
+                assert!(z.abs() < 2.5, "seed {seed}, target {}: {z:+.2} σ", t["id"]);
+            }
+        }
+    }
+    println!("rosette: {located} of {targets} located, {inside} inside the 95 % ellipse");
+    assert!(
+        located * 10 >= targets * 7,
+        "{located} of {targets} located"
+    );
+}
