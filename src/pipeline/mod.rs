@@ -435,64 +435,14 @@ fn evaluate(
     map.bytes = total;
     map.points = ground.read.points;
     map.skipped_nonfinite = ground.read.skipped_nonfinite;
-    // A located target alone takes hundreds of points: a "map" of fewer than
-    // a hundred is another file (the survey, a list of positions) given as
-    // the map, and every later message (no frame found, no target) would
-    // hide that.
-    if crops_dir.is_none() && map.points < MIN_MAP_POINTS {
-        return Err(Error::Input(format!(
-            "{}: only {} finite points{}; a map holds thousands around each target: is this the map?",
-            map.name,
-            map.points,
-            if map.skipped_nonfinite > 0 {
-                format!(" ({} non-finite skipped)", map.skipped_nonfinite)
-            } else {
-                String::new()
-            }
-        ))
-        .into());
-    }
+    check_map(&map, &ground, crops_dir.is_none(), &mut warnings)?;
     // `--align none` scores the map in the survey frame as it is: nothing
     // may turn it.
     let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
-    // A georeferenced map (its header declares a CRS) has z vertical by
-    // construction: a lean of its ground is the terrain's (an airborne
-    // scan of a hillside), not the map's.
-    let declared_crs = match source {
-        MapSource::File(p) => crate::cloud::declared_crs(p),
-        MapSource::Points(_) => None,
-    };
-    let leaning = ground
-        .level
-        .as_ref()
-        .filter(|l| l.tilt_deg > cfg.frame.level_above_deg);
-    let mut motion = match (no_turn, &declared_crs, leaning) {
-        (true, _, _) => RigidMotion::identity_at(ground.centre),
-        (false, Some(crs), Some(l)) => {
-            warnings.push(Warning::Georeferenced {
-                crs: crs.clone(),
-                tilt_deg: l.tilt_deg,
-            });
-            RigidMotion::identity_at(ground.centre)
-        }
-        _ => ground.levelling(cfg.frame.level_above_deg),
-    };
+    let mut motion = first_levelling(source, &ground, no_turn, cfg, &mut warnings);
     let ground_up = ground.level.as_ref().map(|l| l.up);
     // What each pass read, in order (result.json `eval.reads`).
     let mut reads = vec![ground.pass_read.clone()];
-    if let Some((step_m, reach_m)) = ground.float32_step {
-        let w = Warning::Float32Steps { step_m, reach_m };
-        // Rounding of a tenth of a metre (coordinates beyond 1 048 576 m: UTM
-        // northings) is noise no plate fit averages away; below, a warning.
-        if step_m >= FLOAT32_REFUSED_STEP {
-            return Err(Error::Input(format!(
-                "{}: {w}. At that step no target can be measured: refused",
-                map.name
-            ))
-            .into());
-        }
-        warnings.push(w);
-    }
     let (mut how, mut init, mut dz) = frame::given(survey, cfg, &motion)?;
     let mut unmatched = Vec::new();
     if cfg.frame.mode == config::FrameMode::Detect {
@@ -630,58 +580,15 @@ fn evaluate(
             }
         }
     }
-    // The targets' plumb lines, and their surveyed heights when five or
-    // more have them, refine the vertical, once: each line is a plain plane
-    // fit of the target's own points and each height the located corner's,
-    // which turn with the frame, so a second look would see the same.
-    let turned = !motion.is_identity();
-    let plumb = frame::plumb(&found, survey, turned)
-        .filter(|_| !no_turn)
-        .map(|(p, rot)| {
-            if let Some(rot) = rot {
-                frame::turn_targets(&mut found, &rot, motion.origin, cfg);
-                let m = RigidMotion {
-                    origin: motion.origin,
-                    rotation: rot,
-                };
-                for e in expected.iter_mut() {
-                    *e = m.apply(e);
-                }
-                motion = motion.then(&rot);
-            }
-            if let Some(h) = p.heights.as_ref().filter(|h| !h.agrees) {
-                warnings.push(Warning::HeightsDisagree {
-                    heights_deg: h.tilt_deg,
-                    heights_se_deg: h.se_deg,
-                    plumb_deg: p.tilt_deg,
-                    plumb_se_deg: p.se_deg,
-                    apart_deg: h.apart_deg,
-                });
-            }
-            p
-        });
-    let tilt = motion.tilt_deg();
-    if tilt > 0.0 {
-        let se_deg = frame::vertical_se_deg(plumb.as_ref());
-        let a = se_deg.to_radians();
-        let o = motion.origin;
-        let (mut height_m, mut across_mm) = (0.0_f64, 0.0_f64);
-        // The angle's error in the one direction that raises a target.
-        for e in &expected {
-            height_m = height_m.max(a / std::f64::consts::SQRT_2 * (e.x - o.x).hypot(e.y - o.y));
-        }
-        // Heights from the located corners: the expected positions carry the
-        // survey's heights, whose datum need not be the map's.
-        for c in found.iter().filter_map(|r| r.corner()) {
-            across_mm = across_mm.max(1e3 * a * (c.z - o.z).abs());
-        }
-        warnings.push(Warning::Levelled {
-            tilt_deg: tilt,
-            se_deg,
-            height_m,
-            across_mm,
-        });
-    }
+    let plumb = refine_vertical(
+        &mut found,
+        &mut expected,
+        &mut motion,
+        survey,
+        no_turn,
+        cfg,
+        &mut warnings,
+    );
 
     // A turned frame's vertical is known to its standard error: shared by
     // every target, it goes into the intervals as one tilt per draw, and
@@ -706,22 +613,19 @@ fn evaluate(
     } else {
         Vec::new()
     };
+    let search = passes::Search {
+        source,
+        survey,
+        expected: &expected,
+        crop_params: &crop_params,
+        cfg,
+        opts: &opts,
+        motion: &motion,
+        ground: &ground,
+    };
     if (cfg.frame.second_pass || !far.is_empty()) && crops_dir.is_none() {
         pass.set("second-pass");
-        passes::second_pass(
-            source,
-            survey,
-            &expected,
-            &crop_params,
-            cfg,
-            &opts,
-            &mut found,
-            &motion,
-            &ground,
-            &far,
-            &mut progress,
-            &mut reads,
-        )?;
+        search.second_pass(&mut found, &far, &mut progress, &mut reads)?;
     }
     passes::common_vertical(&mut found, cfg);
     // Far only now (the second pass found enough targets for a check to run):
@@ -734,29 +638,67 @@ fn evaluate(
             .collect();
         if !late.is_empty() {
             pass.set("second-pass");
-            passes::second_pass(
-                source,
-                survey,
-                &expected,
-                &crop_params,
-                cfg,
-                &opts,
-                &mut found,
-                &motion,
-                &ground,
-                &late,
-                &mut progress,
-                &mut reads,
-            )?;
+            search.second_pass(&mut found, &late, &mut progress, &mut reads)?;
             passes::common_vertical(&mut found, cfg);
             far.extend(late);
         }
     }
+    let doubling = check_found(&mut found, survey, &opts, &far, cfg, &mut warnings);
+    let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
+    let need = cfg.metrics.align.min_points().max(2);
+    if n_found < need {
+        return Err(Failed {
+            error: too_few_found(&found, survey, n_found, need, cfg, &map.name, &how),
+            targets: found,
+            levelling: motion,
+        });
+    }
+    let accuracy = score(&found, survey, &opts, cfg, &mut warnings)?;
+    // No pass may have read the whole map (a sampled ground, crops of some
+    // tiles): the most any pass read is what is known of it.
+    map.points = reads.iter().map(|r| r.points).fold(map.points, u64::max);
+    let footprint = ground.footprint(&motion);
+    Ok(Evaluation {
+        accuracy,
+        targets: found,
+        map,
+        warnings,
+        reads,
+        footprint,
+        doubling,
+        frame: FrameFound {
+            how,
+            init,
+            dz,
+            ground: ground.level,
+            levelling: motion,
+            plumb,
+            unmatched,
+        },
+    })
+}
+
+/// A map too spread out to be in metres, set against the survey: a map in
+/// millimetres spans a thousand times the site the survey covers.
+/// Every located object checked against the physical target and against
+/// the other targets: one still far from where the others place it, an
+/// object claimed by two targets, a target mapped twice, a layout no map
+/// bends to: each is set aside with its reason (and named in a warning), and
+/// a height from plates seen in part gets the σ it deserves. Returns how
+/// close two copies of a target may be and still be seen.
+fn check_found(
+    found: &mut [TargetRun],
+    survey: &Survey,
+    opts: &ScoreOptions,
+    far: &[(usize, f64, f64, target::FarBy)],
+    cfg: &Config,
+    warnings: &mut Vec<Warning>,
+) -> Option<crate::locate::DoublingLimit> {
     // What is still far after the search is not the target.
     let mut wrong = Vec::new();
     // (A target found again close to the prediction is the object there:
     // its error is the map's or the survey's, and stays in the result.)
-    for (i, error, median, by) in frame::far_from_others(&found, survey, &opts) {
+    for (i, error, median, by) in frame::far_from_others(found, survey, opts) {
         let searched = far.iter().any(|f| f.0 == i);
         if searched && found[i].pass == Pass::Second {
             continue;
@@ -771,14 +713,14 @@ fn evaluate(
             });
         }
     }
-    target::one_object_each(&mut found, cfg.tight.plate_width);
+    target::one_object_each(found, cfg.tight.plate_width);
     // A target mapped twice is neither copy: it leaves the fit, named.
-    let (doubled, doubling) = target::check_doubled(&mut found, cfg);
+    let (doubled, doubling) = target::check_doubled(found, cfg);
     if !doubled.is_empty() {
         warnings.push(Warning::Doubled(doubled));
     }
     // A height from plates seen in part is known only as well as the part.
-    let widened = target::widen_heights(&mut found, cfg.tight.plate_height);
+    let widened = target::widen_heights(found, cfg.tight.plate_height);
     if !widened.is_empty() {
         warnings.push(Warning::HeightsUncertain {
             ids: widened.iter().map(|w| w.0.clone()).collect(),
@@ -792,7 +734,7 @@ fn evaluate(
     }
     // Metres of disagreement with the survey's layout are no map's error,
     // however few targets were located.
-    frame::off_layout(&mut found, survey, &opts);
+    frame::off_layout(found, survey, opts);
     for (i, r) in found.iter().enumerate() {
         if matches!(
             r.outcome,
@@ -806,16 +748,19 @@ fn evaluate(
     if !wrong.is_empty() {
         warnings.push(Warning::WrongObjects(wrong));
     }
+    doubling
+}
 
-    let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
-    let need = cfg.metrics.align.min_points().max(2);
-    if n_found < need {
-        return Err(Failed {
-            error: too_few_found(&found, survey, n_found, need, cfg, &map.name, &how),
-            targets: found,
-            levelling: motion,
-        });
-    }
+/// The errors of the located targets, each weighed by its covariance; with
+/// `metrics.exclude_outliers`, again without the gross errors, which stay in
+/// the result as excluded, with the numbers that condemned them.
+fn score(
+    found: &[TargetRun],
+    survey: &Survey,
+    opts: &ScoreOptions,
+    cfg: &Config,
+    warnings: &mut Vec<Warning>,
+) -> Result<Accuracy> {
     let covariances = found
         .iter()
         .filter_map(|r| {
@@ -825,8 +770,8 @@ fn evaluate(
                 .map(|f| (r.id.clone(), f.located.covariance))
         })
         .collect();
-    let mut est = estimates(&found);
-    let mut accuracy = accuracy::score_with_covariances(survey, &est, &covariances, &opts)?;
+    let mut est = estimates(found);
+    let mut accuracy = accuracy::score_with_covariances(survey, &est, &covariances, opts)?;
     if cfg.metrics.exclude_outliers {
         // Refit without the gross errors, each kept in the result as excluded
         // with the numbers that condemned it: never dropped silently.
@@ -857,38 +802,157 @@ fn evaluate(
                     };
                 }
             }
-            accuracy = accuracy::score_with_covariances(survey, &est, &covariances, &opts)?;
+            accuracy = accuracy::score_with_covariances(survey, &est, &covariances, opts)?;
             warnings.push(Warning::OutliersExcluded(
                 gross.into_iter().map(|g| g.0).collect(),
             ));
         }
     }
-    // No pass may have read the whole map (a sampled ground, crops of some
-    // tiles): the most any pass read is what is known of it.
-    map.points = reads.iter().map(|r| r.points).fold(map.points, u64::max);
-    let footprint = ground.footprint(&motion);
-    Ok(Evaluation {
-        accuracy,
-        targets: found,
-        map,
-        warnings,
-        reads,
-        footprint,
-        doubling,
-        frame: FrameFound {
-            how,
-            init,
-            dz,
-            ground: ground.level,
-            levelling: motion,
-            plumb,
-            unmatched,
-        },
-    })
+    Ok(accuracy)
 }
 
-/// A map too spread out to be in metres, set against the survey: a map in
-/// millimetres spans a thousand times the site the survey covers.
+/// What the ground pass says of the map before anything is located: too few
+/// points to be a map (`needs_points`: not when hand crops are given), or
+/// float32 coordinates too far from their origin to measure anything.
+fn check_map(
+    map: &MapStats,
+    ground: &crate::frame::MapGround,
+    needs_points: bool,
+    warnings: &mut Vec<Warning>,
+) -> Result<()> {
+    // A located target alone takes hundreds of points: a "map" of fewer than
+    // a hundred is another file (the survey, a list of positions) given as
+    // the map, and every later message (no frame found, no target) would
+    // hide that.
+    if needs_points && map.points < MIN_MAP_POINTS {
+        return Err(Error::Input(format!(
+            "{}: only {} finite points{}; a map holds thousands around each target: is this the map?",
+            map.name,
+            map.points,
+            if map.skipped_nonfinite > 0 {
+                format!(" ({} non-finite skipped)", map.skipped_nonfinite)
+            } else {
+                String::new()
+            }
+        )));
+    }
+    if let Some((step_m, reach_m)) = ground.float32_step {
+        let w = Warning::Float32Steps { step_m, reach_m };
+        // Rounding of a tenth of a metre (coordinates beyond 1 048 576 m: UTM
+        // northings) is noise no plate fit averages away; below, a warning.
+        if step_m >= FLOAT32_REFUSED_STEP {
+            return Err(Error::Input(format!(
+                "{}: {w}. At that step no target can be measured: refused",
+                map.name
+            )));
+        }
+        warnings.push(w);
+    }
+    Ok(())
+}
+
+/// The frame the map is first read in: levelled by its ground when that
+/// leans, except when nothing may turn it (`no_turn`: `--align none`) or its
+/// header declares a coordinate reference system (then z is vertical by
+/// construction and the lean is the terrain's: said in a warning).
+fn first_levelling(
+    source: MapSource,
+    ground: &crate::frame::MapGround,
+    no_turn: bool,
+    cfg: &Config,
+    warnings: &mut Vec<Warning>,
+) -> RigidMotion {
+    // A georeferenced map (its header declares a CRS) has z vertical by
+    // construction: a lean of its ground is the terrain's (an airborne
+    // scan of a hillside), not the map's.
+    let declared_crs = match source {
+        MapSource::File(p) => crate::cloud::declared_crs(p),
+        MapSource::Points(_) => None,
+    };
+    let leaning = ground
+        .level
+        .as_ref()
+        .filter(|l| l.tilt_deg > cfg.frame.level_above_deg);
+    match (no_turn, &declared_crs, leaning) {
+        (true, _, _) => RigidMotion::identity_at(ground.centre),
+        (false, Some(crs), Some(l)) => {
+            warnings.push(Warning::Georeferenced {
+                crs: crs.clone(),
+                tilt_deg: l.tilt_deg,
+            });
+            RigidMotion::identity_at(ground.centre)
+        }
+        _ => ground.levelling(cfg.frame.level_above_deg),
+    }
+}
+
+/// The targets' plumb lines (and surveyed heights) refine the vertical, once;
+/// when they turn the frame, the targets and their expected positions turn
+/// with it. Says what the levelling did and how well the vertical is known.
+fn refine_vertical(
+    found: &mut [TargetRun],
+    expected: &mut [Point],
+    motion: &mut RigidMotion,
+    survey: &Survey,
+    no_turn: bool,
+    cfg: &Config,
+    warnings: &mut Vec<Warning>,
+) -> Option<frame::Plumb> {
+    // The targets' plumb lines, and their surveyed heights when five or
+    // more have them, refine the vertical, once: each line is a plain plane
+    // fit of the target's own points and each height the located corner's,
+    // which turn with the frame, so a second look would see the same.
+    let turned = !motion.is_identity();
+    let plumb = frame::plumb(found, survey, turned)
+        .filter(|_| !no_turn)
+        .map(|(p, rot)| {
+            if let Some(rot) = rot {
+                frame::turn_targets(found, &rot, motion.origin, cfg);
+                let m = RigidMotion {
+                    origin: motion.origin,
+                    rotation: rot,
+                };
+                for e in expected.iter_mut() {
+                    *e = m.apply(e);
+                }
+                *motion = motion.then(&rot);
+            }
+            if let Some(h) = p.heights.as_ref().filter(|h| !h.agrees) {
+                warnings.push(Warning::HeightsDisagree {
+                    heights_deg: h.tilt_deg,
+                    heights_se_deg: h.se_deg,
+                    plumb_deg: p.tilt_deg,
+                    plumb_se_deg: p.se_deg,
+                    apart_deg: h.apart_deg,
+                });
+            }
+            p
+        });
+    let tilt = motion.tilt_deg();
+    if tilt > 0.0 {
+        let se_deg = frame::vertical_se_deg(plumb.as_ref());
+        let a = se_deg.to_radians();
+        let o = motion.origin;
+        let (mut height_m, mut across_mm) = (0.0_f64, 0.0_f64);
+        // The angle's error in the one direction that raises a target.
+        for e in expected.iter() {
+            height_m = height_m.max(a / std::f64::consts::SQRT_2 * (e.x - o.x).hypot(e.y - o.y));
+        }
+        // Heights from the located corners: the expected positions carry the
+        // survey's heights, whose datum need not be the map's.
+        for c in found.iter().filter_map(|r| r.corner()) {
+            across_mm = across_mm.max(1e3 * a * (c.z - o.z).abs());
+        }
+        warnings.push(Warning::Levelled {
+            tilt_deg: tilt,
+            se_deg,
+            height_m,
+            across_mm,
+        });
+    }
+    plumb
+}
+
 fn against_survey(e: Error, survey: &Survey) -> Error {
     match e {
         Error::NotMetres { extent, msg: m } => {

@@ -12,114 +12,133 @@ use crate::{Point, Result};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-/// Second pass: look again where the alignment of the found targets says the
-/// missing ones should be (when that is far enough from where they were
-/// looked for).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn second_pass(
-    source: MapSource,
-    survey: &Survey,
-    expected: &[Point],
-    crop_params: &LooseParams,
-    cfg: &Config,
-    opts: &ScoreOptions,
-    found: &mut [TargetRun],
-    motion: &RigidMotion,
-    ground: &crate::frame::MapGround,
-    narrow: &[(usize, f64, f64, target::FarBy)],
-    progress: &mut impl FnMut(u64, u64),
-    reads: &mut Vec<crate::cloud::PassRead>,
-) -> Result<()> {
-    let is_narrow = |i: usize| narrow.iter().find(|n| n.0 == i).copied();
-    let missing: Vec<usize> = (0..found.len())
-        .filter(|&i| found[i].outcome.is_err() || is_narrow(i).is_some())
-        .collect();
-    if missing.is_empty() {
-        return Ok(());
-    }
-    // Targets searched again narrowly are left out of the fit that predicts.
-    let mut est = super::estimates(found);
-    for &(i, ..) in narrow {
-        est[i].status = crate::survey::EstimateStatus::NotFound {
-            reason: String::new(),
+/// What a search after the first pass looks with: the map and the frame it
+/// is read in, the survey and where the first pass looked, how to crop and
+/// locate, how the found targets are aligned to predict the others.
+pub(super) struct Search<'a> {
+    pub(super) source: MapSource<'a>,
+    pub(super) survey: &'a Survey,
+    pub(super) expected: &'a [Point],
+    pub(super) crop_params: &'a LooseParams,
+    pub(super) cfg: &'a Config,
+    pub(super) opts: &'a ScoreOptions,
+    pub(super) motion: &'a RigidMotion,
+    pub(super) ground: &'a crate::frame::MapGround,
+}
+
+impl Search<'_> {
+    /// Second pass: look again where the alignment of the found targets
+    /// says the missing ones should be (when that is far enough from where
+    /// they were looked for), and, only close to the prediction, for those
+    /// in `narrow` (found far from where the others place them).
+    pub(super) fn second_pass(
+        &self,
+        found: &mut [TargetRun],
+        narrow: &[(usize, f64, f64, target::FarBy)],
+        progress: &mut impl FnMut(u64, u64),
+        reads: &mut Vec<crate::cloud::PassRead>,
+    ) -> Result<()> {
+        let Search {
+            source,
+            survey,
+            expected,
+            crop_params,
+            cfg,
+            opts,
+            motion,
+            ground,
+        } = *self;
+        let is_narrow = |i: usize| narrow.iter().find(|n| n.0 == i).copied();
+        let missing: Vec<usize> = (0..found.len())
+            .filter(|&i| found[i].outcome.is_err() || is_narrow(i).is_some())
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        // Targets searched again narrowly are left out of the fit that predicts.
+        let mut est = super::estimates(found);
+        for &(i, ..) in narrow {
+            est[i].status = crate::survey::EstimateStatus::NotFound {
+                reason: String::new(),
+            };
+        }
+        let Ok(first) = accuracy::score(survey, &est, opts) else {
+            return Ok(());
         };
-    }
-    let Ok(first) = accuracy::score(survey, &est, opts) else {
-        return Ok(());
-    };
-    let inverse = first.fit.alignment.inverse();
-    let mut redo = Vec::new();
-    for &i in &missing {
-        let predicted = inverse.apply(&survey.targets[i].reference());
-        if is_narrow(i).is_some()
-            || (predicted - expected[i]).xy().norm() > cfg.frame.second_pass_min_shift
-        {
-            redo.push((i, predicted));
+        let inverse = first.fit.alignment.inverse();
+        let mut redo = Vec::new();
+        for &i in &missing {
+            let predicted = inverse.apply(&survey.targets[i].reference());
+            if is_narrow(i).is_some()
+                || (predicted - expected[i]).xy().norm() > cfg.frame.second_pass_min_shift
+            {
+                redo.push((i, predicted));
+            }
         }
-    }
-    if redo.is_empty() {
-        return Ok(());
-    }
-    let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
-    // The map's statistics stay those of the first pass.
-    let mut again_stats = super::MapStats::default();
-    let (again, read) = read_crops(
-        source,
-        &centres,
-        crop_params,
-        motion,
-        ground.z_range,
-        &mut again_stats,
-        progress,
-    )?;
-    reads.push(crate::cloud::PassRead {
-        pass: "second-pass".into(),
-        ..read
-    });
-    // A target searched again because the one found was far from where the
-    // others put it is looked for only close to the prediction, so the same
-    // wrong object cannot be found again.
-    // The radius grows with the error, so that a target of a badly distorted
-    // map is still found where it is, while the wrong object stays outside.
-    let ups = super::more_ups(motion, ground.level.as_ref().map(|l| l.up));
-    // The other targets: where they were found, else where they were expected.
-    let placed: Vec<Point> = (0..found.len())
-        .map(|j| found[j].corner().unwrap_or(expected[j]))
-        .collect();
-    for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
-        let thinned = (offered > pts.len() as u64).then_some(offered);
-        let mut close = cfg.clone();
-        if let Some((_, error, ..)) = is_narrow(i) {
-            close.tight.search_radius = (0.5 * error).max(1.0).min(cfg.tight.search_radius);
+        if redo.is_empty() {
+            return Ok(());
         }
-        let mut r = target::locate_target(
-            &survey.targets[i].id,
-            c,
-            pts,
-            None,
-            &close,
-            Pass::Second,
-            &ups,
-            &super::others_than(&placed, i),
-        );
-        r.loose_thinned_from = thinned;
-        if r.outcome.is_ok() {
-            found[i] = r;
-        } else if let Some((_, error, median, by)) = is_narrow(i)
-            && let Ok(f) = &found[i].outcome
-        {
-            let at = f.located.corner;
-            found[i] = r;
-            found[i].outcome = Err(target::Failure::FarFromOthers {
-                at,
-                error,
-                median,
-                by,
-                searched: true,
-            });
+        let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
+        // The map's statistics stay those of the first pass.
+        let mut again_stats = super::MapStats::default();
+        let (again, read) = read_crops(
+            source,
+            &centres,
+            crop_params,
+            motion,
+            ground.z_range,
+            &mut again_stats,
+            progress,
+        )?;
+        reads.push(crate::cloud::PassRead {
+            pass: "second-pass".into(),
+            ..read
+        });
+        // A target searched again because the one found was far from where the
+        // others put it is looked for only close to the prediction, so the same
+        // wrong object cannot be found again.
+        // The radius grows with the error, so that a target of a badly distorted
+        // map is still found where it is, while the wrong object stays outside.
+        let ups = super::more_ups(motion, ground.level.as_ref().map(|l| l.up));
+        // The other targets: where they were found, else where they were expected.
+        let placed: Vec<Point> = (0..found.len())
+            .map(|j| found[j].corner().unwrap_or(expected[j]))
+            .collect();
+        for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
+            let thinned = (offered > pts.len() as u64).then_some(offered);
+            let mut close = cfg.clone();
+            if let Some((_, error, ..)) = is_narrow(i) {
+                close.tight.search_radius = (0.5 * error).max(1.0).min(cfg.tight.search_radius);
+            }
+            let mut r = target::locate_target(
+                &survey.targets[i].id,
+                c,
+                pts,
+                None,
+                &close,
+                Pass::Second,
+                &ups,
+                &super::others_than(&placed, i),
+            );
+            r.loose_thinned_from = thinned;
+            if r.outcome.is_ok() {
+                found[i] = r;
+            } else if let Some((_, error, median, by)) = is_narrow(i)
+                && let Ok(f) = &found[i].outcome
+            {
+                let at = f.located.corner;
+                found[i] = r;
+                found[i].outcome = Err(target::Failure::FarFromOthers {
+                    at,
+                    error,
+                    median,
+                    by,
+                    searched: true,
+                });
+            }
         }
+        Ok(())
     }
-    Ok(())
 }
 
 /// Map tilt: when the targets agree on a vertical that differs from the one a
