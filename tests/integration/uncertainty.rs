@@ -320,6 +320,38 @@ fn a_stretched_map_shows_its_scale_and_compare_says_so() {
     );
 }
 
+/// A synth scene (`config`, `seed`, `points`) in `dir`, evaluated by the CLI
+/// (`dir/out`); its result beside its truth.
+fn synth_and_eval(
+    config: &std::path::Path,
+    seed: u64,
+    points: u64,
+    dir: &std::path::Path,
+) -> crate::truth::Run {
+    crate::util::stdout_ok(crate::util::bin().args([
+        "synth",
+        "--config",
+        config.to_str().unwrap(),
+        "--seed",
+        &seed.to_string(),
+        "--points",
+        &points.to_string(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]));
+    let out = dir.join("out");
+    crate::util::stdout_ok(
+        crate::util::bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(dir.join("map.ply"))
+            .arg("--survey")
+            .arg(dir.join("survey.csv"))
+            .arg("--out")
+            .arg(&out),
+    );
+    crate::truth::Run::read(&out.join("result.json"), &dir.join("truth.json"))
+}
+
 /// Issue 30: a target whose lower plates are hidden (a barrier between it
 /// and the road, grass through the plates) has its corner's height placed in
 /// the middle of what is seen, 5–18 cm above the plates' middle. Its vertical
@@ -338,29 +370,7 @@ fn heights_of_plates_seen_in_part_are_covered() {
         let dir = tmp.path().join(format!("{}-{seed}", &case[..4]));
         let cfg = tmp.path().join("obstacles.toml");
         std::fs::write(&cfg, format!("[obstacles]\n{case}\n")).unwrap();
-        crate::util::stdout_ok(crate::util::bin().args([
-            "synth",
-            "--config",
-            cfg.to_str().unwrap(),
-            "--seed",
-            &seed.to_string(),
-            "--points",
-            "2000000",
-            "--out",
-            dir.to_str().unwrap(),
-        ]));
-        let out = dir.join("out");
-        let run = crate::util::bin()
-            .args(["eval", "--no-report", "--map"])
-            .arg(dir.join("map.ply"))
-            .arg("--survey")
-            .arg(dir.join("survey.csv"))
-            .arg("--out")
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert!(run.status.success(), "{}", crate::util::stderr(&run));
-        let r = crate::truth::Run::read(&out.join("result.json"), &dir.join("truth.json"));
+        let r = synth_and_eval(&cfg, seed, 2_000_000, &dir);
         let errors = r.corner_errors().expect("every target found");
         for e in &errors {
             let t = r.result["targets"]
@@ -422,29 +432,7 @@ fn covariance_holds_for_a_rosette_scan() {
     .unwrap();
     let (mut located, mut inside, mut targets) = (0, 0, 0);
     for seed in 1..=seeds {
-        let dir = tmp.path().join(format!("s{seed}"));
-        crate::util::stdout_ok(crate::util::bin().args([
-            "synth",
-            "--config",
-            cfg.to_str().unwrap(),
-            "--seed",
-            &seed.to_string(),
-            "--points",
-            "3000000",
-            "--out",
-            dir.to_str().unwrap(),
-        ]));
-        let out = dir.join("out");
-        crate::util::stdout_ok(
-            crate::util::bin()
-                .args(["eval", "--no-report", "--map"])
-                .arg(dir.join("map.ply"))
-                .arg("--survey")
-                .arg(dir.join("survey.csv"))
-                .arg("--out")
-                .arg(&out),
-        );
-        let r = crate::truth::Run::read(&out.join("result.json"), &dir.join("truth.json"));
+        let r = synth_and_eval(&cfg, seed, 3_000_000, &tmp.path().join(format!("s{seed}")));
         let truth = r.truth["targets"].as_array().unwrap();
         targets += truth.len();
         for t in r.result["targets"].as_array().unwrap() {
