@@ -49,9 +49,10 @@ pub fn run(a: Args) -> Result<()> {
     // A georeferenced map (its header declares a CRS) is vertical by
     // construction, as in `eval`: its ground's lean is the terrain's.
     let crs = mapgauge::cloud::declared_crs(&a.map);
+    let min_support = mapgauge::pipeline::FrameConfig::default().level_min_support;
     let motion = match &crs {
         Some(_) => mapgauge::cloud::RigidMotion::identity_at(ground.centre),
-        None => ground.levelling(a.level_above),
+        None => ground.levelling(a.level_above, min_support),
     };
     let found = detect_map(
         source,
@@ -77,11 +78,17 @@ pub fn run(a: Args) -> Result<()> {
                         "; not levelled: the map declares a coordinate reference system ({c}), z vertical by construction"
                     ),
                     (_, false) => "; the map was levelled for detection".into(),
+                    _ if l.tilt_deg > a.level_above => format!(
+                        "; not levelled: levelling by the ground asks for {:.0} % to agree (terrain's own slopes scatter, a tilted map's ground leans alike)",
+                        100.0 * min_support
+                    ),
                     _ => String::new(),
                 }
             );
         }
-        None => s.push_str("ground: too little seen to level the map\n"),
+        None => s.push_str(
+            "ground: too little flat ground seen to estimate its lean (fewer than 20 flat 2 m blocks); the map is read as it is, not levelled\n",
+        ),
     }
     let _ = writeln!(
         s,

@@ -105,12 +105,22 @@ pub struct MapGround {
 impl MapGround {
     /// The motion that levels the map: the ground's vertical made +z when it
     /// leans more than `above_deg` (below, a site's own slope could be most of
-    /// it, and the targets' plumb lines decide later); else the identity.
-    pub fn levelling(&self, above_deg: f64) -> RigidMotion {
+    /// it, and the targets' plumb lines decide later) and at least
+    /// `min_support` of the flat ground blocks agree on it (fewer: the lean
+    /// is terrain's, see [`MapGround::leans_weakly`]); else the identity.
+    pub fn levelling(&self, above_deg: f64, min_support: f64) -> RigidMotion {
         match &self.level {
-            Some(l) if l.tilt_deg > above_deg => l.motion(),
+            Some(l) if l.tilt_deg > above_deg && l.support >= min_support => l.motion(),
             _ => RigidMotion::identity_at(self.centre),
         }
+    }
+
+    /// The ground's lean when it is beyond `above_deg` but too few of its
+    /// flat blocks agree on it (below `min_support`) to level the map by.
+    pub fn leans_weakly(&self, above_deg: f64, min_support: f64) -> Option<&GroundLevel> {
+        self.level
+            .as_ref()
+            .filter(|l| l.tilt_deg > above_deg && l.support < min_support)
     }
 
     /// This ground with every cell seen: a sampled one is read again whole
@@ -653,6 +663,33 @@ mod tests {
         // The same points in metres are a map.
         let pts = site(0.0);
         assert!(ground_level(MapSource::Points(&pts), None, None, |_| {}).is_ok());
+    }
+
+    /// Rolling hills on a 6° incline: their flat blocks lean every way, so
+    /// few agree on one vertical and the ground does not level the map; a
+    /// tilted yard's ground leans alike everywhere and does.
+    #[test]
+    fn a_lean_few_ground_blocks_agree_on_does_not_level_the_map() {
+        let mut pts = Vec::new();
+        for i in 0..400 {
+            for j in 0..400 {
+                let (x, y) = (i as f64 * 0.2, j as f64 * 0.2);
+                let z = 1.2 * (x / 5.0).sin() * (y / 6.0).cos() + 6f64.to_radians().tan() * x;
+                pts.push(Point::new(x, y, z));
+            }
+        }
+        let hills = ground_level(MapSource::Points(&pts), None, None, |_| {}).unwrap();
+        let l = hills.level.as_ref().unwrap();
+        assert!(l.support < 0.5, "{} of {} blocks", l.support, l.blocks);
+        assert!(hills.levelling(0.0, 0.5).is_identity());
+        assert!(hills.leans_weakly(0.0, 0.5).is_some());
+        // Asked for no agreement at all, it levels.
+        assert!(!hills.levelling(0.0, 0.0).is_identity());
+        let yard = ground_level(MapSource::Points(&site(6.6)), None, None, |_| {}).unwrap();
+        let y = yard.level.as_ref().unwrap();
+        assert!(y.support > 0.6, "{} of {} blocks", y.support, y.blocks);
+        assert!(!yard.levelling(5.0, 0.5).is_identity());
+        assert!(yard.leans_weakly(5.0, 0.5).is_none());
     }
 
     #[test]

@@ -110,6 +110,14 @@ pub struct FrameConfig {
     /// the lean, and the map is read as it is (the plumb lines may still turn
     /// it when they lean significantly).
     pub level_above_deg: f64,
+    /// ... and when at least this share of its flat 2 m ground blocks agree
+    /// (within 1°) on that vertical. A SLAM map's tilt turns all of its flat
+    /// ground alike (tilted synthetic maps: 88 % agree), while terrain's own
+    /// slopes scatter (an airborne scan of a hillside: 40 %; half of a
+    /// LIO-SAM map: 19 %): below this share the lean is taken as the
+    /// terrain's and the map is read as it is (the plumb lines may still
+    /// turn it).
+    pub level_min_support: f64,
     /// Points the levelling's ground pass reads of a bigger map: an even
     /// sample of its tiles, COPC nodes, LAZ chunks or record blocks, each
     /// part whole (0: every point). Formats that cannot skip part of a file
@@ -145,6 +153,7 @@ impl Default for FrameConfig {
             max_tilt_deg: 3.0,
             tilt_redo_deg: 0.25,
             level_above_deg: 5.0,
+            level_min_support: 0.5,
             ground_sample: super::GROUND_SAMPLE_POINTS,
         }
     }
@@ -350,6 +359,7 @@ impl FrameConfig {
         range("frame.max_tilt_deg", self.max_tilt_deg, 0.0, 90.0)?;
         range("frame.tilt_redo_deg", self.tilt_redo_deg, 0.0, 90.0)?;
         range("frame.level_above_deg", self.level_above_deg, 0.0, 90.0)?;
+        range("frame.level_min_support", self.level_min_support, 0.0, 1.0)?;
         range("frame.match_tolerance", self.match_tolerance, 0.01, 100.0)?;
         if self.mode == FrameMode::Hints && self.hints.is_none() {
             return Err(Error::Param(

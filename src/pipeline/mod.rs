@@ -120,6 +120,18 @@ pub enum Warning {
         /// The largest vertical σ after widening (m).
         sigma_m: f64,
     },
+    /// The ground leans, but too few of its flat blocks agree on the lean to
+    /// level the map by: not levelled.
+    GroundWeak {
+        /// The ground's lean (degrees).
+        tilt_deg: f64,
+        /// Share of the flat 2 m ground blocks within 1° of that vertical.
+        support: f64,
+        /// Flat ground blocks.
+        blocks: usize,
+        /// The share levelling asks for (`frame.level_min_support`).
+        min_support: f64,
+    },
     /// The map leans; it was read levelled and positions are in that frame.
     Levelled {
         /// Total tilt corrected (degrees).
@@ -149,6 +161,7 @@ impl Warning {
             Warning::Levelled { .. }
             | Warning::HeightsDisagree { .. }
             | Warning::Georeferenced { .. }
+            | Warning::GroundWeak { .. }
             | Warning::GivenFrameReplaced { .. }
             | Warning::DetectionFailed(_) => 1,
             Warning::SphereWithoutHeights => 2,
@@ -228,6 +241,17 @@ impl std::fmt::Display for Warning {
             Warning::Georeferenced { crs, tilt_deg } => write!(
                 f,
                 "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines still may, when they all lean beyond their scatter)"
+            ),
+            Warning::GroundWeak {
+                tilt_deg,
+                support,
+                blocks,
+                min_support,
+            } => write!(
+                f,
+                "the ground leans {tilt_deg:.1}°, but only {:.0} % of its {blocks} flat 2 m blocks agree on that vertical (levelling by the ground asks for {:.0} %, frame.level_min_support): taken as the terrain's slopes, not the map's tilt, and the map was not levelled by it (the targets' plumb lines still may, when they all lean beyond their scatter)",
+                100.0 * support,
+                100.0 * min_support
             ),
             Warning::HeightsDisagree {
                 heights_deg,
@@ -882,7 +906,18 @@ fn first_levelling(
             });
             RigidMotion::identity_at(ground.centre)
         }
-        _ => ground.levelling(cfg.frame.level_above_deg),
+        _ => {
+            let (above, support) = (cfg.frame.level_above_deg, cfg.frame.level_min_support);
+            if let Some(l) = ground.leans_weakly(above, support) {
+                warnings.push(Warning::GroundWeak {
+                    tilt_deg: l.tilt_deg,
+                    support: l.support,
+                    blocks: l.blocks,
+                    min_support: support,
+                });
+            }
+            ground.levelling(above, support)
+        }
     }
 }
 

@@ -150,7 +150,7 @@ fn frame_section(
         row(
             "ground",
             format!(
-                "leans {t:.2}° from the map's +z ({:.0} % of 2 m ground blocks agree). The first estimate of the vertical, from the lowest points of 2 m blocks across the map; a site's own slope is in it too, so it turns a map only beyond frame.level_above_deg, and never one whose header declares a CRS",
+                "leans {t:.2}° from the map's +z ({:.0} % of 2 m ground blocks agree). The first estimate of the vertical, from the lowest points of 2 m blocks across the map; a site's own slope is in it too, so it turns a map only beyond frame.level_above_deg and when frame.level_min_support of the blocks agree, and never one whose header declares a CRS",
                 100.0 * s
             ),
         );
