@@ -42,11 +42,20 @@ if [[ -z ${PY:-} ]]; then
 fi
 median() { sort -n | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
 
+case ${SCENE:-random} in
+    random | synth) ;;
+    *) echo "SCENE is random or synth, not ${SCENE}" >&2; exit 2 ;;
+esac
 if [[ ${SCENE:-random} == synth ]]; then
     scene=$DIR/synth$N
     copc=$DIR/synth$N.copc.laz
     [[ -s $scene/map.las ]] || "$BIN" synth --points "$N" --format las --out "$scene" >/dev/null
-    [[ -s $copc ]] || COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" "$scene/map.las" "$copc"
+    # Written under another name first: an interrupted writer leaves no file
+    # a later run would take for a whole one (synth renames its own at the end).
+    if [[ ! -s $copc ]]; then
+        COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" "$scene/map.las" "$copc.partial"
+        mv "$copc.partial" "$copc"
+    fi
     cat "$copc" >/dev/null
     echo "| tool | points | wall s | CPU s | RSS MB | read |"
     echo "| --- | ---: | ---: | ---: | ---: | --- |"
@@ -57,10 +66,11 @@ if [[ ${SCENE:-random} == synth ]]; then
             # shellcheck disable=SC2086
             /usr/bin/time -f '%e %U %S %M' -o "$DIR/time-synth" \
                 "$BIN" $tool --map "$copc" --survey "$scene/survey.csv" --out "$DIR/out-synth" \
-                >/dev/null 2>"$DIR/err-synth"
+                >/dev/null 2>"$DIR/err-synth" ||
+                { echo "mapgauge $tool failed:" >&2; tail -5 "$DIR/err-synth" >&2; exit 1; }
             read -r t u s m <"$DIR/time-synth"
             times+=("$t")
-            cpus+=("$(echo "$u + $s" | bc)")
+            cpus+=("$(awk -v u="$u" -v s="$s" 'BEGIN { print u + s }')")
             rss+=("$m")
         done
         read_=$(grep -o 'COPC nodes: .*' "$DIR/err-synth" || true)

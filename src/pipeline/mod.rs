@@ -119,6 +119,9 @@ pub enum Warning {
         plate_height_m: f64,
         /// The largest vertical σ after widening (m).
         sigma_m: f64,
+        /// Every located target (three or more) is among them: the plates
+        /// may be smaller than configured.
+        every: bool,
     },
     /// The ground leans, but too few of its flat blocks agree on the lean to
     /// level the map by: not levelled.
@@ -191,6 +194,7 @@ impl std::fmt::Display for Warning {
                 seen_m,
                 plate_height_m,
                 sigma_m,
+                every,
             } => {
                 let one = ids.len() == 1;
                 let span = if seen_m.1 - seen_m.0 < 0.005 {
@@ -210,7 +214,14 @@ impl std::fmt::Display for Warning {
                     if one { "is" } else { "are" },
                     sigma_m * 1e3,
                     if one { "its" } else { "their" },
-                )
+                )?;
+                if *every {
+                    write!(
+                        f,
+                        ". Every located target shows it: are the plates {plate_height_m:.2} m tall (--plate-size W,H)?"
+                    )?;
+                }
+                Ok(())
             }
             Warning::WrongObjects(ids) => write!(
                 f,
@@ -702,8 +713,6 @@ fn evaluate(
     })
 }
 
-/// A map too spread out to be in metres, set against the survey: a map in
-/// millimetres spans a thousand times the site the survey covers.
 /// Every located object checked against the physical target and against
 /// the other targets: one still far from where the others place it, an
 /// object claimed by two targets, a target mapped twice, a layout no map
@@ -745,17 +754,6 @@ fn check_found(
     }
     // A height from plates seen in part is known only as well as the part.
     let widened = target::widen_heights(found, cfg.tight.plate_height);
-    if !widened.is_empty() {
-        warnings.push(Warning::HeightsUncertain {
-            ids: widened.iter().map(|w| w.0.clone()).collect(),
-            seen_m: widened
-                .iter()
-                .map(|w| w.1.seen_m.min(w.1.plate_height_m))
-                .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
-            plate_height_m: cfg.tight.plate_height,
-            sigma_m: widened.iter().map(|w| w.2).fold(0.0, f64::max),
-        });
-    }
     // Metres of disagreement with the survey's layout are no map's error,
     // however few targets were located.
     frame::off_layout(found, survey, opts);
@@ -771,6 +769,24 @@ fn check_found(
     }
     if !wrong.is_empty() {
         warnings.push(Warning::WrongObjects(wrong));
+    }
+    // Named only when still located (not set aside above).
+    let widened: Vec<_> = widened
+        .into_iter()
+        .filter(|w| found.iter().any(|r| r.id == w.0 && r.outcome.is_ok()))
+        .collect();
+    if !widened.is_empty() {
+        let located = found.iter().filter(|r| r.outcome.is_ok()).count();
+        warnings.push(Warning::HeightsUncertain {
+            ids: widened.iter().map(|w| w.0.clone()).collect(),
+            seen_m: widened
+                .iter()
+                .map(|w| w.1.seen_m.min(w.1.plate_height_m))
+                .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
+            plate_height_m: cfg.tight.plate_height,
+            sigma_m: widened.iter().map(|w| w.2).fold(0.0, f64::max),
+            every: located >= 3 && widened.len() == located,
+        });
     }
     doubling
 }
@@ -988,6 +1004,8 @@ fn refine_vertical(
     plumb
 }
 
+/// A map too spread out to be in metres, set against the survey: a map in
+/// millimetres spans a thousand times the site the survey covers.
 fn against_survey(e: Error, survey: &Survey) -> Error {
     match e {
         Error::NotMetres { extent, msg: m } => {

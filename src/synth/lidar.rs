@@ -9,7 +9,8 @@
 //! Rosette: a forward-looking Risley-prism sensor (Livox-like): two wedge
 //! prisms turning in opposite directions at incommensurate rates deflect one
 //! beam along a rose curve that never repeats, densest at the centre of a
-//! round field of view `fov_deg` wide. One scan is `columns × beams` rays over
+//! round field of view `fov_deg` wide. One scan is `columns × beams` rays
+//! (360/`az_step_deg` × `beams`: set them for the sensor's point rate) over
 //! 1/`rate_hz` seconds; with `sway_deg`, the boresight wobbles in yaw and
 //! pitch as a hand-held sensor does.
 
@@ -243,20 +244,27 @@ pub fn scan(
             let t = t0 + f / lidar.rate_hz;
             let p = pose_at(world, road, lidar, x_start + dx_rev * f);
             let o = Vector3::new(p.x, p.y, p.z);
-            // Each prism deflects by half the cone's half-angle.
+            // Each prism deflects by half the cone's half-angle: the beam
+            // leaves the boresight by the angle |d| towards the direction of d.
             let (a1, a2) = (TAU * PRISM_HZ[0] * t, TAU * PRISM_HZ[1] * t);
             let dy = 0.5 * half * (a1.cos() + a2.cos());
             let dz = 0.5 * half * (a1.sin() + a2.sin());
+            let off = dy.hypot(dz);
+            let (so, co) = off.sin_cos();
+            let (ly, lz) = if off > 0.0 {
+                (so * dy / off, so * dz / off)
+            } else {
+                (0.0, 0.0)
+            };
+            // Sensor frame (forward, left, up), pitched and yawed by the sway
+            // and the heading.
             let sway = lidar.sway_deg.to_radians();
-            let yaw = p.yaw_deg.to_radians() + dy + sway * (TAU * 0.7 * t).sin();
-            let pitch = dz + sway * (TAU * 1.1 * t).sin();
+            let (sp, cp) = (sway * (TAU * 1.1 * t).sin()).sin_cos();
+            let (fx, fz) = (co * cp - lz * sp, co * sp + lz * cp);
+            let yaw = p.yaw_deg.to_radians() + sway * (TAU * 0.7 * t).sin();
             let (sy, cy) = yaw.sin_cos();
-            let (sp, cp) = pitch.sin_cos();
-            shoot(
-                o,
-                Vector3::new(cp * cy, cp * sy, sp),
-                splitmix(scan_key ^ k),
-            );
+            let dir = Vector3::new(fx * cy - ly * sy, fx * sy + ly * cy, fz);
+            shoot(o, dir, splitmix(scan_key ^ k));
         }
         return;
     }
