@@ -422,8 +422,8 @@ pub(super) fn check_doubled(
 
 /// A located target whose plates were not seen evenly from bottom to top
 /// (a barrier or grass hides the lower plates from the road) has its height
-/// less well known than its points' scatter says: its covariance is raised to
-/// cover what the span seen leaves open (`locate::HeightSeen`). Returns those
+/// less well known than its points' scatter says: what the span seen leaves
+/// open is added to its covariance (`locate::HeightSeen`). Returns those
 /// whose height may be off by a tenth of the plate height or more, with what
 /// was seen and their vertical σ after.
 pub(super) fn widen_heights(
