@@ -112,9 +112,9 @@ pub struct FrameConfig {
     pub level_above_deg: f64,
     /// ... and when at least this share of its flat 2 m ground blocks agree
     /// (within 1°) on that vertical. A SLAM map's tilt turns all of its flat
-    /// ground alike (tilted synthetic maps: 88 % agree), while terrain's own
-    /// slopes scatter (an airborne scan of a hillside: 40 %; half of a
-    /// LIO-SAM map: 19 %): below this share the lean is taken as the
+    /// ground alike (the tilted golden scene: 88 % agree), while terrain's
+    /// own slopes scatter (PDAL's sample_c.las, 5.0°: 40 %; issue 30's
+    /// LIO-SAM map, 5.1°: 19 %): below this share the lean is taken as the
     /// terrain's and the map is read as it is (the plumb lines may still
     /// turn it).
     pub level_min_support: f64,
