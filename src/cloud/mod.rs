@@ -159,6 +159,22 @@ pub trait PointReader: Send {
     fn hint_discs(&mut self, centres: &[[f64; 2]], radius: f64) {
         let _ = (centres, radius);
     }
+    /// Tells the reader, after [`PointReader::hint_discs`] and before its
+    /// first read, that the consumer keeps an even sample of at most `points`
+    /// points per disc and thins the rest away. A reader whose map is stored
+    /// in levels of detail, each an even sample of the map (a COPC octree),
+    /// may then read near each disc only the coarser levels that hold more
+    /// than that there by its estimate; [`PointReader::levels_cut`] says
+    /// whether it left any unread. Others ignore it. The estimate may be
+    /// wrong: a consumer that gets no more than `points` in a disc has no
+    /// sample of it and reads that disc again without the hint.
+    fn hint_enough(&mut self, points: u64) {
+        let _ = points;
+    }
+    /// Whether a [`PointReader::hint_enough`] left levels of detail unread.
+    fn levels_cut(&self) -> bool {
+        false
+    }
     /// What a tiled map's reader opened (`None` for a single file).
     fn tile_stats(&self) -> Option<TileStats> {
         None

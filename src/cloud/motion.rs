@@ -151,6 +151,13 @@ impl PointReader for Moved<'_> {
             self.inner.hint_discs(&back, r);
         }
     }
+    /// Passed on when the discs were (a reader given no discs ignores it).
+    fn hint_enough(&mut self, points: u64) {
+        self.inner.hint_enough(points);
+    }
+    fn levels_cut(&self) -> bool {
+        self.inner.levels_cut()
+    }
     fn tile_stats(&self) -> Option<super::TileStats> {
         self.inner.tile_stats()
     }

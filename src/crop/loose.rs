@@ -121,6 +121,9 @@ pub struct LooseCrop {
     pub map_points: u64,
     /// Points the reader skipped as NaN/infinite.
     pub skipped_nonfinite: u64,
+    /// The reader left levels of detail unread ([`loose_crop_by_level`]): a
+    /// crop of no more than `max_points` is then not a sample of its disc.
+    pub levels_cut: bool,
 }
 
 /// Target ids and points of hits side by side (a pushed (u32, Point) pair is
@@ -300,9 +303,36 @@ pub fn loose_crop(
     params: &LooseParams,
     progress: impl FnMut(u64),
 ) -> Result<LooseCrop> {
+    thinned(reader, centres, params, None, progress)
+}
+
+/// [`loose_crop`] that lets a reader holding its map in levels of detail (a
+/// COPC octree) read near each centre only the coarser levels that hold more
+/// than `max_points` there: the crop is thinned to that anyway, and an
+/// octree's levels are even samples of the map, as the thinning is. Then
+/// [`LooseCrop::levels_cut`] is set, and a crop of no more than `max_points`
+/// (the reader's estimate was short) must be read again with
+/// [`loose_crop`]. Without a `max_points` cap this is [`loose_crop`].
+pub fn loose_crop_by_level(
+    reader: &mut dyn PointReader,
+    centres: &[Point],
+    params: &LooseParams,
+    progress: impl FnMut(u64),
+) -> Result<LooseCrop> {
+    let enough = (params.max_points > 0).then_some(params.max_points as u64);
+    thinned(reader, centres, params, enough, progress)
+}
+
+fn thinned(
+    reader: &mut dyn PointReader,
+    centres: &[Point],
+    params: &LooseParams,
+    enough: Option<u64>,
+    progress: impl FnMut(u64),
+) -> Result<LooseCrop> {
     let mut kept = vec![Thinned::new(params.max_points); centres.len()];
     let (map_points, skipped_nonfinite) =
-        loose_crop_each(reader, centres, params, progress, |i, p| {
+        crop_each(reader, centres, params, enough, progress, |i, p| {
             kept[i].extend(p);
             Ok(())
         })?;
@@ -311,6 +341,7 @@ pub fn loose_crop(
         points: kept.into_iter().map(|k| k.points).collect(),
         map_points,
         skipped_nonfinite,
+        levels_cut: reader.levels_cut(),
     })
 }
 
@@ -322,6 +353,19 @@ pub fn loose_crop_each(
     reader: &mut dyn PointReader,
     centres: &[Point],
     params: &LooseParams,
+    progress: impl FnMut(u64),
+    sink: impl FnMut(usize, &[Point]) -> Result<()>,
+) -> Result<(u64, u64)> {
+    crop_each(reader, centres, params, None, progress, sink)
+}
+
+/// [`loose_crop_each`], telling the reader the points per crop kept
+/// (`enough`, [`PointReader::hint_enough`]) when they are capped.
+fn crop_each(
+    reader: &mut dyn PointReader,
+    centres: &[Point],
+    params: &LooseParams,
+    enough: Option<u64>,
     mut progress: impl FnMut(u64),
     mut sink: impl FnMut(usize, &[Point]) -> Result<()>,
 ) -> Result<(u64, u64)> {
@@ -340,6 +384,9 @@ pub fn loose_crop_each(
     let discs: Vec<[f64; 2]> = centres.iter().map(|c| [c.x, c.y]).collect();
     // A tiled map opens only the tiles within reach of a centre.
     reader.hint_discs(&discs, params.radius);
+    if let Some(n) = enough {
+        reader.hint_enough(n);
+    }
     let region = Region::discs(&discs, params.radius);
     let r2 = params.radius * params.radius;
     let sphere = params.shape == Shape::Sphere;

@@ -5,7 +5,7 @@
 mod loose;
 mod tight;
 
-pub use loose::{LooseCrop, LooseParams, Shape, loose_crop, loose_crop_each};
+pub use loose::{LooseCrop, LooseParams, Shape, loose_crop, loose_crop_by_level, loose_crop_each};
 pub use tight::{Seen, TightCrop, TightError, TightParams, tight_crop, tight_crop_among};
 
 /// Horizontal span (x, y) of a crop that is too wide to be a tight crop of a

@@ -1377,20 +1377,95 @@ fn read_crops(
     if reader.tile_stats().is_none() {
         map.bytes = total;
     }
-    let crop = crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?;
+    let mut crop =
+        crop::loose_crop_by_level(reader.as_mut(), centres, params, |b| progress(b, total))?;
     // A tiled map's crop opened only the tiles near the targets: its counts
     // are not the map's (the ground pass's are kept).
     if reader.tile_stats().is_none_or(|t| t.selected == t.tiles) {
         map.points = crop.map_points;
         map.skipped_nonfinite = crop.skipped_nonfinite;
     }
-    let read = crate::cloud::PassRead::of("crops", reader.as_ref());
+    let mut read = crate::cloud::PassRead::of("crops", reader.as_ref());
+    // A COPC octree read to the levels that hold enough points near each
+    // target: a crop that came out with no more than it keeps was short of
+    // the estimate, and is read again at every level.
+    let short: Vec<usize> = (0..centres.len())
+        .filter(|&i| crop.levels_cut && crop.offered[i] <= params.max_points as u64)
+        .collect();
+    if !short.is_empty() {
+        let mut again = source.open_moved_within(Some(motion), z_range)?;
+        let at: Vec<Point> = short.iter().map(|&i| centres[i]).collect();
+        let full = crop::loose_crop(again.as_mut(), &at, params, |_| {})?;
+        let more = crate::cloud::PassRead::of("crops", again.as_ref());
+        read.points += more.points;
+        read.bytes += more.bytes;
+        for (k, (pts, offered)) in full.points.into_iter().zip(full.offered).enumerate() {
+            crop.points[short[k]] = pts;
+            crop.offered[short[k]] = offered;
+        }
+    }
     Ok((crop.points.into_iter().zip(crop.offered).collect(), read))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A COPC crop read to the coarse levels that came out no larger than
+    /// it keeps (a sphere hanging over the cloud's slab: the nodes' squares
+    /// promise a cylinder's points) is read again at every level, and comes
+    /// out as a crop of every level does; the others stay coarse.
+    #[test]
+    fn a_copc_crop_short_of_its_levels_estimate_is_read_again_whole() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/random-20k.copc.laz");
+        let source = MapSource::File(&path);
+        let centres = [
+            Point::new(350_100.5, 4_150_100.5, 10.0),
+            Point::new(350_312.2, 4_150_250.7, 70.0),
+        ];
+        let params = crop::LooseParams {
+            radius: 60.0,
+            shape: crop::Shape::Sphere,
+            max_points: 60,
+        };
+        let flat = RigidMotion::identity_at(Point::origin());
+        let mut map = MapStats::default();
+        let (crops, read) = read_crops(
+            source,
+            &centres,
+            &params,
+            &flat,
+            None,
+            &mut map,
+            &mut |_, _| {},
+        )
+        .unwrap();
+        let mut r = crate::cloud::open(&path).unwrap();
+        let every = crop::loose_crop(r.as_mut(), &centres, &params, |_| {}).unwrap();
+        let whole = crate::cloud::PassRead::of("crops", r.as_ref());
+        // The sphere's cap: every level read for it, as a whole crop.
+        assert!(every.offered[1] > 60 && crops[1].1 == every.offered[1]);
+        assert_eq!(crops[1].0, every.points[1]);
+        // The other crop: the coarse levels, more than it keeps.
+        assert!(
+            crops[0].1 > 60 && 3 * crops[0].1 < every.offered[0],
+            "{crops:?}"
+        );
+        // Both reads counted, less than reading every level near both.
+        let mut r = crate::cloud::open(&path).unwrap();
+        let coarse = crop::loose_crop_by_level(r.as_mut(), &centres, &params, |_| {}).unwrap();
+        assert!(
+            coarse.levels_cut && coarse.offered[1] <= 60,
+            "{:?}",
+            coarse.offered
+        );
+        let first = crate::cloud::PassRead::of("crops", r.as_ref());
+        assert!(
+            first.bytes < read.bytes && read.bytes < whole.bytes,
+            "{read:?} against {whole:?}"
+        );
+        assert!(read.points > every.offered.iter().sum::<u64>() / 8);
+    }
 
     fn survey(at: &[(f64, f64)]) -> Survey {
         let at: Vec<(f64, f64, f64)> = at.iter().map(|&(x, y)| (x, y, 0.0)).collect();

@@ -48,6 +48,102 @@ pub(super) struct Octree {
     /// How far outside its cube a point may lie (coordinate rounding).
     pub(super) slack: f64,
     pub(super) counts: TileStats,
+    /// The discs of a region hint, kept for [`PointReader::hint_enough`].
+    pub(super) discs: Option<(Vec<[f64; 2]>, f64)>,
+    /// A [`PointReader::hint_enough`] left nodes of deep levels unread.
+    pub(super) levels_cut: bool,
+}
+
+/// Points of a level-limited read near a disc, as a multiple of what the
+/// consumer keeps: the estimate (each node's points spread evenly over its
+/// square) is rough, and reading a little more than needed costs little,
+/// while a short read costs that disc's whole read again.
+const LEVEL_MARGIN: f64 = 1.5;
+
+/// Cells per side of the grid that estimates the share of a node's square
+/// inside a disc (within about 1/16 of the disc's bounding box).
+const SHARE_CELLS: usize = 16;
+
+/// The share of the square `[x0, x1] × [y0, y1]` within `r` of `c`,
+/// counted on a grid over the part of the square in the disc's bounding box.
+fn share_in_disc(sq: [f64; 4], c: [f64; 2], r: f64) -> f64 {
+    let [x0, y0, x1, y1] = sq;
+    let (ax, bx) = (x0.max(c[0] - r), x1.min(c[0] + r));
+    let (ay, by) = (y0.max(c[1] - r), y1.min(c[1] + r));
+    let area = (x1 - x0) * (y1 - y0);
+    if !(bx > ax && by > ay && area > 0.0) {
+        return 0.0;
+    }
+    let (dx, dy) = (
+        (bx - ax) / SHARE_CELLS as f64,
+        (by - ay) / SHARE_CELLS as f64,
+    );
+    let mut inside = 0usize;
+    for j in 0..SHARE_CELLS {
+        let y = ay + (j as f64 + 0.5) * dy - c[1];
+        for i in 0..SHARE_CELLS {
+            let x = ax + (i as f64 + 0.5) * dx - c[0];
+            inside += usize::from(x * x + y * y <= r * r);
+        }
+    }
+    (inside as f64 * dx * dy / area).min(1.0)
+}
+
+impl Octree {
+    /// Whether cube `c` comes within `radius` of `p` horizontally.
+    fn near(&self, c: &[f64; 6], p: &[f64; 2], radius: f64) -> bool {
+        let s = self.slack;
+        let dx = (c[0] - s - p[0]).max(p[0] - c[3] - s).max(0.0);
+        let dy = (c[1] - s - p[1]).max(p[1] - c[4] - s).max(0.0);
+        dx * dx + dy * dy <= radius * radius
+    }
+
+    /// Of the nodes `order` (those near some disc), the ones a read that
+    /// keeps `enough` points per disc needs: near each disc, the levels from
+    /// the root down to the first whose nodes hold, with those above it,
+    /// `LEVEL_MARGIN` times `enough` points there by estimate (every level
+    /// when none does).
+    fn enough_levels(&self, order: &[usize], chunks: &[Chunk], enough: u64) -> Vec<usize> {
+        let Some((discs, radius)) = &self.discs else {
+            return order.to_vec();
+        };
+        let want = LEVEL_MARGIN * enough as f64;
+        let deepest: Vec<i32> = discs
+            .iter()
+            .map(|d| {
+                let mut by_level: Vec<(i32, f64)> = order
+                    .iter()
+                    .filter(|&&i| self.near(&self.cubes[i], d, *radius))
+                    .map(|&i| {
+                        let c = &self.cubes[i];
+                        let share = share_in_disc([c[0], c[1], c[3], c[4]], *d, *radius);
+                        (self.keys[i][0], share * chunks[i].points as f64)
+                    })
+                    .collect();
+                by_level.sort_unstable_by_key(|l| l.0);
+                let mut sum = 0.0;
+                for (k, &(level, n)) in by_level.iter().enumerate() {
+                    sum += n;
+                    let last_of_level = by_level.get(k + 1).is_none_or(|l| l.0 != level);
+                    if last_of_level && sum >= want {
+                        return level;
+                    }
+                }
+                i32::MAX
+            })
+            .collect();
+        order
+            .iter()
+            .copied()
+            .filter(|&i| {
+                let level = self.keys[i][0];
+                discs
+                    .iter()
+                    .zip(&deepest)
+                    .any(|(d, &l)| level <= l && self.near(&self.cubes[i], d, *radius))
+            })
+            .collect()
+    }
 }
 
 /// What a chunked reader is built from (see [`ChunkedLaz::new`]).
@@ -321,17 +417,32 @@ impl PointReader for ChunkedLaz {
         {
             return;
         }
-        let s = o.slack;
-        let near = |c: &[f64; 6]| {
-            centres.iter().any(|p| {
-                let dx = (c[0] - s - p[0]).max(p[0] - c[3] - s).max(0.0);
-                let dy = (c[1] - s - p[1]).max(p[1] - c[4] - s).max(0.0);
-                dx * dx + dy * dy <= radius * radius
-            })
+        let o: &Octree = o;
+        self.order
+            .retain(|&i| centres.iter().any(|p| o.near(&o.cubes[i], p, radius)));
+        if let Some(o) = &mut self.octree {
+            o.counts.selected = self.order.len() as u64;
+            o.discs = Some((centres.to_vec(), radius));
+        }
+    }
+
+    fn hint_enough(&mut self, points: u64) {
+        let Some(o) = &mut self.octree else {
+            return;
         };
-        let cubes = &o.cubes;
-        self.order.retain(|&i| near(&cubes[i]));
-        o.counts.selected = self.order.len() as u64;
+        if self.started || points == 0 {
+            return;
+        }
+        let keep = o.enough_levels(&self.order, &self.chunks, points);
+        if keep.len() < self.order.len() {
+            self.order = keep;
+            o.levels_cut = true;
+            o.counts.selected = self.order.len() as u64;
+        }
+    }
+
+    fn levels_cut(&self) -> bool {
+        self.octree.as_ref().is_some_and(|o| o.levels_cut)
     }
 
     fn tile_stats(&self) -> Option<TileStats> {

@@ -130,6 +130,8 @@ pub(super) fn open(path: &Path, file: &File, file_bytes: u64) -> Result<Option<C
             copc: true,
             ..TileStats::default()
         },
+        discs: None,
+        levels_cut: false,
     };
     let lay = Layout {
         info: CloudInfo {

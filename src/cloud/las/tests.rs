@@ -324,6 +324,55 @@ fn copc_crop_reads_near_nodes_only_and_equals_plain_laz() {
     }
 }
 
+/// A crop that keeps `max_points` reads near each centre only the levels
+/// that hold more than that there: fewer nodes, a subset of the full crop's
+/// points, each crop still more than it keeps (so thinned either way).
+#[test]
+fn copc_crop_by_level_reads_the_coarse_levels_it_needs() {
+    use crate::crop::{LooseParams, Shape, loose_crop, loose_crop_by_level};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.copc.laz");
+    std::fs::write(&path, COPC).unwrap();
+    let centres = [
+        Point::new(350_100.5, 4_150_100.5, 10.0),
+        Point::new(350_312.2, 4_150_250.7, 5.0),
+    ];
+    let params = LooseParams {
+        radius: 60.0,
+        shape: Shape::Cylinder,
+        max_points: 60,
+    };
+    let mut every = super::open(&path).unwrap();
+    let full = loose_crop(every.as_mut(), &centres, &params, |_| ()).unwrap();
+    assert!(!full.levels_cut);
+    let mut copc = super::open(&path).unwrap();
+    let by_level = loose_crop_by_level(copc.as_mut(), &centres, &params, |_| ()).unwrap();
+    let (a, b) = (copc.tile_stats().unwrap(), every.tile_stats().unwrap());
+    assert!(
+        by_level.levels_cut && a.opened < b.opened,
+        "{a:?} against {b:?}"
+    );
+    assert!(a.bytes_opened < b.bytes_opened);
+    for i in 0..centres.len() {
+        assert!(
+            full.offered[i] > 3 * by_level.offered[i],
+            "{:?} {:?}",
+            full.offered,
+            by_level.offered
+        );
+        assert!(by_level.offered[i] > 60, "{:?}", by_level.offered);
+    }
+    // Uncapped, every level is read.
+    let mut copc = super::open(&path).unwrap();
+    let params = LooseParams {
+        max_points: 0,
+        ..params
+    };
+    let all = loose_crop_by_level(copc.as_mut(), &centres, &params, |_| ()).unwrap();
+    assert!(!all.levels_cut);
+    assert_eq!(all.offered, full.offered);
+}
+
 #[test]
 fn copc_hint_after_reading_or_invalid_is_ignored() {
     let dir = tempfile::tempdir().unwrap();
