@@ -513,6 +513,8 @@ pub struct Hit {
     pub t: f64,
     /// Index into [`World::objects`], or `None` for the ground.
     pub object: Option<u32>,
+    /// Index into the object's [`Object::prims`] (0 for the ground).
+    pub prim: u32,
 }
 
 impl World {
@@ -521,6 +523,7 @@ impl World {
     pub fn cast(&self, r: &Ray, tmax: f64, active: &[u32], key: u64) -> Option<Hit> {
         let mut best = tmax;
         let mut obj = None;
+        let mut prim = 0;
         for &i in active {
             let o = &self.objects[i as usize];
             if o.aabb.hit(r, best).is_none() {
@@ -533,15 +536,21 @@ impl World {
                 {
                     best = t;
                     obj = Some(i);
+                    prim = j as u32;
                 }
             }
         }
         if let Some(t) = self.ground.hit(r, best) {
-            return Some(Hit { t, object: None });
+            return Some(Hit {
+                t,
+                object: None,
+                prim: 0,
+            });
         }
         obj.map(|o| Hit {
             t: best,
             object: Some(o),
+            prim,
         })
     }
 

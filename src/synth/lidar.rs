@@ -196,7 +196,9 @@ fn normal_from(key: u64) -> f64 {
 }
 
 /// Casts one revolution starting at road station `x_start`, appending the world-frame
-/// returns to `out` in firing order and counting returns per target in `per_target`.
+/// returns to `out` in firing order and counting returns per target in `per_target`;
+/// with `hits`, what each return struck, `(object, part)` (`None` for the ground;
+/// see [`Hit`]), in the same order.
 /// Randomness comes only from (seed, scan, ray), so the result does not depend on
 /// which thread runs it.
 #[allow(clippy::too_many_arguments)]
@@ -209,6 +211,7 @@ pub fn scan(
     x_start: f64,
     out: &mut Vec<Point>,
     per_target: &mut [u64],
+    mut hits: Option<&mut Vec<(Option<u32>, u32)>>,
 ) {
     let ncols = lidar.columns();
     let beams = lidar.beams;
@@ -220,7 +223,8 @@ pub fn scan(
     // One return per ray: cast, add range noise, keep within range.
     let mut shoot = |o: Vector3<f64>, dir: Vector3<f64>, key: u64| {
         let ray = Ray::new(o, dir);
-        let Some(Hit { t, object }) = world.cast(&ray, lidar.max_range_m, &active, key) else {
+        let Some(Hit { t, object, prim }) = world.cast(&ray, lidar.max_range_m, &active, key)
+        else {
             return;
         };
         let r = t + lidar.range_noise_m * normal_from(key ^ 0x0F0F_0F0F_0F0F_0F0F);
@@ -233,6 +237,9 @@ pub fn scan(
             *n += 1;
         }
         out.push(Point::from(ray.at(r)));
+        if let Some(h) = hits.as_mut() {
+            h.push((object, prim));
+        }
     };
     if lidar.pattern == ScanPattern::Rosette {
         let rays = lidar.rays_per_scan();

@@ -488,6 +488,29 @@ const BATCH: u64 = 16;
 /// Points held in memory per batch (at most, roughly): 4 M points = 96 MB.
 const BATCH_POINTS: u64 = 4_000_000;
 
+/// What a synthetic point is a return from ([`generate_labelled`]): the
+/// oracle a test compares the locator with (planes fitted to a target's
+/// plate points alone).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PointLabel {
+    /// The terrain.
+    Ground,
+    /// A plate of a target.
+    Plate {
+        /// The target, 0-based as in [`Truth::targets`].
+        target: u32,
+        /// 0: the plate along the target's heading; 1: the one at 90° to it.
+        plate: u8,
+    },
+    /// Another part of a target (its post, its antenna).
+    TargetOther {
+        /// The target, 0-based as in [`Truth::targets`].
+        target: u32,
+    },
+    /// Anything else: clutter, decoys, obstacles.
+    Other,
+}
+
 /// Generates the scene described by `params`, handing the map (distorted,
 /// accumulated scans, in scan order) to `sink` in blocks, and returns the truth.
 ///
@@ -495,6 +518,23 @@ const BATCH_POINTS: u64 = 4_000_000;
 pub fn generate(
     params: &SynthParams,
     sink: &mut dyn FnMut(&[Point]) -> Result<()>,
+) -> Result<Truth> {
+    run(params, &mut |p, _| sink(p), false)
+}
+
+/// [`generate`], handing `sink` with each block of points what each point is
+/// a return from (the same points, in the same order, as [`generate`]).
+pub fn generate_labelled(
+    params: &SynthParams,
+    sink: &mut dyn FnMut(&[Point], &[PointLabel]) -> Result<()>,
+) -> Result<Truth> {
+    run(params, sink, true)
+}
+
+fn run(
+    params: &SynthParams,
+    sink: &mut dyn FnMut(&[Point], &[PointLabel]) -> Result<()>,
+    labelled: bool,
 ) -> Result<Truth> {
     params.validate()?;
     let scene = build_scene(params);
@@ -521,6 +561,7 @@ pub fn generate(
     let warp = distortion.local_applier();
     // Returns are counted for every object (targets first, then decoys).
     let n_obj = world.objects.len();
+    let n_targets = targets.len();
     let dx_rev = lidar.speed_mps / lidar.rate_hz;
     let usable = (road.length() - dx_rev).max(0.0);
 
@@ -539,6 +580,7 @@ pub fn generate(
                 road.x0 + f * usable,
                 &mut out,
                 &mut cnt,
+                None,
             );
             out.len() as u64
         })
@@ -559,11 +601,12 @@ pub fn generate(
         let mut first = from;
         while first < n_scans {
             let last = (first + batch_scans).min(n_scans);
-            let batch: Vec<(Vec<Point>, Vec<u64>)> = (first..last)
+            let batch: Vec<(Vec<Point>, Vec<PointLabel>, Vec<u64>)> = (first..last)
                 .into_par_iter()
                 .map(|i| {
                     let mut out = Vec::with_capacity(per_scan as usize + per_scan as usize / 4);
                     let mut cnt = vec![0u64; n_obj];
+                    let mut hits = Vec::new();
                     lidar::scan(
                         &world,
                         &road,
@@ -573,7 +616,23 @@ pub fn generate(
                         station(i),
                         &mut out,
                         &mut cnt,
+                        labelled.then_some(&mut hits),
                     );
+                    // World objects hold the targets first (index = target).
+                    let labels = hits
+                        .into_iter()
+                        .map(|(object, prim)| match object {
+                            None => PointLabel::Ground,
+                            Some(o) if (o as usize) < n_targets => match prim {
+                                0 | 1 => PointLabel::Plate {
+                                    target: o,
+                                    plate: prim as u8,
+                                },
+                                _ => PointLabel::TargetOther { target: o },
+                            },
+                            Some(_) => PointLabel::Other,
+                        })
+                        .collect();
                     for p in out.iter_mut() {
                         *p = warp(p);
                     }
@@ -582,11 +641,11 @@ pub fn generate(
                             *p += shift;
                         }
                     }
-                    (out, cnt)
+                    (out, labels, cnt)
                 })
                 .collect();
-            for (i, (pts, cnt)) in (first..last).zip(batch) {
-                sink(&pts)?;
+            for (i, (pts, labels, cnt)) in (first..last).zip(batch) {
+                sink(&pts, &labels)?;
                 total += pts.len() as u64;
                 for (a, b) in seen.iter_mut().zip(cnt) {
                     *a += b;

@@ -42,6 +42,49 @@ fn same_seed_same_points_any_thread_count() {
     assert!(a != c, "another seed must give another map");
 }
 
+/// Labels come with the very points `generate` gives; each target's plate
+/// and other labels add up to its returns in the truth, and its plates'
+/// points lie in the plates' height band, near its corner.
+#[test]
+fn labels_name_each_points_target_plate() {
+    let p = small(4, 200_000);
+    let (plain, truth, _) = collect(&p);
+    let mut pts = Vec::new();
+    let mut labels = Vec::new();
+    let t2 = generate_labelled(&p, &mut |b, l| {
+        assert_eq!(b.len(), l.len());
+        pts.extend_from_slice(b);
+        labels.extend_from_slice(l);
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(truth, t2);
+    assert_eq!(pts, plain);
+    for (k, t) in truth.targets.iter().enumerate() {
+        let k = k as u32;
+        let mut plates = [0u64; 2];
+        let mut other = 0u64;
+        for (q, l) in pts.iter().zip(&labels) {
+            match *l {
+                PointLabel::Plate { target, plate } if target == k => {
+                    plates[plate as usize] += 1;
+                    let m = Point::from(t.map);
+                    assert!((q.x - m.x).hypot(q.y - m.y) < 0.7, "target {k}: {q:?}");
+                    assert!((q.z - m.z).abs() < 0.35, "target {k}: {q:?}");
+                }
+                PointLabel::TargetOther { target } if target == k => other += 1,
+                _ => {}
+            }
+        }
+        assert_eq!(plates[0] + plates[1] + other, t.points, "target {k}");
+        assert!(
+            t.points == 0 || plates.iter().all(|&n| n > 0),
+            "target {k}: {plates:?}"
+        );
+    }
+    assert!(labels.contains(&PointLabel::Ground) && labels.contains(&PointLabel::Other));
+}
+
 #[test]
 fn point_count_is_about_requested_and_streamed_per_scan() {
     let p = small(3, 300_000);
