@@ -28,6 +28,14 @@ pub struct Args {
     /// TOML file with any SynthParams fields (see --print-config); flags override it.
     #[arg(long)]
     config: Option<PathBuf>,
+    /// Also write labels.u16: what each map point is a return from, one
+    /// little-endian u16 per point in the map's order: 0 the ground, 1
+    /// anything else (clutter, decoys, obstacles), 16 + 4k + j for target k
+    /// (0-based, the survey's order) with j = 0 its plate along the heading,
+    /// 1 its other plate, 2 its post or antenna [default: off]. For testing a
+    /// locator against the plates' own points (numpy: `np.fromfile(path, "<u2")`).
+    #[arg(long)]
+    labels: bool,
     /// Print the effective parameters as TOML and exit.
     #[arg(long)]
     print_config: bool,
@@ -163,6 +171,7 @@ pub fn run(a: Args) -> Result<()> {
             "survey_llh.csv",
             "truth.json",
             "trajectory.txt",
+            "labels.u16",
         ] {
             mapgauge::record::refuse_overwrite(&dir.join(name), &[cfg])?;
         }
@@ -172,7 +181,18 @@ pub fn run(a: Args) -> Result<()> {
         "synth: about {} points, {} targets, seed {}",
         p.points, p.targets, p.seed
     );
-    let (files, truth, expected) = synth::write_scene(&dir, &p, a.format)?;
+    if a.labels && p.targets > synth::PointLabel::MAX_TARGETS {
+        return Err(Error::Param(format!(
+            "--labels names at most {} targets, not {}",
+            synth::PointLabel::MAX_TARGETS,
+            p.targets
+        )));
+    }
+    let (files, truth, expected) = if a.labels {
+        synth::write_scene_labelled(&dir, &p, a.format)?
+    } else {
+        synth::write_scene(&dir, &p, a.format)?
+    };
     let secs = start.elapsed().as_secs_f64();
     eprintln!(
         "synth: {} points in {} scans, {:.1} s ({:.2} M points/s)",
@@ -185,6 +205,9 @@ pub fn run(a: Args) -> Result<()> {
     outln!("survey      {}", files.survey.display());
     outln!("survey_llh  {}", files.survey_llh.display());
     outln!("truth       {}", files.truth.display());
+    if let Some(l) = &files.labels {
+        outln!("labels      {}", l.display());
+    }
     outln!(
         "expected    E_abs {:.4} m, E_rel {:.4} m (true map positions, rigid2d)",
         expected.absolute.mean,

@@ -1,7 +1,7 @@
 //! A synthetic scene on disk: the map, the survey (local and WGS84) and the
 //! truth, including the errors a perfect locator would report.
 
-use super::{SynthParams, Truth, generate};
+use super::{PointLabel, SynthParams, Truth, generate, generate_labelled};
 use crate::accuracy::{self, ScoreOptions};
 use crate::cloud::{CloudWriter, OutFormat};
 use crate::record::{ResultFile, write_atomic};
@@ -25,6 +25,10 @@ pub struct SceneFiles {
     pub truth: PathBuf,
     /// The sensor's route in the map frame, TUM lines (`eval --trajectory`).
     pub trajectory: PathBuf,
+    /// What each point of the map is a return from, when asked for
+    /// ([`write_scene_labelled`]): little-endian u16 codes
+    /// ([`PointLabel::code`]), one per point in the map's order.
+    pub labels: Option<PathBuf>,
 }
 
 /// The truth plus what evaluating the true map positions gives: the errors a
@@ -45,6 +49,26 @@ pub fn write_scene(
     params: &SynthParams,
     format: OutFormat,
 ) -> Result<(SceneFiles, Truth, ResultFile)> {
+    scene(dir, params, format, false)
+}
+
+/// [`write_scene`], with `labels.u16` beside the map: what each point is a
+/// return from ([`PointLabel::code`]), for testing a locator against the
+/// plates' own points.
+pub fn write_scene_labelled(
+    dir: &Path,
+    params: &SynthParams,
+    format: OutFormat,
+) -> Result<(SceneFiles, Truth, ResultFile)> {
+    scene(dir, params, format, true)
+}
+
+fn scene(
+    dir: &Path,
+    params: &SynthParams,
+    format: OutFormat,
+    labelled: bool,
+) -> Result<(SceneFiles, Truth, ResultFile)> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let files = SceneFiles {
         map: dir.join(format!("map.{}", format.extension())),
@@ -52,8 +76,9 @@ pub fn write_scene(
         survey_llh: dir.join("survey_llh.csv"),
         truth: dir.join("truth.json"),
         trajectory: dir.join("trajectory.txt"),
+        labels: labelled.then(|| dir.join("labels.u16")),
     };
-    let truth = write_map(&files.map, params, format)?;
+    let truth = write_map(&files.map, files.labels.as_deref(), params, format)?;
 
     let mut local = String::from("id,x,y,z,antenna_height\n");
     let mut llh = String::from("id,lat,lon,alt,antenna_height\n");
@@ -120,11 +145,16 @@ pub fn write_scene(
 /// get [`synthetic_intensity`]; float32 formats hold the map's own
 /// coordinates (a local frame within a few hundred metres of the origin, so
 /// rounded by a few micrometres; see `OutFormat::PcdF32`).
-fn write_map(path: &Path, params: &SynthParams, format: OutFormat) -> Result<Truth> {
+fn write_map(
+    path: &Path,
+    labels: Option<&Path>,
+    params: &SynthParams,
+    format: OutFormat,
+) -> Result<Truth> {
     let with = format.holds_intensity();
     let mut writer = CloudWriter::create_with(path, format, with)?;
     let mut inten = Vec::new();
-    let truth = generate(params, &mut |pts| {
+    let mut put = |pts: &[Point]| {
         if with {
             inten.clear();
             inten.extend(pts.iter().map(synthetic_intensity));
@@ -132,9 +162,78 @@ fn write_map(path: &Path, params: &SynthParams, format: OutFormat) -> Result<Tru
         } else {
             writer.write(pts)
         }
-    })?;
+    };
+    // Labels only when asked for: they cost a word a point in every batch.
+    let mut codes = labels.map(LabelWriter::create).transpose()?;
+    let truth = match codes.as_mut() {
+        Some(c) => generate_labelled(params, &mut |pts, l| {
+            c.write(l)?;
+            put(pts)
+        })?,
+        None => generate(params, &mut put)?,
+    };
     writer.finish()?;
+    if let Some(c) = codes {
+        c.finish()?;
+    }
     Ok(truth)
+}
+
+/// `labels.u16`, streamed to a temporary name and renamed when whole, as
+/// the map is: memory stays at a buffer, and a crash leaves no half file.
+struct LabelWriter {
+    path: PathBuf,
+    tmp: PathBuf,
+    /// Taken by `finish`; a writer dropped with it (a failed scene) removes
+    /// its temporary file.
+    out: Option<std::io::BufWriter<std::fs::File>>,
+}
+
+impl Drop for LabelWriter {
+    fn drop(&mut self) {
+        if self.out.is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+impl LabelWriter {
+    fn create(path: &Path) -> Result<Self> {
+        let name = path
+            .file_name()
+            .map_or("labels".into(), |n| n.to_string_lossy());
+        let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
+        let f = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        Ok(LabelWriter {
+            path: path.to_path_buf(),
+            tmp,
+            out: Some(std::io::BufWriter::with_capacity(1 << 20, f)),
+        })
+    }
+
+    fn write(&mut self, labels: &[PointLabel]) -> Result<()> {
+        use std::io::Write as _;
+        let bytes: Vec<u8> = labels.iter().flat_map(|l| l.code().to_le_bytes()).collect();
+        match self.out.as_mut() {
+            Some(o) => o.write_all(&bytes).map_err(|e| Error::io(&self.path, e)),
+            None => Ok(()),
+        }
+    }
+
+    fn finish(mut self) -> Result<()> {
+        let Some(out) = self.out.take() else {
+            return Ok(());
+        };
+        let done = out
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .and_then(|f| f.sync_all())
+            .and_then(|()| std::fs::rename(&self.tmp, &self.path));
+        done.map_err(|e| {
+            let _ = std::fs::remove_file(&self.tmp);
+            Error::io(&self.path, e)
+        })
+    }
 }
 
 /// A stand-in for a return's intensity: an integer in 0..=255 (the range

@@ -511,6 +511,26 @@ pub enum PointLabel {
     Other,
 }
 
+impl PointLabel {
+    /// Most targets a label code can name.
+    pub const MAX_TARGETS: usize = (u16::MAX as usize - 16) / 4;
+
+    /// The label as `synth --labels` writes it (`labels.u16`): 0 the ground,
+    /// 1 anything else, `16 + 4 k + j` for target k (0-based) with j = 0 and
+    /// 1 its plates, 2 its post or antenna. Targets beyond
+    /// [`PointLabel::MAX_TARGETS`] share the last code.
+    pub fn code(&self) -> u16 {
+        let of =
+            |k: u32, j: u32| (16 + 4 * (k as usize).min(Self::MAX_TARGETS - 1) + j as usize) as u16;
+        match *self {
+            PointLabel::Ground => 0,
+            PointLabel::Other => 1,
+            PointLabel::Plate { target, plate } => of(target, u32::from(plate)),
+            PointLabel::TargetOther { target } => of(target, 2),
+        }
+    }
+}
+
 /// Generates the scene described by `params`, handing the map (distorted,
 /// accumulated scans, in scan order) to `sink` in blocks, and returns the truth.
 ///
@@ -760,4 +780,4 @@ fn run(
 mod tests;
 
 mod files;
-pub use files::{SceneFiles, TruthFile, write_scene};
+pub use files::{SceneFiles, TruthFile, write_scene, write_scene_labelled};

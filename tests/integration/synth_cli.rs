@@ -106,3 +106,74 @@ fn issue_15_knobs_from_flags_and_config() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("targets = 4"), "{err}");
 }
+
+/// `--labels` writes one code per map point, in the map's order: each
+/// target's plate and part codes add up to its returns in truth.json, and its
+/// plate points stand within a plate of its true corner; without the flag
+/// the map is byte for byte the same and no labels file is written.
+#[test]
+fn labels_file_names_every_points_target_plate() {
+    let dir = tempdir();
+    let run = |sub: &str, labels: bool| {
+        let mut c = bin();
+        c.args(["synth", "--points", "150000", "--format", "pcd", "--out"])
+            .arg(dir.path().join(sub));
+        if labels {
+            c.arg("--labels");
+        }
+        let out = c.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    run("a", true);
+    run("b", false);
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    assert_eq!(
+        std::fs::read(a.join("map.pcd")).unwrap(),
+        std::fs::read(b.join("map.pcd")).unwrap()
+    );
+    assert!(!b.join("labels.u16").exists());
+    let map = mapgauge::cloud::read_all(&a.join("map.pcd")).unwrap();
+    let raw = std::fs::read(a.join("labels.u16")).unwrap();
+    let codes: Vec<u16> = raw
+        .chunks_exact(2)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
+    assert_eq!(codes.len(), map.len());
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("truth.json")).unwrap()).unwrap();
+    let targets = truth["targets"].as_array().unwrap();
+    for (k, t) in targets.iter().enumerate() {
+        let base = 16 + 4 * k as u16;
+        let m: Vec<f64> = t["map"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let mut n = [0u64; 3];
+        for (p, &c) in map.iter().zip(&codes) {
+            if (base..base + 3).contains(&c) {
+                n[(c - base) as usize] += 1;
+            }
+            if c == base || c == base + 1 {
+                assert!((p.x - m[0]).hypot(p.y - m[1]) < 0.7, "target {k}: {p:?}");
+            }
+        }
+        assert_eq!(
+            n.iter().sum::<u64>(),
+            t["points"].as_u64().unwrap(),
+            "target {k}"
+        );
+        assert!(n[0] > 0 && n[1] > 0, "target {k}: {n:?}");
+    }
+    assert!(codes.contains(&0) && codes.contains(&1));
+    assert!(
+        codes
+            .iter()
+            .all(|&c| c < 2 || (16..16 + 4 * targets.len() as u16).contains(&c))
+    );
+}
