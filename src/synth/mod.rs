@@ -542,20 +542,17 @@ pub fn generate(
     run(params, &mut |p, _| sink(p), false)
 }
 
+/// What [`generate_labelled`] hands each block of points to: the points and
+/// what each is a return from.
+pub type LabelledSink<'a> = dyn FnMut(&[Point], &[PointLabel]) -> Result<()> + 'a;
+
 /// [`generate`], handing `sink` with each block of points what each point is
 /// a return from (the same points, in the same order, as [`generate`]).
-pub fn generate_labelled(
-    params: &SynthParams,
-    sink: &mut dyn FnMut(&[Point], &[PointLabel]) -> Result<()>,
-) -> Result<Truth> {
+pub fn generate_labelled(params: &SynthParams, sink: &mut LabelledSink) -> Result<Truth> {
     run(params, sink, true)
 }
 
-fn run(
-    params: &SynthParams,
-    sink: &mut dyn FnMut(&[Point], &[PointLabel]) -> Result<()>,
-    labelled: bool,
-) -> Result<Truth> {
+fn run(params: &SynthParams, sink: &mut LabelledSink, labelled: bool) -> Result<Truth> {
     params.validate()?;
     let scene = build_scene(params);
     let Scene {
