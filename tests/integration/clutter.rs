@@ -10,6 +10,7 @@
 //! and `CLUTTER_SEED` narrow it; `CLUTTER_SEEDS=N` runs seeds 1..=N; `CLUTTER_EACH`
 //! prints every error, to compare two builds seed by seed).
 
+use crate::util::oracle_corner;
 use mapgauge::Point;
 use mapgauge::crop::{TightParams, tight_crop};
 use mapgauge::pipeline::{Config, locate_with};
@@ -69,53 +70,13 @@ fn generate(p: &SynthParams) -> Scene {
     Scene { map, labels, truth }
 }
 
-/// The oracle's horizontal error (mm) for target `i`: a least-squares plane
-/// through each plate's own returns (the labels synth knows, no detection,
-/// no outliers), the corner where the two planes cross at the mean height
-/// of their points, as the paper defines it. What the locator would do if
-/// it knew which points are the plates: its error over the oracle's is the
-/// cost of finding them.
+/// The oracle's horizontal error (mm) for target `i` ([`oracle_corner`]):
+/// what the locator would do if it knew which points are the plates; its
+/// error over the oracle's is the cost of finding them.
 fn oracle_mm(s: &Scene, i: usize) -> Option<f64> {
-    let plate = |k: u8| -> Vec<Vector3<f64>> {
-        s.map
-            .iter()
-            .zip(&s.labels)
-            .filter(|(_, l)| {
-                **l == PointLabel::Plate {
-                    target: i as u32,
-                    plate: k,
-                }
-            })
-            .map(|(p, _)| p.coords)
-            .collect()
-    };
-    let (a, b) = (plate(0), plate(1));
-    if a.len() < 3 || b.len() < 3 {
-        return None;
-    }
-    // About the truth (small numbers); normal = least-variance direction.
     let t = Vector3::from(s.truth.targets[i].map);
-    let fit = |pts: &[Vector3<f64>]| {
-        let c = pts.iter().map(|p| p - t).sum::<Vector3<f64>>() / pts.len() as f64;
-        let mut m = nalgebra::Matrix3::zeros();
-        for p in pts {
-            let d = p - t - c;
-            m += d * d.transpose();
-        }
-        let e = m.symmetric_eigen();
-        (c, e.eigenvectors.column(e.eigenvalues.imin()).into_owned())
-    };
-    let ((ca, na), (cb, nb)) = (fit(&a), fit(&b));
-    let z = (a.iter().chain(&b).map(|p| p.z - t.z).sum::<f64>()) / (a.len() + b.len()) as f64;
-    // Both planes at height z: na·(x, y, z) = na·ca, nb·(…) = nb·cb.
-    let (ra, rb) = (na.dot(&ca) - na.z * z, nb.dot(&cb) - nb.z * z);
-    let det = na.x * nb.y - na.y * nb.x;
-    if det.abs() < 1e-6 {
-        return None;
-    }
-    let x = (ra * nb.y - rb * na.y) / det;
-    let y = (na.x * rb - nb.x * ra) / det;
-    Some(1e3 * x.hypot(y))
+    let c = oracle_corner(&s.map, &s.labels, i, t)?;
+    Some(1e3 * (c.x - t.x).hypot(c.y - t.y))
 }
 
 /// Tight crop and localisation of survey target `i` as the pipeline's first

@@ -45,3 +45,57 @@ pub fn add_to(field: &mut String, d: f64) {
 pub fn tempdir() -> tempfile::TempDir {
     tempfile::tempdir().expect("create a temporary directory")
 }
+
+/// The oracle's corner of target `target` (0-based): a least-squares plane
+/// through each plate's own returns (the labels synth knows: no detection,
+/// no outliers), the point where the two planes cross at the mean height of
+/// their points, as the paper defines the corner; with the two planes'
+/// normals (horizontal). `None` when a plate has fewer than 3 returns.
+/// Computed about `near` (the true corner) to keep the squares small.
+pub fn oracle_corner(
+    map: &[mapgauge::Point],
+    labels: &[mapgauge::synth::PointLabel],
+    target: usize,
+    near: nalgebra::Vector3<f64>,
+) -> Option<nalgebra::Vector3<f64>> {
+    use mapgauge::synth::PointLabel;
+    use nalgebra::{Matrix3, Vector3};
+    let plate = |k: u8| -> Vec<Vector3<f64>> {
+        map.iter()
+            .zip(labels)
+            .filter(|(_, l)| {
+                **l == PointLabel::Plate {
+                    target: target as u32,
+                    plate: k,
+                }
+            })
+            .map(|(p, _)| p.coords - near)
+            .collect()
+    };
+    let (a, b) = (plate(0), plate(1));
+    if a.len() < 3 || b.len() < 3 {
+        return None;
+    }
+    // Normal = the least-variance direction.
+    let fit = |pts: &[Vector3<f64>]| {
+        let c = pts.iter().sum::<Vector3<f64>>() / pts.len() as f64;
+        let mut m = Matrix3::zeros();
+        for p in pts {
+            let d = p - c;
+            m += d * d.transpose();
+        }
+        let e = m.symmetric_eigen();
+        (c, e.eigenvectors.column(e.eigenvalues.imin()).into_owned())
+    };
+    let ((ca, na), (cb, nb)) = (fit(&a), fit(&b));
+    let z = a.iter().chain(&b).map(|p| p.z).sum::<f64>() / (a.len() + b.len()) as f64;
+    // Both planes at height z: n·(x, y, z) = n·c.
+    let (ra, rb) = (na.dot(&ca) - na.z * z, nb.dot(&cb) - nb.z * z);
+    let det = na.x * nb.y - na.y * nb.x;
+    if det.abs() < 1e-6 {
+        return None;
+    }
+    let x = (ra * nb.y - rb * na.y) / det;
+    let y = (na.x * rb - nb.x * ra) / det;
+    Some(near + Vector3::new(x, y, z))
+}
