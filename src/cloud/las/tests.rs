@@ -251,6 +251,14 @@ fn laz_decoder_panic_stays_on_reader_threads() {
 /// 169 nodes on levels 0-3.
 const COPC: &[u8] = include_bytes!("../../../tests/corpus/random-20k.copc.laz");
 
+/// [`COPC`] in a temporary directory (kept while the first is alive).
+fn copc_file() -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.copc.laz");
+    std::fs::write(&path, COPC).unwrap();
+    (dir, path)
+}
+
 fn all(r: &mut dyn PointReader) -> Vec<Point> {
     let mut all = Vec::new();
     let mut buf = Vec::new();
@@ -262,9 +270,7 @@ fn all(r: &mut dyn PointReader) -> Vec<Point> {
 
 #[test]
 fn copc_whole_read_equals_plain_laz() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("m.copc.laz");
-    std::fs::write(&path, COPC).unwrap();
+    let (_dir, path) = copc_file();
     let mut copc = super::open(&path).unwrap();
     let mut plain = open_with(&path, false, true).unwrap();
     assert!(plain.tile_stats().is_none(), "the plain path reads chunks");
@@ -289,9 +295,7 @@ fn copc_whole_read_equals_plain_laz() {
 #[test]
 fn copc_crop_reads_near_nodes_only_and_equals_plain_laz() {
     use crate::crop::{LooseParams, Shape, loose_crop};
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("m.copc.laz");
-    std::fs::write(&path, COPC).unwrap();
+    let (_dir, path) = copc_file();
     let centres = [
         Point::new(350_100.5, 4_150_100.5, 10.0),
         Point::new(350_312.2, 4_150_250.7, 5.0),
@@ -330,9 +334,7 @@ fn copc_crop_reads_near_nodes_only_and_equals_plain_laz() {
 #[test]
 fn copc_crop_by_level_reads_the_coarse_levels_it_needs() {
     use crate::crop::{LooseParams, Shape, loose_crop, loose_crop_by_level};
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("m.copc.laz");
-    std::fs::write(&path, COPC).unwrap();
+    let (_dir, path) = copc_file();
     let centres = [
         Point::new(350_100.5, 4_150_100.5, 10.0),
         Point::new(350_312.2, 4_150_250.7, 5.0),
@@ -375,9 +377,7 @@ fn copc_crop_by_level_reads_the_coarse_levels_it_needs() {
 
 #[test]
 fn copc_hint_after_reading_or_invalid_is_ignored() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("m.copc.laz");
-    std::fs::write(&path, COPC).unwrap();
+    let (_dir, path) = copc_file();
     let mut r = super::open(&path).unwrap();
     r.hint_discs(&[[f64::NAN, 0.0]], 5.0);
     r.hint_discs(&[[350_100.0, 4_150_100.0]], -1.0);
