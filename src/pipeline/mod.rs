@@ -494,67 +494,29 @@ fn evaluate(
         )
         .map_err(frame::NoFrame::into_error)?;
     }
-    // `--init` and the survey frame are the map's own; hints and detections
-    // were moved into the levelled frame already.
-    let first = |init: &[f64; 3],
-                 dz: f64,
-                 own: bool,
-                 map: &mut MapStats,
-                 progress: &mut _,
-                 reads: &mut Vec<crate::cloud::PassRead>| {
-        let expected = expected_positions(survey, init, dz, own.then_some(&motion));
-        let crops = read_crops(
-            source,
-            &expected,
-            &crop_params,
-            &motion,
-            ground.z_range,
-            map,
-            progress,
-        )?;
-        reads.push(crops.1);
-        let crops = crops.0;
-        let found: Vec<TargetRun> = survey
-            .targets
-            .par_iter()
-            .zip(&expected)
-            .zip(crops)
-            .enumerate()
-            .map(|(i, ((t, e), (pts, offered)))| {
-                let thinned = (offered > pts.len() as u64).then_some(offered);
-                let others = others_than(&expected, i);
-                let mut r = target::locate_target(
-                    &t.id,
-                    *e,
-                    pts,
-                    crops_dir,
-                    cfg,
-                    Pass::First,
-                    &more_ups(&motion, ground_up),
-                    &others,
-                );
-                r.loose_thinned_from = thinned;
-                r
-            })
-            .collect();
-        Result::Ok((expected, found))
+    // The first pass at the guess; in auto mode a guess that finds too few
+    // targets gives way to detection.
+    let first = FirstPass {
+        source,
+        survey,
+        crop_params: &crop_params,
+        motion: &motion,
+        ground: &ground,
+        ground_up,
+        crops_dir,
+        cfg,
     };
-    let own = |h: &FrameHow| matches!(h, FrameHow::Init | FrameHow::Survey);
     pass.set("crops");
     let (mut expected, mut found) =
-        first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
-    // A guess that finds too few targets (the survey frame, or an `--init`
-    // or hints too far off) gives way to detection in auto mode.
+        first.run(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
     if cfg.frame.mode == config::FrameMode::Auto
         && !matches!(how, FrameHow::Detected { .. })
         && crops_dir.is_none()
         && survey.targets.len() >= 3
         && !frame::targets_there(&found)
     {
-        let enough = found.iter().filter(|r| r.outcome.is_ok()).count()
-            >= cfg.metrics.align.min_points().max(2);
         pass.set("detection");
-        match frame::detect_and_match(
+        let detected = frame::detect_and_match(
             source,
             survey,
             &ground,
@@ -563,56 +525,15 @@ fn evaluate(
             total,
             &mut progress,
             &mut reads,
-        ) {
-            Ok(d) => {
-                let given = match how {
-                    FrameHow::Init => Some("init"),
-                    FrameHow::Hints { .. } => Some("hints"),
-                    _ => None,
-                };
-                if let Some(given) = given {
-                    warnings.push(Warning::GivenFrameReplaced {
-                        given,
-                        found: found.iter().filter(|r| r.outcome.is_ok()).count(),
-                        targets: found.len(),
-                    });
-                }
+        );
+        match first.instead(detected, &how, found, &map.name, &mut warnings)? {
+            Instead::Detected(d) => {
                 (how, init, dz, unmatched) = d;
                 pass.set("crops");
                 (expected, found) =
-                    first(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
+                    first.run(&init, dz, own(&how), &mut map, &mut progress, &mut reads)?;
             }
-            // The first guess found enough to align: keep it, and say why
-            // detection did not take over.
-            Err(e) if enough => warnings.push(Warning::DetectionFailed(e.into_error().to_string())),
-            // What was seen where the survey places the targets tells a
-            // wrong plate size from a map in another frame, and both from a
-            // survey that describes no target of this map.
-            Err(error) => {
-                let error = match (error, other_plate_size(&found, cfg)) {
-                    (frame::NoFrame::Failed(e), _) => e,
-                    (e, Some(size)) => {
-                        let n_ok = found.iter().filter(|r| r.outcome.is_ok()).count();
-                        Error::TooFewFound {
-                            found: n_ok,
-                            need: cfg.metrics.align.min_points().max(2),
-                            msg: format!(
-                                "{size}. (Read in the survey frame, the map showed {n_ok} of {} targets; and detection map-wide: {})",
-                                found.len(),
-                                e.into_error()
-                            ),
-                        }
-                    }
-                    (frame::NoFrame::NotMatched { detections, why }, None) => {
-                        not_there(&map.name, &found, detections, &why, cfg)
-                    }
-                };
-                return Err(Failed {
-                    error,
-                    targets: found,
-                    levelling: motion,
-                });
-            }
+            Instead::Kept(f) => found = f,
         }
     }
     let plumb = refine_vertical(
@@ -711,6 +632,149 @@ fn evaluate(
             unmatched,
         },
     })
+}
+
+/// `--init` and the survey frame are the map's own; hints and detections
+/// were moved into the levelled frame already.
+fn own(how: &FrameHow) -> bool {
+    matches!(how, FrameHow::Init | FrameHow::Survey)
+}
+
+/// What the first pass needs besides the frame guess, which auto mode may
+/// replace by detection (then the pass runs again).
+struct FirstPass<'a> {
+    source: MapSource<'a>,
+    survey: &'a Survey,
+    crop_params: &'a LooseParams,
+    motion: &'a RigidMotion,
+    ground: &'a crate::frame::MapGround,
+    ground_up: Option<nalgebra::Vector3<f64>>,
+    crops_dir: Option<&'a Path>,
+    cfg: &'a Config,
+}
+
+/// What auto mode's detection left of a first pass that found too few.
+enum Instead {
+    /// Detection matched the survey: this frame, for a first pass again.
+    Detected((FrameHow, [f64; 3], f64, Vec<crate::detect::Detection>)),
+    /// Detection failed, but the guess found enough to align: kept.
+    Kept(Vec<TargetRun>),
+}
+
+impl FirstPass<'_> {
+    /// The crops at the survey's positions moved by the guess (`init`, `dz`;
+    /// `own`: in the map's own frame, so levelled here), each target located.
+    fn run(
+        &self,
+        init: &[f64; 3],
+        dz: f64,
+        own: bool,
+        map: &mut MapStats,
+        progress: &mut impl FnMut(u64, u64),
+        reads: &mut Vec<crate::cloud::PassRead>,
+    ) -> Result<(Vec<Point>, Vec<TargetRun>)> {
+        let cfg = self.cfg;
+        let expected = expected_positions(self.survey, init, dz, own.then_some(self.motion));
+        let (crops, read) = read_crops(
+            self.source,
+            &expected,
+            self.crop_params,
+            self.motion,
+            self.ground.z_range,
+            map,
+            progress,
+        )?;
+        reads.push(read);
+        let ups = more_ups(self.motion, self.ground_up);
+        let found: Vec<TargetRun> = self
+            .survey
+            .targets
+            .par_iter()
+            .zip(&expected)
+            .zip(crops)
+            .enumerate()
+            .map(|(i, ((t, e), (pts, offered)))| {
+                let thinned = (offered > pts.len() as u64).then_some(offered);
+                let others = others_than(&expected, i);
+                let mut r = target::locate_target(
+                    &t.id,
+                    *e,
+                    pts,
+                    self.crops_dir,
+                    cfg,
+                    Pass::First,
+                    &ups,
+                    &others,
+                );
+                r.loose_thinned_from = thinned;
+                r
+            })
+            .collect();
+        Ok((expected, found))
+    }
+
+    /// Auto mode's answer to a guess (`how`) whose first pass (`found`)
+    /// found too few targets: the frame detection gave, or the guess kept
+    /// when it found enough to align (saying why detection did not take
+    /// over), or the run's failure, told from what the survey's places
+    /// showed: a wrong plate size, a map in another frame, a survey of
+    /// another map.
+    fn instead(
+        &self,
+        detected: std::result::Result<
+            (FrameHow, [f64; 3], f64, Vec<crate::detect::Detection>),
+            frame::NoFrame,
+        >,
+        how: &FrameHow,
+        found: Vec<TargetRun>,
+        map_name: &str,
+        warnings: &mut Vec<Warning>,
+    ) -> std::result::Result<Instead, Failed> {
+        let cfg = self.cfg;
+        let n_ok = found.iter().filter(|r| r.outcome.is_ok()).count();
+        let enough = n_ok >= cfg.metrics.align.min_points().max(2);
+        let error = match detected {
+            Ok(d) => {
+                let given = match how {
+                    FrameHow::Init => Some("init"),
+                    FrameHow::Hints { .. } => Some("hints"),
+                    _ => None,
+                };
+                if let Some(given) = given {
+                    warnings.push(Warning::GivenFrameReplaced {
+                        given,
+                        found: n_ok,
+                        targets: found.len(),
+                    });
+                }
+                return Ok(Instead::Detected(d));
+            }
+            Err(e) if enough => {
+                warnings.push(Warning::DetectionFailed(e.into_error().to_string()));
+                return Ok(Instead::Kept(found));
+            }
+            Err(error) => match (error, other_plate_size(&found, cfg)) {
+                (frame::NoFrame::Failed(e), _) => e,
+                (e, Some(size)) => Error::TooFewFound {
+                    found: n_ok,
+                    need: cfg.metrics.align.min_points().max(2),
+                    msg: format!(
+                        "{size}. (Read in the survey frame, the map showed {n_ok} of {} targets; and detection map-wide: {})",
+                        found.len(),
+                        e.into_error()
+                    ),
+                },
+                (frame::NoFrame::NotMatched { detections, why }, None) => {
+                    not_there(map_name, &found, detections, &why, cfg)
+                }
+            },
+        };
+        Err(Failed {
+            error,
+            targets: found,
+            levelling: *self.motion,
+        })
+    }
 }
 
 /// Every located object checked against the physical target and against
