@@ -719,6 +719,8 @@ impl FirstPass<'_> {
     /// over), or the run's failure, told from what the survey's places
     /// showed: a wrong plate size, a map in another frame, a survey of
     /// another map.
+    // Its large error is the run's, returned once (as `evaluate`'s).
+    #[allow(clippy::result_large_err)]
     fn instead(
         &self,
         detected: std::result::Result<
