@@ -1127,7 +1127,7 @@ fn places_seen(found: &[TargetRun]) -> String {
             None => kinds.push((kind.to_string(), 1)),
         }
     }
-    kinds.sort_by(|a, b| b.1.cmp(&a.1));
+    kinds.sort_by_key(|k| std::cmp::Reverse(k.1));
     let mut s = kinds
         .iter()
         .map(|(k, n)| format!("{n} {k}"))
