@@ -546,59 +546,24 @@ fn evaluate(
         &mut warnings,
     );
 
-    // A turned frame's vertical is known to its standard error: shared by
-    // every target, it goes into the intervals as one tilt per draw, and
-    // into each target's covariance as what it does there alone.
-    let vertical = (!motion.is_identity()).then(|| accuracy::Vertical {
-        origin: motion.origin,
-        // Of the angle: half its square in each direction.
-        se_rad: frame::vertical_se_deg(plumb.as_ref()).to_radians() / std::f64::consts::SQRT_2,
-    });
-    let opts = ScoreOptions {
-        method: cfg.metrics.align,
-        dim: cfg.metrics.dim,
-        survey_sigma: cfg
-            .metrics
-            .survey_sigma_h
-            .map(|h| (h, cfg.metrics.survey_sigma_v)),
-        vertical,
-    };
+    let opts = score_options(cfg, &motion, plumb.as_ref());
     // Objects far from where the others put them are looked for again there.
     let far = if crops_dir.is_none() {
-        frame::far_from_others(&found, survey, &opts)
+        let search = passes::Search {
+            source,
+            survey,
+            expected: &expected,
+            crop_params: &crop_params,
+            cfg,
+            opts: &opts,
+            motion: &motion,
+            ground: &ground,
+        };
+        search.again(&mut found, &pass, &mut progress, &mut reads)?
     } else {
+        passes::common_vertical(&mut found, cfg);
         Vec::new()
     };
-    let search = passes::Search {
-        source,
-        survey,
-        expected: &expected,
-        crop_params: &crop_params,
-        cfg,
-        opts: &opts,
-        motion: &motion,
-        ground: &ground,
-    };
-    if (cfg.frame.second_pass || !far.is_empty()) && crops_dir.is_none() {
-        pass.set("second-pass");
-        search.second_pass(&mut found, &far, &mut progress, &mut reads)?;
-    }
-    passes::common_vertical(&mut found, cfg);
-    // Far only now (the second pass found enough targets for a check to run):
-    // searched for again at the prediction too, before anything is condemned.
-    let mut far = far;
-    if crops_dir.is_none() {
-        let late: Vec<_> = frame::far_from_others(&found, survey, &opts)
-            .into_iter()
-            .filter(|l| !far.iter().any(|f| f.0 == l.0))
-            .collect();
-        if !late.is_empty() {
-            pass.set("second-pass");
-            search.second_pass(&mut found, &late, &mut progress, &mut reads)?;
-            passes::common_vertical(&mut found, cfg);
-            far.extend(late);
-        }
-    }
     let doubling = check_found(&mut found, survey, &opts, &far, cfg, &mut warnings);
     let n_found = found.iter().filter(|r| r.outcome.is_ok()).count();
     let need = cfg.metrics.align.min_points().max(2);
@@ -632,6 +597,27 @@ fn evaluate(
             unmatched,
         },
     })
+}
+
+/// How the errors are scored: the configured alignment and dimension, the
+/// survey's σ, and, for a turned frame, its vertical's standard error:
+/// shared by every target, it goes into the intervals as one tilt per draw,
+/// and into each target's covariance as what it does there alone.
+fn score_options(cfg: &Config, motion: &RigidMotion, plumb: Option<&frame::Plumb>) -> ScoreOptions {
+    let vertical = (!motion.is_identity()).then(|| accuracy::Vertical {
+        origin: motion.origin,
+        // Of the angle: half its square in each direction.
+        se_rad: frame::vertical_se_deg(plumb).to_radians() / std::f64::consts::SQRT_2,
+    });
+    ScoreOptions {
+        method: cfg.metrics.align,
+        dim: cfg.metrics.dim,
+        survey_sigma: cfg
+            .metrics
+            .survey_sigma_h
+            .map(|h| (h, cfg.metrics.survey_sigma_v)),
+        vertical,
+    }
 }
 
 /// `--init` and the survey frame are the map's own; hints and detections

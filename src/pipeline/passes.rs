@@ -3,7 +3,7 @@
 //! common vertical.
 
 use super::target::{self, Pass, TargetRun};
-use super::{Config, read_crops};
+use super::{Config, frame, read_crops};
 use crate::accuracy::{self, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};
 use crate::crop::LooseParams;
@@ -27,6 +27,39 @@ pub(super) struct Search<'a> {
 }
 
 impl Search<'_> {
+    /// The passes after the first: the second pass (when configured, or for
+    /// objects found far from where the others place them), the common
+    /// vertical, and for objects found far only now (the second pass found
+    /// enough targets for the check to run) a search at their prediction
+    /// too, before anything is condemned. Returns every target found far
+    /// (index, distance, allowed, by how much), for the checks. `pass` names
+    /// the pass for the progress bar.
+    pub(super) fn again(
+        &self,
+        found: &mut [TargetRun],
+        pass: &std::cell::Cell<&'static str>,
+        progress: &mut impl FnMut(u64, u64),
+        reads: &mut Vec<crate::cloud::PassRead>,
+    ) -> Result<Vec<(usize, f64, f64, target::FarBy)>> {
+        let mut far = frame::far_from_others(found, self.survey, self.opts);
+        if self.cfg.frame.second_pass || !far.is_empty() {
+            pass.set("second-pass");
+            self.second_pass(found, &far, progress, reads)?;
+        }
+        common_vertical(found, self.cfg);
+        let late: Vec<_> = frame::far_from_others(found, self.survey, self.opts)
+            .into_iter()
+            .filter(|l| !far.iter().any(|f| f.0 == l.0))
+            .collect();
+        if !late.is_empty() {
+            pass.set("second-pass");
+            self.second_pass(found, &late, progress, reads)?;
+            common_vertical(found, self.cfg);
+            far.extend(late);
+        }
+        Ok(far)
+    }
+
     /// Second pass: look again where the alignment of the found targets
     /// says the missing ones should be (when that is far enough from where
     /// they were looked for), and, only close to the prediction, for those
