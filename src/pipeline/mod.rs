@@ -448,29 +448,20 @@ fn evaluate(
         return Err(Error::Input("the survey has no targets".into()).into());
     }
     let mut warnings = Vec::new();
-    let mut crop_params = cfg.crop;
-    if crop_params.shape == Shape::Sphere && !survey.has_z() {
-        warnings.push(Warning::SphereWithoutHeights);
-        crop_params.shape = Shape::Cylinder;
-    }
-    let mut map = MapStats {
-        name: source.name(),
-        ..Default::default()
-    };
-    // The ground pass: the map's vertical (and, for detection, its ground).
+    let crop_params = crop_shape(cfg, survey, &mut warnings);
     let total = match source {
         MapSource::File(p) => crate::cloud::map_bytes(p),
         MapSource::Points(_) => 0,
     };
-    let sample = (cfg.frame.ground_sample > 0).then_some(cfg.frame.ground_sample);
-    let ground = crate::frame::ground_level(source, None, sample, |b| progress(b, total))
-        .map_err(|e| against_survey(e, survey))?;
-    // The map's counts as far as this pass saw them; the crops' pass, when
-    // it reads the whole map, gives every point's.
-    map.bytes = total;
-    map.points = ground.read.points;
-    map.skipped_nonfinite = ground.read.skipped_nonfinite;
-    check_map(&map, &ground, crops_dir.is_none(), &mut warnings)?;
+    let (ground, mut map) = ground_pass(
+        source,
+        survey,
+        crops_dir.is_none(),
+        cfg,
+        total,
+        &mut progress,
+        &mut warnings,
+    )?;
     // `--align none` scores the map in the survey frame as it is: nothing
     // may turn it.
     let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
@@ -597,6 +588,43 @@ fn evaluate(
             unmatched,
         },
     })
+}
+
+/// The configured crop, a cylinder when a sphere was asked for but the
+/// survey has no heights (and a warning says so).
+fn crop_shape(cfg: &Config, survey: &Survey, warnings: &mut Vec<Warning>) -> LooseParams {
+    let mut crop_params = cfg.crop;
+    if crop_params.shape == Shape::Sphere && !survey.has_z() {
+        warnings.push(Warning::SphereWithoutHeights);
+        crop_params.shape = Shape::Cylinder;
+    }
+    crop_params
+}
+
+/// The ground pass: the map's vertical (and, for detection, its ground),
+/// and the map's counts as far as it saw them (the crops' pass, when it
+/// reads the whole map, gives every point's). Refused when the map is no
+/// map to measure (`check_map`; `needs_points`: no hand crops given).
+fn ground_pass(
+    source: MapSource,
+    survey: &Survey,
+    needs_points: bool,
+    cfg: &Config,
+    total: u64,
+    progress: &mut impl FnMut(u64, u64),
+    warnings: &mut Vec<Warning>,
+) -> Result<(crate::frame::MapGround, MapStats)> {
+    let sample = (cfg.frame.ground_sample > 0).then_some(cfg.frame.ground_sample);
+    let ground = crate::frame::ground_level(source, None, sample, |b| progress(b, total))
+        .map_err(|e| against_survey(e, survey))?;
+    let map = MapStats {
+        name: source.name(),
+        bytes: total,
+        points: ground.read.points,
+        skipped_nonfinite: ground.read.skipped_nonfinite,
+    };
+    check_map(&map, &ground, needs_points, warnings)?;
+    Ok((ground, map))
 }
 
 /// How the errors are scored: the configured alignment and dimension, the
