@@ -76,7 +76,9 @@ pub struct CloudInfo {
 pub struct PassRead {
     /// The pass: `ground` (an even sample of a big map), `detect-ground`
     /// (the rest of the ground, when detection needs it), `detect-cells`,
-    /// `detect-crops`, `crops`, `second-pass`.
+    /// `detect-crops`, `crops`, `second-pass`; `crops-again` and
+    /// `second-pass-again` when a COPC crop read by level (`crop.by_level`)
+    /// came out short and was read again at every level.
     pub pass: String,
     /// Finite points read.
     pub points: u64,
@@ -162,7 +164,8 @@ pub trait PointReader: Send {
     /// Tells the reader, after [`PointReader::hint_discs`] and before its
     /// first read, that the consumer keeps an even sample of at most `points`
     /// points per disc and thins the rest away. A reader whose map is stored
-    /// in levels of detail, each an even sample of the map (a COPC octree),
+    /// in levels of detail, each a spatially even sample of the map (a COPC
+    /// octree; density-capped, not uniform: see `crop::loose_crop_by_level`),
     /// may then read near each disc only the coarser levels that hold more
     /// than that there by its estimate; [`PointReader::levels_cut`] says
     /// whether it left any unread. Others ignore it. The estimate may be
@@ -171,9 +174,11 @@ pub trait PointReader: Send {
     fn hint_enough(&mut self, points: u64) {
         let _ = points;
     }
-    /// Whether a [`PointReader::hint_enough`] left levels of detail unread.
-    fn levels_cut(&self) -> bool {
-        false
+    /// Per disc of the [`PointReader::hint_discs`], whether a
+    /// [`PointReader::hint_enough`] left levels of detail unread near it;
+    /// empty when it left nothing unread.
+    fn levels_cut(&self) -> Vec<bool> {
+        Vec::new()
     }
     /// What a tiled map's reader opened (`None` for a single file).
     fn tile_stats(&self) -> Option<TileStats> {

@@ -155,7 +155,7 @@ impl PointReader for Moved<'_> {
     fn hint_enough(&mut self, points: u64) {
         self.inner.hint_enough(points);
     }
-    fn levels_cut(&self) -> bool {
+    fn levels_cut(&self) -> Vec<bool> {
         self.inner.levels_cut()
     }
     fn tile_stats(&self) -> Option<super::TileStats> {

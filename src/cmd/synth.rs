@@ -32,8 +32,10 @@ pub struct Args {
     /// little-endian u16 per point in the map's order: 0 the ground, 1
     /// anything else (clutter, decoys, obstacles), 16 + 4k + j for target k
     /// (0-based, the survey's order) with j = 0 its plate along the heading,
-    /// 1 its other plate, 2 its post or antenna [default: off]. For testing a
-    /// locator against the plates' own points (numpy: `np.fromfile(path, "<u2")`).
+    /// 1 its other plate, 2 its post or antenna; a second pass's copies
+    /// (`[second_pass]`) are labelled as the first's [default: off; a
+    /// labels.u16 of an earlier run in OUT is removed]. For testing a locator
+    /// against the plates' own points (numpy: `np.fromfile(path, "<u2")`).
     #[arg(long)]
     labels: bool,
     /// Print the effective parameters as TOML and exit.

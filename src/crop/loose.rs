@@ -47,6 +47,14 @@ pub struct LooseParams {
     /// of targets, not by the map's density: 500,000 points of a 5 m crop still
     /// put tens of thousands on a 0.6 m target.
     pub max_points: usize,
+    /// `eval` of a COPC map reads, near each target, only the octree levels
+    /// from the root down that hold 1.5× `max_points` there, not every level
+    /// ([`loose_crop_by_level`]): for maps whose crops hold many times
+    /// `max_points`. Off by default: a COPC writer's coarse levels are a
+    /// density-capped sample (untwine and PDAL keep one point per voxel of a
+    /// level's grid), not the uniform thinning, so the located corners move
+    /// by about their σ, and the finder's density checks see capped surfaces.
+    pub by_level: bool,
 }
 
 impl Default for LooseParams {
@@ -55,6 +63,7 @@ impl Default for LooseParams {
             radius: 5.0,
             shape: Shape::Cylinder,
             max_points: 500_000,
+            by_level: false,
         }
     }
 }
@@ -121,9 +130,10 @@ pub struct LooseCrop {
     pub map_points: u64,
     /// Points the reader skipped as NaN/infinite.
     pub skipped_nonfinite: u64,
-    /// The reader left levels of detail unread ([`loose_crop_by_level`]): a
-    /// crop of no more than `max_points` is then not a sample of its disc.
-    pub levels_cut: bool,
+    /// Per crop, whether the reader left levels of detail unread near it
+    /// ([`loose_crop_by_level`]): such a crop of no more than `max_points`
+    /// is not a sample of its disc. Empty when nothing was cut.
+    pub levels_cut: Vec<bool>,
 }
 
 /// Target ids and points of hits side by side (a pushed (u32, Point) pair is
@@ -308,11 +318,13 @@ pub fn loose_crop(
 
 /// [`loose_crop`] that lets a reader holding its map in levels of detail (a
 /// COPC octree) read near each centre only the coarser levels that hold more
-/// than `max_points` there: the crop is thinned to that anyway, and an
-/// octree's levels are even samples of the map, as the thinning is. Then
-/// [`LooseCrop::levels_cut`] is set, and a crop of no more than `max_points`
-/// (the reader's estimate was short) must be read again with
-/// [`loose_crop`]. Without a `max_points` cap this is [`loose_crop`].
+/// than `max_points` there: the crop is thinned to that anyway. The levels
+/// are a spatially even but density-capped sample (one point per voxel of a
+/// level's grid in untwine's and PDAL's files), not the uniform thinning:
+/// dense surfaces are thinned more than sparse ones. [`LooseCrop::levels_cut`]
+/// says which crops were read so; one of no more than `max_points` (the
+/// reader's estimate was short) must be read again with [`loose_crop`].
+/// Without a `max_points` cap this is [`loose_crop`].
 pub fn loose_crop_by_level(
     reader: &mut dyn PointReader,
     centres: &[Point],

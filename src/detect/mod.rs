@@ -203,6 +203,7 @@ pub fn detect_map(
             radius: params.crop_radius,
             shape: Shape::Cylinder,
             max_points: 200_000,
+            by_level: false,
         };
         let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
         reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));

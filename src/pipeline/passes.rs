@@ -114,7 +114,7 @@ impl Search<'_> {
         let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
         // The map's statistics stay those of the first pass.
         let mut again_stats = super::MapStats::default();
-        let (again, read) = read_crops(
+        let (again, read, more) = read_crops(
             source,
             &centres,
             crop_params,
@@ -127,6 +127,10 @@ impl Search<'_> {
             pass: "second-pass".into(),
             ..read
         });
+        reads.extend(more.map(|m| crate::cloud::PassRead {
+            pass: "second-pass-again".into(),
+            ..m
+        }));
         // A target searched again because the one found was far from where the
         // others put it is looked for only close to the prediction, so the same
         // wrong object cannot be found again.

@@ -221,7 +221,8 @@ pub struct TargetRun {
     pub pass: Pass,
     /// The loose crop (thinned beyond `crop.max_points`).
     pub loose: Vec<Point>,
-    /// Points the map had in the loose crop, when it was thinned.
+    /// Points the map had in the loose crop, when it was thinned (of a COPC
+    /// map read with `crop.by_level`: those of the octree levels read).
     pub loose_thinned_from: Option<u64>,
     /// The tight crop (empty when none was made).
     pub tight: Vec<Point>,

@@ -17,9 +17,8 @@ pub struct TargetDetail {
     /// Points in the loose crop.
     pub loose_points: usize,
     /// Points the map had inside the loose crop, when more than `crop.max_points`
-    /// and the crop was thinned to `loose_points` (of a COPC map, the points
-    /// of the octree levels read there: `eval` reads only the coarse levels
-    /// that hold more than it keeps).
+    /// and the crop was thinned to `loose_points` (of a COPC map read with
+    /// `crop.by_level`, the points of the octree levels read there).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub loose_thinned_from: Option<u64>,
     /// Points in the tight crop.

@@ -78,6 +78,13 @@ fn scene(
         trajectory: dir.join("trajectory.txt"),
         labels: labelled.then(|| dir.join("labels.u16")),
     };
+    // Labels of an earlier scene in this folder would not be this map's.
+    if !labelled {
+        let stale = dir.join("labels.u16");
+        if stale.exists() {
+            std::fs::remove_file(&stale).map_err(|e| Error::io(&stale, e))?;
+        }
+    }
     let truth = write_map(&files.map, files.labels.as_deref(), params, format)?;
 
     let mut local = String::from("id,x,y,z,antenna_height\n");
@@ -172,9 +179,17 @@ fn write_map(
         })?,
         None => generate(params, &mut put)?,
     };
-    writer.finish()?;
+    // The labels first, then the map: a map whose labels failed is removed,
+    // so a scene's map never stands beside labels of another (nor without
+    // those asked for).
     if let Some(c) = codes {
         c.finish()?;
+    }
+    if let Err(e) = writer.finish() {
+        if let Some(l) = labels {
+            let _ = std::fs::remove_file(l);
+        }
+        return Err(e);
     }
     Ok(truth)
 }

@@ -490,7 +490,9 @@ const BATCH_POINTS: u64 = 4_000_000;
 
 /// What a synthetic point is a return from ([`generate_labelled`]): the
 /// oracle a test compares the locator with (planes fitted to a target's
-/// plate points alone).
+/// plate points alone). The returns of a second pass (`second_pass`, a
+/// target mapped twice) carry the labels of what they struck, like the
+/// first pass's: the truth's `ghost` says where that copy stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PointLabel {
     /// The terrain.

@@ -176,4 +176,7 @@ fn labels_file_names_every_points_target_plate() {
             .iter()
             .all(|&c| c < 2 || (16..16 + 4 * targets.len() as u16).contains(&c))
     );
+    // A scene written again without labels leaves none of the earlier run's.
+    run("a", false);
+    assert!(!a.join("labels.u16").exists());
 }

@@ -49,8 +49,8 @@ pub fn tempdir() -> tempfile::TempDir {
 /// The oracle's corner of target `target` (0-based): a least-squares plane
 /// through each plate's own returns (the labels synth knows: no detection,
 /// no outliers), the point where the two planes cross at the mean height of
-/// their points, as the paper defines the corner; with the two planes'
-/// normals (horizontal). `None` when a plate has fewer than 3 returns.
+/// their points, as the paper defines the corner. `None` when a plate has
+/// fewer than 3 returns.
 /// Computed about `near` (the true corner) to keep the squares small.
 pub fn oracle_corner(
     map: &[mapgauge::Point],

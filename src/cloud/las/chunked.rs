@@ -50,8 +50,9 @@ pub(super) struct Octree {
     pub(super) counts: TileStats,
     /// The discs of a region hint, kept for [`PointReader::hint_enough`].
     pub(super) discs: Option<(Vec<[f64; 2]>, f64)>,
-    /// A [`PointReader::hint_enough`] left nodes of deep levels unread.
-    pub(super) levels_cut: bool,
+    /// Per disc, whether a [`PointReader::hint_enough`] left nodes of deep
+    /// levels near it unread (empty: none was).
+    pub(super) levels_cut: Vec<bool>,
 }
 
 /// Points of a level-limited read near a disc, as a multiple of what the
@@ -99,13 +100,19 @@ impl Octree {
     }
 
     /// Of the nodes `order` (those near some disc), the ones a read that
-    /// keeps `enough` points per disc needs: near each disc, the levels from
-    /// the root down to the first whose nodes hold, with those above it,
-    /// `LEVEL_MARGIN` times `enough` points there by estimate (every level
-    /// when none does).
-    fn enough_levels(&self, order: &[usize], chunks: &[Chunk], enough: u64) -> Vec<usize> {
+    /// keeps `enough` points per disc needs, and per disc whether any near it
+    /// is left out: near each disc, the levels from the root down to the
+    /// first whose nodes hold, with those above it, `LEVEL_MARGIN` times
+    /// `enough` points there by estimate (every level when none does), and
+    /// every level a neighbouring disc reads in a node near both.
+    fn enough_levels(
+        &self,
+        order: &[usize],
+        chunks: &[Chunk],
+        enough: u64,
+    ) -> (Vec<usize>, Vec<bool>) {
         let Some((discs, radius)) = &self.discs else {
-            return order.to_vec();
+            return (order.to_vec(), Vec::new());
         };
         let want = LEVEL_MARGIN * enough as f64;
         let deepest: Vec<i32> = discs
@@ -132,17 +139,50 @@ impl Octree {
                 i32::MAX
             })
             .collect();
-        order
+        // A node read for one disc is read for every disc it is near (a crop
+        // takes every point within its radius): such a disc reads that level
+        // everywhere near it, or the part it shares with its neighbour would
+        // be denser than the rest. Raised until nothing changes (each raise
+        // only adds nodes; levels are bounded).
+        let near: Vec<Vec<usize>> = order
             .iter()
-            .copied()
-            .filter(|&i| {
-                let level = self.keys[i][0];
-                discs
-                    .iter()
-                    .zip(&deepest)
-                    .any(|(d, &l)| level <= l && self.near(&self.cubes[i], d, *radius))
+            .map(|&i| {
+                (0..discs.len())
+                    .filter(|&k| self.near(&self.cubes[i], &discs[k], *radius))
+                    .collect()
             })
-            .collect()
+            .collect();
+        let mut depth = deepest;
+        loop {
+            let mut raised = false;
+            for (&i, ks) in order.iter().zip(&near) {
+                let level = self.keys[i][0];
+                if ks.iter().any(|&k| level <= depth[k]) {
+                    for &k in ks {
+                        if level > depth[k] {
+                            depth[k] = level;
+                            raised = true;
+                        }
+                    }
+                }
+            }
+            if !raised {
+                break;
+            }
+        }
+        let mut cut = vec![false; discs.len()];
+        let mut keep = Vec::with_capacity(order.len());
+        for (&i, ks) in order.iter().zip(&near) {
+            let level = self.keys[i][0];
+            if ks.iter().any(|&k| level <= depth[k]) {
+                keep.push(i);
+            } else {
+                for &k in ks {
+                    cut[k] = true;
+                }
+            }
+        }
+        (keep, cut)
     }
 }
 
@@ -433,16 +473,18 @@ impl PointReader for ChunkedLaz {
         if self.started || points == 0 {
             return;
         }
-        let keep = o.enough_levels(&self.order, &self.chunks, points);
+        let (keep, cut) = o.enough_levels(&self.order, &self.chunks, points);
         if keep.len() < self.order.len() {
             self.order = keep;
-            o.levels_cut = true;
+            o.levels_cut = cut;
             o.counts.selected = self.order.len() as u64;
         }
     }
 
-    fn levels_cut(&self) -> bool {
-        self.octree.as_ref().is_some_and(|o| o.levels_cut)
+    fn levels_cut(&self) -> Vec<bool> {
+        self.octree
+            .as_ref()
+            .map_or_else(Vec::new, |o| o.levels_cut.clone())
     }
 
     fn tile_stats(&self) -> Option<TileStats> {

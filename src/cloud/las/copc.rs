@@ -131,7 +131,7 @@ pub(super) fn open(path: &Path, file: &File, file_bytes: u64) -> Result<Option<C
             ..TileStats::default()
         },
         discs: None,
-        levels_cut: false,
+        levels_cut: Vec::new(),
     };
     let lay = Layout {
         info: CloudInfo {
