@@ -115,18 +115,28 @@ impl Octree {
             return (order.to_vec(), Vec::new());
         };
         let want = LEVEL_MARGIN * enough as f64;
-        let deepest: Vec<i32> = discs
+        // Per node of `order`, the discs it is near (once: the estimate and
+        // the neighbours' levels both ask).
+        let near: Vec<Vec<usize>> = order
             .iter()
-            .map(|d| {
-                let mut by_level: Vec<(i32, f64)> = order
-                    .iter()
-                    .filter(|&&i| self.near(&self.cubes[i], d, *radius))
-                    .map(|&i| {
-                        let c = &self.cubes[i];
-                        let share = share_in_disc([c[0], c[1], c[3], c[4]], *d, *radius);
-                        (self.keys[i][0], share * chunks[i].points as f64)
-                    })
-                    .collect();
+            .map(|&i| {
+                (0..discs.len())
+                    .filter(|&k| self.near(&self.cubes[i], &discs[k], *radius))
+                    .collect()
+            })
+            .collect();
+        // Per disc, (level, estimated points inside it) of each node near it.
+        let mut by_level: Vec<Vec<(i32, f64)>> = vec![Vec::new(); discs.len()];
+        for (&i, ks) in order.iter().zip(&near) {
+            let c = &self.cubes[i];
+            for &k in ks {
+                let share = share_in_disc([c[0], c[1], c[3], c[4]], discs[k], *radius);
+                by_level[k].push((self.keys[i][0], share * chunks[i].points as f64));
+            }
+        }
+        let deepest: Vec<i32> = by_level
+            .into_iter()
+            .map(|mut by_level| {
                 by_level.sort_unstable_by_key(|l| l.0);
                 let mut sum = 0.0;
                 for (k, &(level, n)) in by_level.iter().enumerate() {
@@ -144,14 +154,6 @@ impl Octree {
         // everywhere near it, or the part it shares with its neighbour would
         // be denser than the rest. Raised until nothing changes (each raise
         // only adds nodes; levels are bounded).
-        let near: Vec<Vec<usize>> = order
-            .iter()
-            .map(|&i| {
-                (0..discs.len())
-                    .filter(|&k| self.near(&self.cubes[i], &discs[k], *radius))
-                    .collect()
-            })
-            .collect();
         let mut depth = deepest;
         loop {
             let mut raised = false;
