@@ -9,7 +9,7 @@ use crate::record::{ResultFile, refuse_overwrite};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-/// The inputs' sizes and SHA-256, and the seconds hashing took.
+/// The inputs' sizes and BLAKE3 hashes, and the seconds hashing took.
 #[derive(Debug, Clone)]
 pub struct HashedInputs {
     /// Per input, in the order given.

@@ -638,7 +638,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
     }
     o.push_str("</tbody></table>");
     if !p.inputs.is_empty() {
-        o.push_str("<h3>Input files</h3><div class=\"scroll\"><table class=\"grid\"><thead><tr><th>role</th><th class=\"t\">file</th><th>bytes</th><th class=\"t\">SHA-256</th></tr></thead><tbody>");
+        o.push_str("<h3>Input files</h3><div class=\"scroll\"><table class=\"grid\"><thead><tr><th>role</th><th class=\"t\">file</th><th>bytes</th><th class=\"t\">BLAKE3</th></tr></thead><tbody>");
         for f in &p.inputs {
             let _ = write!(
                 o,
@@ -646,7 +646,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
                 escape(&f.role),
                 escape(&f.path),
                 f.bytes,
-                escape(&f.sha256)
+                escape(&f.blake3)
             );
         }
         o.push_str("</tbody></table></div>");

@@ -34,11 +34,13 @@ use crate::locate::Label;
 use crate::pipeline::Evaluation;
 use crate::record::{ResultFile, write_atomic};
 use crate::{Error, Point, Result};
-use sha2::{Digest, Sha256};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-/// One input file as the report names it: what it was, how big, its SHA-256.
+/// One input file as the report names it: what it was, how big, its BLAKE3
+/// hash (`b3sum` prints the same; BLAKE3 hashes a map 3-4x faster than
+/// SHA-256 does even with the CPU's SHA extensions, and the hash runs
+/// alongside the evaluation on the same cores).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct InputFile {
     /// Its role (`map`, `survey`, `config`).
@@ -47,13 +49,13 @@ pub struct InputFile {
     pub path: String,
     /// Size in bytes.
     pub bytes: u64,
-    /// SHA-256, lowercase hex.
-    pub sha256: String,
+    /// BLAKE3 (256 bits), lowercase hex, as `b3sum` prints it.
+    pub blake3: String,
 }
 
 impl InputFile {
     /// Reads `path` once, streaming (1 MiB at a time: a map need not fit in
-    /// memory), and returns its size and SHA-256.
+    /// memory), and returns its size and BLAKE3 hash.
     pub fn hash(role: &str, path: &Path) -> Result<InputFile> {
         let never = std::sync::atomic::AtomicBool::new(false);
         InputFile::hash_unless(role, path, &never)?
@@ -78,7 +80,7 @@ impl InputFile {
         } else {
             vec![path.to_path_buf()]
         };
-        let mut h = Sha256::new();
+        let mut h = blake3::Hasher::new();
         let mut buf = vec![0u8; 1 << 20];
         let mut bytes = 0u64;
         for file in &files {
@@ -95,12 +97,12 @@ impl InputFile {
                 bytes += n as u64;
             }
         }
-        let sha256 = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
+        let blake3 = h.finalize().to_hex().to_string();
         Ok(Some(InputFile {
             role: role.into(),
             path: path.display().to_string(),
             bytes,
-            sha256,
+            blake3,
         }))
     }
 }
@@ -379,8 +381,8 @@ pub(crate) mod tests {
         let f = InputFile::hash("map", &p).unwrap();
         assert_eq!(f.bytes, 3);
         assert_eq!(
-            f.sha256,
-            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+            f.blake3,
+            "6437b3ac38465133ffb63b75273a8db548c558465d79db03fd359c6cd5bd9d85"
         );
         assert!(InputFile::hash("map", &dir.path().join("missing")).is_err());
     }

@@ -43,7 +43,7 @@ fn eval_writes_report_and_plots() {
     assert!(html.matches("class=\"target failed\"").count() >= 1);
     assert!(html.contains("&lt;t&amp;9&gt;") && !html.contains("<t&9>"));
     assert!(html.contains("no map points within the crop radius"));
-    // Provenance: both inputs with their SHA-256 (64 hex digits).
+    // Provenance: both inputs with their BLAKE3 hashes.
     assert!(html.contains("map.ply") && html.contains("survey_extra.csv"));
     assert_eq!(
         html.matches("<td class=\"hash\">").count(),
