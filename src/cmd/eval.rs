@@ -401,8 +401,10 @@ pub fn evaluate(
     let result = result_file(&ev, &survey, survey_path);
     // The text summary gives the warnings, ranked, and each target's reason
     // in its table: saying them on stderr too would only double the noise.
+    // Other formats say on stderr what result.json holds: every caveat, the
+    // scoring's too, in the same ranked order.
     if a.format != OutputFormat::Table(TableFormat::Text) {
-        for w in &ev.warnings {
+        for w in &result.warnings {
             eprintln!("warning: {w}");
         }
         for t in &result.targets {
