@@ -304,7 +304,7 @@ class Evaluation(Accuracy):
     def write(self, out_dir: PathLike, report: bool = True) -> None:  # type: ignore[override]
         """Writes result.json, targets.csv, pairs.csv and (unless ``report=False``)
         report.html into ``out_dir``, as ``mapgauge eval --out`` does. The report
-        hashes the input files (about 1 s per GB of map)."""
+        hashes the input files with BLAKE3 (about 0.3 s per GB of map)."""
         self._core.write(os.fspath(out_dir), report)
 
 

@@ -328,8 +328,9 @@ pub fn write_report(
     Ok(())
 }
 
-/// Reads the survey and runs the pipeline with a progress bar; prints its
-/// warnings and every target not found on stderr.
+/// Reads the survey and runs the pipeline with a progress bar. The caller
+/// says the warnings (`run`: on stderr for formats other than the text
+/// summary, which holds them).
 pub fn evaluate(
     map: &Path,
     survey_path: &Path,
@@ -401,10 +402,10 @@ pub fn evaluate(
     let result = result_file(&ev, &survey, survey_path);
     // The text summary gives the warnings, ranked, and each target's reason
     // in its table: saying them on stderr too would only double the noise.
-    // Other formats say on stderr what result.json holds: every caveat, the
-    // scoring's too, in the same ranked order.
+    // Other formats say on stderr the caveats result.json holds, as the text
+    // summary orders them: the accuracy standard's, then the ranked rest.
     if a.format != OutputFormat::Table(TableFormat::Text) {
-        for w in &result.warnings {
+        for w in result.asprs.warnings.iter().chain(&result.warnings) {
             eprintln!("warning: {w}");
         }
         for t in &result.targets {

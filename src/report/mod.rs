@@ -38,9 +38,10 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// One input file as the report names it: what it was, how big, its BLAKE3
-/// hash (`b3sum` prints the same; BLAKE3 hashes a map 3-4x faster than
-/// SHA-256 does even with the CPU's SHA extensions, and the hash runs
-/// alongside the evaluation on the same cores).
+/// hash (`b3sum` prints the same for a file; a tiled map is hashed as one
+/// stream of its metadata and tiles in reading order). BLAKE3 hashes a map
+/// 3-4x faster than SHA-256 does even with the CPU's SHA extensions, and the
+/// hash runs alongside the evaluation on the same cores.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct InputFile {
     /// Its role (`map`, `survey`, `config`).
@@ -385,5 +386,33 @@ pub(crate) mod tests {
             "6437b3ac38465133ffb63b75273a8db548c558465d79db03fd359c6cd5bd9d85"
         );
         assert!(InputFile::hash("map", &dir.path().join("missing")).is_err());
+    }
+
+    #[test]
+    fn hash_is_the_whole_streams() {
+        // Across the 1 MiB reads: the one-shot hash of the same bytes.
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big.bin");
+        let bytes: Vec<u8> = (0..2_621_447u32).map(|i| (i * 7 % 251) as u8).collect();
+        std::fs::write(&p, &bytes).unwrap();
+        let f = InputFile::hash("map", &p).unwrap();
+        assert_eq!(f.bytes, bytes.len() as u64);
+        assert_eq!(f.blake3, blake3::hash(&bytes).to_hex().to_string());
+        // A tiled map: its metadata and tiles, in reading order, as one stream.
+        let pts: Vec<Point> = (0..200)
+            .map(|i| Point::new((i % 20) as f64 * 3.0, (i / 20) as f64 * 5.0, 0.1 * i as f64))
+            .collect();
+        let tiled = dir.path().join("tiles");
+        let map =
+            crate::cloud::write_tiles(&pts, &tiled, 20.0, crate::cloud::OutFormat::Pcd).unwrap();
+        let files = map.files();
+        assert!(files.len() > 2, "metadata and several tiles");
+        let mut all = Vec::new();
+        for f in &files {
+            all.extend(std::fs::read(f).unwrap());
+        }
+        let f = InputFile::hash("map", &tiled).unwrap();
+        assert_eq!(f.bytes, all.len() as u64);
+        assert_eq!(f.blake3, blake3::hash(&all).to_hex().to_string());
     }
 }
