@@ -402,10 +402,10 @@ pub fn evaluate(
     let result = result_file(&ev, &survey, survey_path);
     // The text summary gives the warnings, ranked, and each target's reason
     // in its table: saying them on stderr too would only double the noise.
-    // Other formats say on stderr the caveats result.json holds, as the text
-    // summary orders them: the accuracy standard's, then the ranked rest.
+    // Other formats say on stderr the caveats result.json holds, in the text
+    // summary's order.
     if a.format != OutputFormat::Table(TableFormat::Text) {
-        for w in result.asprs.warnings.iter().chain(&result.warnings) {
+        for w in result.caveats() {
             eprintln!("warning: {w}");
         }
         for t in &result.targets {

@@ -326,6 +326,12 @@ fn local() -> SurveyFrame {
 }
 
 impl ResultFile {
+    /// Every caveat of the result, in the order the terminal says them: the
+    /// accuracy standard's (NSSDA/ASPRS), then the ranked rest.
+    pub fn caveats(&self) -> impl Iterator<Item = &String> {
+        self.asprs.warnings.iter().chain(&self.warnings)
+    }
+
     /// Reads a result file, checking its schema.
     pub fn from_json_file(path: &Path) -> Result<ResultFile> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;

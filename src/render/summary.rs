@@ -61,8 +61,7 @@ pub fn render_report(r: &ResultFile, fmt: TableFormat) -> String {
         with_caption(&mut o, fmt, "Pairs", &pairs_grid(r));
     }
     let mut notes: Vec<String> = r.asprs.nssda_lines.clone();
-    notes.extend(r.asprs.warnings.iter().map(|w| format!("warning: {w}")));
-    notes.extend(r.warnings.iter().map(|w| format!("warning: {w}")));
+    notes.extend(r.caveats().map(|w| format!("warning: {w}")));
     for t in r.targets.iter().filter(|t| t.status != "ok") {
         notes.push(format!(
             "target {} {}: {}",
