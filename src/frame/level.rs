@@ -344,7 +344,7 @@ pub fn ground_level(
                         // Through i64: f64 -> i128 is a slow library call (7 %
                         // of a 20 M-point eval), and i64 holds any offset from
                         // the first point below 9e15 m exactly.
-                        let mm = |v: f64| (v * 1000.0).round() as i64 as i128;
+                        let mm = |v: f64| (v * 1000.0).round_ties_even() as i64 as i128;
                         s[0] += mm(p.x - origin[0]);
                         s[1] += mm(p.y - origin[1]);
                         s[2] += mm(p.z - z0);

@@ -270,14 +270,7 @@ fn fit_l(
         let (sn, cs) = (sn / bin, cs / bin);
         let base_a = (cs * f1 + sn * f2).floor() as i64 - half;
         let base_b = (cs * f2 - sn * f1).floor() as i64 - half;
-        hist_a.fill(0);
-        hist_b.fill(0);
-        for &[x, y] in pts {
-            let ia = ((cs * x + sn * y).floor() as i64 - base_a).clamp(0, 2 * half);
-            let ib = ((cs * y - sn * x).floor() as i64 - base_b).clamp(0, 2 * half);
-            hist_a[ia as usize] += 1;
-            hist_b[ib as usize] += 1;
-        }
+        bin_headings(pts, [cs, sn], [base_a, base_b], [&mut hist_a, &mut hist_b]);
         sharp_peak(&hist_a).min(sharp_peak(&hist_b))
     };
     let mut headings = Vec::with_capacity(60);
@@ -373,6 +366,25 @@ fn fit_l(
         }
     }
     Err(why)
+}
+
+/// Counts `pts` afresh into two histograms of their projections (in bins) on the
+/// heading `(cs, sn)` and across it, less the bases, clamped to the ends.
+/// Its own function over plain slices: in the closure that calls it, every
+/// increment reloaded the vectors' pointers and lengths (a write through one
+/// might move them, as the compiler saw it), ~55 instructions a point where
+/// this takes ~30; the bins are the same (`fit_l`'s heading search runs this
+/// ~90 000 times a window).
+fn bin_headings(pts: &[[f64; 2]], [cs, sn]: [f64; 2], [base_a, base_b]: [i64; 2], [ha, hb]: [&mut [u32]; 2]) {
+    ha.fill(0);
+    hb.fill(0);
+    let top = ha.len().min(hb.len()) as i64 - 1;
+    for &[x, y] in pts {
+        let ia = ((cs * x + sn * y).floor() as i64 - base_a).max(0).min(top);
+        let ib = ((cs * y - sn * x).floor() as i64 - base_b).max(0).min(top);
+        ha[ia as usize] += 1;
+        hb[ib as usize] += 1;
+    }
 }
 
 /// Whether the planes `n·x = off` (at one heading) are an L of the configured
@@ -790,12 +802,13 @@ impl Indexed {
 /// away from the post (`clear_beside`'s rows), and the slab's points on the
 /// plate's side of the corner with their distance along it (`plate_wide`).
 struct ByHeight {
-    /// Heights in the slab, `0.15 w < t < w`.
-    slab: Indexed,
-    /// Heights in the shell in front (`d > 0`), same span along the plate.
-    front: Indexed,
-    /// Heights in the shell behind (`d < 0`), same span along the plate.
-    back: Indexed,
+    /// Heights of the points in the slab or in either shell, `0.15 w < t < w`.
+    all: Indexed,
+    /// `cum[i]`: how many of `all`'s first `i` heights lie in the slab, the
+    /// shell in front (`d > 0`) and the shell behind. One list with running
+    /// counts, so that a row edge is one search, not one per list (the
+    /// searches were most of `plate_band`'s time on a wall's windows).
+    cum: Vec<[u32; 3]>,
     /// (height, distance along the plate) in the slab with `t > 0`, unsorted:
     /// `plate_wide` takes a percentile of a band's, which needs no order, and
     /// few bands get that far.
@@ -805,13 +818,8 @@ struct ByHeight {
 impl ByHeight {
     fn new(near: &[Near], w: f64) -> Self {
         let (t0, t1) = (0.15 * w, w);
-        let cap = near.len();
-        let (mut slab, mut front, mut back, mut ext) = (
-            Vec::with_capacity(cap),
-            Vec::with_capacity(cap / 2),
-            Vec::with_capacity(cap / 2),
-            Vec::with_capacity(cap),
-        );
+        let mut kinds: Vec<(f64, u8)> = Vec::with_capacity(near.len());
+        let mut ext = Vec::with_capacity(near.len());
         for q in near {
             let a = q.d.abs();
             if a < SLAB && q.t > 0.0 {
@@ -821,15 +829,26 @@ impl ByHeight {
                 continue;
             }
             if a < SLAB {
-                slab.push(q.z);
+                kinds.push((q.z, 0));
             } else if a > SHELL.0 && a < SHELL.1 {
-                if q.d > 0.0 { &mut front } else { &mut back }.push(q.z);
+                kinds.push((q.z, if q.d > 0.0 { 1 } else { 2 }));
             }
         }
+        // `near` is in height order (`PlanePoints`); sorted here only for
+        // other input (the unit tests' shuffled plates).
+        if !kinds.is_sorted_by(|a, b| a.0.total_cmp(&b.0).is_le()) {
+            kinds.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        let mut cum = Vec::with_capacity(kinds.len() + 1);
+        let mut c = [0u32; 3];
+        cum.push(c);
+        for &(_, k) in &kinds {
+            c[k as usize] += 1;
+            cum.push(c);
+        }
         ByHeight {
-            slab: Indexed::new(slab),
-            front: Indexed::new(front),
-            back: Indexed::new(back),
+            all: Indexed::new(kinds.into_iter().map(|k| k.0).collect()),
+            cum,
             ext,
         }
     }
@@ -837,13 +856,10 @@ impl ByHeight {
     /// Where the row edge `z` falls in the slab, front and back heights:
     /// (points below it, points at or below it) in each.
     fn edge(&self, z: f64) -> [(usize, usize); 3] {
-        [&self.slab, &self.front, &self.back].map(|h| {
-            let below = h.below(z);
-            (
-                below,
-                below + h.v[below..].iter().take_while(|&&x| x == z).count(),
-            )
-        })
+        let below = self.all.below(z);
+        let at = below + self.all.v[below..].iter().take_while(|&&x| x == z).count();
+        let (b, a) = (self.cum[below], self.cum[at]);
+        [0, 1, 2].map(|k| (b[k] as usize, a[k] as usize))
     }
 
     /// `planar_count(near, 0.15 w, w, a, b).1` of the row between two edges
