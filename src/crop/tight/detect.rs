@@ -375,7 +375,12 @@ fn fit_l(
 /// might move them, as the compiler saw it), ~55 instructions a point where
 /// this takes ~30; the bins are the same (`fit_l`'s heading search runs this
 /// ~90 000 times a window).
-fn bin_headings(pts: &[[f64; 2]], [cs, sn]: [f64; 2], [base_a, base_b]: [i64; 2], [ha, hb]: [&mut [u32]; 2]) {
+fn bin_headings(
+    pts: &[[f64; 2]],
+    [cs, sn]: [f64; 2],
+    [base_a, base_b]: [i64; 2],
+    [ha, hb]: [&mut [u32]; 2],
+) {
     ha.fill(0);
     hb.fill(0);
     let top = ha.len().min(hb.len()) as i64 - 1;
