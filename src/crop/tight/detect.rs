@@ -538,6 +538,20 @@ fn check_l(
             ));
         }
         planar[k] = excess;
+        // ... and a rectangle: at every height it spans its width. A slanted
+        // object crossing the plane (a pipe, a machine's sloping face)
+        // holds a short stretch at each height, the stretches stepping
+        // along the plate (issue 30: a pump room's machine base).
+        let (c, sign) = placed[k];
+        if let Some(share) = rows_spanning(&planes[k].slab, c, sign, lo, hi, w)
+            && share < MIN_SPANNING_SHARE
+        {
+            no!(format!(
+                "plate {}'s points do not span its width at each height ({:.0} % of them in rows that do): a slanted object, not a plate",
+                k + 1,
+                100.0 * share
+            ));
+        }
     }
     // The 95th percentile of n points spread over a plate scatters by about
     // 0.22 w / √n: a plate is allowed one of those (3 cm with 20 points).
@@ -580,6 +594,60 @@ fn check_l(
         widths: width,
     })
 }
+
+/// The share of a plate's slab points (`slab`: raw position along the
+/// plate, height; `c`, `sign`: the corner and the side, as `check_l` placed
+/// them) in the band `lo..hi` that lie in rows spanning the plate's width:
+/// of the `SPAN_ROW`-tall rows with `MIN_ROW_POINTS` or more points over
+/// the plate, those whose 5th-95th percentile stretch along it is at least
+/// `MIN_ROW_SPAN` of the width `w`. A LiDAR's scan line crosses a plate
+/// from edge to edge, and so does every row of a TLS scan; hidden parts
+/// (grass, a barrier below, returns thinned) leave rows empty or sparse,
+/// not short. `None` when the rows counted hold too few points to say (a
+/// far or sparse target: `MIN_SPAN_EVIDENCE`).
+fn rows_spanning(slab: &[(f64, f64)], c: f64, sign: f64, lo: f64, hi: f64, w: f64) -> Option<f64> {
+    let n_rows = ((hi - lo) / SPAN_ROW).ceil().max(1.0) as usize;
+    let mut rows: Vec<Vec<f64>> = vec![Vec::new(); n_rows];
+    for &(x, z) in slab {
+        let t = (x - c) * sign;
+        if z > lo && z < hi && t > 0.0 && t < w {
+            let r = (((z - lo) / SPAN_ROW) as usize).min(n_rows - 1);
+            rows[r].push(t);
+        }
+    }
+    let (mut counted, mut spanning, mut rows_counted) = (0usize, 0usize, 0usize);
+    for mut r in rows {
+        if r.len() < MIN_ROW_POINTS {
+            continue;
+        }
+        rows_counted += 1;
+        r.sort_unstable_by(f64::total_cmp);
+        let n = r.len();
+        let stretch = r[n - 1 - n / 20] - r[n / 20];
+        counted += n;
+        if stretch >= MIN_ROW_SPAN * w {
+            spanning += n;
+        }
+    }
+    (counted >= MIN_SPAN_EVIDENCE.0 && rows_counted >= MIN_SPAN_EVIDENCE.1)
+        .then(|| spanning as f64 / counted as f64)
+}
+
+/// Points and rows `rows_spanning` needs to judge a plate: a sparse plate's
+/// few rows are arcs of whichever scan lines crossed it (a rosette's petals
+/// cross a plate in part), and a row of 20 points may be one short arc.
+const MIN_SPAN_EVIDENCE: (usize, usize) = (200, 3);
+
+/// Rows of `rows_spanning` (m): a scan line's returns on a plate lie
+/// within a few centimetres of one height.
+const SPAN_ROW: f64 = 0.05;
+/// Fewest points over the plate in a row whose stretch counts.
+const MIN_ROW_POINTS: usize = 20;
+/// A row spans the plate when its points stretch this share of its width
+/// (a whole row stretches ~0.9 between its 5th and 95th percentiles).
+const MIN_ROW_SPAN: f64 = 0.6;
+/// A plate has at least this share of its counted points in spanning rows.
+const MIN_SPANNING_SHARE: f64 = 0.5;
 
 /// One histogram peak's plane in a window: the points within the shells'
 /// reach of it, gathered once for every pairing that uses it.
@@ -1165,6 +1233,36 @@ fn sharp_peak(h: &[u32]) -> usize {
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    /// A plate spans its width at every height, also with its lower part
+    /// hidden or most returns thinned away; a slanted object's stretches
+    /// step along the plane (the pump room's machine base); a plate of a
+    /// few rays says nothing.
+    #[test]
+    fn rows_span_a_plate_not_a_slanted_object() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let w = 0.6;
+        // Raw positions run the other way from a corner at 2.0 (sign -1).
+        let (c, sign) = (2.0, -1.0);
+        let at = |t: f64, z: f64| (c - t, z);
+        let plate = |n: usize, z0: f64, rng: &mut rand_pcg::Pcg64Mcg| -> Vec<(f64, f64)> {
+            (0..n)
+                .map(|_| at(rng.random_range(0.0..w), rng.random_range(z0..0.6)))
+                .collect()
+        };
+        let share = |slab: &[(f64, f64)]| rows_spanning(slab, c, sign, 0.0, 0.6, w);
+        assert_eq!(share(&plate(3000, 0.0, &mut rng)), Some(1.0));
+        assert_eq!(share(&plate(1500, 0.35, &mut rng)), Some(1.0));
+        // A 0.2 m stretch stepping 0.4 m along the plate over its height.
+        let slanted: Vec<(f64, f64)> = (0..3000)
+            .map(|_| {
+                let z: f64 = rng.random_range(0.0..0.6);
+                at(0.05 + 0.6 * z + rng.random_range(0.0..0.2), z)
+            })
+            .collect();
+        assert!(share(&slanted).is_some_and(|s| s < MIN_SPANNING_SHARE));
+        assert_eq!(share(&plate(60, 0.0, &mut rng)), None);
+    }
 
     /// The row walk, up and down, counts what `planar_count` counts row by
     /// row, edge ties included.
