@@ -326,10 +326,11 @@ fn local() -> SurveyFrame {
 }
 
 impl ResultFile {
-    /// Every caveat of the result, in the order the terminal says them: the
-    /// accuracy standard's (NSSDA/ASPRS), then the ranked rest.
+    /// Every caveat of the result, signal first: the ranked warnings (what
+    /// may make a number wrong leads), then the accuracy standard's stock
+    /// ones (NSSDA/ASPRS), as eval's terminal summary and the report say them.
     pub fn caveats(&self) -> impl Iterator<Item = &String> {
-        self.asprs.warnings.iter().chain(&self.warnings)
+        self.warnings.iter().chain(&self.asprs.warnings)
     }
 
     /// Reads a result file, checking its schema.

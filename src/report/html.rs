@@ -425,8 +425,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
         },
     );
     o.push_str("</div>");
-    let mut warn: Vec<String> = r.warnings.clone();
-    warn.extend(r.asprs.warnings.iter().cloned());
+    let mut warn: Vec<String> = r.caveats().cloned().collect();
     for t in r.targets.iter().filter(|t| t.status != "ok") {
         warn.push(format!(
             "target {} {}: {}",
