@@ -3,7 +3,7 @@
 use super::progress_bar;
 use mapgauge::cloud::{self, OutFormat};
 use mapgauge::crop::{LooseParams, Shape, loose_crop_each};
-use mapgauge::pipeline::expected_in_map;
+use mapgauge::frame::MapToSurvey;
 use mapgauge::record::refuse_overwrite;
 use mapgauge::survey::{Geodetic, SurveyOptions, file_stem, read_survey_for_map};
 use mapgauge::{Point, Result};
@@ -74,11 +74,11 @@ pub fn run(a: Args) -> Result<()> {
     )?;
     super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, a.origin, &a.survey)?;
-    let init = a.init.unwrap_or([0.0; 3]);
+    let init = a.init.map_or(MapToSurvey::IDENTITY, MapToSurvey::from);
     let centres: Vec<Point> = survey
         .targets
         .iter()
-        .map(|t| expected_in_map(&init, &t.reference()))
+        .map(|t| init.to_map(&t.reference()))
         .collect();
     let mut shape = a.shape;
     if shape == Shape::Sphere && !survey.has_z() {

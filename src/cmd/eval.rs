@@ -140,7 +140,7 @@ pub fn config(a: &Args) -> Result<Config> {
         cfg.tight.plate_height = h;
     }
     if let Some(i) = a.init {
-        cfg.frame.init = Some(i);
+        cfg.frame.init = Some(i.into());
     }
     if let Some(m) = a.frame {
         cfg.frame.mode = m;
@@ -417,7 +417,7 @@ pub fn evaluate(
     // How the frame was found, where the user reads: a detected frame costs a
     // map-wide pass that --init saves next time.
     if let pipeline::FrameHow::Detected { matched, rms, .. } = &ev.frame.how {
-        let [x, y, yaw] = ev.frame.init;
+        let mapgauge::frame::MapToSurvey { x, y, yaw_deg: yaw } = ev.frame.init;
         let level = if ev.frame.levelling.is_identity() {
             ""
         } else {

@@ -8,12 +8,12 @@ use crate::survey::{Survey, SurveyOptions, read_survey};
 use crate::{Error, Point, Result};
 use std::path::Path;
 
-/// The transform the hints give: `[tx, ty, yaw_deg]` (survey = R·map + t) and
-/// the survey-minus-map height offset (0 when either lacks heights).
+/// The transform the hints give (survey = R·map + t) and the
+/// survey-minus-map height offset (0 when either lacks heights).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HintFrame {
-    /// `--init` convention.
-    pub init: [f64; 3],
+    /// Map → survey, horizontally.
+    pub init: super::MapToSurvey,
     /// Survey z minus map z.
     pub dz: f64,
     /// Hints used.
@@ -72,7 +72,7 @@ pub fn read_hints(path: &Path, survey: &Survey, motion: &RigidMotion) -> Result<
 }
 
 /// 2D rigid least squares, map → survey: (`[tx, ty, yaw_deg]`, worst residual).
-pub(crate) fn fit2d(map: &[Point], sur: &[Point]) -> ([f64; 3], f64) {
+pub(crate) fn fit2d(map: &[Point], sur: &[Point]) -> (super::MapToSurvey, f64) {
     // Local coordinates about each side's first point.
     let (o_m, o_s) = (map[0], sur[0]);
     let pairs: Vec<([f64; 2], [f64; 2])> = map
@@ -93,7 +93,12 @@ pub(crate) fn fit2d(map: &[Point], sur: &[Point]) -> ([f64; 3], f64) {
     // survey = R·(map − o_m) + t + o_s = R·map + (t + o_s − R·o_m).
     let tx = t[0] + o_s.x - (cs * o_m.x - sn * o_m.y);
     let ty = t[1] + o_s.y - (sn * o_m.x + cs * o_m.y);
-    ([tx, ty, yaw.to_degrees().rem_euclid(360.0)], worst)
+    let f = super::MapToSurvey {
+        x: tx,
+        y: ty,
+        yaw_deg: yaw.to_degrees().rem_euclid(360.0),
+    };
+    (f, worst)
 }
 
 #[cfg(test)]
@@ -102,18 +107,19 @@ mod tests {
 
     #[test]
     fn two_hints_fix_yaw_and_offset_in_utm_coordinates() {
-        let init = [352_123.0, 4_026_456.0, 233.0];
+        let init = crate::frame::MapToSurvey {
+            x: 352_123.0,
+            y: 4_026_456.0,
+            yaw_deg: 233.0,
+        };
         let sur = [
             Point::new(352_100.0, 4_026_400.0, 70.0),
             Point::new(352_160.0, 4_026_430.0, 71.0),
         ];
-        let map: Vec<Point> = sur
-            .iter()
-            .map(|p| crate::pipeline::expected_in_map(&init, p))
-            .collect();
+        let map: Vec<Point> = sur.iter().map(|p| init.to_map(p)).collect();
         let (got, worst) = fit2d(&map, &sur);
         assert!(worst < 1e-6);
-        assert!((got[0] - init[0]).abs() < 1e-5 && (got[1] - init[1]).abs() < 1e-5);
-        assert!((got[2] - init[2]).abs() < 1e-9);
+        assert!((got.x - init.x).abs() < 1e-5 && (got.y - init.y).abs() < 1e-5);
+        assert!((got.yaw_deg - init.yaw_deg).abs() < 1e-9);
     }
 }

@@ -23,8 +23,8 @@ pub struct Candidate {
 /// The map → survey transform found: survey = R(yaw)·map + t; z + dz.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameMatch {
-    /// `[tx, ty, yaw_deg]` in the convention of `--init`.
-    pub init: [f64; 3],
+    /// Map → survey, horizontally.
+    pub init: super::MapToSurvey,
     /// Survey z minus map z (median over matches; 0 without surveyed heights).
     pub dz: f64,
     /// (survey index, detection index, horizontal residual m) per match.
@@ -216,7 +216,11 @@ pub fn match_frame(
         0.0
     };
     Ok(FrameMatch {
-        init: [tx, ty, best.yaw.to_degrees().rem_euclid(360.0)],
+        init: super::MapToSurvey {
+            x: tx,
+            y: ty,
+            yaw_deg: best.yaw.to_degrees().rem_euclid(360.0),
+        },
         dz,
         rms: best.rms,
         matches: best.matches,
@@ -345,7 +349,7 @@ mod tests {
     use super::*;
 
     fn to_map(init: [f64; 3], p: &Point) -> Point {
-        crate::pipeline::expected_in_map(&init, p)
+        crate::frame::MapToSurvey::from(init).to_map(p)
     }
 
     fn survey() -> Vec<Point> {
@@ -381,8 +385,13 @@ mod tests {
             }
             let m = match_frame(&dets, &s, true, &MatchParams::default()).unwrap();
             assert_eq!(m.matches.len(), 5, "yaw {yaw}");
-            assert!((wrap((m.init[2] - yaw).to_radians())).abs().to_degrees() < 0.05);
-            assert!((m.init[0] - init[0]).abs() < 0.2 && (m.init[1] - init[1]).abs() < 0.2);
+            assert!(
+                (wrap((m.init.yaw_deg - yaw).to_radians()))
+                    .abs()
+                    .to_degrees()
+                    < 0.05
+            );
+            assert!((m.init.x - init[0]).abs() < 0.2 && (m.init.y - init[1]).abs() < 0.2);
             assert!((m.dz - 69.0).abs() < 1e-6);
         }
     }

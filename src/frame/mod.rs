@@ -10,6 +10,68 @@ pub mod matching;
 
 pub use level::{Footprint, GroundLevel, MapGround, ground_level};
 
+use crate::Point;
+
+/// How the map lies in the survey frame, horizontally: the map's origin at
+/// (`x`, `y`) of the survey frame and its +x axis `yaw_deg` anticlockwise
+/// from the survey's, so that survey = R(yaw)·map + (x, y) (heights apart).
+/// `--init X,Y,YAW_DEG` and result.json's `eval.frame.init` write it as
+/// that triple.
+///
+/// ```
+/// use mapgauge::Point;
+/// use mapgauge::frame::MapToSurvey;
+/// let f = MapToSurvey { x: 100.0, y: 50.0, yaw_deg: 90.0 };
+/// let survey = Point::new(100.0, 52.0, 1.0);
+/// let map = f.to_map(&survey);
+/// assert!((map - Point::new(2.0, 0.0, 1.0)).norm() < 1e-12);
+/// assert!((f.to_survey(&map) - survey).norm() < 1e-12);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(from = "[f64; 3]", into = "[f64; 3]")]
+pub struct MapToSurvey {
+    /// The map origin's x in the survey frame (m).
+    pub x: f64,
+    /// The map origin's y in the survey frame (m).
+    pub y: f64,
+    /// The map's +x axis from the survey's +x, anticlockwise (degrees).
+    pub yaw_deg: f64,
+}
+
+impl MapToSurvey {
+    /// The map is in the survey frame.
+    pub const IDENTITY: MapToSurvey = MapToSurvey {
+        x: 0.0,
+        y: 0.0,
+        yaw_deg: 0.0,
+    };
+
+    /// A survey-frame point in the map's frame (the height kept).
+    pub fn to_map(&self, p: &Point) -> Point {
+        let (s, c) = self.yaw_deg.to_radians().sin_cos();
+        let (dx, dy) = (p.x - self.x, p.y - self.y);
+        Point::new(c * dx + s * dy, -s * dx + c * dy, p.z)
+    }
+
+    /// A map point in the survey frame (the height kept).
+    pub fn to_survey(&self, p: &Point) -> Point {
+        let (s, c) = self.yaw_deg.to_radians().sin_cos();
+        Point::new(c * p.x - s * p.y + self.x, s * p.x + c * p.y + self.y, p.z)
+    }
+}
+
+impl From<[f64; 3]> for MapToSurvey {
+    fn from([x, y, yaw_deg]: [f64; 3]) -> Self {
+        MapToSurvey { x, y, yaw_deg }
+    }
+}
+
+impl From<MapToSurvey> for [f64; 3] {
+    fn from(f: MapToSurvey) -> Self {
+        [f.x, f.y, f.yaw_deg]
+    }
+}
+
 /// 2D rigid least squares on local coordinates: the yaw and translation with
 /// `to ≈ R(yaw)·from + t` for the pairs `(from, to)`. Callers subtract an
 /// origin first, so no large coordinate is squared.

@@ -85,9 +85,10 @@ pub struct FrameConfig {
     /// A detection matches a surveyed target within this (m) when matching
     /// frames; it must cover the map's own error.
     pub match_tolerance: f64,
-    /// Approximate map → survey transform `[x, y, yaw_deg]` (survey = R·map + t);
-    /// `None` = the map is in the survey frame to within a few metres.
-    pub init: Option<[f64; 3]>,
+    /// Approximate map → survey transform, written `[x, y, yaw_deg]`
+    /// (survey = R·map + t); `None` = the map is in the survey frame to
+    /// within a few metres.
+    pub init: Option<crate::frame::MapToSurvey>,
     /// ENU origin `[lat, lon, alt]` of a WGS84 survey (degrees, metres);
     /// `None` = the survey's first target. Used where the survey is read.
     /// `[lat, lon]` is read with alt 0, as `--origin lat,lon` is.
@@ -341,7 +342,7 @@ impl FrameConfig {
     /// Checks the initial transform, shift and tilt limits.
     pub fn validate(&self) -> Result<()> {
         if let Some(i) = self.init {
-            for v in i {
+            for v in <[f64; 3]>::from(i) {
                 range("frame.init", v, -1e8, 1e8)?;
             }
         }

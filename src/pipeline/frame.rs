@@ -14,6 +14,7 @@ use super::target::{self, Failure, FarBy, TargetRun};
 use super::{Config, FrameMode};
 use crate::cloud::{MapSource, RigidMotion};
 use crate::detect::{DetectParams, Detection, detect_map};
+use crate::frame::MapToSurvey;
 use crate::frame::hints::read_hints;
 use crate::frame::matching::{Candidate, MatchError, MatchParams, match_frame};
 use crate::frame::{GroundLevel, MapGround};
@@ -259,8 +260,8 @@ fn lean_of_heights(mut pts: Vec<(Vector2<f64>, f64)>) -> Option<(Lean, HeightsLe
 pub struct FrameFound {
     /// How the transform was found.
     pub how: FrameHow,
-    /// Map → survey, `[tx, ty, yaw_deg]` (survey = R·map + t), in the levelled frame.
-    pub init: [f64; 3],
+    /// Map → survey, horizontally, in the levelled frame.
+    pub init: MapToSurvey,
     /// Survey z minus map z used to place the crops.
     pub dz: f64,
     /// The ground's vertical, when enough ground was seen.
@@ -280,7 +281,7 @@ pub(super) fn given(
     survey: &Survey,
     cfg: &Config,
     motion: &RigidMotion,
-) -> Result<(FrameHow, [f64; 3], f64)> {
+) -> Result<(FrameHow, MapToSurvey, f64)> {
     if let Some(init) = cfg.frame.init {
         return Ok((FrameHow::Init, init, 0.0));
     }
@@ -297,7 +298,7 @@ pub(super) fn given(
             h.dz,
         ));
     }
-    Ok((FrameHow::Survey, [0.0, 0.0, 0.0], 0.0))
+    Ok((FrameHow::Survey, MapToSurvey::IDENTITY, 0.0))
 }
 
 /// Whether the first pass in the survey frame found the targets there.
@@ -384,7 +385,7 @@ pub(super) fn detect_and_match(
     total: u64,
     progress: &mut impl FnMut(u64, u64),
     reads: &mut Vec<crate::cloud::PassRead>,
-) -> std::result::Result<(FrameHow, [f64; 3], f64, Vec<Detection>), NoFrame> {
+) -> std::result::Result<(FrameHow, MapToSurvey, f64, Vec<Detection>), NoFrame> {
     // The levelling's ground was a sample; detection needs the ground under
     // every cell of the map.
     let all = if ground.sampled {

@@ -1039,7 +1039,7 @@ fn more_ups(
 /// may sit metres above or below the map's, and the crop is a cylinder.
 fn expected_positions(
     survey: &Survey,
-    init: &[f64; 3],
+    init: &crate::frame::MapToSurvey,
     dz: f64,
     level: Option<&RigidMotion>,
 ) -> Vec<Point> {
@@ -1047,7 +1047,7 @@ fn expected_positions(
         .targets
         .iter()
         .map(|t| {
-            let mut e = expected_in_map(init, &t.reference());
+            let mut e = init.to_map(&t.reference());
             e.z -= dz;
             if let Some(m) = level.filter(|m| !m.is_identity()) {
                 let q = m.apply(&Point::new(e.x, e.y, m.origin.z));
@@ -1058,15 +1058,6 @@ fn expected_positions(
             e
         })
         .collect()
-}
-
-/// Where a surveyed point `p` is expected in the map: the inverse of the
-/// approximate map → survey transform `init` (`[x, y, yaw_deg]`, survey =
-/// R(yaw)·map + (x, y)).
-pub fn expected_in_map(init: &[f64; 3], p: &Point) -> Point {
-    let (s, c) = init[2].to_radians().sin_cos();
-    let (dx, dy) = (p.x - init[0], p.y - init[1]);
-    Point::new(c * dx + s * dy, -s * dx + c * dy, p.z)
 }
 
 /// Per centre, the crop's points and how many were offered before thinning.

@@ -17,7 +17,7 @@ use crate::accuracy::{self, ScoreOptions};
 use crate::cloud::{MapSource, PassRead, RigidMotion};
 use crate::crop::{LooseParams, Shape};
 use crate::detect::Detection;
-use crate::frame::MapGround;
+use crate::frame::{MapGround, MapToSurvey};
 use crate::survey::Survey;
 use crate::{Error, Point, Result};
 use rayon::prelude::*;
@@ -92,17 +92,17 @@ struct Run<'a, R> {
 }
 
 /// The map's frame as far as it is known: how it was found, the guess of
-/// map → survey (x, y, yaw in degrees) and the vertical offset, and the
-/// detections no surveyed target took.
+/// map → survey and the vertical offset, and the detections no surveyed
+/// target took.
 struct Guess {
     how: FrameHow,
-    init: [f64; 3],
+    init: MapToSurvey,
     dz: f64,
     unmatched: Vec<Detection>,
 }
 
 impl Guess {
-    fn of((how, init, dz, unmatched): (FrameHow, [f64; 3], f64, Vec<Detection>)) -> Self {
+    fn of((how, init, dz, unmatched): (FrameHow, MapToSurvey, f64, Vec<Detection>)) -> Self {
         Guess {
             how,
             init,
@@ -217,7 +217,7 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
         &mut self,
         ground: &MapGround,
         motion: &RigidMotion,
-    ) -> std::result::Result<(FrameHow, [f64; 3], f64, Vec<Detection>), frame::NoFrame> {
+    ) -> std::result::Result<(FrameHow, MapToSurvey, f64, Vec<Detection>), frame::NoFrame> {
         let (source, survey, cfg, total) = (self.source, self.survey, self.cfg, self.total);
         let (mut progress, _, reads) = self.io();
         frame::detect_and_match(
@@ -473,7 +473,7 @@ struct FirstPass<'a> {
 /// What auto mode's detection left of a first pass that found too few.
 enum Instead {
     /// Detection matched the survey: this frame, for a first pass again.
-    Detected((FrameHow, [f64; 3], f64, Vec<crate::detect::Detection>)),
+    Detected((FrameHow, MapToSurvey, f64, Vec<Detection>)),
     /// Detection failed, but the guess found enough to align: kept.
     Kept(Vec<TargetRun>),
 }
@@ -483,7 +483,7 @@ impl FirstPass<'_> {
     /// `own`: in the map's own frame, so levelled here), each target located.
     fn run(
         &self,
-        init: &[f64; 3],
+        init: &MapToSurvey,
         dz: f64,
         own: bool,
         map: &mut MapStats,
@@ -541,10 +541,7 @@ impl FirstPass<'_> {
     #[allow(clippy::result_large_err)]
     fn instead(
         &self,
-        detected: std::result::Result<
-            (FrameHow, [f64; 3], f64, Vec<crate::detect::Detection>),
-            frame::NoFrame,
-        >,
+        detected: std::result::Result<(FrameHow, MapToSurvey, f64, Vec<Detection>), frame::NoFrame>,
         how: &FrameHow,
         found: Vec<TargetRun>,
         map_name: &str,

@@ -218,7 +218,7 @@ fn frame_info(f: &FrameFound) -> FrameInfo {
     let heights = f.plumb.as_ref().and_then(|p| p.heights.as_ref());
     FrameInfo {
         how: f.how.name().into(),
-        init: f.init,
+        init: f.init.into(),
         dz: f.dz,
         levelling: Levelling {
             tilt_deg: f.levelling.tilt_deg(),
