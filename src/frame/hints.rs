@@ -71,7 +71,7 @@ pub fn read_hints(path: &Path, survey: &Survey, motion: &RigidMotion) -> Result<
     })
 }
 
-/// 2D rigid least squares, map → survey: (`[tx, ty, yaw_deg]`, worst residual).
+/// 2D rigid least squares, map → survey: (the transform, worst residual).
 pub(crate) fn fit2d(map: &[Point], sur: &[Point]) -> (super::MapToSurvey, f64) {
     // Local coordinates about each side's first point.
     let (o_m, o_s) = (map[0], sur[0]);

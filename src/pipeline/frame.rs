@@ -260,7 +260,8 @@ fn lean_of_heights(mut pts: Vec<(Vector2<f64>, f64)>) -> Option<(Lean, HeightsLe
 pub struct FrameFound {
     /// How the transform was found.
     pub how: FrameHow,
-    /// Map → survey, horizontally, in the levelled frame.
+    /// Map → survey, horizontally: of the map as stored for `--init` and the
+    /// survey frame, of the levelled map for hints and detection.
     pub init: MapToSurvey,
     /// Survey z minus map z used to place the crops.
     pub dz: f64,

@@ -1,5 +1,5 @@
 //! The evaluation as its steps, in the order they run (issue 32): the
-//! ground pass, the first guess at the map's frame, the first pass at it,
+//! ground pass, the first levelling, the first guess at the map's frame, the first pass at it,
 //! detection instead when that found too few, the targets' plumb lines,
 //! the search again, the objects checked against the target and each
 //! other, the score. [`evaluate`] is that list; each step is a method of

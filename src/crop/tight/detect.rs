@@ -538,18 +538,19 @@ fn check_l(
             ));
         }
         planar[k] = excess;
-        // ... and a rectangle: at every height it spans its width. A slanted
-        // object crossing the plane (a pipe, a machine's sloping face)
-        // holds a short stretch at each height, the stretches stepping
-        // along the plate (issue 30: a pump room's machine base).
+        // ... and a rectangle: its points span its width at each height or
+        // its band at each place along it. A slanted object crossing the
+        // plane (a pipe, a machine's sloping face) does neither (issue 30:
+        // a pump room's machine base).
         let (c, sign) = placed[k];
-        if let Some(share) = rows_spanning(&planes[k].slab, c, sign, lo, hi, w)
-            && share < MIN_SPANNING_SHARE
+        if let [Some(rows), Some(columns)] = spanning(&planes[k].slab, c, sign, lo, hi, w)
+            && rows.max(columns) < MIN_SPANNING_SHARE
         {
             no!(format!(
-                "plate {}'s points do not span its width at each height ({:.0} % of them in rows that do): a slanted object, not a plate",
+                "plate {}'s points do not fill a rectangle ({:.0} % of them in rows spanning its width, {:.0} % in columns spanning its height): a slanted object, not a plate",
                 k + 1,
-                100.0 * share
+                100.0 * rows,
+                100.0 * columns
             ));
         }
     }
@@ -595,58 +596,75 @@ fn check_l(
     })
 }
 
-/// The share of a plate's slab points (`slab`: raw position along the
-/// plate, height; `c`, `sign`: the corner and the side, as `check_l` placed
-/// them) in the band `lo..hi` that lie in rows spanning the plate's width:
-/// of the `SPAN_ROW`-tall rows with `MIN_ROW_POINTS` or more points over
-/// the plate, those whose 5th-95th percentile stretch along it is at least
-/// `MIN_ROW_SPAN` of the width `w`. A LiDAR's scan line crosses a plate
-/// from edge to edge, and so does every row of a TLS scan; hidden parts
-/// (grass, a barrier below, returns thinned) leave rows empty or sparse,
-/// not short. `None` when the rows counted hold too few points to say (a
-/// far or sparse target: `MIN_SPAN_EVIDENCE`).
-fn rows_spanning(slab: &[(f64, f64)], c: f64, sign: f64, lo: f64, hi: f64, w: f64) -> Option<f64> {
+/// How far a plate's slab points (`slab`: raw position along the plate,
+/// height; `c`, `sign`: the corner and the side, as `check_l` placed them)
+/// in the band `lo..hi` fill a rectangle: the share of them in `SPAN_ROW`
+/// rows that stretch `MIN_SPAN` of the width, and the share in `SPAN_COLUMNS`
+/// columns that stretch `MIN_SPAN` of the band's height (each stretch from
+/// the 5th to the 95th percentile, over cells of `MIN_CELL_POINTS` or more).
+/// A plate's points fill it: a scan line crossing it level makes rows that
+/// span it, one crossing it aslant (a sensor above the plate, the plate
+/// turned) rows that do not, but then every column meets every line; hidden
+/// parts (grass, a barrier below, returns thinned) leave cells sparse, not
+/// short. A slanted object crossing the plane (a machine's sloping face)
+/// holds a short stretch at each height and a short one at each place
+/// along: both shares low. Each is `None` without `MIN_SPAN_EVIDENCE` (a far
+/// or sparse plate, a rosette's few petals).
+fn spanning(slab: &[(f64, f64)], c: f64, sign: f64, lo: f64, hi: f64, w: f64) -> [Option<f64>; 2] {
     let n_rows = ((hi - lo) / SPAN_ROW).ceil().max(1.0) as usize;
     let mut rows: Vec<Vec<f64>> = vec![Vec::new(); n_rows];
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); SPAN_COLUMNS];
     for &(x, z) in slab {
         let t = (x - c) * sign;
         if z > lo && z < hi && t > 0.0 && t < w {
-            let r = (((z - lo) / SPAN_ROW) as usize).min(n_rows - 1);
-            rows[r].push(t);
+            rows[(((z - lo) / SPAN_ROW) as usize).min(n_rows - 1)].push(t);
+            columns[((t / w * SPAN_COLUMNS as f64) as usize).min(SPAN_COLUMNS - 1)].push(z);
         }
     }
-    let (mut counted, mut spanning, mut rows_counted) = (0usize, 0usize, 0usize);
-    for mut r in rows {
-        if r.len() < MIN_ROW_POINTS {
+    [
+        spanning_share(rows, MIN_SPAN * w),
+        spanning_share(columns, MIN_SPAN * (hi - lo)),
+    ]
+}
+
+/// The share of the points of `cells` (those with `MIN_CELL_POINTS` or
+/// more) in cells whose 5th–95th percentile stretch is at least `need`;
+/// `None` without `MIN_SPAN_EVIDENCE`.
+fn spanning_share(cells: Vec<Vec<f64>>, need: f64) -> Option<f64> {
+    let (mut counted, mut spanning, mut judged) = (0usize, 0usize, 0usize);
+    for mut v in cells {
+        if v.len() < MIN_CELL_POINTS {
             continue;
         }
-        rows_counted += 1;
-        r.sort_unstable_by(f64::total_cmp);
-        let n = r.len();
-        let stretch = r[n - 1 - n / 20] - r[n / 20];
+        judged += 1;
+        v.sort_unstable_by(f64::total_cmp);
+        let n = v.len();
         counted += n;
-        if stretch >= MIN_ROW_SPAN * w {
+        if v[n - 1 - n / 20] - v[n / 20] >= need {
             spanning += n;
         }
     }
-    (counted >= MIN_SPAN_EVIDENCE.0 && rows_counted >= MIN_SPAN_EVIDENCE.1)
+    (counted >= MIN_SPAN_EVIDENCE.0 && judged >= MIN_SPAN_EVIDENCE.1)
         .then(|| spanning as f64 / counted as f64)
 }
 
-/// Points and rows `rows_spanning` needs to judge a plate: a sparse plate's
-/// few rows are arcs of whichever scan lines crossed it (a rosette's petals
+/// Points and cells `spanning_share` needs to judge: a sparse plate's few
+/// rows are arcs of whichever scan lines crossed it (a rosette's petals
 /// cross a plate in part), and a row of 20 points may be one short arc.
 const MIN_SPAN_EVIDENCE: (usize, usize) = (200, 3);
-
-/// Rows of `rows_spanning` (m): a scan line's returns on a plate lie
+/// Rows of `spanning` (m): a level scan line's returns on a plate lie
 /// within a few centimetres of one height.
 const SPAN_ROW: f64 = 0.05;
-/// Fewest points over the plate in a row whose stretch counts.
-const MIN_ROW_POINTS: usize = 20;
-/// A row spans the plate when its points stretch this share of its width
-/// (a whole row stretches ~0.9 between its 5th and 95th percentiles).
-const MIN_ROW_SPAN: f64 = 0.6;
-/// A plate has at least this share of its counted points in spanning rows.
+/// Columns of `spanning` across a plate's width.
+const SPAN_COLUMNS: usize = 6;
+/// Fewest points in a row or column whose stretch counts.
+const MIN_CELL_POINTS: usize = 20;
+/// A row or column spans the plate when its points stretch this share of
+/// the plate's width or band (a whole one stretches ~0.9 between its 5th
+/// and 95th percentiles).
+const MIN_SPAN: f64 = 0.6;
+/// A plate has at least this share of its counted points in spanning rows,
+/// or in spanning columns.
 const MIN_SPANNING_SHARE: f64 = 0.5;
 
 /// One histogram peak's plane in a window: the points within the shells'
@@ -836,9 +854,9 @@ const BUCKET: f64 = 0.005;
 
 impl Indexed {
     fn new(mut v: Vec<f64>) -> Self {
-        // `near` is in height order (`PlanePoints`), so the lists are too:
-        // sorting a sorted list is one pass, kept so that the index holds
-        // for any input (the unit tests' shuffled plates).
+        // `ByHeight` hands over a sorted list (`near` is in height order,
+        // `PlanePoints`): the check is one pass, kept so that the index
+        // holds for any input.
         if !v.is_sorted_by(|a, b| a.total_cmp(b).is_le()) {
             v.sort_unstable_by(f64::total_cmp);
         }
@@ -1234,12 +1252,13 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
-    /// A plate spans its width at every height, also with its lower part
-    /// hidden or most returns thinned away; a slanted object's stretches
-    /// step along the plane (the pump room's machine base); a plate of a
-    /// few rays says nothing.
+    /// A plate's points fill a rectangle: rows span it (also with its
+    /// lower part hidden or most returns thinned away), or, where scan
+    /// lines cross it aslant, columns do; a slanted object's stretches step
+    /// along the plane and do neither (the pump room's machine base); a
+    /// plate of a few rays says nothing.
     #[test]
-    fn rows_span_a_plate_not_a_slanted_object() {
+    fn a_plate_fills_a_rectangle_a_slanted_object_does_not() {
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
         let w = 0.6;
         // Raw positions run the other way from a corner at 2.0 (sign -1).
@@ -1250,18 +1269,41 @@ mod tests {
                 .map(|_| at(rng.random_range(0.0..w), rng.random_range(z0..0.6)))
                 .collect()
         };
-        let share = |slab: &[(f64, f64)]| rows_spanning(slab, c, sign, 0.0, 0.6, w);
-        assert_eq!(share(&plate(3000, 0.0, &mut rng)), Some(1.0));
-        assert_eq!(share(&plate(1500, 0.35, &mut rng)), Some(1.0));
-        // A 0.2 m stretch stepping 0.4 m along the plate over its height.
+        let fills = |slab: &[(f64, f64)]| match spanning(slab, c, sign, 0.0, 0.6, w) {
+            [Some(r), Some(k)] => Some(r.max(k) >= MIN_SPANNING_SHARE),
+            _ => None,
+        };
+        assert_eq!(
+            spanning(&plate(3000, 0.0, &mut rng), c, sign, 0.0, 0.6, w),
+            [Some(1.0); 2]
+        );
+        assert_eq!(fills(&plate(1500, 0.35, &mut rng)), Some(true));
+        // A spinning LiDAR above a turned plate: each ring climbs 10 cm
+        // across it, the rings 14 cm apart; rows fail, columns hold.
+        let rings: Vec<(f64, f64)> = (0..3000)
+            .map(|i| {
+                let t: f64 = rng.random_range(0.0..w);
+                at(t, 0.02 + 0.14 * (i % 4) as f64 + t / w * 0.1)
+            })
+            .collect();
+        let [rows, columns] = spanning(&rings, c, sign, 0.0, 0.6, w);
+        assert!(rows.is_some_and(|r| r < MIN_SPANNING_SHARE), "{rows:?}");
+        assert!(
+            columns.is_some_and(|k| k >= MIN_SPANNING_SHARE),
+            "{columns:?}"
+        );
+        // A 0.2 m stretch stepping 0.36 m along the plate over its height.
         let slanted: Vec<(f64, f64)> = (0..3000)
             .map(|_| {
                 let z: f64 = rng.random_range(0.0..0.6);
                 at(0.05 + 0.6 * z + rng.random_range(0.0..0.2), z)
             })
             .collect();
-        assert!(share(&slanted).is_some_and(|s| s < MIN_SPANNING_SHARE));
-        assert_eq!(share(&plate(60, 0.0, &mut rng)), None);
+        assert_eq!(fills(&slanted), Some(false));
+        assert_eq!(
+            spanning(&plate(60, 0.0, &mut rng), c, sign, 0.0, 0.6, w),
+            [None; 2]
+        );
     }
 
     /// The row walk, up and down, counts what `planar_count` counts row by
