@@ -328,7 +328,8 @@ fn local() -> SurveyFrame {
 impl ResultFile {
     /// Every caveat of the result, signal first: the ranked warnings (what
     /// may make a number wrong leads), then the accuracy standard's stock
-    /// ones (NSSDA/ASPRS), as eval's terminal summary and the report say them.
+    /// ones (NSSDA/ASPRS), as the report lists them (eval's terminal summary
+    /// folds the stock ones, with "vertical not reported", into one note).
     pub fn caveats(&self) -> impl Iterator<Item = &String> {
         self.warnings.iter().chain(&self.asprs.warnings)
     }

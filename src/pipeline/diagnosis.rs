@@ -1,0 +1,282 @@
+//! Why a run could not score, told from what each surveyed place showed:
+//! nothing, L's of another size than `--plate-size`, targets elsewhere in
+//! the map (another frame), a survey of another map (issue 31). Only the
+//! failure paths of the evaluation read this.
+
+use super::*;
+
+/// A map too spread out to be in metres, set against the survey: a map in
+/// millimetres spans a thousand times the site the survey covers.
+pub(super) fn against_survey(e: Error, survey: &Survey) -> Error {
+    match e {
+        Error::NotMetres { extent, msg: m } => {
+            let (lo, hi) = survey.targets.iter().fold(
+                ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+                |(lo, hi), t| {
+                    let p = t.position;
+                    (
+                        [lo[0].min(p.x), lo[1].min(p.y)],
+                        [hi[0].max(p.x), hi[1].max(p.y)],
+                    )
+                },
+            );
+            let span = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+            let msg = if span.is_finite() {
+                format!("{m}. The survey's targets span {span:.0} m")
+            } else {
+                m
+            };
+            Error::NotMetres { extent, msg }
+        }
+        e => e,
+    }
+}
+
+/// What the surveyed places showed, counted by kind: "4 nothing standing
+/// above the ground, 1 no target-shaped object (closest: …)".
+pub(super) fn places_seen(found: &[TargetRun]) -> String {
+    let mut kinds: Vec<(String, usize)> = Vec::new();
+    let mut closest: Option<&crop::Seen> = None;
+    for r in found {
+        let kind = match &r.outcome {
+            Ok(_) => "a target located",
+            Err(Failure::NoLoosePoints) | Err(Failure::Tight(crop::TightError::NoPoints)) => {
+                "no map points"
+            }
+            Err(Failure::Tight(crop::TightError::NothingAboveGround { .. })) => {
+                "nothing standing above the ground"
+            }
+            Err(Failure::Tight(crop::TightError::NoTargetShape { seen, .. })) => {
+                if let Some(s) = seen
+                    && closest.is_none_or(|c| s.from_expected < c.from_expected)
+                {
+                    closest = Some(s);
+                }
+                "no target-shaped object"
+            }
+            Err(Failure::Locate(_)) => "a target-shaped object that could not be located",
+            Err(_) => "an object refused by the checks",
+        };
+        match kinds.iter_mut().find(|k| k.0 == kind) {
+            Some(k) => k.1 += 1,
+            None => kinds.push((kind.to_string(), 1)),
+        }
+    }
+    kinds.sort_by_key(|k| std::cmp::Reverse(k.1));
+    let mut s = kinds
+        .iter()
+        .map(|(k, n)| format!("{n} {k}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if let Some(c) = closest {
+        s += &format!(" (the closest object seen: {})", c.what);
+    }
+    s
+}
+
+/// The error when the targets are not where the survey places them and
+/// detection found no frame: what each told, and the mistakes that fit
+/// (a map in another frame only when the map holds target-shaped objects).
+pub(super) fn not_there(
+    map: &str,
+    found: &[TargetRun],
+    detections: usize,
+    why: &crate::frame::matching::MatchError,
+    cfg: &Config,
+) -> Error {
+    let places = places_seen(found);
+    let n = found.len();
+    if detections == 0 {
+        return Error::FrameNotFound {
+            detections,
+            msg: format!(
+                "{map}: no target where the survey places them (of its {n} places: {places}), and none anywhere else: detection map-wide found no target-shaped object. The map holds none of the surveyed targets: is it the map of this survey's site, made while the targets stood? (For plates of another size than {:.2} × {:.2} m, give --plate-size W,H)",
+                cfg.tight.plate_width, cfg.tight.plate_height
+            ),
+        };
+    }
+    Error::FrameNotFound {
+        detections,
+        msg: format!(
+            "{map}: no target where the survey places them (of its {n} places: {places}); detection map-wide found {detections} target-shaped object(s), but {why}. Either the map is in another frame than the survey ({}), or the survey does not describe the targets in this map (another site, another survey file)",
+            frame::NoFrame::remedy(why)
+        ),
+    }
+}
+
+/// The error when too few targets were located to align: which were not and
+/// why, and the remedy that fits the survey's frame.
+pub(super) fn too_few_found(
+    found: &[TargetRun],
+    survey: &Survey,
+    n_found: usize,
+    need: usize,
+    cfg: &Config,
+    map: &str,
+    how: &FrameHow,
+) -> Error {
+    let why: Vec<String> = found
+        .iter()
+        .filter_map(|r| r.outcome.as_ref().err().map(|e| format!("{}: {e}", r.id)))
+        .collect();
+    let mut msg = format!(
+        "{map}: only {n_found} of {} targets found in the map (need {need} for {})",
+        survey.targets.len(),
+        cfg.metrics.align.name(),
+    );
+    // Objects located where the survey says, but in a layout no map bends
+    // to: the survey (or the unit) is the first suspect, not the frame.
+    if found
+        .iter()
+        .any(|r| matches!(r.outcome, Err(Failure::OffLayout { alone: false, .. })))
+    {
+        let off: Vec<String> = found
+            .iter()
+            .filter_map(|r| match &r.outcome {
+                Err(Failure::OffLayout {
+                    misfit, distance, ..
+                }) if *misfit > 0.0 => {
+                    Some(format!("{} {misfit:.2} m off over {distance:.1} m", r.id))
+                }
+                _ => None,
+            })
+            .collect();
+        msg += &format!(
+            ". The objects located at the surveyed places do not stand as the survey places them (their distances to each other: {})",
+            off.join(", ")
+        );
+        if let Some(r) = frame::distance_ratio(&frame::placed(found), survey) {
+            msg += &format!("; map distances are {r:.3} × the survey's, median over the pairs");
+        }
+        msg += ", by more than a working map's error: check the survey's positions, ids and unit (metres, both files), that these objects are the targets, and the map itself (a failed loop closure bends a map by metres)";
+        return Error::TooFewFound {
+            found: n_found,
+            need,
+            msg,
+        };
+    }
+    // The plates' size first: the frame is not to blame.
+    if let Some(size) = other_plate_size(found, cfg) {
+        msg += ". ";
+        msg += &size;
+        return Error::TooFewFound {
+            found: n_found,
+            need,
+            msg,
+        };
+    }
+    if !why.is_empty() {
+        msg += "; ";
+        msg += &why[..why.len().min(5)].join("; ");
+        if why.len() > 5 {
+            msg += "; ...";
+        }
+    }
+    if survey.targets.len() < need {
+        msg += &format!(
+            ". The survey has {} target(s): {need} are needed to align",
+            survey.targets.len()
+        );
+    } else if let FrameHow::Detected { matched, .. } = how {
+        msg += &format!(
+            ". The map's frame was found by matching {} detected targets to the survey, but they could not be located there (see the reasons above)",
+            matched.len()
+        );
+    } else if n_found
+        + found
+            .iter()
+            .filter(|r| matches!(r.outcome, Err(Failure::Doubled(_))))
+            .count()
+        >= need
+    {
+        // Counting the targets seen twice, enough were where the survey
+        // puts them: the frame is right, the map has a seam.
+        msg += ". Targets mapped twice are where the survey places them: the map has a seam there (a loop closed badly?), which no frame or flag can mend; each such target's reason names its copies";
+    } else if n_found < survey.targets.len()
+        && !found
+            .iter()
+            .all(|r| r.outcome.is_ok() || matches!(r.outcome, Err(Failure::HandCrop(_))))
+    {
+        msg += &match (survey.frame, survey.origin) {
+            (crate::survey::SurveyFrame::Wgs84Enu, Some(o)) => format!(
+                ". The survey is WGS84, placed in a local east-north-up frame about {:.7}, {:.7}; if the map's origin is elsewhere, give --origin LAT,LON[,ALT] of the map's origin (and --init x,y,yaw_deg if its axes are not east and north)",
+                o.lat, o.lon
+            ),
+            // Told to look in the survey frame only: detection never ran.
+            _ if cfg.frame.mode == config::FrameMode::Survey => ". Is the map in the survey frame? If not, run without --frame survey (eval then looks for the targets map-wide) or give --init x,y,yaw_deg".into(),
+            _ => ". Is the map in the survey frame? If not, give --init x,y,yaw_deg".into(),
+        };
+    }
+    Error::TooFewFound {
+        found: n_found,
+        need,
+        msg,
+    }
+}
+
+/// The sentence for L's of one other size seen at two or more of the
+/// surveyed places (refused for their size alone): the plates are likely not
+/// the configured ones, which every later message would hide.
+pub(super) fn other_plate_size(found: &[TargetRun], cfg: &Config) -> Option<String> {
+    let sizes: Vec<[f64; 3]> = found
+        .iter()
+        .filter_map(|r| match &r.outcome {
+            Err(Failure::Tight(crop::TightError::NoTargetShape { seen: Some(s), .. })) => s
+                .plate_size
+                .as_ref()
+                .map(|s| s.map(|v| v.unwrap_or(f64::NAN))),
+            _ => None,
+        })
+        .collect();
+    if sizes.len() < 2 {
+        return None;
+    }
+    // Per dimension, over the places where it was measured.
+    let median = |ks: &[usize]| {
+        let mut v: Vec<f64> = sizes
+            .iter()
+            .flat_map(|s| ks.iter().map(|&k| s[k]))
+            .filter(|v| v.is_finite())
+            .collect();
+        v.sort_unstable_by(f64::total_cmp);
+        v.get(v.len() / 2).copied()
+    };
+    let (w, h) = (median(&[0, 1]), median(&[2]));
+    let (cw, ch) = (cfg.tight.plate_width, cfg.tight.plate_height);
+    let off = |m: Option<f64>, c: f64| m.is_some_and(|m| (m - c).abs() > 0.15 * c);
+    if !off(w, cw) && !off(h, ch) {
+        return None;
+    }
+    // The same L at each place: what was measured within a sixth of the median.
+    let near = |v: f64, m: Option<f64>| !v.is_finite() || m.is_none_or(|m| (v - m).abs() < m / 6.0);
+    let alike = sizes
+        .iter()
+        .filter(|s| near(s[0], w) && near(s[1], w) && near(s[2], h))
+        .count();
+    let said = |m: Option<f64>, what: &str| m.map(|m| format!("{m:.2} m {what}"));
+    let size: Vec<String> = [said(w, "wide"), said(h, "tall")]
+        .into_iter()
+        .flatten()
+        .collect();
+    let flag = format!("{:.2},{:.2}", w.unwrap_or(cw), h.unwrap_or(ch));
+    // The same L at two places or more, and at half of those that showed an
+    // L-like object at all: two kerbs among ten places are not a plate size.
+    let shown = found
+        .iter()
+        .filter(|r| {
+            matches!(
+                r.outcome,
+                Err(Failure::Tight(crop::TightError::NoTargetShape {
+                    seen: Some(_),
+                    ..
+                }))
+            )
+        })
+        .count();
+    (alike >= 2 && 2 * alike >= shown).then(|| {
+        format!(
+            "L's of other plates than configured stand at {alike} of the surveyed places: plates about {} (where measured), against {cw},{ch} m configured (--plate-size). Is that their size? If so, give --plate-size {flag} (a hidden lower part makes an L look shorter; if they are not the targets, the map may be in another frame: --init x,y,yaw_deg)",
+            size.join(", ")
+        )
+    })
+}
