@@ -145,7 +145,7 @@ pub(super) fn too_few_found(
             ". The objects located at the surveyed places do not stand as the survey places them (their distances to each other: {})",
             off.join(", ")
         );
-        if let Some(r) = frame::distance_ratio(&frame::placed(found), survey) {
+        if let Some(r) = layout::distance_ratio(&layout::placed(found), survey) {
             msg += &format!("; map distances are {r:.3} × the survey's, median over the pairs");
         }
         msg += ", by more than a working map's error: check the survey's positions, ids and unit (metres, both files), that these objects are the targets, and the map itself (a failed loop closure bends a map by metres)";
@@ -279,4 +279,52 @@ pub(super) fn other_plate_size(found: &[TargetRun], cfg: &Config) -> Option<Stri
             size.join(", ")
         )
     })
+}
+
+/// Fewer finite points than this is not a map (see `run`).
+const MIN_MAP_POINTS: u64 = 100;
+
+/// A float32 map whose coordinates are rounded to this step (m) or more is
+/// refused: a uniform rounding of 0.1 m is 29 mm of noise on every point,
+/// beyond a LiDAR map's own.
+const FLOAT32_REFUSED_STEP: f64 = 0.1;
+
+/// What the ground pass says of the map before anything is located: too few
+/// points to be a map (`needs_points`: not when hand crops are given), or
+/// float32 coordinates too far from their origin to measure anything.
+pub(super) fn check_map(
+    map: &MapStats,
+    ground: &crate::frame::MapGround,
+    needs_points: bool,
+    warnings: &mut Vec<Warning>,
+) -> Result<()> {
+    // A located target alone takes hundreds of points: a "map" of fewer than
+    // a hundred is another file (the survey, a list of positions) given as
+    // the map, and every later message (no frame found, no target) would
+    // hide that.
+    if needs_points && map.points < MIN_MAP_POINTS {
+        return Err(Error::Input(format!(
+            "{}: only {} finite points{}; a map holds thousands around each target: is this the map?",
+            map.name,
+            map.points,
+            if map.skipped_nonfinite > 0 {
+                format!(" ({} non-finite skipped)", map.skipped_nonfinite)
+            } else {
+                String::new()
+            }
+        )));
+    }
+    if let Some((step_m, reach_m)) = ground.float32_step {
+        let w = Warning::Float32Steps { step_m, reach_m };
+        // Rounding of a tenth of a metre (coordinates beyond 1 048 576 m: UTM
+        // northings) is noise no plate fit averages away; below, a warning.
+        if step_m >= FLOAT32_REFUSED_STEP {
+            return Err(Error::Input(format!(
+                "{}: {w}. At that step no target can be measured: refused",
+                map.name
+            )));
+        }
+        warnings.push(w);
+    }
+    Ok(())
 }

@@ -3,7 +3,7 @@
 //! common vertical.
 
 use super::target::{self, Pass, TargetRun};
-use super::{Config, frame, read_crops};
+use super::{Config, layout, read_crops};
 use crate::accuracy::{self, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};
 use crate::crop::LooseParams;
@@ -41,13 +41,13 @@ impl Search<'_> {
         progress: &mut impl FnMut(u64, u64),
         reads: &mut Vec<crate::cloud::PassRead>,
     ) -> Result<Vec<(usize, f64, f64, target::FarBy)>> {
-        let mut far = frame::far_from_others(found, self.survey, self.opts);
+        let mut far = layout::far_from_others(found, self.survey, self.opts);
         if self.cfg.frame.second_pass || !far.is_empty() {
             pass.set("second-pass");
             self.second_pass(found, &far, progress, reads)?;
         }
         common_vertical(found, self.cfg);
-        let late: Vec<_> = frame::far_from_others(found, self.survey, self.opts)
+        let late: Vec<_> = layout::far_from_others(found, self.survey, self.opts)
             .into_iter()
             .filter(|l| !far.iter().any(|f| f.0 == l.0))
             .collect();

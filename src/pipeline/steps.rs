@@ -7,7 +7,7 @@
 
 use super::frame::{self, FrameHow};
 use super::target::{self, Pass, TargetRun};
-use super::{Config, not_there, other_plate_size};
+use super::{Config, not_there, other_plate_size, vertical};
 use super::{
     Evaluation, Failed, FrameFound, MapStats, Progress, Warning, against_survey, check_found,
     check_map, config, expected_positions, first_levelling, more_ups, others_than, passes,
@@ -308,7 +308,7 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
         &mut self,
         targets: &mut Targets,
         motion: &mut RigidMotion,
-    ) -> Option<frame::Plumb> {
+    ) -> Option<vertical::Plumb> {
         refine_vertical(
             &mut targets.found,
             &mut targets.expected,
@@ -434,11 +434,15 @@ fn ground_pass(
 /// survey's σ, and, for a turned frame, its vertical's standard error:
 /// shared by every target, it goes into the intervals as one tilt per draw,
 /// and into each target's covariance as what it does there alone.
-fn score_options(cfg: &Config, motion: &RigidMotion, plumb: Option<&frame::Plumb>) -> ScoreOptions {
+fn score_options(
+    cfg: &Config,
+    motion: &RigidMotion,
+    plumb: Option<&vertical::Plumb>,
+) -> ScoreOptions {
     let vertical = (!motion.is_identity()).then(|| accuracy::Vertical {
         origin: motion.origin,
         // Of the angle: half its square in each direction.
-        se_rad: frame::vertical_se_deg(plumb).to_radians() / std::f64::consts::SQRT_2,
+        se_rad: vertical::vertical_se_deg(plumb).to_radians() / std::f64::consts::SQRT_2,
     });
     ScoreOptions {
         method: cfg.metrics.align,

@@ -21,13 +21,13 @@
 //!    corner, inside the plates' height band (the post below and the antenna
 //!    above are dropped, so the corner height is the plates' mean height).
 
-mod detect;
+mod finder;
 mod ground;
 #[cfg(test)]
 mod tests;
 
 use crate::Point;
-use detect::detect_l;
+use finder::find_l;
 use ground::Ground;
 use nalgebra::Vector3;
 
@@ -240,7 +240,7 @@ pub fn tight_crop_among(
     } else {
         &ap
     };
-    let (best, candidates, best_score, seen) = detect_l(seen_by_finder, &up, params, &others);
+    let (best, candidates, best_score, seen) = find_l(seen_by_finder, &up, params, &others);
     let seen = seen.map(|r| {
         let at = expected + r.corner;
         let decided = r.along.iter().all(|a| a.norm() > 0.5);
