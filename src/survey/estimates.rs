@@ -74,14 +74,7 @@ pub fn read_estimates(path: &Path) -> Result<Vec<Estimate>> {
     let mut out = Vec::with_capacity(t.rows.len());
     for (line, rec) in &t.rows {
         let line = *line;
-        let id = t.field(line, rec, id_c, "id")?.to_string();
-        if !seen.insert(id.clone()) {
-            return Err(Error::table(
-                path,
-                line,
-                format!("duplicate target id `{id}`"),
-            ));
-        }
+        let id = t.unique_id(line, rec, id_c, &mut seen)?;
         let empty = |c: usize| rec.get(c).is_none_or(|s| s.is_empty());
         let status = status_c.and_then(|c| rec.get(c));
         // (An excluded row keeps its position: `errors` judges it again.)

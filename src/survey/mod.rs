@@ -225,14 +225,7 @@ pub fn read_survey_for_map(
     let mut geo = Vec::new();
     for (line, rec) in &t.rows {
         let line = *line;
-        let id = t.field(line, rec, id_c, "id")?.to_string();
-        if !seen.insert(id.clone()) {
-            return Err(Error::table(
-                path,
-                line,
-                format!("duplicate target id `{id}`"),
-            ));
-        }
+        let id = t.unique_id(line, rec, id_c, &mut seen)?;
         let a = t.number(line, rec, c1, n1)?;
         let b = t.number(line, rec, c2, n2)?;
         let c = t.opt_number(line, rec, c3, n3)?;

@@ -121,6 +121,25 @@ impl Table {
             .position(|h| names.contains(&h.as_str()))
     }
 
+    /// The row's target id, refused when an earlier row had it (`seen`).
+    pub(super) fn unique_id(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        col: usize,
+        seen: &mut HashSet<String>,
+    ) -> Result<String> {
+        let id = self.field(line, rec, col, "id")?.to_string();
+        if !seen.insert(id.clone()) {
+            return Err(Error::table(
+                &self.path,
+                line,
+                format!("duplicate target id `{id}`"),
+            ));
+        }
+        Ok(id)
+    }
+
     pub(super) fn field<'a>(
         &self,
         line: u64,
