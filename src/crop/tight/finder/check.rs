@@ -18,32 +18,77 @@ pub(super) fn check_l(
     planes: [&PlanePoints; 2],
     score: usize,
 ) -> Result<LShape, Rejected> {
-    let w = p.plate_width;
     let corner = na * oa + nb * ob;
-    let mut along = [Vector3::zeros(); 2];
     // Refused, with what was seen and where (the faces as far as decided),
     // and its size when that alone refused it.
+    let mut along = [Vector3::zeros(); 2];
     let mut size = None;
-    macro_rules! no {
-        ($why:expr) => {
-            return Err(Rejected {
-                score,
-                why: $why,
-                corner,
-                along,
-                size,
-            })
-        };
-    }
-    let mut width = [0.0; 2];
-    // Each plate's near points: (distance from the plane, along the plate
-    // from the corner, height). The side of the corner the plate lies on is
-    // the side most of its slab points near the corner are.
+    let mut seen = Seen {
+        along: &mut along,
+        size: &mut size,
+    };
+    let judged = (|| {
+        let (near, placed) = place_plates(p, [nb, na], corner, planes, &mut seen)?;
+        let (lo, hi) = choose_band(p, &near, &mut seen)?;
+        let mut plates = [PlateSeen::default(); 2];
+        for k in 0..2 {
+            plates[k] = plate_in_band(p, k, planes[k], placed[k], &near[k], (lo, hi), &mut seen)?;
+        }
+        check_size(p, &plates, (lo, hi), &mut seen)?;
+        Ok(LShape {
+            n: [na, nb],
+            off: [oa, ob],
+            along: *seen.along,
+            corner,
+            band: (lo, hi),
+            score: plates[0].planar.min(plates[1].planar),
+            widths: [plates[0].width, plates[1].width],
+        })
+    })();
+    judged.map_err(|why| Rejected {
+        score,
+        why,
+        corner,
+        along,
+        size,
+    })
+}
+
+/// What a refusal reports besides its reason: the faces as far as decided,
+/// and the L's size when that alone refused it.
+struct Seen<'a> {
+    along: &'a mut [Vector3<f64>; 2],
+    size: &'a mut Option<Box<[f64; 3]>>,
+}
+
+/// One plate as the band saw it: its width (95th percentile of its points'
+/// distance from the corner), its points in the band, and those of its plane
+/// that stand out from their surroundings (the L's support).
+#[derive(Clone, Copy, Default)]
+struct PlateSeen {
+    width: f64,
+    count: usize,
+    planar: usize,
+}
+
+/// Each plate's side of the corner (the side most of its slab points near
+/// the corner are on) and its near points measured from the corner along
+/// it; per plate, the corner's position along its plane and the side.
+/// `dirs` are the directions along the plates (plate k runs along the other
+/// plate's normal).
+#[allow(clippy::type_complexity)]
+fn place_plates(
+    p: &TightParams,
+    dirs: [Vector3<f64>; 2],
+    corner: Vector3<f64>,
+    planes: [&PlanePoints; 2],
+    seen: &mut Seen,
+) -> Result<([Vec<Near>; 2], [(f64, f64); 2]), String> {
+    let w = p.plate_width;
     // Ordered by height, as their planes' points are.
     let mut near: [Vec<Near>; 2] = [Vec::new(), Vec::new()];
-    // Per plate, the corner's position along it and the side it lies on.
     let mut placed = [(0.0, 1.0); 2];
-    for (k, dir) in [nb, na].into_iter().enumerate() {
+    for (k, dir) in dirs.into_iter().enumerate() {
         let plane = planes[k];
         // Distance along the plane from the corner: `s` less the corner's.
         let c = dir.dot(&corner);
@@ -67,9 +112,9 @@ pub(super) fn check_l(
             (-1.0, neg.1)
         };
         if count < p.min_plate_points {
-            no!(String::new());
+            return Err(String::new());
         }
-        along[k] = dir * sign;
+        seen.along[k] = dir * sign;
         placed[k] = (c, sign);
         near[k] = plane
             .pts
@@ -80,104 +125,138 @@ pub(super) fn check_l(
             })
             .collect();
     }
+    Ok((near, placed))
+}
+
+/// The plates' height band ([`plate_band`]), or, when none is clear, how
+/// tall the faces are.
+fn choose_band(
+    p: &TightParams,
+    near: &[Vec<Near>; 2],
+    seen: &mut Seen,
+) -> Result<(f64, f64), String> {
     // The plates' heights, once: the band is chosen from them, and when
     // none is clear they say how tall the faces are.
-    let z = on_plate_heights(&near, w);
-    let Some((lo, hi)) = plate_band(&near, &z, p) else {
-        if z.len() < 2 * p.min_plate_points {
-            no!(String::new());
-        }
-        let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
-        // Its faces stop within a few plate heights: an L of taller plates.
-        if tall < 2.5 * p.plate_height {
-            size = Some(Box::new([f64::NAN, f64::NAN, tall]));
-        }
-        no!(format!(
-            "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
-        ));
-    };
-    let mut planar = [0usize; 2];
-    let mut counts = [0usize; 2];
-    for k in 0..2 {
-        // The slab's distances along the plate in the band, ascending.
-        let (c, sign) = placed[k];
-        let ts = planes[k].slab_distances(c, sign, lo - 0.05, hi + 0.05);
-        let major = ts.iter().filter(|&&t| t > 0.05).count();
-        if major < p.min_plate_points {
-            no!(String::new());
-        }
-        // An L: the plate lies on one side of the corner. Behind the corner,
-        // this plate's plane crosses whatever stands parallel behind the
-        // other plate (a wall seen through its grill): those points sit at
-        // one distance, while a plate going on spreads along its plane.
-        let behind = &ts[..ts.partition_point(|&t| t < -0.05)];
-        let minor = behind.len() - densest_run(behind, 0.12);
-        if minor * 3 > major {
-            no!("a plane running through the corner (a T or a cross)".into());
-        }
-        let ext = &ts[ts.partition_point(|&t| t <= 0.0)..];
-        let far = ext[(ext.len() * 9) / 10];
-        if far > w + 0.15 {
-            // A plane that stops within a few plate widths: a wider plate.
-            let edge = ext[(ext.len() * 19) / 20];
-            if edge < 2.5 * w {
-                size = Some(Box::new([edge, f64::NAN, f64::NAN]));
-            }
-            no!(format!("a plane continuing {far:.1} m past the corner"));
-        }
-        // A plate is as wide as a plate: occlusion from below or foliage
-        // thins it but leaves its top edge whole.
-        width[k] = ext[(ext.len() * 19) / 20];
-        counts[k] = ext.len();
-        // ... and its points reach from the corner to that edge: a plane
-        // crossing a wall obliquely holds a strip of wall at one distance.
-        let first = ext[ext.len() / 10];
-        if first > 0.35 * w {
-            no!(format!(
-                "plate {}'s points start {first:.2} m from the corner, not at it",
-                k + 1
-            ));
-        }
-        // A plate is thin: points spread through a volume (foliage, a bush)
-        // fill the shells beside the plane as much as the slab.
-        let (slab, excess) = planar_count(&near[k], 0.1 * w, w, lo, hi);
-        if 2 * excess < slab {
-            no!(format!(
-                "points spread through a volume, not a plate (foliage?): {} of {slab} in plate {}'s plane stand out from their surroundings",
-                excess,
-                k + 1
-            ));
-        }
-        planar[k] = excess;
-        // ... and a rectangle: its points span its width at each height or
-        // its band at each place along it. A slanted object crossing the
-        // plane (a pipe, a machine's sloping face) does neither (issue 30:
-        // a pump room's machine base).
-        let (c, sign) = placed[k];
-        if let [Some(rows), Some(columns)] = spanning(&planes[k].slab, c, sign, lo, hi, w)
-            && rows.max(columns) < MIN_SPANNING_SHARE
-        {
-            no!(format!(
-                "plate {}'s points do not fill a rectangle ({:.0} % of them in rows spanning its width, {:.0} % in columns spanning its height): a slanted object, not a plate",
-                k + 1,
-                100.0 * rows,
-                100.0 * columns
-            ));
-        }
+    let z = on_plate_heights(near, p.plate_width);
+    if let Some(band) = plate_band(near, &z, p) {
+        return Ok(band);
     }
+    if z.len() < 2 * p.min_plate_points {
+        return Err(String::new());
+    }
+    let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
+    // Its faces stop within a few plate heights: an L of taller plates.
+    if tall < 2.5 * p.plate_height {
+        *seen.size = Some(Box::new([f64::NAN, f64::NAN, tall]));
+    }
+    Err(format!(
+        "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
+    ))
+}
+
+/// Plate `k` inside the band: on one side of the corner, no wider than a
+/// plate, reaching the corner, thin, and filling a rectangle.
+fn plate_in_band(
+    p: &TightParams,
+    k: usize,
+    plane: &PlanePoints,
+    (c, sign): (f64, f64),
+    near: &[Near],
+    (lo, hi): (f64, f64),
+    seen: &mut Seen,
+) -> Result<PlateSeen, String> {
+    let w = p.plate_width;
+    // The slab's distances along the plate in the band, ascending.
+    let ts = plane.slab_distances(c, sign, lo - 0.05, hi + 0.05);
+    let major = ts.iter().filter(|&&t| t > 0.05).count();
+    if major < p.min_plate_points {
+        return Err(String::new());
+    }
+    // An L: the plate lies on one side of the corner. Behind the corner,
+    // this plate's plane crosses whatever stands parallel behind the
+    // other plate (a wall seen through its grill): those points sit at
+    // one distance, while a plate going on spreads along its plane.
+    let behind = &ts[..ts.partition_point(|&t| t < -0.05)];
+    let minor = behind.len() - densest_run(behind, 0.12);
+    if minor * 3 > major {
+        return Err("a plane running through the corner (a T or a cross)".into());
+    }
+    let ext = &ts[ts.partition_point(|&t| t <= 0.0)..];
+    let far = ext[(ext.len() * 9) / 10];
+    if far > w + 0.15 {
+        // A plane that stops within a few plate widths: a wider plate.
+        let edge = ext[(ext.len() * 19) / 20];
+        if edge < 2.5 * w {
+            *seen.size = Some(Box::new([edge, f64::NAN, f64::NAN]));
+        }
+        return Err(format!("a plane continuing {far:.1} m past the corner"));
+    }
+    // A plate is as wide as a plate: occlusion from below or foliage
+    // thins it but leaves its top edge whole.
+    let width = ext[(ext.len() * 19) / 20];
+    // ... and its points reach from the corner to that edge: a plane
+    // crossing a wall obliquely holds a strip of wall at one distance.
+    let first = ext[ext.len() / 10];
+    if first > 0.35 * w {
+        return Err(format!(
+            "plate {}'s points start {first:.2} m from the corner, not at it",
+            k + 1
+        ));
+    }
+    // A plate is thin: points spread through a volume (foliage, a bush)
+    // fill the shells beside the plane as much as the slab.
+    let (slab, excess) = planar_count(near, 0.1 * w, w, lo, hi);
+    if 2 * excess < slab {
+        return Err(format!(
+            "points spread through a volume, not a plate (foliage?): {} of {slab} in plate {}'s plane stand out from their surroundings",
+            excess,
+            k + 1
+        ));
+    }
+    // ... and a rectangle: its points span its width at each height or
+    // its band at each place along it. A slanted object crossing the
+    // plane (a pipe, a machine's sloping face) does neither (issue 30:
+    // a pump room's machine base).
+    if let [Some(rows), Some(columns)] = spanning(&plane.slab, c, sign, lo, hi, w)
+        && rows.max(columns) < MIN_SPANNING_SHARE
+    {
+        return Err(format!(
+            "plate {}'s points do not fill a rectangle ({:.0} % of them in rows spanning its width, {:.0} % in columns spanning its height): a slanted object, not a plate",
+            k + 1,
+            100.0 * rows,
+            100.0 * columns
+        ));
+    }
+    Ok(PlateSeen {
+        width,
+        count: ext.len(),
+        planar: excess,
+    })
+}
+
+/// Both plates as wide as a plate, and the band as tall as one less what
+/// may hide its lower part.
+fn check_size(
+    p: &TightParams,
+    plates: &[PlateSeen; 2],
+    (lo, hi): (f64, f64),
+    seen: &mut Seen,
+) -> Result<(), String> {
+    let w = p.plate_width;
+    let width = [plates[0].width, plates[1].width];
     // The 95th percentile of n points spread over a plate scatters by about
     // 0.22 w / √n: a plate is allowed one of those (3 cm with 20 points).
-    let slack = |k: usize| 0.22 * w / (counts[k].max(1) as f64).sqrt();
+    let slack = |k: usize| 0.22 * w / (plates[k].count.max(1) as f64).sqrt();
     let short = (0..2).any(|k| width[k] < MIN_WIDTH_SHARE * w - slack(k));
     let long = (0..2).any(|k| width[k] > MAX_WIDTH_SHARE * w + slack(k));
     let narrow = width[0].min(width[1]);
     let tall = hi - lo;
     let low = tall < MIN_HEIGHT_SHARE * p.plate_height - 0.02;
     if short || long || low {
-        size = Some(Box::new([width[0], width[1], tall]));
+        *seen.size = Some(Box::new([width[0], width[1], tall]));
     }
     if short || long {
-        no!(format!(
+        return Err(format!(
             "a {:.2} × {:.2} m L (plates {:.2} and {:.2} m wide, {} m expected)",
             narrow,
             hi - lo,
@@ -190,21 +269,13 @@ pub(super) fn check_l(
     // a barrier): the rim of a mound, a log, a kerb or a bumper make an L of
     // the right width a hand's height tall (issue 30: 0.12 m "plates").
     if low {
-        no!(format!(
+        return Err(format!(
             "an L {tall:.2} m tall ({} m plates expected, at most {:.0} % of them hidden)",
             p.plate_height,
             100.0 * (1.0 - MIN_HEIGHT_SHARE)
         ));
     }
-    Ok(LShape {
-        n: [na, nb],
-        off: [oa, ob],
-        along,
-        corner,
-        band: (lo, hi),
-        score: planar[0].min(planar[1]),
-        widths: width,
-    })
+    Ok(())
 }
 
 /// How far a plate's slab points (`slab`: raw position along the plate,
