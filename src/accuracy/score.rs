@@ -261,7 +261,7 @@ impl Matched {
         survey: &Survey,
         opts: &ScoreOptions,
         warnings: &mut Vec<Warning>,
-    ) -> Result<(Option<ControlCheck>, Option<Vec<Vector3<f64>>>)> {
+    ) -> Result<Split> {
         if !self.used.iter().any(|&k| survey.targets[k].role.is_some()) {
             return Ok((None, None));
         }
@@ -363,6 +363,9 @@ impl Matched {
             .collect()
     }
 }
+
+/// A control/check split and its check targets' residuals.
+type Split = (Option<ControlCheck>, Option<Vec<Vector3<f64>>>);
 
 /// The residuals' standard error over the alignment's degrees of freedom
 /// (horizontal unless the alignment fits heights).

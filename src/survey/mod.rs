@@ -142,143 +142,185 @@ pub fn read_survey_for_map(
     projector: Option<&Path>,
 ) -> Result<Survey> {
     let t = Table::read(path)?;
-    // A misspelt column (`antena_height`, `alt_m`) would be ignored like any
-    // extra column, and its values lost without a word: refuse it instead.
-    for h in &t.headers {
-        if let Some(meant) = misspelt_column(h) {
-            let caveat = if ANTENNA.contains(&meant) {
-                " (coordinates already reduced to the ground mark, as many GNSS exports give them, must not also give an antenna height)"
-            } else {
-                ""
-            };
-            return Err(Error::table(
-                path,
-                t.header_line,
-                format!(
-                    "column `{h}` is not one mapgauge reads; did you mean `{meant}`? Rename it for its values to be used, or remove it{caveat}"
-                ),
-            ));
-        }
-    }
-    let id_c = t.require(ID)?;
-    let (xy, ll) = ((t.col(X), t.col(Y)), (t.col(LAT), t.col(LON)));
-    let geodetic = match (xy, ll) {
-        ((Some(_), Some(_)), (Some(_), Some(_))) => {
-            return Err(Error::table(
-                path,
-                t.header_line,
-                "both x,y and lat,lon columns: keep only one kind",
-            ));
-        }
-        ((Some(_), Some(_)), _) => false,
-        (_, (Some(_), Some(_))) => true,
-        _ => {
-            return Err(Error::table(
-                path,
-                t.header_line,
-                format!(
-                    "missing position columns: need x,y[,z] or lat,lon[,alt] (header has: {})",
-                    t.headers.join(",")
-                ),
-            ));
-        }
-    };
-    // Heights under the other kind's names, or under a name read by neither,
-    // would be dropped without a word.
-    let (theirs, ours) = if geodetic {
-        (
-            Z,
-            "`alt` (or altitude, h, ellipsoidal_height) in a lat,lon survey",
-        )
-    } else {
-        (ALT, "`z` (or up, height) in an x,y survey")
-    };
-    if let Some(h) = t
-        .headers
-        .iter()
-        .find(|h| theirs.contains(&h.as_str()) || ELEVATION.contains(&h.as_str()))
-    {
-        return Err(Error::table(
-            path,
-            t.header_line,
-            format!(
-                "column `{h}` holds heights mapgauge does not read under that name: heights go in {ours}; rename it, or remove it"
-            ),
-        ));
-    }
-    let (c1, c2, c3, n1, n2, n3) = if geodetic {
-        (
-            t.require(LAT)?,
-            t.require(LON)?,
-            t.col(ALT),
-            "lat",
-            "lon",
-            "alt",
-        )
-    } else {
-        (t.require(X)?, t.require(Y)?, t.col(Z), "x", "y", "z")
-    };
-    let role_c = t.col(ROLE);
-    let ah_c = t.col(ANTENNA);
-    let mut seen = HashSet::new();
-    let mut targets = Vec::with_capacity(t.rows.len());
-    let mut geo = Vec::new();
-    for (line, rec) in &t.rows {
-        let line = *line;
-        let id = t.unique_id(line, rec, id_c, &mut seen)?;
-        let a = t.number(line, rec, c1, n1)?;
-        let b = t.number(line, rec, c2, n2)?;
-        let c = t.opt_number(line, rec, c3, n3)?;
-        if geodetic {
-            if !(-90.0..=90.0).contains(&a) {
-                return Err(Error::table(
-                    path,
-                    line,
-                    format!("latitude {a} is outside -90..90"),
-                ));
-            }
-            if !(-360.0..=360.0).contains(&b) {
-                return Err(Error::table(
-                    path,
-                    line,
-                    format!("longitude {b} is outside -360..360"),
-                ));
-            }
-            geo.push(Geodetic {
-                lat: a,
-                lon: b,
-                alt: c.unwrap_or(0.0),
-            });
-        }
-        let role = match role_c.and_then(|c| rec.get(c)).filter(|s| !s.is_empty()) {
-            None => None,
-            Some(s) => match s.to_ascii_lowercase().as_str() {
-                "control" | "gcp" => Some(Role::Control),
-                "check" | "checkpoint" => Some(Role::Check),
-                _ => {
-                    return Err(Error::table(
-                        path,
-                        line,
-                        format!("role `{s}` is neither control nor check"),
-                    ));
-                }
-            },
-        };
-        let antenna_height = t
-            .opt_number(line, rec, ah_c, "antenna_height")?
-            .unwrap_or(0.0);
-        targets.push(SurveyTarget {
-            id,
-            position: Point::new(a, b, c.unwrap_or(0.0)),
-            has_z: c.is_some(),
-            role,
-            antenna_height,
-            line,
-        });
-    }
+    let cols = Columns::of(&t, path)?;
+    let (targets, geo) = cols.targets(&t, path)?;
     if targets.is_empty() {
         return Err(Error::table(path, 0, "no targets in survey"));
     }
+    placed(targets, geo, cols.geodetic, opts, projector)
+}
+
+/// Where a survey table keeps what mapgauge reads: checked against the
+/// column names people misspell or use for the other kind of coordinates.
+struct Columns {
+    id: usize,
+    /// lat, lon (and alt) when `geodetic`, else x, y (and z), with their names.
+    at: [usize; 2],
+    height: Option<usize>,
+    names: [&'static str; 3],
+    role: Option<usize>,
+    antenna: Option<usize>,
+    geodetic: bool,
+}
+
+impl Columns {
+    fn of(t: &Table, path: &Path) -> Result<Columns> {
+        // A misspelt column (`antena_height`, `alt_m`) would be ignored like any
+        // extra column, and its values lost without a word: refuse it instead.
+        for h in &t.headers {
+            if let Some(meant) = misspelt_column(h) {
+                let caveat = if ANTENNA.contains(&meant) {
+                    " (coordinates already reduced to the ground mark, as many GNSS exports give them, must not also give an antenna height)"
+                } else {
+                    ""
+                };
+                return Err(Error::table(
+                    path,
+                    t.header_line,
+                    format!(
+                        "column `{h}` is not one mapgauge reads; did you mean `{meant}`? Rename it for its values to be used, or remove it{caveat}"
+                    ),
+                ));
+            }
+        }
+        let id = t.require(ID)?;
+        let (xy, ll) = ((t.col(X), t.col(Y)), (t.col(LAT), t.col(LON)));
+        let geodetic = match (xy, ll) {
+            ((Some(_), Some(_)), (Some(_), Some(_))) => {
+                return Err(Error::table(
+                    path,
+                    t.header_line,
+                    "both x,y and lat,lon columns: keep only one kind",
+                ));
+            }
+            ((Some(_), Some(_)), _) => false,
+            (_, (Some(_), Some(_))) => true,
+            _ => {
+                return Err(Error::table(
+                    path,
+                    t.header_line,
+                    format!(
+                        "missing position columns: need x,y[,z] or lat,lon[,alt] (header has: {})",
+                        t.headers.join(",")
+                    ),
+                ));
+            }
+        };
+        // Heights under the other kind's names, or under a name read by neither,
+        // would be dropped without a word.
+        let (theirs, ours) = if geodetic {
+            (
+                Z,
+                "`alt` (or altitude, h, ellipsoidal_height) in a lat,lon survey",
+            )
+        } else {
+            (ALT, "`z` (or up, height) in an x,y survey")
+        };
+        if let Some(h) = t
+            .headers
+            .iter()
+            .find(|h| theirs.contains(&h.as_str()) || ELEVATION.contains(&h.as_str()))
+        {
+            return Err(Error::table(
+                path,
+                t.header_line,
+                format!(
+                    "column `{h}` holds heights mapgauge does not read under that name: heights go in {ours}; rename it, or remove it"
+                ),
+            ));
+        }
+        let (at, height, names) = if geodetic {
+            (
+                [t.require(LAT)?, t.require(LON)?],
+                t.col(ALT),
+                ["lat", "lon", "alt"],
+            )
+        } else {
+            ([t.require(X)?, t.require(Y)?], t.col(Z), ["x", "y", "z"])
+        };
+        Ok(Columns {
+            id,
+            at,
+            height,
+            names,
+            role: t.col(ROLE),
+            antenna: t.col(ANTENNA),
+            geodetic,
+        })
+    }
+
+    /// Every row as a target (its position as written: lat, lon, alt for a
+    /// geodetic survey, also returned apart), each id once.
+    fn targets(&self, t: &Table, path: &Path) -> Result<(Vec<SurveyTarget>, Vec<Geodetic>)> {
+        let mut seen = HashSet::new();
+        let mut targets = Vec::with_capacity(t.rows.len());
+        let mut geo = Vec::new();
+        for (line, rec) in &t.rows {
+            let line = *line;
+            let id = t.unique_id(line, rec, self.id, &mut seen)?;
+            let a = t.number(line, rec, self.at[0], self.names[0])?;
+            let b = t.number(line, rec, self.at[1], self.names[1])?;
+            let c = t.opt_number(line, rec, self.height, self.names[2])?;
+            if self.geodetic {
+                if !(-90.0..=90.0).contains(&a) {
+                    return Err(Error::table(
+                        path,
+                        line,
+                        format!("latitude {a} is outside -90..90"),
+                    ));
+                }
+                if !(-360.0..=360.0).contains(&b) {
+                    return Err(Error::table(
+                        path,
+                        line,
+                        format!("longitude {b} is outside -360..360"),
+                    ));
+                }
+                geo.push(Geodetic {
+                    lat: a,
+                    lon: b,
+                    alt: c.unwrap_or(0.0),
+                });
+            }
+            let role = match self.role.and_then(|c| rec.get(c)).filter(|s| !s.is_empty()) {
+                None => None,
+                Some(s) => match s.to_ascii_lowercase().as_str() {
+                    "control" | "gcp" => Some(Role::Control),
+                    "check" | "checkpoint" => Some(Role::Check),
+                    _ => {
+                        return Err(Error::table(
+                            path,
+                            line,
+                            format!("role `{s}` is neither control nor check"),
+                        ));
+                    }
+                },
+            };
+            let antenna_height = t
+                .opt_number(line, rec, self.antenna, "antenna_height")?
+                .unwrap_or(0.0);
+            targets.push(SurveyTarget {
+                id,
+                position: Point::new(a, b, c.unwrap_or(0.0)),
+                has_z: c.is_some(),
+                role,
+                antenna_height,
+                line,
+            });
+        }
+        Ok((targets, geo))
+    }
+}
+
+/// The survey in its frame: as written (local), projected by the map's
+/// projector file, or east-north-up about `--origin` (else the first target).
+fn placed(
+    mut targets: Vec<SurveyTarget>,
+    geo: Vec<Geodetic>,
+    geodetic: bool,
+    opts: &SurveyOptions,
+    projector: Option<&Path>,
+) -> Result<Survey> {
     if let (true, Some(pf)) = (geodetic, projector) {
         if opts.origin.is_some() {
             return Err(Error::Param(format!(
