@@ -10,7 +10,9 @@
 //! | geometry | `geom` (crate-internal) | planes, least-squares (SVD) plane fit, plane RANSAC: shared by crop and locate |
 //! | map | [`cloud`] | streaming readers (PCD, PLY, LAS/LAZ, E57, XYZ) and crop writers |
 //! | survey | [`survey`] | survey CSV, WGS84 → local ENU |
-//! | crop | [`crop`] | loose crop (one pass for all targets), automatic tight crop |
+//! | frame | [`frame`] | which way is up (the ground's vertical), and the map → survey guess from hints or matched detections |
+//! | detection | [`detect`] | target-shaped objects anywhere in a map (`mapgauge detect`, `--frame detect`) |
+//! | crop | [`crop`] | loose crop (one pass for all targets), automatic tight crop (its L finder: `crop/tight/finder/`) |
 //! | locate | [`locate`] | the paper's k-means → RANSAC → SVD corner, 100 samples |
 //! | align | [`align`] | rigid / similarity / robust (Eq. 1) map → survey fits |
 //! | accuracy | [`accuracy`] | absolute, relative, leave-one-out, ASPRS: typed numbers |
@@ -18,6 +20,7 @@
 //! | record | [`record`] | `result.json`: its schema, built from the typed values, read and written |
 //! | render | [`render`] | the paper's tables and others as text, Markdown, LaTeX, CSV, HTML, JSON |
 //! | report | [`report`] | report.html, SVG and PNG figures of an evaluation |
+//! | comparison | [`compare`] | "is B better than A?": paired differences of two results with 95 % intervals (`mapgauge compare`) |
 //! | test data | [`synth`] | LiDAR-like synthetic scenes with known truth |
 //! | route | [`trajectory`] | the sensor's route (TUM or KITTI poses), for error against distance driven |
 //!
