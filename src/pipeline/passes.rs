@@ -6,7 +6,7 @@ use super::target::{self, Pass, TargetRun};
 use super::{Config, layout, read_crops};
 use crate::accuracy::{self, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};
-use crate::crop::LooseParams;
+use crate::crop::{LooseParams, TightParams};
 use crate::survey::Survey;
 use crate::{Point, Result};
 use nalgebra::Vector3;
@@ -143,20 +143,26 @@ impl Search<'_> {
             .collect();
         for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
             let thinned = (offered > pts.len() as u64).then_some(offered);
-            let mut close = cfg.clone();
-            if let Some((_, error, ..)) = is_narrow(i) {
-                close.tight.search_radius = (0.5 * error).max(1.0).min(cfg.tight.search_radius);
-            }
-            let mut r = target::locate_target(
-                &survey.targets[i].id,
-                c,
-                pts,
-                None,
-                &close,
-                Pass::Second,
-                &ups,
-                &super::others_than(&placed, i),
-            );
+            // Only the tight crop's search radius narrows.
+            let close;
+            let tight = match is_narrow(i) {
+                Some((_, error, ..)) => {
+                    close = TightParams {
+                        search_radius: (0.5 * error).max(1.0).min(cfg.tight.search_radius),
+                        ..cfg.tight.clone()
+                    };
+                    &close
+                }
+                None => &cfg.tight,
+            };
+            let others = super::others_than(&placed, i);
+            let place = target::Place {
+                id: &survey.targets[i].id,
+                expected: c,
+                others: &others,
+                more_ups: &ups,
+            };
+            let mut r = target::locate_target(place, pts, None, tight, cfg, Pass::Second);
             r.loose_thinned_from = thinned;
             if r.outcome.is_ok() {
                 found[i] = r;

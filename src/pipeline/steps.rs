@@ -518,16 +518,14 @@ impl FirstPass<'_> {
             .map(|(i, ((t, e), (pts, offered)))| {
                 let thinned = (offered > pts.len() as u64).then_some(offered);
                 let others = others_than(&expected, i);
-                let mut r = target::locate_target(
-                    &t.id,
-                    *e,
-                    pts,
-                    self.crops_dir,
-                    cfg,
-                    Pass::First,
-                    &ups,
-                    &others,
-                );
+                let place = target::Place {
+                    id: &t.id,
+                    expected: *e,
+                    others: &others,
+                    more_ups: &ups,
+                };
+                let mut r =
+                    target::locate_target(place, pts, self.crops_dir, &cfg.tight, cfg, Pass::First);
                 r.loose_thinned_from = thinned;
                 r
             })

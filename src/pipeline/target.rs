@@ -239,6 +239,16 @@ impl TargetRun {
     }
 }
 
+/// Where one target is looked for: its id, where it is expected, the
+/// other targets' expected positions (objects nearer them are theirs), and
+/// the last "ups" to try.
+pub(crate) struct Place<'a> {
+    pub(crate) id: &'a str,
+    pub(crate) expected: Point,
+    pub(crate) others: &'a [Point],
+    pub(crate) more_ups: &'a [Vector3<f64>],
+}
+
 /// Steps 4–5 for one target: tight crop (hand-made from `crops_dir`, else
 /// automatic from `loose`, leaving objects nearer the other targets' expected
 /// positions `others` to them), then localisation. `more_ups` are the last "ups"
@@ -246,15 +256,19 @@ impl TargetRun {
 /// by the ground turned a level map on a slope) and the ground's map-wide
 /// vertical (for a map leaning a few degrees that was not levelled).
 pub(crate) fn locate_target(
-    id: &str,
-    expected: Point,
+    place: Place,
     loose: Vec<Point>,
     crops_dir: Option<&Path>,
+    tight: &crate::crop::TightParams,
     cfg: &Config,
     pass: Pass,
-    more_ups: &[Vector3<f64>],
-    others: &[Point],
 ) -> TargetRun {
+    let Place {
+        id,
+        expected,
+        others,
+        more_ups,
+    } = place;
     let mut run = TargetRun {
         id: id.to_string(),
         expected,
@@ -267,7 +281,7 @@ pub(crate) fn locate_target(
     };
     // Hand-made tight crops (the paper's workflow) or the automatic one.
     let ups: Vec<Vector3<f64>> = match crops_dir {
-        Some(dir) => match hand_crop(dir, id, cfg.tight.plate_width) {
+        Some(dir) => match hand_crop(dir, id, tight.plate_width) {
             Ok(p) => {
                 run.tight = p;
                 vec![Vector3::z()]
@@ -281,7 +295,7 @@ pub(crate) fn locate_target(
             if run.loose.is_empty() {
                 return run;
             }
-            match crop::tight_crop_among(&run.loose, &expected, others, &cfg.tight) {
+            match crop::tight_crop_among(&run.loose, &expected, others, tight) {
                 Ok(t) => {
                     run.ground_normal = Some(Vector3::from(t.ground_normal));
                     let up = Vector3::from(t.up);
