@@ -36,6 +36,16 @@ pub enum Dim {
     D3,
 }
 
+impl Dim {
+    /// "2D" or "3D", as tables, cards and the terminal say it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Dim::D2 => "2D",
+            Dim::D3 => "3D",
+        }
+    }
+}
+
 impl std::str::FromStr for Dim {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {

@@ -3,7 +3,6 @@
 
 use super::tables::{absolute_grid, extra_grid, pairs_grid, relative_grid, targets_grid};
 use super::{Grid, TableFormat};
-use crate::accuracy::Dim;
 use crate::record::{ResultFile, write_atomic};
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -39,10 +38,7 @@ pub fn render_report(r: &ResultFile, fmt: TableFormat) -> String {
         return super::render_text(r, false);
     }
     let runs = [("this run".to_string(), r)];
-    let dim = match r.dim {
-        Dim::D2 => "2D",
-        Dim::D3 => "3D",
-    };
+    let dim = r.dim.label();
     let mut o = String::new();
     with_caption(
         &mut o,

@@ -8,7 +8,6 @@
 use super::Grid;
 use super::TableFormat;
 use super::tables::{absolute_grid, extra_grid, relative_grid};
-use crate::accuracy::Dim;
 use crate::record::ResultFile;
 use std::fmt::Write as _;
 
@@ -80,10 +79,7 @@ fn pairs_mm(r: &ResultFile) -> Grid {
 /// The terminal report of one run; `verbose` adds every pair.
 pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     let mut o = String::new();
-    let dim = match r.dim {
-        Dim::D2 => "2D",
-        Dim::D3 => "3D",
-    };
+    let dim = r.dim.label();
     let n = r.targets.len();
     let found = r.targets.iter().filter(|t| t.status == "ok").count();
     let a = &r.alignment;

@@ -8,7 +8,6 @@ mod tables;
 use super::figure::Figure;
 use super::plots::{fmt_len, survey_in_map};
 use super::{Report, ResultFile, svg};
-use crate::accuracy::Dim;
 use crate::render::{Grid, TableFormat, absolute_grid, extra_grid, relative_grid, target_label};
 use frame::frame_section;
 use std::fmt::Write as _;
@@ -130,7 +129,7 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
         escape(&p.version),
         escape(&p.date_utc)
     );
-    let dim = dim_name(r);
+    let dim = r.dim.label();
     summary_section(&mut o, r, dim);
     if let Some(e) = &r.eval {
         frame_section(&mut o, &e.frame, e.doubling.as_ref());
@@ -147,14 +146,6 @@ pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
         &o,
         &[("mapgauge-figures", n_svg.to_string())],
     )
-}
-
-/// "2D" or "3D", as the cards and tables say.
-fn dim_name(r: &ResultFile) -> &'static str {
-    match r.dim {
-        Dim::D2 => "2D",
-        Dim::D3 => "3D",
-    }
 }
 
 /// The headline numbers as cards, then every caveat and failed target.

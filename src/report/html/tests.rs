@@ -1,6 +1,7 @@
 use super::super::{Provenance, Report};
 use super::*;
 use crate::Point;
+use crate::accuracy::Dim;
 use crate::accuracy::{ScoreOptions, score};
 use crate::survey::{Estimate, EstimateStatus, Survey, SurveyFrame, SurveyTarget};
 

@@ -19,13 +19,9 @@ pub(super) fn check_l(
     score: usize,
 ) -> Result<LShape, Rejected> {
     let corner = na * oa + nb * ob;
-    // Refused, with what was seen and where (the faces as far as decided),
-    // and its size when that alone refused it.
-    let mut along = [Vector3::zeros(); 2];
-    let mut size = None;
     let mut seen = Seen {
-        along: &mut along,
-        size: &mut size,
+        along: [Vector3::zeros(); 2],
+        size: None,
     };
     let judged = (|| {
         let (near, placed) = place_plates(p, [nb, na], corner, planes, &mut seen)?;
@@ -38,7 +34,7 @@ pub(super) fn check_l(
         Ok(LShape {
             n: [na, nb],
             off: [oa, ob],
-            along: *seen.along,
+            along: seen.along,
             corner,
             band: (lo, hi),
             score: plates[0].planar.min(plates[1].planar),
@@ -49,16 +45,16 @@ pub(super) fn check_l(
         score,
         why,
         corner,
-        along,
-        size,
+        along: seen.along,
+        size: seen.size,
     })
 }
 
 /// What a refusal reports besides its reason: the faces as far as decided,
 /// and the L's size when that alone refused it.
-struct Seen<'a> {
-    along: &'a mut [Vector3<f64>; 2],
-    size: &'a mut Option<Box<[f64; 3]>>,
+struct Seen {
+    along: [Vector3<f64>; 2],
+    size: Option<Box<[f64; 3]>>,
 }
 
 /// One plate as the band saw it: its width (95th percentile of its points'
@@ -147,7 +143,7 @@ fn choose_band(
     let tall = z[z.len() - 1 - z.len() / 50] - z[z.len() / 50];
     // Its faces stop within a few plate heights: an L of taller plates.
     if tall < 2.5 * p.plate_height {
-        *seen.size = Some(Box::new([f64::NAN, f64::NAN, tall]));
+        seen.size = Some(Box::new([f64::NAN, f64::NAN, tall]));
     }
     Err(format!(
         "an L {tall:.1} m tall (its faces go on above or below a plate's height)"
@@ -187,7 +183,7 @@ fn plate_in_band(
         // A plane that stops within a few plate widths: a wider plate.
         let edge = ext[(ext.len() * 19) / 20];
         if edge < 2.5 * w {
-            *seen.size = Some(Box::new([edge, f64::NAN, f64::NAN]));
+            seen.size = Some(Box::new([edge, f64::NAN, f64::NAN]));
         }
         return Err(format!("a plane continuing {far:.1} m past the corner"));
     }
@@ -253,7 +249,7 @@ fn check_size(
     let tall = hi - lo;
     let low = tall < MIN_HEIGHT_SHARE * p.plate_height - 0.02;
     if short || long || low {
-        *seen.size = Some(Box::new([width[0], width[1], tall]));
+        seen.size = Some(Box::new([width[0], width[1], tall]));
     }
     if short || long {
         return Err(format!(
