@@ -40,7 +40,7 @@ pub enum AlignMethod {
 
 impl AlignMethod {
     /// Every method, for help texts and tests.
-    pub const ALL: [AlignMethod; 7] = [
+    pub(crate) const ALL: [AlignMethod; 7] = [
         AlignMethod::None,
         AlignMethod::Rigid2d,
         AlignMethod::Rigid2dZ,
@@ -64,7 +64,7 @@ impl AlignMethod {
     }
 
     /// Fewest point pairs that determine the transform.
-    pub fn min_points(self) -> usize {
+    pub(crate) fn min_points(self) -> usize {
         match self {
             AlignMethod::None => 1,
             AlignMethod::Rigid3d | AlignMethod::Similarity3d => 3,
@@ -84,7 +84,7 @@ impl AlignMethod {
     }
 
     /// Whether the fit uses (and corrects) heights.
-    pub fn uses_z(self) -> bool {
+    pub(crate) fn uses_z(self) -> bool {
         matches!(
             self,
             AlignMethod::Rigid2dZ | AlignMethod::Rigid3d | AlignMethod::Similarity3d
@@ -151,7 +151,7 @@ impl Alignment {
             .to_degrees()
     }
     /// Scale deviation in parts per million.
-    pub fn scale_ppm(&self) -> f64 {
+    pub(crate) fn scale_ppm(&self) -> f64 {
         (self.scale - 1.0) * 1e6
     }
     /// The inverse transform (survey → map), e.g. to place survey targets in a map.
@@ -293,7 +293,7 @@ fn spatial(method: AlignMethod, src: &[Point], dst: &[Point], scale: bool) -> Re
 }
 
 /// Sum of 2D distances after alignment: the objective of the paper's Eq. 1.
-pub fn sum_of_distances_2d(a: &Alignment, src: &[Point], dst: &[Point]) -> f64 {
+pub(crate) fn sum_of_distances_2d(a: &Alignment, src: &[Point], dst: &[Point]) -> f64 {
     src.iter()
         .zip(dst)
         .map(|(p, q)| (a.apply(p) - q).xy().norm())

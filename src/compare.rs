@@ -11,7 +11,7 @@ use serde::Serialize;
 use std::collections::HashMap;
 
 /// Bootstrap resamples.
-pub const RESAMPLES: usize = 4000;
+pub(crate) const RESAMPLES: usize = 4000;
 /// Seed of the bootstrap.
 pub const SEED: u64 = 0x636f_6d70_6172_6521;
 /// Fewest common targets for an interval.

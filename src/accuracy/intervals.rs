@@ -22,9 +22,9 @@ use rand_distr::StandardNormal;
 use rand_pcg::Pcg64Mcg;
 
 /// Monte Carlo draws of the measurement interval.
-pub const MEASUREMENT_DRAWS: usize = 2000;
+pub(crate) const MEASUREMENT_DRAWS: usize = 2000;
 /// Bootstrap resamples of the targets interval.
-pub const BOOTSTRAP_RESAMPLES: usize = 2000;
+pub(crate) const BOOTSTRAP_RESAMPLES: usize = 2000;
 /// Seed of both (fixed: intervals are part of the deterministic output).
 pub const SEED: u64 = 0x6d61_7067_6175_6765;
 /// Fewest scored targets for any interval: with 3 or fewer a bootstrap has
@@ -32,7 +32,7 @@ pub const SEED: u64 = 0x6d61_7067_6175_6765;
 pub const MIN_TARGETS: usize = 4;
 
 /// A 95 % interval [lo, hi] (m).
-pub type Interval = [f64; 2];
+pub(crate) type Interval = [f64; 2];
 
 /// The two intervals of one headline number; `None` when not computed (too
 /// few targets, no covariances, or the number is not defined on resamples).
@@ -56,7 +56,7 @@ pub struct Intervals {
 }
 
 /// What the intervals are computed from: the scored targets in order.
-pub(crate) struct Inputs<'a> {
+pub struct Inputs<'a> {
     pub(crate) method: AlignMethod,
     pub(crate) dim: Dim,
     pub(crate) ids: &'a [String],

@@ -11,11 +11,13 @@ mod score;
 mod stats;
 
 pub use asprs::{Asprs, AsprsCaveat};
-pub use intervals::{Ci95, Interval, Intervals};
-pub use scale::{ScaleEstimate, layout_scale};
+pub use intervals::{Ci95, Intervals};
+pub use scale::ScaleEstimate;
+pub(crate) use scale::layout_scale;
 pub use score::{score, score_with_covariances};
 pub(crate) use stats::t975;
-pub use stats::{AxisStats, PairError, Summary, dist, leave_one_out, relative_errors, summarize};
+pub use stats::{AxisStats, PairError, Summary, leave_one_out};
+pub(crate) use stats::{dist, relative_errors, summarize};
 
 use crate::align::{self, AlignMethod, Alignment};
 use crate::survey::{Estimate, EstimateStatus, Role, Survey};

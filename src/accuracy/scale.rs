@@ -23,7 +23,7 @@ pub struct ScaleEstimate {
 /// as a [`ScaleEstimate`]; `None` with fewer than 3 positions or when they
 /// span less than a metre. The scale's standard error is σ̂ / √Σ|s − s̄|², σ̂
 /// from the residuals (the survey's noise and the map's both in it).
-pub fn layout_scale(pairs: &[([f64; 2], [f64; 2])]) -> Option<ScaleEstimate> {
+pub(crate) fn layout_scale(pairs: &[([f64; 2], [f64; 2])]) -> Option<ScaleEstimate> {
     let n = pairs.len();
     if n < 3 {
         return None;

@@ -23,7 +23,7 @@ pub struct Summary {
 }
 
 /// Mean, population std, RMSE, median and max of `v` (all 0 for an empty list).
-pub fn summarize(v: &[f64]) -> Summary {
+pub(crate) fn summarize(v: &[f64]) -> Summary {
     let n = v.len();
     if n == 0 {
         return Summary {
@@ -57,7 +57,7 @@ pub fn summarize(v: &[f64]) -> Summary {
 }
 
 /// Distance between two points in the chosen dimension.
-pub fn dist(a: &Point, b: &Point, dim: Dim) -> f64 {
+pub(crate) fn dist(a: &Point, b: &Point, dim: Dim) -> f64 {
     match dim {
         Dim::D2 => (a - b).xy().norm(),
         Dim::D3 => (a - b).norm(),
@@ -66,7 +66,7 @@ pub fn dist(a: &Point, b: &Point, dim: Dim) -> f64 {
 
 /// Relative error of every pair: | ‖xᵢ − xⱼ‖ − ‖x̂ᵢ − x̂ⱼ‖ |, in input order
 /// (i < j). Needs no alignment, so it is unaffected by how the map is placed.
-pub fn relative_errors(
+pub(crate) fn relative_errors(
     ids: &[String],
     map: &[Point],
     survey: &[Point],

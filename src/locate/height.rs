@@ -66,7 +66,7 @@ impl HeightSeen {
     }
 
     /// From the inliers' heights relative to the corner (reordered).
-    pub fn from_heights(h: &mut [f64], plate_height: f64) -> Option<HeightSeen> {
+    pub(crate) fn from_heights(h: &mut [f64], plate_height: f64) -> Option<HeightSeen> {
         let n = h.len();
         if n < MIN_POINTS || !(plate_height > 0.0) {
             return None;
@@ -82,14 +82,14 @@ impl HeightSeen {
     }
 
     /// Height of plate not seen (m; 0 when the span is a whole plate or more).
-    pub fn hidden_m(&self) -> f64 {
+    pub(crate) fn hidden_m(&self) -> f64 {
         (self.plate_height_m - self.seen_m).max(0.0)
     }
 
     /// How far the corner's height can be from the plates' middle if the
     /// plates are as seen (m): its offset from the span's middle, and half
     /// the height not seen.
-    pub fn worst_m(&self) -> f64 {
+    pub(crate) fn worst_m(&self) -> f64 {
         self.off_centre_m.abs() + self.hidden_m() / 2.0
     }
 
@@ -103,7 +103,7 @@ impl HeightSeen {
     /// `cov` with [`HeightSeen::variance`] added along the direction a height
     /// error moves the corner (the plates' line, through `normals`): an error
     /// independent of the points' scatter already in `cov`.
-    pub fn widen(
+    pub(crate) fn widen(
         &self,
         cov: &[[f64; 3]; 3],
         normals: [Vector3<f64>; 2],

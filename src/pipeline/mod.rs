@@ -101,7 +101,7 @@ pub struct Evaluation {
 /// pass over a 20 M-point map and a hundredth of a 200 M-point one (4 M
 /// cost 0.08 s more of a 0.6 s eval of the former, with the same levelling
 /// on the tilted scenes).
-pub const GROUND_SAMPLE_POINTS: u64 = 2_000_000;
+pub(crate) const GROUND_SAMPLE_POINTS: u64 = 2_000_000;
 
 /// Where a running evaluation is: the pass over the map and its bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

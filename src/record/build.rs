@@ -81,7 +81,7 @@ fn ranked(w: impl Iterator<Item = (u8, String)>) -> Vec<String> {
 }
 
 /// The sentence a reader sees for a warning.
-pub fn warning_text(w: &Warning) -> String {
+pub(crate) fn warning_text(w: &Warning) -> String {
     match w {
         Warning::SurveyOnly(ids) => {
             format!("survey targets without an estimate: {}", ids.join(", "))

@@ -7,7 +7,7 @@
 
 mod atomic;
 mod build;
-pub use build::warning_text;
+pub(crate) use build::warning_text;
 mod eval_info;
 
 pub use atomic::{refuse_overwrite, write_atomic};

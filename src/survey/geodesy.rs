@@ -9,11 +9,11 @@ use crate::Point;
 use serde::{Deserialize, Serialize};
 
 /// WGS84 semi-major axis (m).
-pub const WGS84_A: f64 = 6_378_137.0;
+pub(crate) const WGS84_A: f64 = 6_378_137.0;
 /// WGS84 flattening.
-pub const WGS84_F: f64 = 1.0 / 298.257_223_563;
+pub(crate) const WGS84_F: f64 = 1.0 / 298.257_223_563;
 /// WGS84 first eccentricity squared.
-pub const WGS84_E2: f64 = WGS84_F * (2.0 - WGS84_F);
+pub(crate) const WGS84_E2: f64 = WGS84_F * (2.0 - WGS84_F);
 
 /// A WGS84 position: where a survey's ENU origin sits on the earth.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -41,7 +41,7 @@ impl Geodetic {
 
     /// Inverse of [`Geodetic::to_ecef`] (fixed-point iteration on latitude; converges
     /// to machine precision in a handful of steps for any terrestrial point).
-    pub fn from_ecef(p: &Point) -> Geodetic {
+    pub(crate) fn from_ecef(p: &Point) -> Geodetic {
         let (x, y, z) = (p.x, p.y, p.z);
         let r = x.hypot(y);
         let lon = y.atan2(x);

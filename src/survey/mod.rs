@@ -11,7 +11,7 @@ mod table;
 mod tests;
 
 pub use estimates::{Estimate, EstimateStatus, read_estimates};
-pub use geodesy::{Geodetic, WGS84_A, WGS84_E2, WGS84_F};
+pub use geodesy::Geodetic;
 pub use projection::Projector;
 
 use crate::{Error, Point, Result};
