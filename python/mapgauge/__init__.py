@@ -12,7 +12,10 @@ Every number is the CLI's: ``ev.to_dict()`` is exactly the ``result.json`` that
 ``ValueError``) with the CLI's one-line message; the failures a caller may
 act on raise its subclasses :class:`TooFewFoundError` (``found``,
 ``need``), :class:`FrameNotFoundError` (``detections``) or
-:class:`NotMetresError` (a map in millimetres). Rust works without the GIL.
+:class:`NotMetresError` (a map in millimetres); a bad file raises
+:class:`ParseError` (``path``, ``line``), a value out of range
+:class:`ParamError`, a refused read or write :class:`FileError` (``path``,
+``errno``). Rust works without the GIL.
 """
 
 from __future__ import annotations
@@ -29,9 +32,12 @@ import numpy as np
 
 from . import _mapgauge
 from ._mapgauge import (
+    FileError,
     FrameNotFoundError,
     MapgaugeError,
     NotMetresError,
+    ParamError,
+    ParseError,
     Survey,
     TooFewFoundError,
     read_points,
@@ -45,6 +51,9 @@ __all__ = [
     "TooFewFoundError",
     "FrameNotFoundError",
     "NotMetresError",
+    "ParseError",
+    "ParamError",
+    "FileError",
     "Survey",
     "Target",
     "Accuracy",
@@ -96,13 +105,13 @@ def _config_dict(config: Optional[Mapping[str, Any]], sections: Mapping[str, Any
     cfg: Dict[str, Any] = {}
     if config is not None:
         if not isinstance(config, Mapping):
-            raise MapgaugeError("config: expected a dict with the sections of `mapgauge eval --print-config`")
+            raise ParamError("config: expected a dict with the sections of `mapgauge eval --print-config`")
         cfg = _merge(cfg, config)
     for k, v in sections.items():
         if k not in _SECTIONS:
-            raise MapgaugeError(f"unknown configuration section `{k}` (expected one of {', '.join(_SECTIONS)}, seed)")
+            raise ParamError(f"unknown configuration section `{k}` (expected one of {', '.join(_SECTIONS)}, seed)")
         if not isinstance(v, Mapping):
-            raise MapgaugeError(f"{k}: expected a dict of its keys, as `mapgauge eval --print-config` shows them")
+            raise ParamError(f"{k}: expected a dict of its keys, as `mapgauge eval --print-config` shows them")
         cfg = _merge(cfg, {k: v})
     if seed is not None:
         # As the CLI's --seed: both random streams.
@@ -114,7 +123,7 @@ def config(config: Optional[Mapping[str, Any]] = None, *, seed: Optional[int] = 
     """The full configuration: defaults merged with ``config`` and the section keywords.
 
     Keys are those of ``mapgauge eval --print-config``; an unknown key or a value
-    out of range raises :class:`MapgaugeError`. ``mapgauge.config()["locate"]``
+    out of range raises :class:`ParamError`. ``mapgauge.config()["locate"]``
     shows every localisation parameter with its default.
     """
     j, _ = _mapgauge._config(_json(_config_dict(config, sections, seed), "config"))

@@ -24,6 +24,19 @@ class FrameNotFoundError(MapgaugeError):
 class NotMetresError(MapgaugeError):
     """The map's points are spread too thin for metres (a map in millimetres?)."""
 
+class ParseError(MapgaugeError):
+    """A file's contents do not follow its format, or a table has a bad row."""
+    path: str
+    line: int  # 1-based; 0 when the problem is not tied to a line
+
+class ParamError(MapgaugeError):
+    """A parameter or configuration value is out of range or unknown."""
+
+class FileError(MapgaugeError):
+    """The operating system refused a read or write."""
+    path: str
+    errno: Optional[int]
+
 class Survey:
     """A survey: the ground truth every map is measured against."""
 

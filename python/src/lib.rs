@@ -47,6 +47,24 @@ create_exception!(
 );
 create_exception!(
     mapgauge,
+    ParseError,
+    MapgaugeError,
+    "A file's contents do not follow its format, or a table has a bad row (`path`, `line`: 0 when not tied to a line)."
+);
+create_exception!(
+    mapgauge,
+    ParamError,
+    MapgaugeError,
+    "A parameter or configuration value is out of range or unknown."
+);
+create_exception!(
+    mapgauge,
+    FileError,
+    MapgaugeError,
+    "The operating system refused a read or write (`path`, `errno`: None when it gave none)."
+);
+create_exception!(
+    mapgauge,
     NotMetresError,
     MapgaugeError,
     "The map's points are spread too thin for metres (a map in millimetres?)."
@@ -74,8 +92,30 @@ fn err(e: Error) -> PyErr {
             pe
         }
         Error::NotMetres { .. } => NotMetresError::new_err(msg),
+        Error::Format { path, .. } => with_path(ParseError::new_err(msg), &path, Some(0)),
+        Error::Table { path, line, .. } => with_path(ParseError::new_err(msg), &path, Some(line)),
+        Error::Param(_) => ParamError::new_err(msg),
+        Error::Io { path, source } => {
+            let pe = with_path(FileError::new_err(msg), &path, None);
+            Python::attach(|py| {
+                let _ = pe.value(py).setattr("errno", source.raw_os_error());
+            });
+            pe
+        }
         _ => MapgaugeError::new_err(msg),
     }
+}
+
+/// `e` with the file it is about as `path` (and, for a parse error, `line`).
+fn with_path(e: PyErr, path: &Path, line: Option<u64>) -> PyErr {
+    Python::attach(|py| {
+        let v = e.value(py);
+        let _ = v.setattr("path", path.display().to_string());
+        if let Some(line) = line {
+            let _ = v.setattr("line", line);
+        }
+    });
+    e
 }
 
 fn input_err(msg: impl Into<String>) -> PyErr {
@@ -97,9 +137,8 @@ fn json_msg(e: &serde_json::Error) -> String {
 fn config_from_json(json: Option<&str>) -> PyResult<Config> {
     let cfg: Config = match json {
         None => Config::default(),
-        Some(s) => {
-            serde_json::from_str(s).map_err(|e| input_err(format!("config: {}", json_msg(&e))))?
-        }
+        Some(s) => serde_json::from_str(s)
+            .map_err(|e| ParamError::new_err(format!("config: {}", json_msg(&e))))?,
     };
     cfg.validate().map_err(err)?;
     Ok(cfg)
@@ -819,6 +858,9 @@ fn _mapgauge(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m.py().get_type::<FrameNotFoundError>(),
     )?;
     m.add("NotMetresError", m.py().get_type::<NotMetresError>())?;
+    m.add("ParseError", m.py().get_type::<ParseError>())?;
+    m.add("ParamError", m.py().get_type::<ParamError>())?;
+    m.add("FileError", m.py().get_type::<FileError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PySurvey>()?;
     m.add_class::<EvalCore>()?;

@@ -434,3 +434,23 @@ def test_gil_is_released(scene):
     elapsed = time.perf_counter() - t0
     # Held, the main thread would run once per evaluate (3-5 ticks in all).
     assert ticks > 50, (ticks, elapsed)
+
+
+def test_errors_are_typed(tmp_path):
+    # Issue 32: a caller tells a bad file, a bad value and a refused read
+    # apart without parsing messages; all stay MapgaugeErrors (ValueErrors).
+    with pytest.raises(mapgauge.ParamError, match="unknown configuration section"):
+        mapgauge.config(cropp={"radius": 3})
+    with pytest.raises(mapgauge.ParamError, match="radius"):
+        mapgauge.config(crop={"radius": -1})
+    bad = tmp_path / "survey.csv"
+    bad.write_text("id,x,y\na,1,2\nb,3,oops\n")
+    with pytest.raises(mapgauge.ParseError) as e:
+        mapgauge.read_survey(bad)
+    assert (e.value.path, e.value.line) == (str(bad), 3)
+    missing = tmp_path / "nope.csv"
+    with pytest.raises(mapgauge.FileError) as e:
+        mapgauge.read_survey(missing)
+    assert e.value.path == str(missing) and e.value.errno == 2
+    for cls in (mapgauge.ParseError, mapgauge.ParamError, mapgauge.FileError):
+        assert issubclass(cls, mapgauge.MapgaugeError) and issubclass(cls, ValueError)

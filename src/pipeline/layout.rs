@@ -5,6 +5,10 @@ use super::target::{Failure, FarBy, TargetRun};
 use crate::Point;
 use crate::survey::Survey;
 
+/// A target found far from where the others place it: (index, distance,
+/// allowed, by how much).
+pub(super) type Far = (usize, f64, f64, FarBy);
+
 /// A map's distance between two targets may disagree with the survey's by
 /// at most this much (m) plus [`LAYOUT_REL`] of the distance: LiDAR odometry
 /// without loop closure drifts 0.5–2 % (KITTI's worst), a projection's grid
@@ -169,7 +173,7 @@ pub(super) fn far_from_others(
     found: &[TargetRun],
     survey: &Survey,
     opts: &crate::accuracy::ScoreOptions,
-) -> Vec<(usize, f64, f64, FarBy)> {
+) -> Vec<Far> {
     let mut far = Vec::new();
     let corners: Vec<(usize, Point)> = found
         .iter()

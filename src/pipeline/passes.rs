@@ -2,8 +2,9 @@
 //! found targets predicts a missing one, and locating again with the map's
 //! common vertical.
 
+use super::layout::{self, Far};
 use super::target::{self, Pass, TargetRun};
-use super::{Config, layout, read_crops};
+use super::{Config, read_crops};
 use crate::accuracy::{self, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};
 use crate::crop::{LooseParams, TightParams};
@@ -40,7 +41,7 @@ impl Search<'_> {
         pass: &std::cell::Cell<&'static str>,
         progress: &mut impl FnMut(u64, u64),
         reads: &mut Vec<crate::cloud::PassRead>,
-    ) -> Result<Vec<(usize, f64, f64, target::FarBy)>> {
+    ) -> Result<Vec<Far>> {
         let mut far = layout::far_from_others(found, self.survey, self.opts);
         if self.cfg.frame.second_pass || !far.is_empty() {
             pass.set("second-pass");
@@ -67,26 +68,50 @@ impl Search<'_> {
     pub(super) fn second_pass(
         &self,
         found: &mut [TargetRun],
-        narrow: &[(usize, f64, f64, target::FarBy)],
+        narrow: &[Far],
         progress: &mut impl FnMut(u64, u64),
         reads: &mut Vec<crate::cloud::PassRead>,
     ) -> Result<()> {
-        let Search {
-            source,
-            survey,
-            expected,
-            crop_params,
-            cfg,
-            opts,
-            motion,
-            ground,
-        } = *self;
-        let is_narrow = |i: usize| narrow.iter().find(|n| n.0 == i).copied();
+        let redo = self.where_again(found, narrow);
+        if redo.is_empty() {
+            return Ok(());
+        }
+        let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
+        let again = self.read_again(&centres, progress, reads)?;
+        let ups = super::more_ups(self.motion, self.ground.level.as_ref().map(|l| l.up));
+        // The other targets: where they were found, else where they were expected.
+        let placed: Vec<Point> = (0..found.len())
+            .map(|j| found[j].corner().unwrap_or(self.expected[j]))
+            .collect();
+        for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
+            let thinned = (offered > pts.len() as u64).then_some(offered);
+            let narrowed = narrow.iter().find(|n| n.0 == i).copied();
+            let tight = self.tight_for(narrowed);
+            let others = super::others_than(&placed, i);
+            let place = target::Place {
+                id: &self.survey.targets[i].id,
+                expected: c,
+                others: &others,
+                more_ups: &ups,
+            };
+            let mut r = target::locate_target(place, pts, None, &tight, self.cfg, Pass::Second);
+            r.loose_thinned_from = thinned;
+            keep_better(&mut found[i], r, narrowed);
+        }
+        Ok(())
+    }
+
+    /// The targets to look for again and where: each missing one at the
+    /// place the fit of the found ones predicts (when that moved enough),
+    /// each in `narrow` at its prediction whatever the shift. Empty when
+    /// nothing is missing or the found targets cannot be fitted.
+    fn where_again(&self, found: &[TargetRun], narrow: &[Far]) -> Vec<(usize, Point)> {
+        let is_narrow = |i: usize| narrow.iter().any(|n| n.0 == i);
         let missing: Vec<usize> = (0..found.len())
-            .filter(|&i| found[i].outcome.is_err() || is_narrow(i).is_some())
+            .filter(|&i| found[i].outcome.is_err() || is_narrow(i))
             .collect();
         if missing.is_empty() {
-            return Ok(());
+            return Vec::new();
         }
         // Targets searched again narrowly are left out of the fit that predicts.
         let mut est = super::estimates(found);
@@ -95,31 +120,37 @@ impl Search<'_> {
                 reason: String::new(),
             };
         }
-        let Ok(first) = accuracy::score(survey, &est, opts) else {
-            return Ok(());
+        let Ok(first) = accuracy::score(self.survey, &est, self.opts) else {
+            return Vec::new();
         };
         let inverse = first.fit.alignment.inverse();
         let mut redo = Vec::new();
         for &i in &missing {
-            let predicted = inverse.apply(&survey.targets[i].reference());
-            if is_narrow(i).is_some()
-                || (predicted - expected[i]).xy().norm() > cfg.frame.second_pass_min_shift
+            let predicted = inverse.apply(&self.survey.targets[i].reference());
+            if is_narrow(i)
+                || (predicted - self.expected[i]).xy().norm() > self.cfg.frame.second_pass_min_shift
             {
                 redo.push((i, predicted));
             }
         }
-        if redo.is_empty() {
-            return Ok(());
-        }
-        let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
-        // The map's statistics stay those of the first pass.
+        redo
+    }
+
+    /// The loose crops around `centres`, their reads logged as the second
+    /// pass's. The map's statistics stay those of the first pass.
+    fn read_again(
+        &self,
+        centres: &[Point],
+        progress: &mut impl FnMut(u64, u64),
+        reads: &mut Vec<crate::cloud::PassRead>,
+    ) -> Result<super::crops::Crops> {
         let mut again_stats = super::MapStats::default();
         let (again, read, more) = read_crops(
-            source,
-            &centres,
-            crop_params,
-            motion,
-            ground.z_range,
+            self.source,
+            centres,
+            self.crop_params,
+            self.motion,
+            self.ground.z_range,
             &mut again_stats,
             progress,
         )?;
@@ -131,56 +162,43 @@ impl Search<'_> {
             pass: "second-pass-again".into(),
             ..m
         }));
-        // A target searched again because the one found was far from where the
-        // others put it is looked for only close to the prediction, so the same
-        // wrong object cannot be found again.
-        // The radius grows with the error, so that a target of a badly distorted
-        // map is still found where it is, while the wrong object stays outside.
-        let ups = super::more_ups(motion, ground.level.as_ref().map(|l| l.up));
-        // The other targets: where they were found, else where they were expected.
-        let placed: Vec<Point> = (0..found.len())
-            .map(|j| found[j].corner().unwrap_or(expected[j]))
-            .collect();
-        for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
-            let thinned = (offered > pts.len() as u64).then_some(offered);
-            // Only the tight crop's search radius narrows.
-            let close;
-            let tight = match is_narrow(i) {
-                Some((_, error, ..)) => {
-                    close = TightParams {
-                        search_radius: (0.5 * error).max(1.0).min(cfg.tight.search_radius),
-                        ..cfg.tight.clone()
-                    };
-                    &close
-                }
-                None => &cfg.tight,
-            };
-            let others = super::others_than(&placed, i);
-            let place = target::Place {
-                id: &survey.targets[i].id,
-                expected: c,
-                others: &others,
-                more_ups: &ups,
-            };
-            let mut r = target::locate_target(place, pts, None, tight, cfg, Pass::Second);
-            r.loose_thinned_from = thinned;
-            if r.outcome.is_ok() {
-                found[i] = r;
-            } else if let Some((_, error, median, by)) = is_narrow(i)
-                && let Ok(f) = &found[i].outcome
-            {
-                let at = f.located.corner;
-                found[i] = r;
-                found[i].outcome = Err(target::Failure::FarFromOthers {
-                    at,
-                    error,
-                    median,
-                    by,
-                    searched: true,
-                });
-            }
+        Ok(again)
+    }
+
+    /// The tight crop's parameters for a target searched again. One found
+    /// far from where the others place it is looked for only close to the
+    /// prediction, so the same wrong object cannot be found again; the
+    /// radius grows with the error, so that a target of a badly distorted
+    /// map is still found where it is, while the wrong object stays outside.
+    fn tight_for(&self, narrowed: Option<Far>) -> TightParams {
+        match narrowed {
+            Some((_, error, ..)) => TightParams {
+                search_radius: (0.5 * error).max(1.0).min(self.cfg.tight.search_radius),
+                ..self.cfg.tight.clone()
+            },
+            None => self.cfg.tight.clone(),
         }
-        Ok(())
+    }
+}
+
+/// Keeps a target found again; a target searched again because it was far
+/// from the others and not found near its prediction keeps its failure,
+/// with where it had been found.
+fn keep_better(slot: &mut TargetRun, r: TargetRun, narrowed: Option<Far>) {
+    if r.outcome.is_ok() {
+        *slot = r;
+    } else if let Some((_, error, median, by)) = narrowed
+        && let Ok(f) = &slot.outcome
+    {
+        let at = f.located.corner;
+        *slot = r;
+        slot.outcome = Err(target::Failure::FarFromOthers {
+            at,
+            error,
+            median,
+            by,
+            searched: true,
+        });
     }
 }
 

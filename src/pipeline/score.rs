@@ -13,7 +13,7 @@ pub(super) fn check_found(
     found: &mut [TargetRun],
     survey: &Survey,
     opts: &ScoreOptions,
-    far: &[(usize, f64, f64, target::FarBy)],
+    far: &[super::layout::Far],
     cfg: &Config,
     warnings: &mut Vec<Warning>,
 ) -> Option<crate::locate::DoublingLimit> {

@@ -328,7 +328,7 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
         opts: &ScoreOptions,
         motion: &RigidMotion,
         ground: &MapGround,
-    ) -> Result<Vec<(usize, f64, f64, target::FarBy)>> {
+    ) -> Result<Vec<super::layout::Far>> {
         if self.crops_dir.is_some() {
             passes::common_vertical(&mut targets.found, self.cfg);
             return Ok(Vec::new());
