@@ -128,137 +128,153 @@ impl Grid {
     pub fn render(&self, fmt: TableFormat) -> String {
         let mut o = String::new();
         match fmt {
-            TableFormat::Text => {
-                let ncol = self.header.len();
-                let mut w = vec![0; ncol];
-                for r in std::iter::once(&self.header).chain(&self.rows) {
-                    for (i, c) in r.iter().enumerate().take(ncol) {
-                        w[i] = w[i].max(c.chars().count());
-                    }
-                }
-                // A last column of sentences (a not-found reason) is left
-                // unpadded: right-aligned, one long reason pushed every row
-                // past the terminal's width. Short cells (units) stay aligned.
-                let last_words = ncol > 1 && w[ncol - 1] > 40;
-                for r in std::iter::once(&self.header).chain(&self.rows) {
-                    let cells: Vec<String> = r
-                        .iter()
-                        .enumerate()
-                        .map(|(i, c)| {
-                            if last_words && i + 1 == ncol {
-                                c.clone()
-                            } else if i == 0 {
-                                format!("{c:<width$}", width = w[i])
-                            } else {
-                                format!("{c:>width$}", width = w[i])
-                            }
-                        })
-                        .collect();
-                    let _ = writeln!(o, "{}", cells.join("  ").trim_end());
-                }
-            }
-            TableFormat::Markdown => {
-                let h: Vec<String> = self.header.iter().map(|c| c.replace('|', "\\|")).collect();
-                let _ = writeln!(o, "| {} |", h.join(" | "));
-                let seps: Vec<&str> = (0..self.header.len())
-                    .map(|i| if i == 0 { ":--" } else { "--:" })
-                    .collect();
-                let _ = writeln!(o, "| {} |", seps.join(" | "));
-                for r in &self.rows {
-                    let cells: Vec<String> = r
-                        .iter()
-                        .enumerate()
-                        .map(|(i, c)| {
-                            let c = c.replace('|', "\\|");
-                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
-                                format!("**{c}**")
-                            } else {
-                                c
-                            }
-                        })
-                        .collect();
-                    let _ = writeln!(o, "| {} |", cells.join(" | "));
-                }
-            }
-            TableFormat::Latex => {
-                let cols: String = (0..self.header.len())
-                    .map(|i| if i == 0 { 'l' } else { 'r' })
-                    .collect();
-                let _ = writeln!(o, "\\begin{{tabular}}{{{cols}}}");
-                let _ = writeln!(o, "\\toprule");
-                let h: Vec<String> = self.header.iter().map(|c| latex_header(c)).collect();
-                let _ = writeln!(o, "{} \\\\", h.join(" & "));
-                let _ = writeln!(o, "\\midrule");
-                for r in &self.rows {
-                    let cells: Vec<String> = r
-                        .iter()
-                        .enumerate()
-                        .map(|(i, c)| {
-                            let e = latex_escape(c);
-                            if self.bold.contains(&i) && !c.is_empty() && c != "–" {
-                                format!("\\textbf{{{e}}}")
-                            } else {
-                                e
-                            }
-                        })
-                        .collect();
-                    let _ = writeln!(o, "{} \\\\", cells.join(" & "));
-                }
-                let _ = writeln!(o, "\\bottomrule");
-                let _ = writeln!(o, "\\end{{tabular}}");
-            }
-            TableFormat::Csv => {
-                for r in std::iter::once(&self.header).chain(&self.rows) {
-                    let cells: Vec<String> = r.iter().map(|c| csv_cell(c)).collect();
-                    let _ = writeln!(o, "{}", cells.join(","));
-                }
-            }
-            TableFormat::Html => {
-                // Alignment by column, not by cell: a column of numbers aligns
-                // right (the stylesheet's default) even where one cell is a
-                // word; a column of words aligns left, its header too.
-                let number =
-                    |c: &str| c.starts_with(|ch: char| ch.is_ascii_digit() || "+-(".contains(ch));
-                let text_col: Vec<bool> = (0..self.header.len())
-                    .map(|i| {
-                        i > 0
-                            && self
-                                .rows
-                                .iter()
-                                .any(|r| r.get(i).is_some_and(|c| !c.is_empty() && c != "–"))
-                            && !self
-                                .rows
-                                .iter()
-                                .any(|r| r.get(i).is_some_and(|c| number(c)))
-                    })
-                    .collect();
-                o.push_str("<table class=\"grid\">\n<thead><tr>");
-                for (i, h) in self.header.iter().enumerate() {
-                    let class = if text_col[i] { " class=\"t\"" } else { "" };
-                    let _ = write!(o, "<th{class}>{}</th>", escape(h));
-                }
-                o.push_str("</tr></thead>\n<tbody>\n");
-                for r in &self.rows {
-                    o.push_str("<tr>");
-                    for (i, c) in r.iter().enumerate() {
-                        let e = escape(c);
-                        let class = if text_col.get(i).copied().unwrap_or(false) {
-                            " class=\"t\""
-                        } else {
-                            ""
-                        };
-                        if self.bold.contains(&i) && !c.is_empty() && c != "–" {
-                            let _ = write!(o, "<td{class}><strong>{e}</strong></td>");
-                        } else {
-                            let _ = write!(o, "<td{class}>{e}</td>");
-                        }
-                    }
-                    o.push_str("</tr>\n");
-                }
-                o.push_str("</tbody>\n</table>\n");
-            }
+            TableFormat::Text => self.text(&mut o),
+            TableFormat::Markdown => self.markdown(&mut o),
+            TableFormat::Latex => self.latex(&mut o),
+            TableFormat::Csv => self.csv(&mut o),
+            TableFormat::Html => self.html(&mut o),
         }
         o
+    }
+
+    /// Aligned columns for the terminal: the first column left, the others
+    /// right, each as wide as its widest cell.
+    fn text(&self, o: &mut String) {
+        let ncol = self.header.len();
+        let mut w = vec![0; ncol];
+        for r in std::iter::once(&self.header).chain(&self.rows) {
+            for (i, c) in r.iter().enumerate().take(ncol) {
+                w[i] = w[i].max(c.chars().count());
+            }
+        }
+        // A last column of sentences (a not-found reason) is left
+        // unpadded: right-aligned, one long reason pushed every row
+        // past the terminal's width. Short cells (units) stay aligned.
+        let last_words = ncol > 1 && w[ncol - 1] > 40;
+        for r in std::iter::once(&self.header).chain(&self.rows) {
+            let cells: Vec<String> = r
+                .iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    if last_words && i + 1 == ncol {
+                        c.clone()
+                    } else if i == 0 {
+                        format!("{c:<width$}", width = w[i])
+                    } else {
+                        format!("{c:>width$}", width = w[i])
+                    }
+                })
+                .collect();
+            let _ = writeln!(o, "{}", cells.join("  ").trim_end());
+        }
+    }
+
+    /// A GitHub Markdown table: `|` escaped in cells, the bold columns in `**`.
+    fn markdown(&self, o: &mut String) {
+        let h: Vec<String> = self.header.iter().map(|c| c.replace('|', "\\|")).collect();
+        let _ = writeln!(o, "| {} |", h.join(" | "));
+        let seps: Vec<&str> = (0..self.header.len())
+            .map(|i| if i == 0 { ":--" } else { "--:" })
+            .collect();
+        let _ = writeln!(o, "| {} |", seps.join(" | "));
+        for r in &self.rows {
+            let cells: Vec<String> = r
+                .iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    let c = c.replace('|', "\\|");
+                    if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                        format!("**{c}**")
+                    } else {
+                        c
+                    }
+                })
+                .collect();
+            let _ = writeln!(o, "| {} |", cells.join(" | "));
+        }
+    }
+
+    /// A booktabs `tabular`: the paper's headers in math mode, the bold
+    /// columns in `\textbf`.
+    fn latex(&self, o: &mut String) {
+        let cols: String = (0..self.header.len())
+            .map(|i| if i == 0 { 'l' } else { 'r' })
+            .collect();
+        let _ = writeln!(o, "\\begin{{tabular}}{{{cols}}}");
+        let _ = writeln!(o, "\\toprule");
+        let h: Vec<String> = self.header.iter().map(|c| latex_header(c)).collect();
+        let _ = writeln!(o, "{} \\\\", h.join(" & "));
+        let _ = writeln!(o, "\\midrule");
+        for r in &self.rows {
+            let cells: Vec<String> = r
+                .iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    let e = latex_escape(c);
+                    if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                        format!("\\textbf{{{e}}}")
+                    } else {
+                        e
+                    }
+                })
+                .collect();
+            let _ = writeln!(o, "{} \\\\", cells.join(" & "));
+        }
+        let _ = writeln!(o, "\\bottomrule");
+        let _ = writeln!(o, "\\end{{tabular}}");
+    }
+
+    /// CSV rows, the header first, cells quoted only where they must be.
+    fn csv(&self, o: &mut String) {
+        for r in std::iter::once(&self.header).chain(&self.rows) {
+            let cells: Vec<String> = r.iter().map(|c| csv_cell(c)).collect();
+            let _ = writeln!(o, "{}", cells.join(","));
+        }
+    }
+
+    /// An HTML `<table>` fragment, each column classed as numbers or words.
+    fn html(&self, o: &mut String) {
+        // Alignment by column, not by cell: a column of numbers aligns
+        // right (the stylesheet's default) even where one cell is a
+        // word; a column of words aligns left, its header too.
+        let number = |c: &str| c.starts_with(|ch: char| ch.is_ascii_digit() || "+-(".contains(ch));
+        let text_col: Vec<bool> = (0..self.header.len())
+            .map(|i| {
+                i > 0
+                    && self
+                        .rows
+                        .iter()
+                        .any(|r| r.get(i).is_some_and(|c| !c.is_empty() && c != "–"))
+                    && !self
+                        .rows
+                        .iter()
+                        .any(|r| r.get(i).is_some_and(|c| number(c)))
+            })
+            .collect();
+        o.push_str("<table class=\"grid\">\n<thead><tr>");
+        for (i, h) in self.header.iter().enumerate() {
+            let class = if text_col[i] { " class=\"t\"" } else { "" };
+            let _ = write!(o, "<th{class}>{}</th>", escape(h));
+        }
+        o.push_str("</tr></thead>\n<tbody>\n");
+        for r in &self.rows {
+            o.push_str("<tr>");
+            for (i, c) in r.iter().enumerate() {
+                let e = escape(c);
+                let class = if text_col.get(i).copied().unwrap_or(false) {
+                    " class=\"t\""
+                } else {
+                    ""
+                };
+                if self.bold.contains(&i) && !c.is_empty() && c != "–" {
+                    let _ = write!(o, "<td{class}><strong>{e}</strong></td>");
+                } else {
+                    let _ = write!(o, "<td{class}>{e}</td>");
+                }
+            }
+            o.push_str("</tr>\n");
+        }
+        o.push_str("</tbody>\n</table>\n");
     }
 }
 

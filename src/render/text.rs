@@ -79,6 +79,33 @@ fn pairs_mm(r: &ResultFile) -> Grid {
 /// The terminal report of one run; `verbose` adds every pair.
 pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     let mut o = String::new();
+    headline(&mut o, r);
+    intervals(&mut o, r);
+    if let Some(sc) = &r.scale {
+        scale_line(&mut o, r, sc);
+    }
+    alignment_line(&mut o, r);
+    // What may change how the numbers read comes before the tables; the
+    // caveats every small 2D run carries, folded into one note at the end.
+    let stock = crate::record::warning_text(&crate::accuracy::Warning::VerticalNotReported);
+    for w in r.warnings.iter().filter(|w| **w != stock) {
+        let _ = writeln!(o, "warning: {w}");
+    }
+    o.push('\n');
+
+    let g = targets_mm(r);
+    let _ = writeln!(o, "Targets");
+    o.push_str(&g.render(TableFormat::Text));
+    o.push('\n');
+
+    tables(&mut o, r, verbose);
+    closing(&mut o, r, verbose, &stock);
+    o
+}
+
+/// The summary's first lines: how many targets were found and the run's
+/// figures in millimetres (E_abs, E_rel, RMSE_H and NSSDA's).
+fn headline(o: &mut String, r: &ResultFile) {
     let dim = r.dim.label();
     let n = r.targets.len();
     let found = r.targets.iter().filter(|t| t.status == "ok").count();
@@ -115,6 +142,11 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             ", also used to fit"
         }
     );
+}
+
+/// The 95 % intervals of the three figures, when the run computed any: how
+/// much the measurement noise and the choice of targets could move them.
+fn intervals(o: &mut String, r: &ResultFile) {
     let ci = |m: Option<[f64; 2]>, t: Option<[f64; 2]>| -> Option<String> {
         let f = |c: Option<[f64; 2]>| {
             c.map(|[lo, hi]| format!("[{}, {}]", mm(lo), mm(hi)))
@@ -147,32 +179,40 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             }
         }
     }
-    if let Some(sc) = &r.scale {
-        // A WGS84 survey is placed in a local east-north-up frame: a map in
-        // a projected grid (UTM) carries the grid's scale against it.
-        let grid = if r.survey_frame == crate::survey::SurveyFrame::Wgs84Enu {
-            "; a map in a projected grid (UTM) differs from the WGS84 survey's local frame by its grid scale, up to ±1000 ppm"
+}
+
+/// The map's scale against the survey's (ppm), saying whether it is
+/// stretched or shrunk when the interval excludes zero.
+fn scale_line(o: &mut String, r: &ResultFile, sc: &crate::accuracy::ScaleEstimate) {
+    // A WGS84 survey is placed in a local east-north-up frame: a map in
+    // a projected grid (UTM) carries the grid's scale against it.
+    let grid = if r.survey_frame == crate::survey::SurveyFrame::Wgs84Enu {
+        "; a map in a projected grid (UTM) differs from the WGS84 survey's local frame by its grid scale, up to ±1000 ppm"
+    } else {
+        ""
+    };
+    let _ = writeln!(
+        o,
+        "  scale  {} ppm, 95 % [{}, {}] (the map's horizontal distances against the survey's, from {} targets{}{grid})",
+        signed_ppm(sc.ppm),
+        signed_ppm(sc.ci95_ppm[0]),
+        signed_ppm(sc.ci95_ppm[1]),
+        sc.n,
+        if sc.ci95_ppm[0] > 0.0 || sc.ci95_ppm[1] < 0.0 {
+            if sc.ppm > 0.0 {
+                ": the map is stretched"
+            } else {
+                ": the map is shrunk"
+            }
         } else {
             ""
-        };
-        let _ = writeln!(
-            o,
-            "  scale  {} ppm, 95 % [{}, {}] (the map's horizontal distances against the survey's, from {} targets{}{grid})",
-            signed_ppm(sc.ppm),
-            signed_ppm(sc.ci95_ppm[0]),
-            signed_ppm(sc.ci95_ppm[1]),
-            sc.n,
-            if sc.ci95_ppm[0] > 0.0 || sc.ci95_ppm[1] < 0.0 {
-                if sc.ppm > 0.0 {
-                    ": the map is stretched"
-                } else {
-                    ": the map is shrunk"
-                }
-            } else {
-                ""
-            }
-        );
-    }
+        }
+    );
+}
+
+/// The map → survey transform the errors were measured after.
+fn alignment_line(o: &mut String, r: &ResultFile) {
+    let a = &r.alignment;
     let _ = writeln!(
         o,
         "  alignment map → survey: rotation {}°, translation ({}, {}, {}) m{}",
@@ -186,14 +226,11 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             String::new()
         }
     );
-    // What may change how the numbers read comes before the tables; the
-    // caveats every small 2D run carries, folded into one note at the end.
-    let stock = crate::record::warning_text(&crate::accuracy::Warning::VerticalNotReported);
-    for w in r.warnings.iter().filter(|w| **w != stock) {
-        let _ = writeln!(o, "warning: {w}");
-    }
-    o.push('\n');
+}
 
+/// One row a target: its status, error, leave-one-out error, spread and
+/// the reason it was not found.
+fn targets_mm(r: &ResultFile) -> Grid {
     let mut g = Grid {
         header: [
             "id",
@@ -225,10 +262,14 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             t.reason.clone().unwrap_or_default(),
         ]);
     }
-    let _ = writeln!(o, "Targets");
-    o.push_str(&g.render(TableFormat::Text));
-    o.push('\n');
+    g
+}
 
+/// The tables after the targets': the paper's layouts for a few targets,
+/// the statistics, and every pair with `verbose`.
+fn tables(o: &mut String, r: &ResultFile, verbose: bool) {
+    let dim = r.dim.label();
+    let n = r.targets.len();
     if n <= PAPER_TABLES_UP_TO {
         // In mm as the rest of the terminal: `table` and --format give the
         // paper's metres.
@@ -248,6 +289,12 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
         o.push_str(&pairs_mm(r).render(TableFormat::Text));
         o.push('\n');
     }
+}
+
+/// The last lines: NSSDA's statement, the folded caveats, and where to find
+/// what the terminal left out.
+fn closing(o: &mut String, r: &ResultFile, verbose: bool, stock: &str) {
+    let n = r.targets.len();
     let _ = writeln!(
         o,
         "NSSDA: tested {} mm horizontal accuracy at 95 % confidence level{}",
@@ -257,7 +304,7 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
             .map(|v| format!(", {} mm vertical", mm(v)))
             .unwrap_or_default()
     );
-    if let Some(note) = stock_note(r, &stock) {
+    if let Some(note) = stock_note(r, stock) {
         let _ = writeln!(o, "note: {note}");
     }
     let mut more = Vec::new();
@@ -275,7 +322,6 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     if !more.is_empty() {
         let _ = writeln!(o, "({})", more.join("; "));
     }
-    o
 }
 
 #[cfg(test)]

@@ -67,137 +67,162 @@ fn sw(w: f64) -> u32 {
 fn draw(f: &Figure, root: &Area<'_>) -> DrawResult {
     root.fill(&WHITE)?;
     for item in &f.items {
-        match item {
-            Item::Dots { xy, r, color } => {
-                let style = rgb(*color).filled();
-                let r = (r * SCALE).round().max(1.0) as i32;
-                for &c in xy {
-                    root.draw(&Circle::new(p(c), r, style))?;
-                }
+        draw_item(root, item)?;
+    }
+    Ok(())
+}
+
+/// One item in pixels: the same marks as the SVG, at [`SCALE`] times its size.
+fn draw_item(root: &Area<'_>, item: &Item) -> DrawResult {
+    match item {
+        Item::Dots { xy, r, color } => {
+            let style = rgb(*color).filled();
+            let r = (r * SCALE).round().max(1.0) as i32;
+            for &c in xy {
+                root.draw(&Circle::new(p(c), r, style))?;
             }
-            Item::Line {
-                a,
-                b,
-                color,
-                width,
-                dashed,
-            } => {
-                let style = rgb(*color).stroke_width(sw(*width));
-                if *dashed {
-                    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-                    let len = (dx * dx + dy * dy).sqrt();
-                    let n = (len / 9.0).floor() as usize;
-                    for k in 0..=n {
-                        let t0 = k as f64 * 9.0 / len.max(1e-9);
-                        let t1 = ((k as f64 * 9.0 + 5.0) / len.max(1e-9)).min(1.0);
-                        if t0 >= 1.0 {
-                            break;
-                        }
-                        root.draw(&PathElement::new(
-                            vec![
-                                p((a.0 + dx * t0, a.1 + dy * t0)),
-                                p((a.0 + dx * t1, a.1 + dy * t1)),
-                            ],
-                            style,
-                        ))?;
-                    }
-                } else {
-                    root.draw(&PathElement::new(vec![p(*a), p(*b)], style))?;
-                }
+        }
+        Item::Line {
+            a,
+            b,
+            color,
+            width,
+            dashed,
+        } => {
+            let style = rgb(*color).stroke_width(sw(*width));
+            if *dashed {
+                dashed_line(root, *a, *b, style)?;
+            } else {
+                root.draw(&PathElement::new(vec![p(*a), p(*b)], style))?;
             }
-            Item::Polyline { pts, color, width } => {
-                let v: Vec<(i32, i32)> = pts.iter().map(|&c| p(c)).collect();
-                root.draw(&PathElement::new(v, rgb(*color).stroke_width(sw(*width))))?;
+        }
+        Item::Polyline { pts, color, width } => {
+            let v: Vec<(i32, i32)> = pts.iter().map(|&c| p(c)).collect();
+            root.draw(&PathElement::new(v, rgb(*color).stroke_width(sw(*width))))?;
+        }
+        Item::Rect {
+            at,
+            size,
+            fill,
+            stroke,
+        } => {
+            let c = [p(*at), p((at.0 + size.0, at.1 + size.1))];
+            if let Some(fc) = fill {
+                root.draw(&Rectangle::new(c, rgb(*fc).filled()))?;
             }
-            Item::Rect {
-                at,
-                size,
-                fill,
-                stroke,
-            } => {
-                let c = [p(*at), p((at.0 + size.0, at.1 + size.1))];
-                if let Some(fc) = fill {
-                    root.draw(&Rectangle::new(c, rgb(*fc).filled()))?;
-                }
-                if let Some(sc) = stroke {
-                    root.draw(&Rectangle::new(c, rgb(*sc).stroke_width(sw(1.0))))?;
-                }
+            if let Some(sc) = stroke {
+                root.draw(&Rectangle::new(c, rgb(*sc).stroke_width(sw(1.0))))?;
             }
-            Item::Arrow { a, b, color, width } => {
-                let (h1, h2) = super::svg::arrow_head(*a, *b, 4.0 + 2.0 * width);
-                root.draw(&PathElement::new(
-                    vec![p(*a), p(*b)],
-                    rgb(*color).stroke_width(sw(*width)),
-                ))?;
-                root.draw(&Polygon::new(
-                    vec![p(*b), p(h1), p(h2)],
-                    rgb(*color).filled(),
-                ))?;
+        }
+        Item::Arrow { a, b, color, width } => {
+            let (h1, h2) = super::svg::arrow_head(*a, *b, 4.0 + 2.0 * width);
+            root.draw(&PathElement::new(
+                vec![p(*a), p(*b)],
+                rgb(*color).stroke_width(sw(*width)),
+            ))?;
+            root.draw(&Polygon::new(
+                vec![p(*b), p(h1), p(h2)],
+                rgb(*color).filled(),
+            ))?;
+        }
+        Item::Marker {
+            at,
+            kind,
+            size,
+            color,
+            width,
+        } => {
+            let style = rgb(*color).stroke_width(sw(*width));
+            marker(root, *at, *kind, *size, style)?;
+        }
+        Item::Text {
+            at,
+            text,
+            size,
+            color,
+            anchor,
+            vertical,
+            ..
+        } => {
+            let h = match anchor {
+                Anchor::Start => HPos::Left,
+                Anchor::Middle => HPos::Center,
+                Anchor::End => HPos::Right,
+            };
+            let mut style = ("sans-serif", size * SCALE)
+                .into_font()
+                .color(&rgb(*color))
+                .pos(Pos::new(h, VPos::Center));
+            if *vertical {
+                style = style.transform(FontTransform::Rotate270);
             }
-            Item::Marker {
-                at,
-                kind,
-                size,
-                color,
-                width,
-            } => {
-                let style = rgb(*color).stroke_width(sw(*width));
-                let (x, y, s) = (at.0, at.1, *size);
-                match kind {
-                    MarkerKind::Plus => {
-                        root.draw(&PathElement::new(vec![p((x - s, y)), p((x + s, y))], style))?;
-                        root.draw(&PathElement::new(vec![p((x, y - s)), p((x, y + s))], style))?;
-                    }
-                    MarkerKind::Cross => {
-                        root.draw(&PathElement::new(
-                            vec![p((x - s, y - s)), p((x + s, y + s))],
-                            style,
-                        ))?;
-                        root.draw(&PathElement::new(
-                            vec![p((x - s, y + s)), p((x + s, y - s))],
-                            style,
-                        ))?;
-                    }
-                    MarkerKind::Diamond => {
-                        root.draw(&PathElement::new(
-                            vec![
-                                p((x, y - s)),
-                                p((x + s, y)),
-                                p((x, y + s)),
-                                p((x - s, y)),
-                                p((x, y - s)),
-                            ],
-                            style,
-                        ))?;
-                    }
-                    MarkerKind::Ring => {
-                        root.draw(&Circle::new(p(*at), (s * SCALE).round() as i32, style))?;
-                    }
-                }
-            }
-            Item::Text {
-                at,
-                text,
-                size,
-                color,
-                anchor,
-                vertical,
-                ..
-            } => {
-                let h = match anchor {
-                    Anchor::Start => HPos::Left,
-                    Anchor::Middle => HPos::Center,
-                    Anchor::End => HPos::Right,
-                };
-                let mut style = ("sans-serif", size * SCALE)
-                    .into_font()
-                    .color(&rgb(*color))
-                    .pos(Pos::new(h, VPos::Center));
-                if *vertical {
-                    style = style.transform(FontTransform::Rotate270);
-                }
-                root.draw(&Text::new(text.clone(), p(*at), style))?;
-            }
+            root.draw(&Text::new(text.clone(), p(*at), style))?;
+        }
+    }
+    Ok(())
+}
+
+/// A dashed line as the SVG's `5 4` dash pattern: plotters' bitmap backend
+/// draws no dashes of its own.
+fn dashed_line(root: &Area<'_>, a: (f64, f64), b: (f64, f64), style: ShapeStyle) -> DrawResult {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len = (dx * dx + dy * dy).sqrt();
+    let n = (len / 9.0).floor() as usize;
+    for k in 0..=n {
+        let t0 = k as f64 * 9.0 / len.max(1e-9);
+        let t1 = ((k as f64 * 9.0 + 5.0) / len.max(1e-9)).min(1.0);
+        if t0 >= 1.0 {
+            break;
+        }
+        root.draw(&PathElement::new(
+            vec![
+                p((a.0 + dx * t0, a.1 + dy * t0)),
+                p((a.0 + dx * t1, a.1 + dy * t1)),
+            ],
+            style,
+        ))?;
+    }
+    Ok(())
+}
+
+/// A marker's outline of half-size `s` about `at`, as the SVG draws it.
+fn marker(
+    root: &Area<'_>,
+    at: (f64, f64),
+    kind: MarkerKind,
+    s: f64,
+    style: ShapeStyle,
+) -> DrawResult {
+    let (x, y) = at;
+    match kind {
+        MarkerKind::Plus => {
+            root.draw(&PathElement::new(vec![p((x - s, y)), p((x + s, y))], style))?;
+            root.draw(&PathElement::new(vec![p((x, y - s)), p((x, y + s))], style))?;
+        }
+        MarkerKind::Cross => {
+            root.draw(&PathElement::new(
+                vec![p((x - s, y - s)), p((x + s, y + s))],
+                style,
+            ))?;
+            root.draw(&PathElement::new(
+                vec![p((x - s, y + s)), p((x + s, y - s))],
+                style,
+            ))?;
+        }
+        MarkerKind::Diamond => {
+            root.draw(&PathElement::new(
+                vec![
+                    p((x, y - s)),
+                    p((x + s, y)),
+                    p((x, y + s)),
+                    p((x - s, y)),
+                    p((x, y - s)),
+                ],
+                style,
+            ))?;
+        }
+        MarkerKind::Ring => {
+            root.draw(&Circle::new(p(at), (s * SCALE).round() as i32, style))?;
         }
     }
     Ok(())

@@ -3,7 +3,7 @@
 //! external reference), so it renders the same in a browser, an editor or a
 //! LaTeX toolchain.
 
-use super::figure::{Anchor, Figure, Item, MarkerKind};
+use super::figure::{Anchor, Color, Figure, Item, MarkerKind};
 use super::html::escape;
 use std::fmt::Write as _;
 
@@ -38,189 +38,207 @@ pub fn render(f: &Figure) -> String {
         n(f.height)
     );
     for item in &f.items {
-        match item {
-            Item::Dots { xy, r, color } => {
-                if xy.is_empty() {
-                    continue;
-                }
-                // Zero-length subpaths with round caps are dots: ~12 bytes a point.
-                let _ = write!(
-                    o,
-                    "<path fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" stroke-linecap=\"round\" d=\"",
-                    color.hex(),
-                    n(2.0 * r)
-                );
-                for (x, y) in xy {
-                    let _ = write!(o, "M{} {}h0", n(*x), n(*y));
-                }
-                o.push_str("\"/>");
-            }
-            Item::Line {
-                a,
-                b,
-                color,
-                width,
-                dashed,
-            } => {
-                let _ = write!(
-                    o,
-                    "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"{}\"{}/>",
-                    n(a.0),
-                    n(a.1),
-                    n(b.0),
-                    n(b.1),
-                    color.hex(),
-                    n(*width),
-                    if *dashed {
-                        " stroke-dasharray=\"5 4\""
-                    } else {
-                        ""
-                    }
-                );
-            }
-            Item::Polyline { pts, color, width } => {
-                let p: Vec<String> = pts
-                    .iter()
-                    .map(|(x, y)| format!("{},{}", n(*x), n(*y)))
-                    .collect();
-                let _ = write!(
-                    o,
-                    "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" points=\"{}\"/>",
-                    color.hex(),
-                    n(*width),
-                    p.join(" ")
-                );
-            }
-            Item::Rect {
-                at,
-                size,
-                fill,
-                stroke,
-            } => {
-                let _ = write!(
-                    o,
-                    "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\" stroke=\"{}\"/>",
-                    n(at.0),
-                    n(at.1),
-                    n(size.0),
-                    n(size.1),
-                    fill.map(|c| c.hex()).unwrap_or_else(|| "none".into()),
-                    stroke.map(|c| c.hex()).unwrap_or_else(|| "none".into()),
-                );
-            }
-            Item::Arrow { a, b, color, width } => {
-                let (h1, h2) = arrow_head(*a, *b, 4.0 + 2.0 * width);
-                let _ = write!(
-                    o,
-                    "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{c}\" stroke-width=\"{}\"/><polygon fill=\"{c}\" points=\"{},{} {},{} {},{}\"/>",
-                    n(a.0),
-                    n(a.1),
-                    n(b.0),
-                    n(b.1),
-                    n(*width),
-                    n(b.0),
-                    n(b.1),
-                    n(h1.0),
-                    n(h1.1),
-                    n(h2.0),
-                    n(h2.1),
-                    c = color.hex(),
-                );
-            }
-            Item::Marker {
-                at,
-                kind,
-                size,
-                color,
-                width,
-            } => {
-                let (x, y, s) = (at.0, at.1, *size);
-                let c = color.hex();
-                let sw = n(*width);
-                let _ = match kind {
-                    MarkerKind::Plus => write!(
-                        o,
-                        "<path fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\" d=\"M{} {}H{}M{} {}V{}\"/>",
-                        n(x - s),
-                        n(y),
-                        n(x + s),
-                        n(x),
-                        n(y - s),
-                        n(y + s)
-                    ),
-                    MarkerKind::Cross => write!(
-                        o,
-                        "<path fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\" d=\"M{} {}L{} {}M{} {}L{} {}\"/>",
-                        n(x - s),
-                        n(y - s),
-                        n(x + s),
-                        n(y + s),
-                        n(x - s),
-                        n(y + s),
-                        n(x + s),
-                        n(y - s)
-                    ),
-                    MarkerKind::Diamond => write!(
-                        o,
-                        "<polygon fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\" points=\"{},{} {},{} {},{} {},{}\"/>",
-                        n(x),
-                        n(y - s),
-                        n(x + s),
-                        n(y),
-                        n(x),
-                        n(y + s),
-                        n(x - s),
-                        n(y)
-                    ),
-                    MarkerKind::Ring => write!(
-                        o,
-                        "<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\"/>",
-                        n(x),
-                        n(y),
-                        n(s)
-                    ),
-                };
-            }
-            Item::Text {
-                at,
-                text,
-                size,
-                color,
-                anchor,
-                bold,
-                vertical,
-            } => {
-                let anchor = match anchor {
-                    Anchor::Start => "start",
-                    Anchor::Middle => "middle",
-                    Anchor::End => "end",
-                };
-                // `at` is the vertical centre; SVG places the baseline.
-                let (x, y) = if *vertical {
-                    (at.0 + 0.35 * size, at.1)
-                } else {
-                    (at.0, at.1 + 0.35 * size)
-                };
-                let rot = if *vertical {
-                    format!(" transform=\"rotate(-90 {} {})\"", n(x), n(y))
-                } else {
-                    String::new()
-                };
-                let _ = write!(
-                    o,
-                    "<text x=\"{}\" y=\"{}\" font-size=\"{}\" fill=\"{}\" text-anchor=\"{anchor}\"{}{rot}>{}</text>",
-                    n(x),
-                    n(y),
-                    n(*size),
-                    color.hex(),
-                    if *bold { " font-weight=\"bold\"" } else { "" },
-                    escape(text)
-                );
-            }
-        }
+        item_svg(&mut o, item);
     }
     o.push_str("</svg>");
     o
+}
+
+/// One item as SVG elements: the figure's kinds of mark map one to one
+/// onto SVG's, so the page and a `--plots` file draw the same.
+fn item_svg(o: &mut String, item: &Item) {
+    match item {
+        Item::Dots { xy, r, color } => {
+            if xy.is_empty() {
+                return;
+            }
+            // Zero-length subpaths with round caps are dots: ~12 bytes a point.
+            let _ = write!(
+                o,
+                "<path fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" stroke-linecap=\"round\" d=\"",
+                color.hex(),
+                n(2.0 * r)
+            );
+            for (x, y) in xy {
+                let _ = write!(o, "M{} {}h0", n(*x), n(*y));
+            }
+            o.push_str("\"/>");
+        }
+        Item::Line {
+            a,
+            b,
+            color,
+            width,
+            dashed,
+        } => {
+            let _ = write!(
+                o,
+                "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"{}\"{}/>",
+                n(a.0),
+                n(a.1),
+                n(b.0),
+                n(b.1),
+                color.hex(),
+                n(*width),
+                if *dashed {
+                    " stroke-dasharray=\"5 4\""
+                } else {
+                    ""
+                }
+            );
+        }
+        Item::Polyline { pts, color, width } => {
+            let p: Vec<String> = pts
+                .iter()
+                .map(|(x, y)| format!("{},{}", n(*x), n(*y)))
+                .collect();
+            let _ = write!(
+                o,
+                "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" points=\"{}\"/>",
+                color.hex(),
+                n(*width),
+                p.join(" ")
+            );
+        }
+        Item::Rect {
+            at,
+            size,
+            fill,
+            stroke,
+        } => {
+            let _ = write!(
+                o,
+                "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\" stroke=\"{}\"/>",
+                n(at.0),
+                n(at.1),
+                n(size.0),
+                n(size.1),
+                fill.map(|c| c.hex()).unwrap_or_else(|| "none".into()),
+                stroke.map(|c| c.hex()).unwrap_or_else(|| "none".into()),
+            );
+        }
+        Item::Arrow { a, b, color, width } => arrow(o, *a, *b, *color, *width),
+        Item::Marker {
+            at,
+            kind,
+            size,
+            color,
+            width,
+        } => marker(o, *at, *kind, *size, &color.hex(), &n(*width)),
+        Item::Text { .. } => text(o, item),
+    }
+}
+
+/// A text item: SVG anchors it by its baseline, a figure by its centre.
+fn text(o: &mut String, item: &Item) {
+    let Item::Text {
+        at,
+        text,
+        size,
+        color,
+        anchor,
+        bold,
+        vertical,
+    } = item
+    else {
+        return;
+    };
+    let anchor = match anchor {
+        Anchor::Start => "start",
+        Anchor::Middle => "middle",
+        Anchor::End => "end",
+    };
+    // `at` is the vertical centre; SVG places the baseline.
+    let (x, y) = if *vertical {
+        (at.0 + 0.35 * size, at.1)
+    } else {
+        (at.0, at.1 + 0.35 * size)
+    };
+    let rot = if *vertical {
+        format!(" transform=\"rotate(-90 {} {})\"", n(x), n(y))
+    } else {
+        String::new()
+    };
+    let _ = write!(
+        o,
+        "<text x=\"{}\" y=\"{}\" font-size=\"{}\" fill=\"{}\" text-anchor=\"{anchor}\"{}{rot}>{}</text>",
+        n(x),
+        n(y),
+        n(*size),
+        color.hex(),
+        if *bold { " font-weight=\"bold\"" } else { "" },
+        escape(text)
+    );
+}
+
+/// An arrow: its shaft as a line, its head as a filled triangle at `b`.
+fn arrow(o: &mut String, a: (f64, f64), b: (f64, f64), color: Color, width: f64) {
+    let (h1, h2) = arrow_head(a, b, 4.0 + 2.0 * width);
+    let _ = write!(
+        o,
+        "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{c}\" stroke-width=\"{}\"/><polygon fill=\"{c}\" points=\"{},{} {},{} {},{}\"/>",
+        n(a.0),
+        n(a.1),
+        n(b.0),
+        n(b.1),
+        n(width),
+        n(b.0),
+        n(b.1),
+        n(h1.0),
+        n(h1.1),
+        n(h2.0),
+        n(h2.1),
+        c = color.hex(),
+    );
+}
+
+/// A marker's outline of half-size `s` about `at`, in colour `c` and stroke
+/// width `sw` (both already as SVG text).
+fn marker(o: &mut String, at: (f64, f64), kind: MarkerKind, s: f64, c: &str, sw: &str) {
+    let (x, y) = at;
+    let _ = match kind {
+        MarkerKind::Plus => write!(
+            o,
+            "<path fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\" d=\"M{} {}H{}M{} {}V{}\"/>",
+            n(x - s),
+            n(y),
+            n(x + s),
+            n(x),
+            n(y - s),
+            n(y + s)
+        ),
+        MarkerKind::Cross => write!(
+            o,
+            "<path fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\" d=\"M{} {}L{} {}M{} {}L{} {}\"/>",
+            n(x - s),
+            n(y - s),
+            n(x + s),
+            n(y + s),
+            n(x - s),
+            n(y + s),
+            n(x + s),
+            n(y - s)
+        ),
+        MarkerKind::Diamond => write!(
+            o,
+            "<polygon fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\" points=\"{},{} {},{} {},{} {},{}\"/>",
+            n(x),
+            n(y - s),
+            n(x + s),
+            n(y),
+            n(x),
+            n(y + s),
+            n(x - s),
+            n(y)
+        ),
+        MarkerKind::Ring => write!(
+            o,
+            "<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"{sw}\"/>",
+            n(x),
+            n(y),
+            n(s)
+        ),
+    };
 }
 
 /// The two base corners of an arrow head at `b`.

@@ -86,6 +86,15 @@ pub fn cdf(r: &ResultFile) -> Figure {
         },
         "share of checkpoints within it",
     );
+    cdf_steps(&mut f, &panel, &e, xmax);
+    cdf_references(&mut f, &panel, r.absolute.mean * 1000.0, nssda, xmax);
+    cdf_legend(&mut f, r, &e, nssda);
+    f
+}
+
+/// The CDF itself: a staircase rising by one target's share at each error,
+/// a dot on each step (labelled when few enough to read).
+fn cdf_steps(f: &mut Figure, panel: &Panel, e: &[(f64, String)], xmax: f64) {
     let n = e.len() as f64;
     let mut pts = vec![panel.map(0.0, 0.0)];
     for (k, (v, _)) in e.iter().enumerate() {
@@ -115,13 +124,18 @@ pub fn cdf(r: &ResultFile) -> Figure {
             f.text((s.0 + 6.0, s.1 + 9.0), id, 9.0, palette::INK, Anchor::Start);
         }
     }
+}
+
+/// What the staircase is read against: E_abs and NSSDA's value (mm) as
+/// dashed verticals, and the 95 % share as a dashed horizontal.
+fn cdf_references(f: &mut Figure, panel: &Panel, mean: f64, nssda: f64, xmax: f64) {
     let dashed = |f: &mut Figure, x: f64, c| {
         if x.is_finite() && x > 0.0 {
             f.line(panel.map(x, 0.0), panel.map(x, 1.05), c, 1.0, true);
         }
     };
-    dashed(&mut f, r.absolute.mean * 1000.0, palette::OUTLIER);
-    dashed(&mut f, nssda, palette::SURVEY);
+    dashed(f, mean, palette::OUTLIER);
+    dashed(f, nssda, palette::SURVEY);
     f.line(
         panel.map(0.0, 0.95),
         panel.map(xmax, 0.95),
@@ -129,19 +143,17 @@ pub fn cdf(r: &ResultFile) -> Figure {
         1.0,
         true,
     );
+}
+
+/// The legend column: the marks, why NSSDA is missing from a 3D run, and
+/// which targets were counted and over what range.
+fn cdf_legend(f: &mut Figure, r: &ResultFile, e: &[(f64, String)], nssda: f64) {
     f.bold((LX, 50.0), "Legend", 12.0, Anchor::Start);
-    legend_dot(&mut f, (LX + 6.0, 74.0), palette::PLATE1, "one target");
-    legend_line(
-        &mut f,
-        (LX, 96.0),
-        palette::OUTLIER,
-        1.0,
-        true,
-        "E_abs (mean)",
-    );
+    legend_dot(f, (LX + 6.0, 74.0), palette::PLATE1, "one target");
+    legend_line(f, (LX, 96.0), palette::OUTLIER, 1.0, true, "E_abs (mean)");
     if nssda.is_finite() {
         legend_line(
-            &mut f,
+            f,
             (LX, 118.0),
             palette::SURVEY,
             1.0,
@@ -188,7 +200,6 @@ pub fn cdf(r: &ResultFile) -> Figure {
             Anchor::Start,
         );
     }
-    f
 }
 
 /// Each scored target's absolute error against the distance along the

@@ -10,10 +10,12 @@ use crate::report::figure::{Anchor, Color, Figure, Item, MarkerKind, palette};
 
 mod errors;
 mod overview;
+mod relative;
 mod target;
 
 pub use errors::{ROUTE_FAR_M, along_route, cdf, located_stations};
-pub use overview::{fit_line, fmt_len, overview, relative};
+pub use overview::{fmt_len, overview};
+pub use relative::{fit_line, relative};
 use target::target_figure;
 pub use target::{LooseView, loose_figure};
 
