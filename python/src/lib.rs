@@ -8,8 +8,8 @@ use mapgauge::accuracy::{self, ScoreOptions};
 use mapgauge::cloud::{self, MapSource};
 use mapgauge::pipeline::{self, Config, Evaluation, MetricsConfig};
 use mapgauge::record::{ResultFile, SCHEMA, refuse_overwrite};
-use mapgauge::render::{self, Grid, OutputFormat, TableFormat};
-use mapgauge::report::{self, html};
+use mapgauge::render::{self, OutputFormat};
+use mapgauge::report;
 use mapgauge::survey::{
     Estimate, EstimateStatus, Geodetic, Survey, SurveyFrame, SurveyOptions, SurveyTarget,
 };
@@ -747,16 +747,7 @@ fn _table(
     which: &str,
 ) -> PyResult<(String, Vec<String>)> {
     let fmt: OutputFormat = format.parse().map_err(err)?;
-    let (rel, abs) = match which {
-        "both" => (true, true),
-        "relative" => (true, false),
-        "absolute" => (false, true),
-        w => {
-            return Err(input_err(format!(
-                "which `{w}`: relative, absolute or both"
-            )));
-        }
-    };
+    let which: render::Which = which.parse().map_err(err)?;
     let results = py
         .detach(|| {
             runs.iter()
@@ -784,68 +775,9 @@ fn _table(
         .zip(results.iter())
         .collect();
     Ok((
-        render_tables(&named, fmt, rel, abs),
+        render::tables_page(&named, fmt, which, false),
         render::survey_mismatches(&named),
     ))
-}
-
-/// `mapgauge table`'s output, as text.
-fn render_tables(
-    runs: &[(String, &ResultFile)],
-    fmt: OutputFormat,
-    rel: bool,
-    abs: bool,
-) -> String {
-    let mut tables: Vec<(&str, Grid)> = Vec::new();
-    if rel {
-        tables.push(("Relative error (m) — Table I", render::relative_grid(runs)));
-    }
-    if abs {
-        tables.push(("Absolute error (m) — Table II", render::absolute_grid(runs)));
-    }
-    let fmt = match fmt {
-        OutputFormat::Table(f) => f,
-        OutputFormat::Json => {
-            let mut o = serde_json::Map::new();
-            for (key, (_, g)) in ["relative", "absolute"]
-                .iter()
-                .filter(|k| if **k == "relative" { rel } else { abs })
-                .zip(&tables)
-            {
-                o.insert((*key).into(), g.to_json());
-            }
-            let mut s =
-                serde_json::to_string_pretty(&serde_json::Value::Object(o)).unwrap_or_default();
-            s.push('\n');
-            return s;
-        }
-    };
-    if fmt == TableFormat::Html {
-        let mut body = String::from("<h1>Map accuracy</h1>\n");
-        for (caption, g) in &tables {
-            body.push_str(&format!(
-                "<h2>{}</h2>\n<div class=\"scroll\">{}</div>\n",
-                html::escape(caption),
-                g.render(fmt)
-            ));
-        }
-        body.push_str(
-            "<p class=\"sub\">Means and standard deviations in bold as in the paper; \
-             a blank cell: the run has no such target; –: it has, but could not locate it.</p>",
-        );
-        return html::page("mapgauge tables", &body, &[]);
-    }
-    let mut out = String::new();
-    for (k, (caption, g)) in tables.iter().enumerate() {
-        if k > 0 {
-            out.push('\n');
-        }
-        if fmt == TableFormat::Markdown {
-            out.push_str(&format!("**{caption}**\n\n"));
-        }
-        out.push_str(&g.render(fmt));
-    }
-    out
 }
 
 /// The extension module.

@@ -261,11 +261,11 @@ pub fn run(a: Args) -> Result<()> {
 /// nonsense against the distance driven.
 fn warn_off_route(route: &mapgauge::trajectory::Trajectory, ev: &Evaluation, result: &ResultFile) {
     let moved = route.moved(&ev.frame.levelling);
-    let far = report::plots::located_stations(result, &moved)
+    let far = report::located_stations(result, &moved)
         .iter()
         .map(|(_, s)| s.off)
         .fold(0.0, f64::max);
-    if far > report::plots::ROUTE_FAR_M {
+    if far > report::ROUTE_FAR_M {
         eprintln!(
             "warning: a located target is {far:.0} m from the trajectory ({} poses, {:.0} m): is it in the map's frame, and of this run? (the report's error-against-distance figure assumes so)",
             route.positions.len(),

@@ -2,17 +2,15 @@
 //! per-target and per-pair tables, statistics) and their encoders to plain
 //! text, Markdown, LaTeX, CSV, HTML and JSON.
 
+mod page;
 mod summary;
 mod tables;
 mod text;
 
-pub use summary::{
-    OUTPUT_FILES, refuse_overwriting_inputs, render_csv, render_report, write_outputs,
-};
-pub use tables::{
-    absolute_grid, extra_grid, merged_ids, pairs_grid, relative_grid, survey_mismatches,
-    surveyed_elsewhere, target_label, targets_grid,
-};
+pub use page::{Which, tables_page};
+pub use summary::{OUTPUT_FILES, refuse_overwriting_inputs, render_report, write_outputs};
+pub use tables::{absolute_grid, relative_grid, survey_mismatches, surveyed_elsewhere};
+pub(crate) use tables::{extra_grid, target_label};
 pub use text::mm;
 pub use text::render_text;
 pub(crate) use text::{fixed, signed_ppm};

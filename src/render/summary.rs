@@ -79,7 +79,7 @@ pub fn render_report(r: &ResultFile, fmt: TableFormat) -> String {
 
 /// One machine-readable CSV of one run: `table,item,value` rows (absolute,
 /// relative, alignment and ASPRS figures).
-pub fn render_csv(r: &ResultFile) -> String {
+pub(crate) fn render_csv(r: &ResultFile) -> String {
     let mut g = Grid {
         header: vec!["table".into(), "item".into(), "value".into()],
         ..Default::default()

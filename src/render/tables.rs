@@ -6,7 +6,7 @@ use super::text::mm;
 use crate::record::ResultFile;
 
 /// The paper's label for a target: `t3` for id `3`, the id itself otherwise.
-pub fn target_label(id: &str) -> String {
+pub(crate) fn target_label(id: &str) -> String {
     if !id.is_empty() && id.chars().all(|c| c.is_ascii_digit()) {
         format!("t{id}")
     } else {
@@ -27,7 +27,7 @@ pub(crate) fn f4(v: f64) -> String {
 /// Target ids of several runs in one order: each run's survey order, a target
 /// first seen in a later run placed right after its predecessor there. One run
 /// keeps its survey order; runs with different target sets line up.
-pub fn merged_ids(runs: &[(String, &ResultFile)]) -> Vec<String> {
+pub(crate) fn merged_ids(runs: &[(String, &ResultFile)]) -> Vec<String> {
     let mut ids: Vec<String> = Vec::new();
     for (_, r) in runs {
         let mut after: Option<usize> = None;
@@ -139,7 +139,7 @@ pub fn absolute_grid(runs: &[(String, &ResultFile)]) -> Grid {
 }
 
 /// Per-target detail of one run.
-pub fn targets_grid(r: &ResultFile) -> Grid {
+pub(crate) fn targets_grid(r: &ResultFile) -> Grid {
     let header = [
         "id",
         "status",
@@ -192,7 +192,7 @@ pub fn targets_grid(r: &ResultFile) -> Grid {
 }
 
 /// Per-pair detail of one run.
-pub fn pairs_grid(r: &ResultFile) -> Grid {
+pub(crate) fn pairs_grid(r: &ResultFile) -> Grid {
     let header = [
         "a",
         "b",
@@ -228,7 +228,7 @@ pub fn pairs_grid(r: &ResultFile) -> Grid {
 
 /// The statistics beyond the paper (alignment, RMSE, honest errors, ASPRS), one
 /// `name, value, unit` row each; lengths in millimetres.
-pub fn extra_grid(r: &ResultFile) -> Grid {
+pub(crate) fn extra_grid(r: &ResultFile) -> Grid {
     let mut rows: Vec<Vec<String>> = Vec::new();
     let mut add = |k: &str, v: String, u: &str| rows.push(vec![k.to_string(), v, u.to_string()]);
     let a = &r.alignment;

@@ -4,43 +4,43 @@
 
 /// An sRGB colour.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Color(pub u8, pub u8, pub u8);
+pub(crate) struct Color(pub u8, pub u8, pub u8);
 
 impl Color {
     /// `#rrggbb`, for SVG and CSS.
-    pub fn hex(&self) -> String {
+    pub(crate) fn hex(&self) -> String {
         format!("#{:02x}{:02x}{:02x}", self.0, self.1, self.2)
     }
 }
 
 /// The report's palette: plate 1, plate 2, outliers, and the markers.
-pub mod palette {
+pub(crate) mod palette {
     use super::Color;
     /// Plate 1 inliers.
-    pub const PLATE1: Color = Color(0x1f, 0x77, 0xb4);
+    pub(crate) const PLATE1: Color = Color(0x1f, 0x77, 0xb4);
     /// Plate 2 inliers.
-    pub const PLATE2: Color = Color(0xe6, 0x7e, 0x22);
+    pub(crate) const PLATE2: Color = Color(0xe6, 0x7e, 0x22);
     /// Outliers (pole, antenna, noise) and untyped crop points.
-    pub const OUTLIER: Color = Color(0xa0, 0xa0, 0xa0);
+    pub(crate) const OUTLIER: Color = Color(0xa0, 0xa0, 0xa0);
     /// Estimated positions.
-    pub const ESTIMATE: Color = Color(0x11, 0x11, 0x11);
+    pub(crate) const ESTIMATE: Color = Color(0x11, 0x11, 0x11);
     /// Surveyed positions.
-    pub const SURVEY: Color = Color(0xc0, 0x39, 0x2b);
+    pub(crate) const SURVEY: Color = Color(0xc0, 0x39, 0x2b);
     /// Errors, failures.
-    pub const ERROR: Color = Color(0x8e, 0x44, 0xad);
+    pub(crate) const ERROR: Color = Color(0x8e, 0x44, 0xad);
     /// Axis frames and text.
-    pub const INK: Color = Color(0x33, 0x33, 0x33);
+    pub(crate) const INK: Color = Color(0x33, 0x33, 0x33);
     /// Grid lines.
-    pub const GRID: Color = Color(0xe4, 0xe4, 0xe4);
+    pub(crate) const GRID: Color = Color(0xe4, 0xe4, 0xe4);
     /// Samples and fitted lines.
-    pub const SAMPLE: Color = Color(0x27, 0xae, 0x60);
+    pub(crate) const SAMPLE: Color = Color(0x27, 0xae, 0x60);
     /// The tight crop drawn over a loose crop.
-    pub const TIGHT: Color = Color(0xe6, 0x7e, 0x22);
+    pub(crate) const TIGHT: Color = Color(0xe6, 0x7e, 0x22);
 }
 
 /// Horizontal text anchor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Anchor {
+pub(crate) enum Anchor {
     /// Text starts at the position.
     Start,
     /// Text is centred on the position.
@@ -51,7 +51,7 @@ pub enum Anchor {
 
 /// Marker shapes for single positions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MarkerKind {
+pub(crate) enum MarkerKind {
     /// `+`.
     Plus,
     /// `×`.
@@ -64,7 +64,7 @@ pub enum MarkerKind {
 
 /// One drawing primitive (pixels, y down).
 #[derive(Debug, Clone, PartialEq)]
-pub enum Item {
+pub(crate) enum Item {
     /// Many small filled dots of one colour (point clouds).
     Dots {
         /// Centres.
@@ -152,22 +152,22 @@ pub enum Item {
 
 /// A figure: a canvas and what is drawn on it, in order.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Figure {
+pub(crate) struct Figure {
     /// File stem for `--plots` (ASCII, safe in file names).
-    pub name: String,
+    pub(crate) name: String,
     /// What the figure shows (SVG `<title>`, alt text).
-    pub title: String,
+    pub(crate) title: String,
     /// Canvas width (px).
-    pub width: f64,
+    pub(crate) width: f64,
     /// Canvas height (px).
-    pub height: f64,
+    pub(crate) height: f64,
     /// Primitives, painted in order.
-    pub items: Vec<Item>,
+    pub(crate) items: Vec<Item>,
 }
 
 impl Figure {
     /// An empty canvas.
-    pub fn new(name: &str, title: &str, width: f64, height: f64) -> Figure {
+    pub(crate) fn new(name: &str, title: &str, width: f64, height: f64) -> Figure {
         Figure {
             name: name.into(),
             title: title.into(),
@@ -178,7 +178,14 @@ impl Figure {
     }
     /// Adds a text item.
     #[allow(clippy::too_many_arguments)]
-    pub fn text(&mut self, at: (f64, f64), text: &str, size: f64, color: Color, anchor: Anchor) {
+    pub(crate) fn text(
+        &mut self,
+        at: (f64, f64),
+        text: &str,
+        size: f64,
+        color: Color,
+        anchor: Anchor,
+    ) {
         self.items.push(Item::Text {
             at,
             text: text.into(),
@@ -190,7 +197,7 @@ impl Figure {
         });
     }
     /// Adds a bold text item.
-    pub fn bold(&mut self, at: (f64, f64), text: &str, size: f64, anchor: Anchor) {
+    pub(crate) fn bold(&mut self, at: (f64, f64), text: &str, size: f64, anchor: Anchor) {
         self.items.push(Item::Text {
             at,
             text: text.into(),
@@ -202,7 +209,14 @@ impl Figure {
         });
     }
     /// Adds a line.
-    pub fn line(&mut self, a: (f64, f64), b: (f64, f64), color: Color, width: f64, dashed: bool) {
+    pub(crate) fn line(
+        &mut self,
+        a: (f64, f64),
+        b: (f64, f64),
+        color: Color,
+        width: f64,
+        dashed: bool,
+    ) {
         self.items.push(Item::Line {
             a,
             b,
@@ -212,7 +226,7 @@ impl Figure {
         });
     }
     /// Adds a marker.
-    pub fn marker(&mut self, at: (f64, f64), kind: MarkerKind, size: f64, color: Color) {
+    pub(crate) fn marker(&mut self, at: (f64, f64), kind: MarkerKind, size: f64, color: Color) {
         self.items.push(Item::Marker {
             at,
             kind,
@@ -222,7 +236,7 @@ impl Figure {
         });
     }
     /// Number of dots over all point clouds (bounded per view for small files).
-    pub fn dot_count(&self) -> usize {
+    pub(crate) fn dot_count(&self) -> usize {
         self.items
             .iter()
             .map(|i| match i {
@@ -235,19 +249,24 @@ impl Figure {
 
 /// Maps a data rectangle onto a pixel rectangle of a figure and draws axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Panel {
+pub(crate) struct Panel {
     /// Pixel rectangle: left, top, width, height.
-    pub px: (f64, f64, f64, f64),
+    pub(crate) px: (f64, f64, f64, f64),
     /// Data x range.
-    pub x: (f64, f64),
+    pub(crate) x: (f64, f64),
     /// Data y range (y up in data).
-    pub y: (f64, f64),
+    pub(crate) y: (f64, f64),
 }
 
 impl Panel {
     /// A panel showing `x` × `y`; with `equal`, the ranges are widened so one
     /// metre is as long across as up (plans and elevations must not be squashed).
-    pub fn new(px: (f64, f64, f64, f64), x: (f64, f64), y: (f64, f64), equal: bool) -> Panel {
+    pub(crate) fn new(
+        px: (f64, f64, f64, f64),
+        x: (f64, f64),
+        y: (f64, f64),
+        equal: bool,
+    ) -> Panel {
         let fix = |r: (f64, f64)| {
             if !(r.1 - r.0 > 1e-12) || !r.0.is_finite() || !r.1.is_finite() {
                 let c = if r.0.is_finite() { r.0 } else { 0.0 };
@@ -268,7 +287,7 @@ impl Panel {
         Panel { px, x, y }
     }
     /// Data → pixel.
-    pub fn map(&self, x: f64, y: f64) -> (f64, f64) {
+    pub(crate) fn map(&self, x: f64, y: f64) -> (f64, f64) {
         let (l, t, w, h) = self.px;
         (
             l + (x - self.x.0) / (self.x.1 - self.x.0) * w,
@@ -276,11 +295,11 @@ impl Panel {
         )
     }
     /// True when the data point falls inside the panel.
-    pub fn contains(&self, x: f64, y: f64) -> bool {
+    pub(crate) fn contains(&self, x: f64, y: f64) -> bool {
         x >= self.x.0 && x <= self.x.1 && y >= self.y.0 && y <= self.y.1
     }
     /// The part of the data segment `a`–`b` inside the panel (Liang–Barsky), in pixels.
-    pub fn clip(&self, a: (f64, f64), b: (f64, f64)) -> Option<((f64, f64), (f64, f64))> {
+    pub(crate) fn clip(&self, a: (f64, f64), b: (f64, f64)) -> Option<((f64, f64), (f64, f64))> {
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let (mut t0, mut t1) = (0.0f64, 1.0f64);
         for (p, q) in [
@@ -311,11 +330,11 @@ impl Panel {
         ))
     }
     /// Pixels per data unit along x.
-    pub fn scale(&self) -> f64 {
+    pub(crate) fn scale(&self) -> f64 {
         self.px.2 / (self.x.1 - self.x.0)
     }
     /// Frame, grid, ticks, tick labels, axis labels and a title.
-    pub fn axes(&self, f: &mut Figure, title: &str, xlabel: &str, ylabel: &str) {
+    pub(crate) fn axes(&self, f: &mut Figure, title: &str, xlabel: &str, ylabel: &str) {
         let (l, t, w, h) = self.px;
         f.items.push(Item::Rect {
             at: (l, t),
@@ -378,7 +397,7 @@ impl Panel {
 }
 
 /// Round tick positions (1, 2, 5 × 10^k steps) covering `[a, b]` with about `n` ticks.
-pub fn nice_ticks(a: f64, b: f64, n: usize) -> Vec<f64> {
+pub(crate) fn nice_ticks(a: f64, b: f64, n: usize) -> Vec<f64> {
     if !(b > a) || !a.is_finite() || !b.is_finite() {
         return Vec::new();
     }
@@ -416,7 +435,7 @@ fn finer_step(step: f64) -> f64 {
 }
 
 /// The nearest of 1, 2, 5 × 10^k at or above `raw`.
-pub fn nice_step(raw: f64) -> f64 {
+pub(crate) fn nice_step(raw: f64) -> f64 {
     if !(raw > 0.0) || !raw.is_finite() {
         return 1.0;
     }
@@ -435,7 +454,7 @@ pub fn nice_step(raw: f64) -> f64 {
 }
 
 /// The nearest of 1, 2, 5 × 10^k at or below `raw` (for magnifications).
-pub fn nice_floor(raw: f64) -> f64 {
+pub(crate) fn nice_floor(raw: f64) -> f64 {
     if !(raw > 0.0) || !raw.is_finite() {
         return 1.0;
     }
@@ -476,7 +495,7 @@ fn tick_label(v: f64, ticks: &[f64]) -> String {
 
 /// Every `k`-th index so that at most `max` of `n` remain: a deterministic
 /// thinning that keeps the spatial mix of a crop (crops are in file order).
-pub fn thin(n: usize, max: usize) -> impl Iterator<Item = usize> {
+pub(crate) fn thin(n: usize, max: usize) -> impl Iterator<Item = usize> {
     let step = n.div_ceil(max.max(1)).max(1);
     (0..n).step_by(step)
 }

@@ -106,7 +106,7 @@ fn figure(o: &mut String, f: &Figure, caption: &str) {
 
 /// The report page; `figs` are [`Report::figures`] (overview, relative, then
 /// one per target).
-pub fn report_page(rep: &Report, figs: &[Figure]) -> String {
+pub(crate) fn report_page(rep: &Report, figs: &[Figure]) -> String {
     let r = rep.result;
     let p = &rep.provenance;
     let mut o = String::new();

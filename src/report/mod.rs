@@ -17,17 +17,18 @@
 //! # Ok(()) }
 //! ```
 
-pub mod figure;
+pub(crate) mod figure;
 pub mod html;
-pub mod plots;
-pub mod png;
-pub mod svg;
+pub(crate) mod plots;
+pub(crate) mod png;
+pub(crate) mod svg;
 
 mod failure;
 mod files;
 
 pub use failure::{failure_page, place_status, write_failure};
 pub use files::{HashedInputs, Written, hash_inputs, write_report};
+pub use plots::{ROUTE_FAR_M, located_stations};
 
 use crate::align::Alignment;
 use crate::locate::Label;
@@ -65,7 +66,7 @@ impl InputFile {
 
     /// [`InputFile::hash`] that gives up (`Ok(None)`) as soon as `stop` is
     /// set: for hashing on a thread of its own alongside a run that may fail.
-    pub fn hash_unless(
+    pub(crate) fn hash_unless(
         role: &str,
         path: &Path,
         stop: &std::sync::atomic::AtomicBool,
@@ -138,7 +139,7 @@ impl Provenance {
 }
 
 /// Seconds since 1970 from `SOURCE_DATE_EPOCH` when set, else the clock.
-pub fn report_time() -> i64 {
+pub(crate) fn report_time() -> i64 {
     if let Some(t) = std::env::var("SOURCE_DATE_EPOCH")
         .ok()
         .and_then(|s| s.trim().parse::<i64>().ok())
@@ -152,7 +153,7 @@ pub fn report_time() -> i64 {
 }
 
 /// `YYYY-MM-DD HH:MM:SS UTC` for seconds since 1970 (proleptic Gregorian).
-pub fn utc_string(secs: i64) -> String {
+pub(crate) fn utc_string(secs: i64) -> String {
     let days = secs.div_euclid(86_400);
     let s = secs.rem_euclid(86_400);
     // Days → civil date (H. Hinnant's algorithm).
@@ -271,7 +272,7 @@ impl<'a> Report<'a> {
         self
     }
     /// Every figure, in page order.
-    pub fn figures(&self) -> Vec<figure::Figure> {
+    pub(crate) fn figures(&self) -> Vec<figure::Figure> {
         plots::figures(self)
     }
     /// The whole page.

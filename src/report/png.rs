@@ -13,7 +13,7 @@ use std::sync::Once;
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// Pixels per figure unit: PNGs are drawn at twice the SVG size to stay sharp.
-pub const SCALE: f64 = 2.0;
+pub(crate) const SCALE: f64 = 2.0;
 
 fn register_font() {
     static ONCE: Once = Once::new();
@@ -24,7 +24,7 @@ fn register_font() {
 }
 
 /// Renders `f` to a PNG file at `path` (written to a temporary sibling, then renamed).
-pub fn write(f: &Figure, path: &Path) -> Result<()> {
+pub(crate) fn write(f: &Figure, path: &Path) -> Result<()> {
     register_font();
     let name = path
         .file_name()

@@ -22,7 +22,7 @@ fn n(v: f64) -> String {
 
 /// The figure as an `<svg>` element (no XML declaration, fine inline in HTML
 /// and as a file).
-pub fn render(f: &Figure) -> String {
+pub(crate) fn render(f: &Figure) -> String {
     let mut o = String::with_capacity(4096 + f.dot_count() * 14);
     let _ = write!(
         o,
@@ -242,7 +242,7 @@ fn marker(o: &mut String, at: (f64, f64), kind: MarkerKind, s: f64, c: &str, sw:
 }
 
 /// The two base corners of an arrow head at `b`.
-pub fn arrow_head(a: (f64, f64), b: (f64, f64), len: f64) -> ((f64, f64), (f64, f64)) {
+pub(crate) fn arrow_head(a: (f64, f64), b: (f64, f64), len: f64) -> ((f64, f64), (f64, f64)) {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let l = (dx * dx + dy * dy).sqrt().max(1e-9);
     let (ux, uy) = (dx / l, dy / l);

@@ -53,7 +53,7 @@ fn scored(r: &ResultFile) -> Vec<(f64, String)> {
 /// horizontal value: a step well left of the 95 % line at 0.95 means the
 /// normal model behind NSSDA overstates the tail, one right of it a tail
 /// heavier than the model (a gross error).
-pub fn cdf(r: &ResultFile) -> Figure {
+pub(crate) fn cdf(r: &ResultFile) -> Figure {
     let mut f = Figure::new(
         "error-cdf",
         "Share of targets within each absolute error (empirical CDF)",
@@ -206,7 +206,7 @@ fn cdf_legend(f: &mut Figure, r: &ResultFile, e: &[(f64, String)], nssda: f64) {
 /// route to the point of it closest to the target, with a least-squares
 /// line: drift that grows with distance driven shows as a slope. `route` is
 /// in the frame of the targets' map positions.
-pub fn along_route(r: &ResultFile, route: &Trajectory) -> Figure {
+pub(crate) fn along_route(r: &ResultFile, route: &Trajectory) -> Figure {
     let mut f = Figure::new(
         "error-route",
         "Absolute error against the distance driven to each target",

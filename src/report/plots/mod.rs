@@ -13,17 +13,21 @@ mod overview;
 mod relative;
 mod target;
 
-pub use errors::{ROUTE_FAR_M, along_route, cdf, located_stations};
-pub use overview::{fmt_len, overview};
-pub use relative::{fit_line, relative};
+pub(crate) use errors::along_route;
+pub(crate) use errors::cdf;
+pub use errors::{ROUTE_FAR_M, located_stations};
+pub(crate) use overview::fmt_len;
+pub(crate) use overview::overview;
+pub(crate) use relative::fit_line;
+pub(crate) use relative::relative;
 use target::target_figure;
-pub use target::{LooseView, loose_figure};
+pub(crate) use target::{LooseView, loose_figure};
 
 /// Most crop points drawn per view: keeps report.html small (a few hundred kB).
-pub const MAX_POINTS_PER_VIEW: usize = 3000;
+pub(crate) const MAX_POINTS_PER_VIEW: usize = 3000;
 
 /// Every figure of a report, in page order.
-pub fn figures(rep: &Report) -> Vec<Figure> {
+pub(crate) fn figures(rep: &Report) -> Vec<Figure> {
     let mut v = vec![
         overview(
             rep.result,
@@ -50,7 +54,7 @@ pub fn figures(rep: &Report) -> Vec<Figure> {
 }
 
 /// The survey point of `t` in the map frame (through the inverse alignment).
-pub fn survey_in_map(alignment: &Alignment, t: &TargetOut) -> Point {
+pub(crate) fn survey_in_map(alignment: &Alignment, t: &TargetOut) -> Point {
     let s = Point::new(t.survey.x, t.survey.y, t.survey.z.unwrap_or(0.0));
     alignment.inverse().apply(&s)
 }
@@ -89,7 +93,7 @@ pub(super) fn legend_marker(
 }
 
 /// Greedy word wrap at `width` characters.
-pub fn wrap(s: &str, width: usize) -> Vec<String> {
+pub(crate) fn wrap(s: &str, width: usize) -> Vec<String> {
     let mut out = Vec::new();
     let mut cur = String::new();
     for w in s.split_whitespace() {

@@ -11,7 +11,7 @@ const LX: f64 = 592.0;
 
 /// Relative error of every pair against the pairs' surveyed distance, with a
 /// least-squares line (the paper observes that the error grows with distance).
-pub fn relative(r: &ResultFile) -> Figure {
+pub(crate) fn relative(r: &ResultFile) -> Figure {
     let mut f = Figure::new(
         "relative",
         "Relative error against pair distance, with a least-squares line",
@@ -124,7 +124,7 @@ fn legend(f: &mut Figure, xy: &[(f64, f64)], fit: Option<(f64, f64)>) {
 }
 
 /// Least-squares line `y = a + b x`; `None` with fewer than 2 points or no spread in x.
-pub fn fit_line(xy: &[(f64, f64)]) -> Option<(f64, f64)> {
+pub(crate) fn fit_line(xy: &[(f64, f64)]) -> Option<(f64, f64)> {
     if xy.len() < 2 {
         return None;
     }

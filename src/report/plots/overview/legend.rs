@@ -177,7 +177,7 @@ fn fmt_k(k: f64) -> String {
 }
 
 /// A length in mm below 1 m, in m above.
-pub fn fmt_len(m: f64) -> String {
+pub(crate) fn fmt_len(m: f64) -> String {
     if m.abs() < 1.0 {
         format!("{:.1} mm", m * 1000.0)
     } else {

@@ -14,13 +14,13 @@ use crate::report::figure::{Figure, Item, MarkerKind, Panel, nice_floor, palette
 use crate::trajectory::Trajectory;
 use footprint::footprint_tiles;
 use labels::{Seg, place_labels};
-pub use legend::fmt_len;
+pub(crate) use legend::fmt_len;
 use legend::{Legend, legend};
 
 /// Surveyed positions and the aligned estimates, error vectors magnified,
 /// over the map seen from above when its footprint is given (with the
 /// map → survey alignment that places it).
-pub fn overview(
+pub(crate) fn overview(
     r: &ResultFile,
     map: Option<(&Footprint, &Alignment)>,
     route: Option<&Trajectory>,

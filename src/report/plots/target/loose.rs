@@ -10,27 +10,27 @@ use crate::report::plots::{MAX_POINTS_PER_VIEW, legend_dot, legend_marker, wrap}
 
 /// What a target's loose-crop panels show: a target not found in a scored
 /// run, or any surveyed place of a run that could not score.
-pub struct LooseView<'a> {
+pub(crate) struct LooseView<'a> {
     /// Loose crop (map frame).
-    pub loose: &'a [Point],
+    pub(crate) loose: &'a [Point],
     /// Tight crop (map frame), empty when none was made.
-    pub tight: &'a [Point],
+    pub(crate) tight: &'a [Point],
     /// Where the target was looked for (map frame): the views' origin.
-    pub expected: Point,
+    pub(crate) expected: Point,
     /// The surveyed position in the map, when an alignment places it.
-    pub survey: Option<Point>,
+    pub(crate) survey: Option<Point>,
     /// The object the tight crop saw there and refused.
-    pub seen: Option<&'a crate::crop::Seen>,
+    pub(crate) seen: Option<&'a crate::crop::Seen>,
     /// A corner located there (a run that could not score still located some).
-    pub corner: Option<Point>,
+    pub(crate) corner: Option<Point>,
     /// `not_found`, `ambiguous`, `located`…
-    pub status: &'a str,
+    pub(crate) status: &'a str,
     /// Why it was not taken (or what was found).
-    pub reason: &'a str,
+    pub(crate) reason: &'a str,
 }
 
 /// A figure of one place's loose crop alone (`stem` names it).
-pub fn loose_figure(stem: &str, id: &str, v: &LooseView) -> Figure {
+pub(crate) fn loose_figure(stem: &str, id: &str, v: &LooseView) -> Figure {
     let title = format!(
         "Target {}: {} — loose crop",
         target_label(id),

@@ -13,7 +13,7 @@ use crate::report::figure::{Color, Figure, Item, Panel, thin};
 use crate::report::{Report, TargetView};
 use located::located_panels;
 use loose::loose_panels;
-pub use loose::{LooseView, loose_figure};
+pub(crate) use loose::{LooseView, loose_figure};
 
 /// Dots of `pts` (thinned), projected by `proj`, coloured by `color`; painted in
 /// colour order so outliers stay behind the plates.
