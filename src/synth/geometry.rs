@@ -186,123 +186,146 @@ pub fn splitmix(mut z: u64) -> u64 {
 
 const EPS: f64 = 1e-9;
 
+/// [`Prim::hit`] of a box: the slab test in the box's own frame, the ray
+/// turned by minus the box's yaw (cheaper than turning the box).
+#[inline]
+fn box_hit(r: &Ray, c: &Vector3<f64>, half: &Vector3<f64>, (co, si): (f64, f64)) -> Option<f64> {
+    let p = r.o - c;
+    // Into the box frame: rotate by -yaw.
+    let o = Vector3::new(co * p.x + si * p.y, -si * p.x + co * p.y, p.z);
+    let d = Vector3::new(co * r.d.x + si * r.d.y, -si * r.d.x + co * r.d.y, r.d.z);
+    let mut t0 = f64::NEG_INFINITY;
+    let mut t1 = f64::INFINITY;
+    for k in 0..3 {
+        if d[k].abs() < 1e-15 {
+            if o[k].abs() > half[k] {
+                return None;
+            }
+            continue;
+        }
+        let a = (-half[k] - o[k]) / d[k];
+        let b = (half[k] - o[k]) / d[k];
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    if t0 > t1 || t1 <= EPS {
+        return None;
+    }
+    Some(if t0 > EPS { t0 } else { t1 })
+}
+
+/// [`Prim::hit`] of a vertical cylinder of radius `rad` about `(x, y)`
+/// between heights `z0` and `z1`: its side, then its caps (a ray from above
+/// meets a pole's top first).
+#[inline]
+fn vcyl_hit(r: &Ray, (x, y): (f64, f64), rad: f64, (z0, z1): (f64, f64)) -> Option<f64> {
+    let ox = r.o.x - x;
+    let oy = r.o.y - y;
+    let a = r.d.x * r.d.x + r.d.y * r.d.y;
+    let mut best = f64::INFINITY;
+    if a > 1e-15 {
+        let b = ox * r.d.x + oy * r.d.y;
+        let c = ox * ox + oy * oy - rad * rad;
+        let disc = b * b - a * c;
+        if disc >= 0.0 {
+            let sq = disc.sqrt();
+            for t in [(-b - sq) / a, (-b + sq) / a] {
+                if t > EPS {
+                    let z = r.o.z + t * r.d.z;
+                    if z >= z0 && z <= z1 {
+                        best = best.min(t);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    if r.d.z.abs() > 1e-15 {
+        for zc in [z0, z1] {
+            let t = (zc - r.o.z) / r.d.z;
+            if t > EPS && t < best {
+                let px = ox + t * r.d.x;
+                let py = oy + t * r.d.y;
+                if px * px + py * py <= rad * rad {
+                    best = t;
+                }
+            }
+        }
+    }
+    best.is_finite().then_some(best)
+}
+
+/// [`Prim::hit`] of a sphere; a porous one (foliage) lets the ray through
+/// or returns it from inside, by the ray's `key`, so a bush is not a shell.
+#[inline]
+fn sphere_hit(r: &Ray, c: &Vector3<f64>, rad: f64, porosity: f64, key: u64) -> Option<f64> {
+    let oc = r.o - c;
+    let b = oc.dot(&r.d);
+    let cc = oc.norm_squared() - rad * rad;
+    let disc = b * b - cc;
+    if disc < 0.0 {
+        return None;
+    }
+    let sq = disc.sqrt();
+    let (t0, t1) = (-b - sq, -b + sq);
+    if t1 <= EPS {
+        return None;
+    }
+    let t0 = t0.max(EPS);
+    if porosity <= 0.0 {
+        return Some(t0);
+    }
+    // Foliage: the ray gets through with probability `porosity`;
+    // otherwise it returns from a leaf somewhere in the front half.
+    let u = unit_from(key);
+    if u < porosity {
+        return None;
+    }
+    let depth = unit_from(key ^ 0x5555_5555_5555_5555);
+    Some(t0 + 0.5 * (t1 - t0) * depth)
+}
+
+impl Plate {
+    /// [`Prim::hit`] of the plate: where the ray crosses its plane, if metal
+    /// is there (not a hole) and the ray is one of the `keep` share returned.
+    #[inline]
+    fn hit(&self, r: &Ray, key: u64) -> Option<f64> {
+        let p = self;
+        // Normal (horizontal) of the plate plane.
+        let (nx, ny) = (-p.u.1, p.u.0);
+        let dn = r.d.x * nx + r.d.y * ny;
+        if dn.abs() < 1e-12 {
+            return None;
+        }
+        let t = ((p.x - r.o.x) * nx + (p.y - r.o.y) * ny) / dn;
+        if t <= EPS {
+            return None;
+        }
+        let q = r.at(t);
+        let s = (q.x - p.x) * p.u.0 + (q.y - p.y) * p.u.1;
+        let returned = p.keep >= 1.0 || unit_from(key ^ 0x3C3C_3C3C_3C3C_3C3C) < p.keep;
+        (returned && p.solid_at(s, q.z - p.z0)).then_some(t)
+    }
+}
+
 impl Prim {
     /// Nearest positive hit parameter, if any. `key` feeds porous primitives.
     pub fn hit(&self, r: &Ray, key: u64) -> Option<f64> {
         match self {
-            Prim::Box { c, half, cs } => {
-                let (co, si) = *cs;
-                let p = r.o - c;
-                // Into the box frame: rotate by -yaw.
-                let o = Vector3::new(co * p.x + si * p.y, -si * p.x + co * p.y, p.z);
-                let d = Vector3::new(co * r.d.x + si * r.d.y, -si * r.d.x + co * r.d.y, r.d.z);
-                let mut t0 = f64::NEG_INFINITY;
-                let mut t1 = f64::INFINITY;
-                for k in 0..3 {
-                    if d[k].abs() < 1e-15 {
-                        if o[k].abs() > half[k] {
-                            return None;
-                        }
-                        continue;
-                    }
-                    let a = (-half[k] - o[k]) / d[k];
-                    let b = (half[k] - o[k]) / d[k];
-                    t0 = t0.max(a.min(b));
-                    t1 = t1.min(a.max(b));
-                }
-                if t0 > t1 || t1 <= EPS {
-                    return None;
-                }
-                Some(if t0 > EPS { t0 } else { t1 })
-            }
+            Prim::Box { c, half, cs } => box_hit(r, c, half, *cs),
             Prim::VCyl {
                 x,
                 y,
                 r: rad,
                 z0,
                 z1,
-            } => {
-                let ox = r.o.x - x;
-                let oy = r.o.y - y;
-                let a = r.d.x * r.d.x + r.d.y * r.d.y;
-                let mut best = f64::INFINITY;
-                if a > 1e-15 {
-                    let b = ox * r.d.x + oy * r.d.y;
-                    let c = ox * ox + oy * oy - rad * rad;
-                    let disc = b * b - a * c;
-                    if disc >= 0.0 {
-                        let sq = disc.sqrt();
-                        for t in [(-b - sq) / a, (-b + sq) / a] {
-                            if t > EPS {
-                                let z = r.o.z + t * r.d.z;
-                                if z >= *z0 && z <= *z1 {
-                                    best = best.min(t);
-                                    break;
-                                }
-                            }
-                        }
-                    }
-                }
-                if r.d.z.abs() > 1e-15 {
-                    for zc in [*z0, *z1] {
-                        let t = (zc - r.o.z) / r.d.z;
-                        if t > EPS && t < best {
-                            let px = ox + t * r.d.x;
-                            let py = oy + t * r.d.y;
-                            if px * px + py * py <= rad * rad {
-                                best = t;
-                            }
-                        }
-                    }
-                }
-                best.is_finite().then_some(best)
-            }
+            } => vcyl_hit(r, (*x, *y), *rad, (*z0, *z1)),
             Prim::Sphere {
                 c,
                 r: rad,
                 porosity,
-            } => {
-                let oc = r.o - c;
-                let b = oc.dot(&r.d);
-                let cc = oc.norm_squared() - rad * rad;
-                let disc = b * b - cc;
-                if disc < 0.0 {
-                    return None;
-                }
-                let sq = disc.sqrt();
-                let (t0, t1) = (-b - sq, -b + sq);
-                if t1 <= EPS {
-                    return None;
-                }
-                let t0 = t0.max(EPS);
-                if *porosity <= 0.0 {
-                    return Some(t0);
-                }
-                // Foliage: the ray gets through with probability `porosity`;
-                // otherwise it returns from a leaf somewhere in the front half.
-                let u = unit_from(key);
-                if u < *porosity {
-                    return None;
-                }
-                let depth = unit_from(key ^ 0x5555_5555_5555_5555);
-                Some(t0 + 0.5 * (t1 - t0) * depth)
-            }
-            Prim::Plate(p) => {
-                // Normal (horizontal) of the plate plane.
-                let (nx, ny) = (-p.u.1, p.u.0);
-                let dn = r.d.x * nx + r.d.y * ny;
-                if dn.abs() < 1e-12 {
-                    return None;
-                }
-                let t = ((p.x - r.o.x) * nx + (p.y - r.o.y) * ny) / dn;
-                if t <= EPS {
-                    return None;
-                }
-                let q = r.at(t);
-                let s = (q.x - p.x) * p.u.0 + (q.y - p.y) * p.u.1;
-                let returned = p.keep >= 1.0 || unit_from(key ^ 0x3C3C_3C3C_3C3C_3C3C) < p.keep;
-                (returned && p.solid_at(s, q.z - p.z0)).then_some(t)
-            }
+            } => sphere_hit(r, c, *rad, *porosity, key),
+            Prim::Plate(p) => p.hit(r, key),
         }
     }
 

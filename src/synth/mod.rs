@@ -13,6 +13,7 @@
 
 mod decoys;
 pub mod distort;
+mod drive;
 pub mod geometry;
 pub mod lidar;
 mod obstacles;
@@ -23,12 +24,12 @@ mod truth;
 use crate::{Error, Point, Result};
 pub use decoys::DecoyTruth;
 use distort::{DistortParams, Distortion};
-use geometry::Ground;
+use drive::{Drive, Driven};
+use geometry::{Ground, World};
 use lidar::{LidarParams, Pose, Road};
 use nalgebra::Vector3;
 pub use obstacles::ObstacleParams;
 use rand::Rng;
-use rayon::prelude::*;
 use scene::{Scene, build_scene, stream};
 
 pub use params::{ClutterParams, Layout, SecondPass, SynthParams, TargetShape};
@@ -115,8 +116,71 @@ fn run(params: &SynthParams, sink: &mut LabelledSink, labelled: bool) -> Result<
         mut clutter,
         mut decoys,
     } = scene;
-    let lidar = &params.lidar;
-    let distortion = Distortion {
+    let distortion = distortion_of(params, &world, &road);
+    // Scanned points are in the local frame L (see `Truth`).
+    let warp = distortion.local_applier();
+    // Returns are counted for every object (targets first, then decoys).
+    let drive = Drive::plan(params, &world, &road, targets.len(), labelled, &warp);
+    let mut driven = drive.driven();
+    let seen_first = drive.pass((0, 0), Vector3::zeros(), sink, &mut driven)?;
+    // The second pass: the last `share` of the stations driven again (scan
+    // indices after the first pass's, so its noise is its own), its points
+    // displaced by the drift the loop closure left.
+    let sp = &params.second_pass;
+    let n_scans = drive.n_scans;
+    let seen_again = if sp.is_off() {
+        vec![0u64; world.objects.len()]
+    } else {
+        let again = ((n_scans as f64 * sp.share).round() as u64).min(n_scans);
+        let shift = Vector3::from(sp.offset_m);
+        drive.pass((n_scans - again, n_scans), shift, sink, &mut driven)?
+    };
+    let counts: Vec<u64> = seen_first
+        .iter()
+        .zip(&seen_again)
+        .map(|(a, b)| a + b)
+        .collect();
+    settle_targets(params, &warp, &mut targets, &counts, &seen_again);
+    for d in decoys.iter_mut() {
+        d.points = counts[d.object];
+        let m = warp(&Point::from(d.world));
+        d.map = [m.x, m.y, m.z];
+    }
+    let Driven { total, mut path } = driven;
+    // The route as the SLAM software would have written it: in the map.
+    let path_in_map: Vec<[f64; 3]> = path
+        .iter()
+        .map(|q| {
+            let m = warp(&Point::new(q.x, q.y, q.z));
+            [m.x, m.y, m.z]
+        })
+        .collect();
+    drop(warp);
+    let f = params.survey_false_origin_m;
+    if f != [0.0; 3] {
+        // Added once, at the end, so the map and every draw are as without it.
+        add_false_origin(f, &mut targets, &mut decoys, &mut clutter, &mut path);
+    }
+    Ok(Truth {
+        schema: "mapgauge.synth_truth/1".into(),
+        params: params.clone(),
+        points: total,
+        scans: path.len() as u64,
+        targets,
+        distortion,
+        ground: world.ground.clone(),
+        road,
+        path,
+        path_in_map,
+        clutter,
+        decoys,
+    })
+}
+
+/// The SLAM distortion of `params` about the middle of the spread, its
+/// drift along the road.
+fn distortion_of(params: &SynthParams, world: &World, road: &Road) -> Distortion {
+    Distortion {
         params: params.distortion.clone(),
         centre: [
             params.spread_m / 2.0,
@@ -126,126 +190,21 @@ fn run(params: &SynthParams, sink: &mut LabelledSink, labelled: bool) -> Result<
         drift_x0: road.x0,
         drift_length: road.length(),
         survey_origin: params.survey_false_origin_m,
-    };
-    // Scanned points are in the local frame L (see `Truth`).
-    let warp = distortion.local_applier();
-    // Returns are counted for every object (targets first, then decoys).
-    let n_obj = world.objects.len();
-    let n_targets = targets.len();
-    let dx_rev = lidar.speed_mps / lidar.rate_hz;
-    let usable = (road.length() - dx_rev).max(0.0);
+    }
+}
 
-    // Returns per scan, estimated from three probe scans along the road.
-    let probe: u64 = [0.25, 0.5, 0.75]
-        .par_iter()
-        .map(|f| {
-            let mut out = Vec::new();
-            let mut cnt = vec![0; n_obj];
-            lidar::scan(
-                &world,
-                &road,
-                lidar,
-                params.seed,
-                u64::MAX,
-                road.x0 + f * usable,
-                &mut out,
-                &mut cnt,
-                None,
-            );
-            out.len() as u64
-        })
-        .sum();
-    let per_scan = (probe / 3).max(1);
-    let n_scans = params.points.div_ceil(per_scan).max(1);
-    let spacing = usable / n_scans as f64;
-    let station = |i: u64| road.x0 + (i as f64 + 0.5) * spacing;
-
-    let mut total = 0u64;
-    let mut path = Vec::with_capacity(n_scans.min(1 << 24) as usize);
-    let batch_scans = (BATCH_POINTS / per_scan).clamp(1, BATCH);
-    // One pass over stations `from..n_scans`: scan `index_base + i` at
-    // station i, its points warped and then displaced by `shift`, handed
-    // to the sink in scan order; returns per object the returns it saw.
-    let mut drive = |from: u64, index_base: u64, shift: Vector3<f64>| -> Result<Vec<u64>> {
-        let mut seen = vec![0u64; n_obj];
-        let mut first = from;
-        while first < n_scans {
-            let last = (first + batch_scans).min(n_scans);
-            let batch: Vec<(Vec<Point>, Vec<PointLabel>, Vec<u64>)> = (first..last)
-                .into_par_iter()
-                .map(|i| {
-                    let mut out = Vec::with_capacity(per_scan as usize + per_scan as usize / 4);
-                    let mut cnt = vec![0u64; n_obj];
-                    let mut hits = Vec::new();
-                    lidar::scan(
-                        &world,
-                        &road,
-                        lidar,
-                        params.seed,
-                        index_base + i,
-                        station(i),
-                        &mut out,
-                        &mut cnt,
-                        labelled.then_some(&mut hits),
-                    );
-                    // World objects hold the targets first (index = target).
-                    let labels = hits
-                        .into_iter()
-                        .map(|(object, prim)| match object {
-                            None => PointLabel::Ground,
-                            Some(o) if (o as usize) < n_targets => match prim {
-                                0 | 1 => PointLabel::Plate {
-                                    target: o,
-                                    plate: prim as u8,
-                                },
-                                _ => PointLabel::TargetOther { target: o },
-                            },
-                            Some(_) => PointLabel::Other,
-                        })
-                        .collect();
-                    for p in out.iter_mut() {
-                        *p = warp(p);
-                    }
-                    if shift != Vector3::zeros() {
-                        for p in out.iter_mut() {
-                            *p += shift;
-                        }
-                    }
-                    (out, labels, cnt)
-                })
-                .collect();
-            for (i, (pts, labels, cnt)) in (first..last).zip(batch) {
-                sink(&pts, &labels)?;
-                total += pts.len() as u64;
-                for (a, b) in seen.iter_mut().zip(cnt) {
-                    *a += b;
-                }
-                path.push(lidar::pose_at(&world, &road, lidar, station(i)));
-            }
-            first = last;
-        }
-        Ok(seen)
-    };
-    let seen_first = drive(0, 0, Vector3::zeros())?;
-    // The second pass: the last `share` of the stations driven again (scan
-    // indices after the first pass's, so its noise is its own), its points
-    // displaced by the drift the loop closure left.
-    let sp = &params.second_pass;
-    let seen_again = if sp.is_off() {
-        vec![0u64; n_obj]
-    } else {
-        let again = ((n_scans as f64 * sp.share).round() as u64).min(n_scans);
-        drive(n_scans - again, n_scans, Vector3::from(sp.offset_m))?
-    };
-    drop(drive);
-    let counts: Vec<u64> = seen_first
-        .iter()
-        .zip(&seen_again)
-        .map(|(a, b)| a + b)
-        .collect();
-
+/// Fills in what the scan tells of each target (its returns, where the map
+/// has it, its second-pass ghost) and the survey's noise, drawn in target
+/// order from its own stream.
+fn settle_targets(
+    params: &SynthParams,
+    warp: &impl Fn(&Point) -> Point,
+    targets: &mut [TargetTruth],
+    counts: &[u64],
+    seen_again: &[u64],
+) {
     let mut noise = stream(params.seed, 4);
-    for ((t, n), again) in targets.iter_mut().zip(&counts).zip(&seen_again) {
+    for ((t, n), again) in targets.iter_mut().zip(counts).zip(seen_again) {
         t.points = *n;
         let m = warp(&Point::from(t.world));
         t.map = [m.x, m.y, m.z];
@@ -262,68 +221,48 @@ fn run(params: &SynthParams, sink: &mut LabelledSink, labelled: bool) -> Result<
             t.survey.z += e();
         }
     }
+}
+
+/// The truth's world positions (targets, decoys, clutter) and the route moved
+/// by the survey's false origin `f`, as a survey in projected coordinates
+/// would give them.
+fn add_false_origin(
+    f: [f64; 3],
+    targets: &mut [TargetTruth],
+    decoys: &mut [DecoyTruth],
+    clutter: &mut [ClutterInfo],
+    path: &mut [Pose],
+) {
+    let xyz = |v: &mut [f64; 3]| {
+        for (a, b) in v.iter_mut().zip(f) {
+            *a += b;
+        }
+    };
+    for t in targets.iter_mut() {
+        xyz(&mut t.world);
+        t.survey.x += f[0];
+        t.survey.y += f[1];
+        t.survey.z += f[2];
+        t.ground_z += f[2];
+        t.plate_bottom_z += f[2];
+        t.plate_top_z += f[2];
+        t.antenna_top_z += f[2];
+    }
     for d in decoys.iter_mut() {
-        d.points = counts[d.object];
-        let m = warp(&Point::from(d.world));
-        d.map = [m.x, m.y, m.z];
+        xyz(&mut d.world);
+        d.ground_z += f[2];
+        d.bottom_z += f[2];
+        d.top_z += f[2];
     }
-    // The route as the SLAM software would have written it: in the map.
-    let path_in_map: Vec<[f64; 3]> = path
-        .iter()
-        .map(|q| {
-            let m = warp(&Point::new(q.x, q.y, q.z));
-            [m.x, m.y, m.z]
-        })
-        .collect();
-    drop(warp);
-    let f = params.survey_false_origin_m;
-    if f != [0.0; 3] {
-        // Added once, at the end, so the map and every draw are as without it.
-        let xyz = |v: &mut [f64; 3]| {
-            for (a, b) in v.iter_mut().zip(f) {
-                *a += b;
-            }
-        };
-        for t in targets.iter_mut() {
-            xyz(&mut t.world);
-            t.survey.x += f[0];
-            t.survey.y += f[1];
-            t.survey.z += f[2];
-            t.ground_z += f[2];
-            t.plate_bottom_z += f[2];
-            t.plate_top_z += f[2];
-            t.antenna_top_z += f[2];
-        }
-        for d in decoys.iter_mut() {
-            xyz(&mut d.world);
-            d.ground_z += f[2];
-            d.bottom_z += f[2];
-            d.top_z += f[2];
-        }
-        for c in clutter.iter_mut() {
-            c.x += f[0];
-            c.y += f[1];
-        }
-        for q in path.iter_mut() {
-            q.x += f[0];
-            q.y += f[1];
-            q.z += f[2];
-        }
+    for c in clutter.iter_mut() {
+        c.x += f[0];
+        c.y += f[1];
     }
-    Ok(Truth {
-        schema: "mapgauge.synth_truth/1".into(),
-        params: params.clone(),
-        points: total,
-        scans: path.len() as u64,
-        targets,
-        distortion,
-        ground: world.ground.clone(),
-        road,
-        path,
-        path_in_map,
-        clutter,
-        decoys,
-    })
+    for q in path.iter_mut() {
+        q.x += f[0];
+        q.y += f[1];
+        q.z += f[2];
+    }
 }
 
 #[cfg(test)]

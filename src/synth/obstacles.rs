@@ -4,11 +4,12 @@
 
 use super::geometry::{Ground, Object, Prim};
 use super::lidar::Road;
-use super::scene::{build_target, l_plate, stream, yaw_box};
-use super::{ClutterInfo, SurveyPoint, SynthParams, TargetShape, TargetTruth};
+use super::scene::{build_target, l_plate, stream, target_truth, yaw_box};
+use super::{ClutterInfo, SynthParams, TargetShape, TargetTruth};
 use crate::{Error, Result};
 use nalgebra::Vector3;
 use rand::Rng;
+use rand_pcg::Pcg64;
 use std::f64::consts::{FRAC_PI_2, TAU};
 
 /// Obstacles around target 1 (all off by default).
@@ -131,18 +132,59 @@ pub(super) fn add(
     }
     let t = targets[0].clone();
     let f = Frame::of(&t, p, g, road);
-    let note = |clutter: &mut Vec<ClutterInfo>, kind: &str, at: Vector3<f64>, role: String| {
-        clutter.push(ClutterInfo {
-            kind: kind.into(),
-            x: at.x,
-            y: at.y,
-            role,
-        })
-    };
-    let w = p.target.plate_width_m;
-    let h = p.target.plate_height_m;
-
+    let site = Site { p, g, t, f };
     if let Some(d) = o.wall_behind_m {
+        site.wall_behind(d, objects, clutter);
+    }
+    if let Some(hgt) = o.inside_object_m {
+        site.inside_object(hgt, objects, clutter);
+    }
+    if let Some(share) = o.hide_lower {
+        site.barrier(share, objects, clutter);
+    }
+    if let Some(keep) = o.plate2_keep
+        && let Some(Prim::Plate(pl)) = objects[0].prims.get_mut(1)
+    {
+        pl.keep = keep;
+    }
+    if let Some(gh) = o.grass_m {
+        site.grass(gh, objects, clutter);
+    }
+    let mut rng = stream(p.seed, 5);
+    if let Some(d) = o.second_target_m {
+        site.second_target(road, d, &mut rng, objects, targets);
+    }
+    if o.target1_absent {
+        objects[0] = Object::new(Vec::new());
+    }
+    site.decoys(&mut rng, objects, clutter);
+}
+
+/// Target 1 as built and its frame, with the scene's parameters and ground:
+/// what every obstacle is placed by.
+struct Site<'a> {
+    p: &'a SynthParams,
+    g: &'a Ground,
+    t: TargetTruth,
+    f: Frame,
+}
+
+/// Lists an obstacle in the truth's clutter, where the report shows it.
+fn note(clutter: &mut Vec<ClutterInfo>, kind: &str, at: Vector3<f64>, role: String) {
+    clutter.push(ClutterInfo {
+        kind: kind.into(),
+        x: at.x,
+        y: at.y,
+        role,
+    })
+}
+
+impl Site<'_> {
+    /// `wall_behind_m`: a container side `d` behind a plate, seen through
+    /// the grill, so a plate fit must not take the wall's points.
+    fn wall_behind(&self, d: f64, objects: &mut Vec<Object>, clutter: &mut Vec<ClutterInfo>) {
+        let (f, t) = (&self.f, &self.t);
+        let w = self.p.target.plate_width_m;
         // Behind the plate whose outer face looks away from the road; when the
         // road sees both outer faces, behind plate 1 on the inner side, from
         // the corner on (a full-length wall would cut plate 2).
@@ -171,9 +213,12 @@ pub(super) fn add(
         );
     }
 
-    if let Some(hgt) = o.inside_object_m {
+    /// `inside_object_m`: a stack `hgt` tall touching both plates' planes
+    /// inside the L, whose faces a plate fit must not take for the plates.
+    fn inside_object(&self, hgt: f64, objects: &mut Vec<Object>, clutter: &mut Vec<ClutterInfo>) {
+        let (f, t) = (&self.f, &self.t);
         let side = 0.5;
-        let gap = p.target.post_m / 2.0 + 0.005;
+        let gap = self.p.target.post_m / 2.0 + 0.005;
         let mid = (f.u[0] + f.u[1]) * (side / 2.0 + gap);
         let at = f.at(mid, t.ground_z + hgt / 2.0 - 0.05);
         objects.push(Object::new(vec![yaw_box(
@@ -189,11 +234,14 @@ pub(super) fn add(
         );
     }
 
-    if let Some(share) = o.hide_lower {
+    /// `hide_lower`: a barrier between the road and the target, just tall
+    /// enough to hide the lower `share` of the plates from the sensor.
+    fn barrier(&self, share: f64, objects: &mut Vec<Object>, clutter: &mut Vec<ClutterInfo>) {
+        let (f, t) = (&self.f, &self.t);
         // The sight line from the sensor over the barrier's top meets the
         // corner at the hidden height.
         let gap = 0.9;
-        let hidden_z = t.plate_bottom_z + share * h;
+        let hidden_z = t.plate_bottom_z + share * self.p.target.plate_height_m;
         let top = hidden_z + (f.sensor_z - hidden_z) * gap / f.road_dist;
         let zmin = t.ground_z - 0.5;
         let at = f.at(f.road * gap, (zmin + top) / 2.0);
@@ -210,13 +258,11 @@ pub(super) fn add(
         );
     }
 
-    if let Some(keep) = o.plate2_keep
-        && let Some(Prim::Plate(pl)) = objects[0].prims.get_mut(1)
-    {
-        pl.keep = keep;
-    }
-
-    if let Some(gh) = o.grass_m {
+    /// `grass_m`: foliage through both plates' lower parts and down to the
+    /// ground, the returns a plate's bottom edge is found among.
+    fn grass(&self, gh: f64, objects: &mut Vec<Object>, clutter: &mut Vec<ClutterInfo>) {
+        let (f, t) = (&self.f, &self.t);
+        let w = self.p.target.plate_width_m;
         let r = 0.3;
         let mut prims = Vec::new();
         for k in 0..2 {
@@ -243,59 +289,56 @@ pub(super) fn add(
         );
     }
 
-    let mut rng = stream(p.seed, 5);
-    if let Some(d) = o.second_target_m {
+    /// `second_target_m`: a surveyed target `d` along the road, inserted as
+    /// object K (objects 0..K are the targets, so returns count per target).
+    fn second_target(
+        &self,
+        road: &Road,
+        d: f64,
+        rng: &mut Pcg64,
+        objects: &mut Vec<Object>,
+        targets: &mut Vec<TargetTruth>,
+    ) {
+        let f = &self.f;
         let hd = road.heading(f.c.x);
         let (x, y) = (f.c.x + d * hd.cos(), f.c.y + d * hd.sin());
         let heading = rng.random_range(0.0..TAU);
-        let (obj, [gz, z0, z1, ant]) = build_target(g, &p.target, x, y, heading);
+        let (obj, levels) = build_target(self.g, &self.p.target, x, y, heading);
         objects.insert(targets.len(), obj);
-        let zc = (z0 + z1) / 2.0;
-        targets.push(TargetTruth {
-            id: (targets.len() + 1).to_string(),
-            world: [x, y, zc],
-            survey: SurveyPoint {
-                x,
-                y,
-                z: ant,
-                antenna_height: ant - zc,
-            },
-            map: [0.0; 3],
-            heading_deg: heading.to_degrees().rem_euclid(360.0),
-            ground_z: gz,
-            plate_bottom_z: z0,
-            plate_top_z: z1,
-            antenna_top_z: ant,
-            road_distance_m: (y - road.y(x)).abs(),
-            points: 0,
-            ghost: None,
-            ghost_points: 0,
-        });
+        let id = (targets.len() + 1).to_string();
+        targets.push(target_truth(
+            id,
+            (x, y),
+            heading,
+            levels,
+            (y - road.y(x)).abs(),
+        ));
     }
 
-    if o.target1_absent {
-        objects[0] = Object::new(Vec::new());
-    }
-
-    let mut placed: Vec<Vector3<f64>> = Vec::new();
-    for i in 0..o.decoys {
-        let mut at = None;
-        for _ in 0..200 {
-            let r = rng.random_range(0.6..2.5);
-            let a = rng.random_range(0.0..TAU);
-            let v = f.c + Vector3::new(r * a.cos(), r * a.sin(), 0.0);
-            let clear = |q: &Vector3<f64>| (q - v).norm() >= 1.6;
-            if placed.iter().all(clear) && (o.target1_absent || r >= 1.2) {
-                at = Some(v);
-                break;
+    /// `decoys`: target-like objects 0.6-2.5 m from target 1's corner, clear
+    /// of each other (and of the target unless it is absent), kinds in turn.
+    fn decoys(&self, rng: &mut Pcg64, objects: &mut Vec<Object>, clutter: &mut Vec<ClutterInfo>) {
+        let o = &self.p.obstacles;
+        let mut placed: Vec<Vector3<f64>> = Vec::new();
+        for i in 0..o.decoys {
+            let mut at = None;
+            for _ in 0..200 {
+                let r = rng.random_range(0.6..2.5);
+                let a = rng.random_range(0.0..TAU);
+                let v = self.f.c + Vector3::new(r * a.cos(), r * a.sin(), 0.0);
+                let clear = |q: &Vector3<f64>| (q - v).norm() >= 1.6;
+                if placed.iter().all(clear) && (o.target1_absent || r >= 1.2) {
+                    at = Some(v);
+                    break;
+                }
             }
+            let Some(v) = at else { continue };
+            placed.push(v);
+            let heading = rng.random_range(0.0..TAU);
+            let (kind, obj) = decoy(i % 5, self.g, &self.p.target, v, heading);
+            objects.push(obj);
+            note(clutter, "decoy", v, format!("{kind} near target 1"));
         }
-        let Some(v) = at else { continue };
-        placed.push(v);
-        let heading = rng.random_range(0.0..TAU);
-        let (kind, obj) = decoy(i % 5, g, &p.target, v, heading);
-        objects.push(obj);
-        note(clutter, "decoy", v, format!("{kind} near target 1"));
     }
 }
 

@@ -228,87 +228,183 @@ fn road_side(p: &SynthParams, road: &Road, rng: &mut Pcg64, i: usize) -> (f64, f
     (cx, cy, heading, dist)
 }
 
+/// The world of `p` before scanning: the ground, the targets, the clutter,
+/// the hard cases, the obstacles and the decoys, in that order (each draws
+/// from its own stream).
 pub(super) fn build_scene(p: &SynthParams) -> Scene {
     let ground = build_ground(p);
-    let k = p.targets;
     let road = road_of(p);
     let mut objects = Vec::new();
+    let mut targets = place_targets(p, &ground, &road, &mut objects);
+    let mut clutter = Vec::new();
+    let mut out = Added {
+        objects: &mut objects,
+        clutter: &mut clutter,
+    };
+    add_random_clutter(p, &ground, &road, &targets, &mut out);
+    // Hard cases.
+    if let Some(d) = p.clutter.near_target_m {
+        add_near_target(&ground, &targets[0], d, &mut out);
+    }
+    if p.clutter.bush_touching {
+        add_bush_touching(&targets[p.targets.min(2) - 1], &mut out);
+    }
+    super::obstacles::add(p, &ground, &road, &mut objects, &mut targets, &mut clutter);
+    let decoys = super::decoys::add(p, &ground, &road, &mut objects, &targets, &clutter);
+    Scene {
+        world: World { ground, objects },
+        road,
+        targets,
+        clutter,
+        decoys,
+    }
+}
+
+/// Builds the targets in id order, their objects first in `objects` (object
+/// i is target i, so returns are counted per target).
+fn place_targets(
+    p: &SynthParams,
+    ground: &Ground,
+    road: &Road,
+    objects: &mut Vec<Object>,
+) -> Vec<TargetTruth> {
     let mut targets = Vec::new();
     let mut rng = stream(p.seed, 2);
     // Validated before: the square's corners are clear of the road.
     let square = match p.layout {
-        Layout::Square => square_layout(p, &road).ok(),
+        Layout::Square => square_layout(p, road).ok(),
         Layout::Road => None,
     };
-    for i in 0..k {
+    for i in 0..p.targets {
         let (cx, cy, heading, dist) = match &square {
             Some(corners) => {
                 let (x, y, heading) = corners[i];
                 (x, y, heading, (y - road.y(x)).abs())
             }
-            None => road_side(p, &road, &mut rng, i),
+            None => road_side(p, road, &mut rng, i),
         };
-        let (obj, [gz, z0, z1, ant]) = build_target(&ground, &p.target, cx, cy, heading);
+        let (obj, levels) = build_target(ground, &p.target, cx, cy, heading);
         objects.push(obj);
-        let zc = (z0 + z1) / 2.0;
-        targets.push(TargetTruth {
-            id: (i + 1).to_string(),
-            world: [cx, cy, zc],
-            survey: SurveyPoint {
-                x: cx,
-                y: cy,
-                z: ant,
-                antenna_height: ant - zc,
-            },
-            map: [0.0; 3],
-            heading_deg: heading.to_degrees().rem_euclid(360.0),
-            ground_z: gz,
-            plate_bottom_z: z0,
-            plate_top_z: z1,
-            antenna_top_z: ant,
-            road_distance_m: dist,
-            points: 0,
-            ghost: None,
-            ghost_points: 0,
+        targets.push(target_truth(
+            (i + 1).to_string(),
+            (cx, cy),
+            heading,
+            levels,
+            dist,
+        ));
+    }
+    targets
+}
+
+/// The truth of a target just built from its corner line (x, y), heading and
+/// [`build_target`]'s heights: the scan fills in its map position and counts.
+pub(super) fn target_truth(
+    id: String,
+    (x, y): (f64, f64),
+    heading: f64,
+    [gz, z0, z1, ant]: [f64; 4],
+    road_distance_m: f64,
+) -> TargetTruth {
+    let zc = (z0 + z1) / 2.0;
+    TargetTruth {
+        id,
+        world: [x, y, zc],
+        survey: SurveyPoint {
+            x,
+            y,
+            z: ant,
+            antenna_height: ant - zc,
+        },
+        map: [0.0; 3],
+        heading_deg: heading.to_degrees().rem_euclid(360.0),
+        ground_z: gz,
+        plate_bottom_z: z0,
+        plate_top_z: z1,
+        antenna_top_z: ant,
+        road_distance_m,
+        points: 0,
+        ghost: None,
+        ghost_points: 0,
+    }
+}
+
+/// Where clutter goes: an object of the world and its line in the truth's
+/// clutter list, added together so the two never disagree.
+struct Added<'a> {
+    objects: &'a mut Vec<Object>,
+    clutter: &'a mut Vec<ClutterInfo>,
+}
+
+impl Added<'_> {
+    fn push(&mut self, object: Object, kind: &str, (x, y): (f64, f64), role: String) {
+        self.objects.push(object);
+        self.clutter.push(ClutterInfo {
+            kind: kind.into(),
+            x,
+            y,
+            role,
         });
     }
+}
 
-    let mut clutter = Vec::new();
-    let corners: Vec<(f64, f64)> = targets.iter().map(|t| (t.world[0], t.world[1])).collect();
-    let free = |x: f64, y: f64, clear: f64| {
-        (y - road.y(x)).abs() >= 3.0 && corners.iter().all(|&(a, b)| (x - a).hypot(y - b) >= clear)
-    };
-    let mut rng = stream(p.seed, 3);
-    let place = |rng: &mut Pcg64, clear: f64, lat: (f64, f64)| -> Option<(f64, f64)> {
+/// Free spots for random clutter: off the road and clear of the targets.
+struct Spots<'a> {
+    road: &'a Road,
+    corners: Vec<(f64, f64)>,
+}
+
+impl Spots<'_> {
+    fn free(&self, x: f64, y: f64, clear: f64) -> bool {
+        (y - self.road.y(x)).abs() >= 3.0
+            && self
+                .corners
+                .iter()
+                .all(|&(a, b)| (x - a).hypot(y - b) >= clear)
+    }
+
+    /// A free spot `clear` from every target at a lateral distance in `lat`
+    /// from the road, or `None` after 100 tries (the draws are spent either way).
+    fn place(&self, rng: &mut Pcg64, clear: f64, lat: (f64, f64)) -> Option<(f64, f64)> {
+        let road = self.road;
         for _ in 0..100 {
             let x = rng.random_range(road.x0 + 5.0..road.x1 - 5.0);
             let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             let y = road.y(x) + side * rng.random_range(lat.0..lat.1);
-            if free(x, y, clear) {
+            if self.free(x, y, clear) {
                 return Some((x, y));
             }
         }
         None
+    }
+}
+
+/// The random clutter of `p.clutter`, drawn from its own stream in a fixed
+/// order (poles, bushes, cars), so each kind's count moves only what follows.
+fn add_random_clutter(
+    p: &SynthParams,
+    g: &Ground,
+    road: &Road,
+    targets: &[TargetTruth],
+    out: &mut Added,
+) {
+    let spots = Spots {
+        road,
+        corners: targets.iter().map(|t| (t.world[0], t.world[1])).collect(),
     };
-    let g = &ground;
+    let mut rng = stream(p.seed, 3);
     for _ in 0..p.clutter.poles {
         let r = rng.random_range(0.08..0.2);
         let hgt = rng.random_range(4.0..9.0);
-        if let Some((x, y)) = place(&mut rng, 4.0 + r, (4.0, 28.0)) {
+        if let Some((x, y)) = spots.place(&mut rng, 4.0 + r, (4.0, 28.0)) {
             let gz = g.height(x, y);
-            objects.push(Object::new(vec![Prim::VCyl {
+            let pole = Object::new(vec![Prim::VCyl {
                 x,
                 y,
                 r,
                 z0: gz - 0.2,
                 z1: gz + hgt,
-            }]));
-            clutter.push(ClutterInfo {
-                kind: "pole".into(),
-                x,
-                y,
-                role: "random".into(),
-            });
+            }]);
+            out.push(pole, "pole", (x, y), "random".into());
         }
     }
     for _ in 0..p.clutter.bushes {
@@ -323,14 +419,8 @@ pub(super) fn build_scene(p: &SynthParams) -> Scene {
                 )
             })
             .collect();
-        if let Some((x, y)) = place(&mut rng, 5.5, (4.0, 28.0)) {
-            objects.push(bush(g, x, y, &params));
-            clutter.push(ClutterInfo {
-                kind: "bush".into(),
-                x,
-                y,
-                role: "random".into(),
-            });
+        if let Some((x, y)) = spots.place(&mut rng, 5.5, (4.0, 28.0)) {
+            out.push(bush(g, x, y, &params), "bush", (x, y), "random".into());
         }
     }
     for _ in 0..p.clutter.cars {
@@ -338,120 +428,103 @@ pub(super) fn build_scene(p: &SynthParams) -> Scene {
         let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
         let h = road.heading(x);
         let (cx, cy) = (x - side * 3.6 * h.sin(), road.y(x) + side * 3.6 * h.cos());
-        if corners.iter().all(|&(a, b)| (cx - a).hypot(cy - b) >= 5.0) {
-            objects.push(car(g, cx, cy, h));
-            clutter.push(ClutterInfo {
-                kind: "car".into(),
-                x: cx,
-                y: cy,
-                role: "random".into(),
-            });
+        if spots
+            .corners
+            .iter()
+            .all(|&(a, b)| (cx - a).hypot(cy - b) >= 5.0)
+        {
+            out.push(car(g, cx, cy, h), "car", (cx, cy), "random".into());
         }
     }
     if p.clutter.wall {
-        let x = road.x0 + 0.35 * road.length();
-        let h = road.heading(x);
-        let (cx, cy) = (x - 36.0 * h.sin(), road.y(x) + 36.0 * h.cos());
-        let len = 40.0;
-        let zmin = (-20..=20)
-            .map(|i| {
-                let s = i as f64 / 40.0 * len;
-                g.height(cx + s * h.cos(), cy + s * h.sin())
-            })
-            .fold(f64::INFINITY, f64::min);
-        let top = g.height(cx, cy) + 6.0;
-        objects.push(Object::new(vec![yaw_box(
-            Vector3::new(cx, cy, (zmin - 0.5 + top) / 2.0),
-            [len, 0.3, top - zmin + 0.5],
-            h,
-        )]));
-        clutter.push(ClutterInfo {
-            kind: "wall".into(),
-            x: cx,
-            y: cy,
-            role: "random".into(),
-        });
+        add_wall(g, road, out);
     }
-    // Hard cases.
-    if let Some(d) = p.clutter.near_target_m {
-        let t = &targets[0];
-        let a = t.heading_deg.to_radians();
-        let (x, y) = (t.world[0], t.world[1]);
-        // A pole off the L's outer corner ...
-        let r = 0.1;
-        let ap = a + 1.25 * std::f64::consts::PI;
-        let (px, py) = (x + (d + r) * ap.cos(), y + (d + r) * ap.sin());
-        let gz = g.height(px, py);
-        objects.push(Object::new(vec![Prim::VCyl {
-            x: px,
-            y: py,
-            r,
-            z0: gz - 0.2,
-            z1: gz + 3.5,
-        }]));
-        clutter.push(ClutterInfo {
-            kind: "pole".into(),
-            x: px,
-            y: py,
-            role: format!("near target 1 ({d} m)"),
-        });
-        // ... and a flat-faced utility cabinet inside it.
-        let ai = a + std::f64::consts::FRAC_PI_4;
-        let (bx, by) = (x + (d + 0.25) * ai.cos(), y + (d + 0.25) * ai.sin());
-        let gz = g.height(bx, by);
-        objects.push(Object::new(vec![yaw_box(
-            Vector3::new(bx, by, gz + 0.55),
-            [0.5, 0.8, 1.3],
-            ai,
-        )]));
-        clutter.push(ClutterInfo {
-            kind: "cabinet".into(),
-            x: bx,
-            y: by,
-            role: format!("near target 1 ({d} m)"),
-        });
-    }
-    if p.clutter.bush_touching {
-        let t = &targets[k.min(2) - 1];
-        let a = t.heading_deg.to_radians();
-        let (u1, u2) = (
-            Vector3::new(a.cos(), a.sin(), 0.0),
-            Vector3::new(-a.sin(), a.cos(), 0.0),
-        );
-        let c = Vector3::new(t.world[0], t.world[1], 0.0);
-        let r1 = 0.55;
-        let s1 = c + u1 * 0.3 - u2 * r1;
-        let s2 = c + u1 * 0.75 - u2 * 0.45;
-        let gz = t.ground_z;
-        let prims = vec![
-            Prim::Sphere {
-                c: Vector3::new(s1.x, s1.y, t.plate_bottom_z + 0.05),
-                r: r1,
-                porosity: 0.25,
-            },
-            Prim::Sphere {
-                c: Vector3::new(s2.x, s2.y, gz + 0.4),
-                r: 0.45,
-                porosity: 0.25,
-            },
-        ];
-        objects.push(Object::new(prims));
-        clutter.push(ClutterInfo {
-            kind: "bush".into(),
-            x: s1.x,
-            y: s1.y,
-            role: format!("touching target {}", t.id),
-        });
-    }
-    super::obstacles::add(p, &ground, &road, &mut objects, &mut targets, &mut clutter);
-    let decoys = super::decoys::add(p, &ground, &road, &mut objects, &targets, &clutter);
-    Scene {
-        world: World { ground, objects },
-        road,
-        targets,
-        clutter,
-        decoys,
-    }
+}
+
+/// A 40 m façade 36 m off the road, a third of the way along: a long flat
+/// face the detector must not take for a plate.
+fn add_wall(g: &Ground, road: &Road, out: &mut Added) {
+    let x = road.x0 + 0.35 * road.length();
+    let h = road.heading(x);
+    let (cx, cy) = (x - 36.0 * h.sin(), road.y(x) + 36.0 * h.cos());
+    let len = 40.0;
+    let zmin = (-20..=20)
+        .map(|i| {
+            let s = i as f64 / 40.0 * len;
+            g.height(cx + s * h.cos(), cy + s * h.sin())
+        })
+        .fold(f64::INFINITY, f64::min);
+    let top = g.height(cx, cy) + 6.0;
+    let wall = Object::new(vec![yaw_box(
+        Vector3::new(cx, cy, (zmin - 0.5 + top) / 2.0),
+        [len, 0.3, top - zmin + 0.5],
+        h,
+    )]);
+    out.push(wall, "wall", (cx, cy), "random".into());
+}
+
+/// The hard case `near_target_m`: a pole off target `t`'s outer corner and a
+/// flat-faced utility cabinet inside its L, each `d` from the corner line.
+fn add_near_target(g: &Ground, t: &TargetTruth, d: f64, out: &mut Added) {
+    let a = t.heading_deg.to_radians();
+    let (x, y) = (t.world[0], t.world[1]);
+    // A pole off the L's outer corner ...
+    let r = 0.1;
+    let ap = a + 1.25 * std::f64::consts::PI;
+    let (px, py) = (x + (d + r) * ap.cos(), y + (d + r) * ap.sin());
+    let gz = g.height(px, py);
+    let pole = Object::new(vec![Prim::VCyl {
+        x: px,
+        y: py,
+        r,
+        z0: gz - 0.2,
+        z1: gz + 3.5,
+    }]);
+    out.push(pole, "pole", (px, py), format!("near target 1 ({d} m)"));
+    // ... and a flat-faced utility cabinet inside it.
+    let ai = a + std::f64::consts::FRAC_PI_4;
+    let (bx, by) = (x + (d + 0.25) * ai.cos(), y + (d + 0.25) * ai.sin());
+    let gz = g.height(bx, by);
+    let cabinet = Object::new(vec![yaw_box(
+        Vector3::new(bx, by, gz + 0.55),
+        [0.5, 0.8, 1.3],
+        ai,
+    )]);
+    out.push(
+        cabinet,
+        "cabinet",
+        (bx, by),
+        format!("near target 1 ({d} m)"),
+    );
+}
+
+/// The hard case `bush_touching`: two foliage spheres against target `t`'s
+/// plate, one reaching up to the plate's bottom edge.
+fn add_bush_touching(t: &TargetTruth, out: &mut Added) {
+    let a = t.heading_deg.to_radians();
+    let (u1, u2) = (
+        Vector3::new(a.cos(), a.sin(), 0.0),
+        Vector3::new(-a.sin(), a.cos(), 0.0),
+    );
+    let c = Vector3::new(t.world[0], t.world[1], 0.0);
+    let r1 = 0.55;
+    let s1 = c + u1 * 0.3 - u2 * r1;
+    let s2 = c + u1 * 0.75 - u2 * 0.45;
+    let gz = t.ground_z;
+    let prims = vec![
+        Prim::Sphere {
+            c: Vector3::new(s1.x, s1.y, t.plate_bottom_z + 0.05),
+            r: r1,
+            porosity: 0.25,
+        },
+        Prim::Sphere {
+            c: Vector3::new(s2.x, s2.y, gz + 0.4),
+            r: 0.45,
+            porosity: 0.25,
+        },
+    ];
+    let role = format!("touching target {}", t.id);
+    out.push(Object::new(prims), "bush", (s1.x, s1.y), role);
 }
 
 pub(super) fn bush(g: &Ground, x: f64, y: f64, spheres: &[(f64, f64, f64, f64)]) -> Object {

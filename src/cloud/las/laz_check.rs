@@ -18,8 +18,6 @@ pub(super) fn check_laz_chunks(
 ) -> std::result::Result<(), String> {
     use std::io::Read;
     let mut f = BufReader::new(file);
-    let bad = |m: &str| format!("LAZ: {m}");
-    let io = |e: std::io::Error| format!("LAZ: {e}");
     // Read the header fields directly: the las crate is more lenient than a
     // strict header parser, and every file it would decompress must be checked.
     let mut head = [0u8; 227];
@@ -31,49 +29,14 @@ pub(super) fn check_laz_chunks(
         return Ok(()); // not compressed
     }
     let start = u64::from(u32::from_le_bytes([head[96], head[97], head[98], head[99]]));
-    // The laszip VLR lies between the header and the point data; find it by
-    // its user id rather than by walking VLR lengths the crate may read otherwise.
-    let mut vlrs = Vec::new();
-    f.seek(SeekFrom::Start(0)).map_err(io)?;
-    (&mut f)
-        .take(start.min(file_bytes))
-        .read_to_end(&mut vlrs)
-        .map_err(io)?;
-    let id = laz::LazVlr::USER_ID.as_bytes();
-    let vlr = (0..vlrs.len().saturating_sub(id.len()))
-        .filter(|&p| p >= 2 && vlrs[p..].starts_with(id))
-        .find_map(|p| {
-            let rec = u16::from_le_bytes([*vlrs.get(p + 16)?, *vlrs.get(p + 17)?]);
-            let len = u16::from_le_bytes([*vlrs.get(p + 18)?, *vlrs.get(p + 19)?]) as usize;
-            let data = vlrs.get(p + 52..p + 52 + len)?;
-            (rec == laz::LazVlr::RECORD_ID)
-                .then(|| laz::LazVlr::from_buffer(data).ok())
-                .flatten()
-        });
-    let Some(vlr) = vlr else {
+    let Some(vlr) = laszip_vlr(&mut f, start, file_bytes)? else {
         return Err(bad("compressed point format but no readable laszip VLR"));
     };
-    let mut word = [0u8; 8];
-    f.seek(SeekFrom::Start(start)).map_err(io)?;
-    f.read_exact(&mut word)
-        .map_err(|_| bad("point data ends before the chunk table offset"))?;
-    let mut table = i64::from_le_bytes(word);
-    if table == -1 {
-        // Written by a streaming compressor: the offset is the file's last 8 bytes.
-        f.seek(SeekFrom::End(-8)).map_err(io)?;
-        f.read_exact(&mut word).map_err(io)?;
-        table = i64::from_le_bytes(word);
-    }
-    let table = u64::try_from(table).unwrap_or(u64::MAX);
-    if table < start + 8 || table.saturating_add(8) > file_bytes {
-        return Err(bad(&format!(
-            "chunk table offset {table} lies outside the point data ({}..{file_bytes})",
-            start + 8
-        )));
-    }
+    let table = table_offset(&mut f, start, file_bytes)?;
+    let mut word = [0u8; 4];
     f.seek(SeekFrom::Start(table + 4)).map_err(io)?;
-    f.read_exact(&mut word[..4]).map_err(io)?;
-    let chunks = u64::from(u32::from_le_bytes([word[0], word[1], word[2], word[3]]));
+    f.read_exact(&mut word).map_err(io)?;
+    let chunks = u64::from(u32::from_le_bytes(word));
     // Every chunk holds at least one byte of point data.
     if chunks > table - start {
         return Err(bad(&format!(
@@ -96,8 +59,91 @@ pub(super) fn check_laz_chunks(
     f.seek(SeekFrom::Start(start)).map_err(io)?;
     let entries =
         laz::laszip::ChunkTable::read_from(&mut f, &vlr).map_err(|e| bad(&e.to_string()))?;
+    check_totals(&vlr, entries.as_ref(), data, max_points)?;
+    // Layered chunks (point formats 6-10) declare their layers' sizes up front.
+    if heads {
+        check_heads(file, &vlr, entries.as_ref(), start)?;
+    }
+    Ok(())
+}
+
+/// A LAZ error message.
+fn bad(m: &str) -> String {
+    format!("LAZ: {m}")
+}
+
+/// A read error, as a LAZ error message.
+fn io(e: std::io::Error) -> String {
+    format!("LAZ: {e}")
+}
+
+/// The laszip VLR among the bytes before the point data at `start`, found
+/// by its user id rather than by walking VLR lengths the crate may read
+/// otherwise; `None` when there is none it can parse.
+fn laszip_vlr(
+    f: &mut BufReader<&File>,
+    start: u64,
+    file_bytes: u64,
+) -> std::result::Result<Option<laz::LazVlr>, String> {
+    use std::io::Read;
+    let mut vlrs = Vec::new();
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
+    f.take(start.min(file_bytes))
+        .read_to_end(&mut vlrs)
+        .map_err(io)?;
+    let id = laz::LazVlr::USER_ID.as_bytes();
+    Ok((0..vlrs.len().saturating_sub(id.len()))
+        .filter(|&p| p >= 2 && vlrs[p..].starts_with(id))
+        .find_map(|p| {
+            let rec = u16::from_le_bytes([*vlrs.get(p + 16)?, *vlrs.get(p + 17)?]);
+            let len = u16::from_le_bytes([*vlrs.get(p + 18)?, *vlrs.get(p + 19)?]) as usize;
+            let data = vlrs.get(p + 52..p + 52 + len)?;
+            (rec == laz::LazVlr::RECORD_ID)
+                .then(|| laz::LazVlr::from_buffer(data).ok())
+                .flatten()
+        }))
+}
+
+/// The chunk table's offset (the point data's first word, or the file's
+/// last when a streaming compressor wrote -1), which must lie within the
+/// point data.
+fn table_offset(
+    f: &mut BufReader<&File>,
+    start: u64,
+    file_bytes: u64,
+) -> std::result::Result<u64, String> {
+    use std::io::Read;
+    let mut word = [0u8; 8];
+    f.seek(SeekFrom::Start(start)).map_err(io)?;
+    f.read_exact(&mut word)
+        .map_err(|_| bad("point data ends before the chunk table offset"))?;
+    let mut table = i64::from_le_bytes(word);
+    if table == -1 {
+        // Written by a streaming compressor: the offset is the file's last 8 bytes.
+        f.seek(SeekFrom::End(-8)).map_err(io)?;
+        f.read_exact(&mut word).map_err(io)?;
+        table = i64::from_le_bytes(word);
+    }
+    let table = u64::try_from(table).unwrap_or(u64::MAX);
+    if table < start + 8 || table.saturating_add(8) > file_bytes {
+        return Err(bad(&format!(
+            "chunk table offset {table} lies outside the point data ({}..{file_bytes})",
+            start + 8
+        )));
+    }
+    Ok(table)
+}
+
+/// The table's totals against the `data` bytes of point data: the chunks'
+/// bytes must fit, and variable chunks hold at most `max_points` points.
+fn check_totals(
+    vlr: &laz::LazVlr,
+    entries: &[laz::laszip::ChunkTableEntry],
+    data: u64,
+    max_points: u64,
+) -> std::result::Result<(), String> {
     let (mut bytes, mut points) = (0u64, 0u64);
-    for e in entries.as_ref() {
+    for e in entries {
         bytes = bytes.saturating_add(e.byte_count);
         points = points.saturating_add(e.point_count);
     }
@@ -111,19 +157,30 @@ pub(super) fn check_laz_chunks(
             "chunk table declares {points} points in {data} bytes of point data"
         )));
     }
-    // Layered chunks (point formats 6-10) declare their layers' sizes up front.
-    if let Some(words) = layer_words(vlr.items()).filter(|_| heads) {
-        let first: usize = vlr.items().iter().map(|i| usize::from(i.size())).sum();
-        let mut head = vec![0u8; first + 4 + 4 * words];
-        let mut at = start + 8;
-        for (k, e) in entries.as_ref().iter().enumerate() {
-            let n = (e.byte_count as usize).min(head.len());
-            file.read_exact_at(&mut head[..n], at)
-                .map_err(|_| bad(&format!("chunk {k} lies beyond the end of the file")))?;
-            check_layers(&head[..n], first, words, e.byte_count)
-                .map_err(|m| bad(&format!("chunk {k}: {m}")))?;
-            at += e.byte_count;
-        }
+    Ok(())
+}
+
+/// The head of every layered chunk (point formats 6-10; none for others),
+/// one small read per chunk from the point data at `start`.
+fn check_heads(
+    file: &File,
+    vlr: &laz::LazVlr,
+    entries: &[laz::laszip::ChunkTableEntry],
+    start: u64,
+) -> std::result::Result<(), String> {
+    let Some(words) = layer_words(vlr.items()) else {
+        return Ok(());
+    };
+    let first: usize = vlr.items().iter().map(|i| usize::from(i.size())).sum();
+    let mut head = vec![0u8; first + 4 + 4 * words];
+    let mut at = start + 8;
+    for (k, e) in entries.iter().enumerate() {
+        let n = (e.byte_count as usize).min(head.len());
+        file.read_exact_at(&mut head[..n], at)
+            .map_err(|_| bad(&format!("chunk {k} lies beyond the end of the file")))?;
+        check_layers(&head[..n], first, words, e.byte_count)
+            .map_err(|m| bad(&format!("chunk {k}: {m}")))?;
+        at += e.byte_count;
     }
     Ok(())
 }

@@ -22,6 +22,7 @@ use std::path::Path;
 mod chunked;
 mod copc;
 mod laz_check;
+mod octree;
 mod sink;
 #[cfg(test)]
 mod tests;

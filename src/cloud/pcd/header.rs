@@ -102,129 +102,228 @@ fn parse_u64(path: &Path, key: &str, lineno: u64, vals: &[&str]) -> Result<u64> 
 
 /// Parses the header at the start of `bytes` (a prefix of the file).
 pub(super) fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
-    let mut names: Option<(u64, Vec<String>)> = None;
-    let mut sizes: Option<(u64, Vec<usize>)> = None;
-    let mut types: Option<(u64, Vec<String>)> = None;
-    let mut counts: Option<(u64, Vec<usize>)> = None;
-    let mut width = None;
-    let mut height = None;
-    let mut points = None;
-    let mut data = None;
-    let mut pos = 0usize;
-    let mut lineno = 0u64;
-    while data.is_none() {
-        if pos >= bytes.len() {
-            let why = if bytes.len() >= MAX_HEADER {
-                format!(
-                    "header has no DATA line within its first {} bytes",
-                    MAX_HEADER
-                )
-            } else {
-                "header ends without a DATA line".to_string()
-            };
-            return Err(Error::format(path, why));
-        }
-        lineno += 1;
-        let rest = &bytes[pos..];
-        let (raw, next) = match rest.iter().position(|&b| b == b'\n') {
-            Some(i) => (&rest[..i], pos + i + 1),
-            None => (rest, bytes.len()),
+    let raw = Keywords::read(path, bytes)?;
+    let (names_line, names) = raw
+        .names
+        .filter(|(_, n)| !n.is_empty())
+        .ok_or_else(|| Error::format(path, "header has no FIELDS line"))?;
+    let columns = Columns::check(
+        path,
+        (names_line, names.len()),
+        raw.sizes,
+        raw.types,
+        raw.counts,
+    )?;
+    let (fields, point_size, tokens_per_line) = lay_out_fields(path, &names, &columns)?;
+    let find = |want: &str| find_field(path, &fields, (names_line, &names), want);
+    let xyz = [find("x")?, find("y")?, find("z")?];
+    let points = point_count(path, raw.points, raw.width, raw.height.unwrap_or(1))?;
+    Ok(Header {
+        fields,
+        point_size,
+        tokens_per_line,
+        points,
+        data: raw.data,
+        data_offset: raw.pos,
+        lines: raw.lineno,
+        xyz,
+    })
+}
+
+/// The header's keyword lines as written (each list with its line number,
+/// for errors), up to and including DATA.
+struct Keywords {
+    names: Option<(u64, Vec<String>)>,
+    sizes: Option<(u64, Vec<usize>)>,
+    types: Option<(u64, Vec<String>)>,
+    counts: Option<(u64, Vec<usize>)>,
+    width: Option<u64>,
+    height: Option<u64>,
+    points: Option<u64>,
+    data: DataKind,
+    /// Byte offset just after the DATA line.
+    pos: usize,
+    /// Line number of the DATA line.
+    lineno: u64,
+}
+
+impl Keywords {
+    /// Reads lines until DATA; a header cut short (or too long) is an error.
+    fn read(path: &Path, bytes: &[u8]) -> Result<Keywords> {
+        let mut l = Keywords {
+            names: None,
+            sizes: None,
+            types: None,
+            counts: None,
+            width: None,
+            height: None,
+            points: None,
+            data: DataKind::Ascii,
+            pos: 0,
+            lineno: 0,
         };
-        pos = next;
-        let line = std::str::from_utf8(raw)
-            .map_err(|_| Error::table(path, lineno, "header line is not UTF-8 text"))?;
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
+        let mut data = None;
+        while data.is_none() {
+            if l.pos >= bytes.len() {
+                let why = if bytes.len() >= MAX_HEADER {
+                    format!(
+                        "header has no DATA line within its first {} bytes",
+                        MAX_HEADER
+                    )
+                } else {
+                    "header ends without a DATA line".to_string()
+                };
+                return Err(Error::format(path, why));
+            }
+            l.lineno += 1;
+            let rest = &bytes[l.pos..];
+            let (raw, next) = match rest.iter().position(|&b| b == b'\n') {
+                Some(i) => (&rest[..i], l.pos + i + 1),
+                None => (rest, bytes.len()),
+            };
+            l.pos = next;
+            let line = std::str::from_utf8(raw)
+                .map_err(|_| Error::table(path, l.lineno, "header line is not UTF-8 text"))?;
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            data = l.take(path, line)?;
         }
+        l.data = data.unwrap_or(DataKind::Ascii);
+        Ok(l)
+    }
+
+    /// Takes one keyword line; returns the data kind when it is DATA's.
+    fn take(&mut self, path: &Path, line: &str) -> Result<Option<DataKind>> {
+        let lineno = self.lineno;
         let mut it = line.split_ascii_whitespace();
         let key = it.next().unwrap_or_default();
         let vals: Vec<&str> = it.collect();
         match key.to_ascii_uppercase().as_str() {
             "VERSION" | "VIEWPOINT" => {}
             "FIELDS" | "COLUMNS" => {
-                names = Some((lineno, vals.iter().map(|s| s.to_string()).collect()));
+                self.names = Some((lineno, vals.iter().map(|s| s.to_string()).collect()));
             }
-            "SIZE" => sizes = Some((lineno, parse_usize_list(path, "SIZE", lineno, &vals, 1)?)),
+            "SIZE" => {
+                self.sizes = Some((lineno, parse_usize_list(path, "SIZE", lineno, &vals, 1)?))
+            }
             "TYPE" => {
-                types = Some((
+                self.types = Some((
                     lineno,
                     vals.iter().map(|s| s.to_ascii_uppercase()).collect(),
                 ))
             }
-            "COUNT" => counts = Some((lineno, parse_usize_list(path, "COUNT", lineno, &vals, 1)?)),
-            "WIDTH" => width = Some(parse_u64(path, "WIDTH", lineno, &vals)?),
-            "HEIGHT" => height = Some(parse_u64(path, "HEIGHT", lineno, &vals)?),
-            "POINTS" => points = Some(parse_u64(path, "POINTS", lineno, &vals)?),
-            "DATA" => {
-                let kind = match vals.first().map(|s| s.to_ascii_lowercase()).as_deref() {
-                    Some("ascii") => DataKind::Ascii,
-                    Some("binary") => DataKind::Binary,
-                    Some("binary_compressed") => DataKind::Compressed,
-                    other => {
-                        return Err(Error::table(
-                            path,
-                            lineno,
-                            format!(
-                                "unknown DATA '{}' (expected ascii, binary or binary_compressed)",
-                                other.unwrap_or("")
-                            ),
-                        ));
-                    }
-                };
-                data = Some(kind);
+            "COUNT" => {
+                self.counts = Some((lineno, parse_usize_list(path, "COUNT", lineno, &vals, 1)?))
             }
+            "WIDTH" => self.width = Some(parse_u64(path, "WIDTH", lineno, &vals)?),
+            "HEIGHT" => self.height = Some(parse_u64(path, "HEIGHT", lineno, &vals)?),
+            "POINTS" => self.points = Some(parse_u64(path, "POINTS", lineno, &vals)?),
+            "DATA" => return data_kind(path, lineno, &vals).map(Some),
             // PCL ignores keywords it does not know; so do we.
             _ => {}
         }
+        Ok(None)
     }
-    let data = data.unwrap_or(DataKind::Ascii);
-    let (names_line, names) = names
-        .filter(|(_, n)| !n.is_empty())
-        .ok_or_else(|| Error::format(path, "header has no FIELDS line"))?;
-    let n = names.len();
-    let check_len = |key: &str, line: u64, len: usize| -> Result<()> {
-        if len != n {
-            Err(Error::table(
-                path,
-                line,
-                format!("{key} has {len} entries but FIELDS (line {names_line}) has {n}"),
-            ))
-        } else {
-            Ok(())
-        }
-    };
-    // v0.5 files may lack SIZE / TYPE / COUNT: PCL's defaults are 4, F and 1.
-    let sizes = match sizes {
-        Some((l, s)) => {
-            check_len("SIZE", l, s.len())?;
-            s
-        }
-        None => vec![4; n],
-    };
-    let (types_line, types) = match types {
-        Some((l, t)) => {
-            check_len("TYPE", l, t.len())?;
-            (l, t)
-        }
-        None => (0, vec!["F".to_string(); n]),
-    };
-    let counts = match counts {
-        Some((l, c)) => {
-            check_len("COUNT", l, c.len())?;
-            c
-        }
-        None => vec![1; n],
-    };
-    let mut fields = Vec::with_capacity(n);
+}
+
+/// The DATA line's storage kind.
+fn data_kind(path: &Path, lineno: u64, vals: &[&str]) -> Result<DataKind> {
+    match vals.first().map(|s| s.to_ascii_lowercase()).as_deref() {
+        Some("ascii") => Ok(DataKind::Ascii),
+        Some("binary") => Ok(DataKind::Binary),
+        Some("binary_compressed") => Ok(DataKind::Compressed),
+        other => Err(Error::table(
+            path,
+            lineno,
+            format!(
+                "unknown DATA '{}' (expected ascii, binary or binary_compressed)",
+                other.unwrap_or("")
+            ),
+        )),
+    }
+}
+
+/// SIZE, TYPE and COUNT, one entry per field, PCL's defaults filled in.
+struct Columns {
+    sizes: Vec<usize>,
+    /// The TYPE line (0 when absent), for errors.
+    types_line: u64,
+    types: Vec<String>,
+    counts: Vec<usize>,
+}
+
+impl Columns {
+    /// Checks that each list has one entry per field (`n` FIELDS at line
+    /// `names_line`); v0.5 files may lack SIZE / TYPE / COUNT: PCL's
+    /// defaults are 4, F and 1.
+    fn check(
+        path: &Path,
+        (names_line, n): (u64, usize),
+        sizes: Option<(u64, Vec<usize>)>,
+        types: Option<(u64, Vec<String>)>,
+        counts: Option<(u64, Vec<usize>)>,
+    ) -> Result<Columns> {
+        let check_len = |key: &str, line: u64, len: usize| -> Result<()> {
+            if len != n {
+                Err(Error::table(
+                    path,
+                    line,
+                    format!("{key} has {len} entries but FIELDS (line {names_line}) has {n}"),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        let sizes = match sizes {
+            Some((l, s)) => {
+                check_len("SIZE", l, s.len())?;
+                s
+            }
+            None => vec![4; n],
+        };
+        let (types_line, types) = match types {
+            Some((l, t)) => {
+                check_len("TYPE", l, t.len())?;
+                (l, t)
+            }
+            None => (0, vec!["F".to_string(); n]),
+        };
+        let counts = match counts {
+            Some((l, c)) => {
+                check_len("COUNT", l, c.len())?;
+                c
+            }
+            None => vec![1; n],
+        };
+        Ok(Columns {
+            sizes,
+            types_line,
+            types,
+            counts,
+        })
+    }
+}
+
+/// The fields with their scalar kinds and where each sits in a binary record
+/// and an ascii line; returns them with the record's size and the tokens of
+/// a line. A TYPE/SIZE pair the format has no scalar for, or a record too
+/// large, is refused.
+fn lay_out_fields(
+    path: &Path,
+    names: &[String],
+    c: &Columns,
+) -> Result<(Vec<Field>, usize, usize)> {
+    let mut fields = Vec::with_capacity(names.len());
     let mut offset = 0usize;
     let mut token = 0usize;
-    for i in 0..n {
-        let (name, size, ty, count) = (&names[i], sizes[i], types[i].as_str(), counts[i]);
+    for (i, name) in names.iter().enumerate() {
+        let (size, ty, count) = (c.sizes[i], c.types[i].as_str(), c.counts[i]);
         if !matches!(ty, "F" | "I" | "U") {
             return Err(Error::table(
                 path,
-                types_line,
+                c.types_line,
                 format!("unknown TYPE '{ty}' for field '{name}' (expected F, I or U)"),
             ));
         }
@@ -255,26 +354,38 @@ pub(super) fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
         offset = bytes;
         token += count;
     }
-    let find = |want: &str| -> Result<usize> {
-        fields
-            .iter()
-            .position(|f| f.name == want)
-            .or_else(|| {
-                fields
-                    .iter()
-                    .position(|f| f.name.eq_ignore_ascii_case(want))
-            })
-            .ok_or_else(|| {
-                Error::table(
-                    path,
-                    names_line,
-                    format!("no field '{want}' in FIELDS {}", names.join(" ")),
-                )
-            })
-    };
-    let xyz = [find("x")?, find("y")?, find("z")?];
-    let height = height.unwrap_or(1);
-    let points = match (points, width) {
+    Ok((fields, offset, token))
+}
+
+/// The index of field `want`: an exact name first, else one differing only
+/// in case.
+fn find_field(
+    path: &Path,
+    fields: &[Field],
+    (names_line, names): (u64, &[String]),
+    want: &str,
+) -> Result<usize> {
+    fields
+        .iter()
+        .position(|f| f.name == want)
+        .or_else(|| {
+            fields
+                .iter()
+                .position(|f| f.name.eq_ignore_ascii_case(want))
+        })
+        .ok_or_else(|| {
+            Error::table(
+                path,
+                names_line,
+                format!("no field '{want}' in FIELDS {}", names.join(" ")),
+            )
+        })
+}
+
+/// The point count: POINTS, which must agree with WIDTH x HEIGHT when both
+/// are given, else WIDTH x HEIGHT.
+fn point_count(path: &Path, points: Option<u64>, width: Option<u64>, height: u64) -> Result<u64> {
+    Ok(match (points, width) {
         (Some(p), Some(w)) => {
             if w.checked_mul(height) != Some(p) {
                 return Err(Error::format(
@@ -292,15 +403,5 @@ pub(super) fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
             )
         })?,
         (None, None) => return Err(Error::format(path, "header has neither POINTS nor WIDTH")),
-    };
-    Ok(Header {
-        fields,
-        point_size: offset,
-        tokens_per_line: token,
-        points,
-        data,
-        data_offset: pos,
-        lines: lineno,
-        xyz,
     })
 }

@@ -100,6 +100,74 @@ fn ascii_tail_is_blank(
     ))
 }
 
+/// x, y, z of the binary vertex with list properties at `pos` (already
+/// walked, so every read is within the map).
+#[inline]
+fn variable_vertex(map: &[u8], pos: usize, props: &[Prop], xyz: Xyz, be: bool) -> [f64; 3] {
+    let mut v = [0.0; 3];
+    let mut p = pos;
+    for (i, prop) in props.iter().enumerate() {
+        match prop {
+            Prop::Scalar(t) => {
+                for c in 0..3 {
+                    if xyz.idx[c] == i {
+                        v[c] = t.read(&map[p..], be);
+                    }
+                }
+                p += t.size();
+            }
+            Prop::List(ct, it) => {
+                let k = ct.read(&map[p..], be) as usize;
+                p += ct.size() + k * it.size();
+            }
+        }
+    }
+    v
+}
+
+/// x, y, z of the ascii vertex `line` (line number and vertex index in `at`,
+/// for errors): the values up to the last of x, y, z are read, lists by their
+/// count; a missing or unreadable value is an error.
+#[inline]
+fn ascii_vertex(
+    path: &Path,
+    (ln, vertex): (u64, u64),
+    line: &[u8],
+    props: &[Prop],
+    xyz: Xyz,
+) -> Result<[f64; 3]> {
+    let mut v = [f64::NAN; 3];
+    let mut it = line
+        .split(|b| b.is_ascii_whitespace())
+        .filter(|t| !t.is_empty());
+    let bad = |msg: String| Error::table(path, ln, msg);
+    let need = xyz.idx.iter().copied().max().unwrap_or(0);
+    for (i, prop) in props.iter().enumerate().take(need + 1) {
+        let count = match prop {
+            Prop::Scalar(_) => 1,
+            Prop::List(..) => {
+                let t = it.next().ok_or_else(|| bad("too few values".into()))?;
+                parse_f64(t)
+                    .filter(|c| *c >= 0.0 && *c <= 1e9)
+                    .ok_or_else(|| bad("bad list count".into()))? as usize
+            }
+        };
+        for _ in 0..count {
+            let t = it
+                .next()
+                .ok_or_else(|| bad(format!("too few values for vertex {vertex}")))?;
+            for c in 0..3 {
+                if xyz.idx[c] == i {
+                    v[c] = parse_f64(t).ok_or_else(|| {
+                        bad(format!("{:?} is not a number", String::from_utf8_lossy(t)))
+                    })?;
+                }
+            }
+        }
+    }
+    Ok(v)
+}
+
 impl PointReader for PlyReader {
     fn info(&self) -> &CloudInfo {
         &self.info
@@ -118,24 +186,7 @@ impl PointReader for PlyReader {
                         let Some(end) = walk(map, *pos, props, be) else {
                             return Err(self.truncated(self.next));
                         };
-                        let mut v = [0.0; 3];
-                        let mut p = *pos;
-                        for (i, prop) in props.iter().enumerate() {
-                            match prop {
-                                Prop::Scalar(t) => {
-                                    for c in 0..3 {
-                                        if xyz.idx[c] == i {
-                                            v[c] = t.read(&map[p..], be);
-                                        }
-                                    }
-                                    p += t.size();
-                                }
-                                Prop::List(ct, it) => {
-                                    let k = ct.read(&map[p..], be) as usize;
-                                    p += ct.size() + k * it.size();
-                                }
-                            }
-                        }
+                        let v = variable_vertex(map, *pos, props, xyz, be);
                         *pos = end;
                         self.next += 1;
                         if v.iter().all(|c| c.is_finite()) {
@@ -178,40 +229,8 @@ impl PointReader for PlyReader {
                         if line.is_empty() {
                             continue;
                         }
-                        let mut v = [f64::NAN; 3];
-                        let mut it = line
-                            .split(|b| b.is_ascii_whitespace())
-                            .filter(|t| !t.is_empty());
-                        let bad = |msg: String| Error::table(&self.path, ln, msg);
-                        let need = xyz.idx.iter().copied().max().unwrap_or(0);
-                        for (i, prop) in props.iter().enumerate().take(need + 1) {
-                            let count = match prop {
-                                Prop::Scalar(_) => 1,
-                                Prop::List(..) => {
-                                    let t =
-                                        it.next().ok_or_else(|| bad("too few values".into()))?;
-                                    parse_f64(t)
-                                        .filter(|c| *c >= 0.0 && *c <= 1e9)
-                                        .ok_or_else(|| bad("bad list count".into()))?
-                                        as usize
-                                }
-                            };
-                            for _ in 0..count {
-                                let t = it.next().ok_or_else(|| {
-                                    bad(format!("too few values for vertex {}", self.next))
-                                })?;
-                                for c in 0..3 {
-                                    if xyz.idx[c] == i {
-                                        v[c] = parse_f64(t).ok_or_else(|| {
-                                            bad(format!(
-                                                "{:?} is not a number",
-                                                String::from_utf8_lossy(t)
-                                            ))
-                                        })?;
-                                    }
-                                }
-                            }
-                        }
+                        let at = (ln, self.next);
+                        let v = ascii_vertex(&self.path, at, line, props, xyz)?;
                         self.next += 1;
                         if v.iter().all(|c| c.is_finite()) {
                             buf.push(Point::new(v[0], v[1], v[2]));

@@ -28,6 +28,7 @@ use crate::{Error, Point, Result};
 use std::path::{Path, PathBuf};
 use yaml::{Entry, Value};
 
+use metadata::TileEntry;
 pub(crate) use metadata::parse_metadata;
 pub use metadata::{MetadataTiles, read_metadata, write_tiles};
 pub(crate) use reader::open;
@@ -121,129 +122,169 @@ fn sorted_entries(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
+/// Where a map given as `path` is: its folder and metadata file (none: every
+/// `.pcd` in the folder), or, for a tile folder without metadata whose
+/// parent's metadata lists its tiles, that whole map.
+enum Located {
+    Map(TiledMap),
+    In {
+        dir: PathBuf,
+        metadata: Option<PathBuf>,
+    },
+}
+
+/// Finds the folder and metadata of the map at `path` (a folder or a
+/// metadata file); several metadata files in a folder are an error.
+fn locate(path: &Path) -> Result<Located> {
+    if !path.is_dir() {
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        return Ok(Located::In {
+            dir,
+            metadata: Some(path.to_path_buf()),
+        });
+    }
+    let metas: Vec<PathBuf> = sorted_entries(path)?
+        .into_iter()
+        .filter(|p| p.is_file() && is_metadata_name(p))
+        .collect();
+    match metas.as_slice() {
+        [] => Ok(match parent_metadata(path) {
+            Some(m) => Located::Map(m),
+            None => Located::In {
+                dir: path.to_path_buf(),
+                metadata: None,
+            },
+        }),
+        [one] => Ok(Located::In {
+            dir: path.to_path_buf(),
+            metadata: Some(one.clone()),
+        }),
+        more => {
+            let names: Vec<String> = more.iter().map(|p| p.display().to_string()).collect();
+            Err(Error::Input(format!(
+                "{}: several metadata files ({}): give the one to use with --map",
+                path.display(),
+                names.join(", ")
+            )))
+        }
+    }
+}
+
+/// A folder without metadata: every `.pcd` in it, by name, with no cells.
+fn every_pcd(dir: &Path, projector: Option<PathBuf>) -> Result<TiledMap> {
+    let mut tiles = Vec::new();
+    for p in sorted_entries(dir)? {
+        if has_ext(&p, "pcd") && p.is_file() {
+            let bytes = file_size(&p)?;
+            tiles.push(Tile {
+                path: p,
+                cell: None,
+                line: 0,
+                bytes,
+            });
+        }
+    }
+    if tiles.is_empty() {
+        return Err(Error::Input(format!(
+            "{}: no .pcd files and no *metadata*.yaml in this folder",
+            dir.display()
+        )));
+    }
+    Ok(TiledMap {
+        metadata: None,
+        resolution: None,
+        tiles,
+        projector,
+    })
+}
+
+/// The tiles the metadata `meta` lists, in its order, each with its cell,
+/// found in `dir` or a sub-folder of it.
+fn listed(dir: &Path, meta: PathBuf, projector: Option<PathBuf>) -> Result<TiledMap> {
+    let text = std::fs::read(&meta).map_err(|e| Error::io(&meta, e))?;
+    let text = String::from_utf8(text)
+        .map_err(|_| Error::format(&meta, "not UTF-8 text (a YAML file is expected)"))?;
+    let m = parse_metadata(&text).map_err(|(l, msg)| Error::table(&meta, l, msg))?;
+    // Autoware keeps the tiles in a sub-folder beside the metadata
+    // (`pointcloud_map.pcd/`): a tile is looked for there too.
+    let subdirs: Vec<PathBuf> = sorted_entries(dir)?
+        .into_iter()
+        .filter(|p| p.is_dir())
+        .collect();
+    let mut tiles = Vec::with_capacity(m.tiles.len());
+    for t in &m.tiles {
+        let path = tile_path(dir, &subdirs, &meta, t)?;
+        let bytes = file_size(&path)?;
+        tiles.push(Tile {
+            path,
+            cell: Some([
+                t.min[0],
+                t.min[1],
+                t.min[0] + m.resolution[0],
+                t.min[1] + m.resolution[1],
+            ]),
+            line: t.line,
+            bytes,
+        });
+    }
+    Ok(TiledMap {
+        metadata: Some(meta),
+        resolution: Some(m.resolution),
+        tiles,
+        projector,
+    })
+}
+
+/// The one file of tile `t` in `dir` or its `subdirs`: missing or found
+/// twice is an error at the metadata's line.
+fn tile_path(dir: &Path, subdirs: &[PathBuf], meta: &Path, t: &TileEntry) -> Result<PathBuf> {
+    let mut found: Vec<PathBuf> = std::iter::once(dir)
+        .chain(subdirs.iter().map(PathBuf::as_path))
+        .map(|d| d.join(&t.name))
+        .filter(|p| p.is_file())
+        .collect();
+    match found.len() {
+        1 => Ok(found.remove(0)),
+        0 => Err(Error::table(
+            meta,
+            t.line,
+            format!(
+                "tile {} is missing (looked in {} and its sub-folders)",
+                t.name,
+                dir.display()
+            ),
+        )),
+        _ => {
+            let names: Vec<String> = found.iter().map(|p| p.display().to_string()).collect();
+            Err(Error::table(
+                meta,
+                t.line,
+                format!(
+                    "tile {} is ambiguous: found as {}",
+                    t.name,
+                    names.join(" and ")
+                ),
+            ))
+        }
+    }
+}
+
 impl TiledMap {
     /// Finds the map at `path` (a folder or a metadata file) and checks that
     /// every tile is there; no tile is opened.
     pub fn discover(path: &Path) -> Result<TiledMap> {
-        let (dir, metadata) = if path.is_dir() {
-            let metas: Vec<PathBuf> = sorted_entries(path)?
-                .into_iter()
-                .filter(|p| p.is_file() && is_metadata_name(p))
-                .collect();
-            match metas.as_slice() {
-                [] => {
-                    if let Some(m) = parent_metadata(path) {
-                        return Ok(m);
-                    }
-                    (path.to_path_buf(), None)
-                }
-                [one] => (path.to_path_buf(), Some(one.clone())),
-                more => {
-                    let names: Vec<String> = more.iter().map(|p| p.display().to_string()).collect();
-                    return Err(Error::Input(format!(
-                        "{}: several metadata files ({}): give the one to use with --map",
-                        path.display(),
-                        names.join(", ")
-                    )));
-                }
-            }
-        } else {
-            let dir = match path.parent() {
-                Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-                _ => PathBuf::from("."),
-            };
-            (dir, Some(path.to_path_buf()))
+        let (dir, metadata) = match locate(path)? {
+            Located::Map(m) => return Ok(m),
+            Located::In { dir, metadata } => (dir, metadata),
         };
         let projector = Some(dir.join(PROJECTOR_FILE)).filter(|p| p.is_file());
-        let Some(meta) = metadata else {
-            let mut tiles = Vec::new();
-            for p in sorted_entries(&dir)? {
-                if has_ext(&p, "pcd") && p.is_file() {
-                    let bytes = file_size(&p)?;
-                    tiles.push(Tile {
-                        path: p,
-                        cell: None,
-                        line: 0,
-                        bytes,
-                    });
-                }
-            }
-            if tiles.is_empty() {
-                return Err(Error::Input(format!(
-                    "{}: no .pcd files and no *metadata*.yaml in this folder",
-                    dir.display()
-                )));
-            }
-            return Ok(TiledMap {
-                metadata: None,
-                resolution: None,
-                tiles,
-                projector,
-            });
-        };
-        let text = std::fs::read(&meta).map_err(|e| Error::io(&meta, e))?;
-        let text = String::from_utf8(text)
-            .map_err(|_| Error::format(&meta, "not UTF-8 text (a YAML file is expected)"))?;
-        let m = parse_metadata(&text).map_err(|(l, msg)| Error::table(&meta, l, msg))?;
-        // Autoware keeps the tiles in a sub-folder beside the metadata
-        // (`pointcloud_map.pcd/`): a tile is looked for there too.
-        let subdirs: Vec<PathBuf> = sorted_entries(&dir)?
-            .into_iter()
-            .filter(|p| p.is_dir())
-            .collect();
-        let mut tiles = Vec::with_capacity(m.tiles.len());
-        for t in &m.tiles {
-            let mut found: Vec<PathBuf> = std::iter::once(&dir)
-                .chain(&subdirs)
-                .map(|d| d.join(&t.name))
-                .filter(|p| p.is_file())
-                .collect();
-            let path = match found.len() {
-                1 => found.remove(0),
-                0 => {
-                    return Err(Error::table(
-                        &meta,
-                        t.line,
-                        format!(
-                            "tile {} is missing (looked in {} and its sub-folders)",
-                            t.name,
-                            dir.display()
-                        ),
-                    ));
-                }
-                _ => {
-                    let names: Vec<String> =
-                        found.iter().map(|p| p.display().to_string()).collect();
-                    return Err(Error::table(
-                        &meta,
-                        t.line,
-                        format!(
-                            "tile {} is ambiguous: found as {}",
-                            t.name,
-                            names.join(" and ")
-                        ),
-                    ));
-                }
-            };
-            let bytes = file_size(&path)?;
-            tiles.push(Tile {
-                path,
-                cell: Some([
-                    t.min[0],
-                    t.min[1],
-                    t.min[0] + m.resolution[0],
-                    t.min[1] + m.resolution[1],
-                ]),
-                line: t.line,
-                bytes,
-            });
+        match metadata {
+            None => every_pcd(&dir, projector),
+            Some(meta) => listed(&dir, meta, projector),
         }
-        Ok(TiledMap {
-            metadata: Some(meta),
-            resolution: Some(m.resolution),
-            tiles,
-            projector,
-        })
     }
 
     /// Every file the map consists of, in reading order: the metadata, then
