@@ -14,9 +14,9 @@ pub use region::Region;
 pub use source::{MapSource, MemoryReader};
 use std::io::Read;
 use std::path::Path;
-pub use tiles::{
-    MetadataTiles, PROJECTOR_FILE, Tile, TileStats, TiledMap, is_tiled, read_metadata, write_tiles,
-};
+pub(crate) use tiles::is_tiled;
+pub use tiles::{Tile, TileStats};
+pub use tiles::{TiledMap, read_metadata, write_tiles};
 
 mod e57;
 mod fold;
@@ -210,7 +210,7 @@ pub trait PointReader: Send {
 
 /// The step float32 keeps at coordinates up to `reach` (m): its spacing at
 /// the largest power of two below `reach` (24-bit significand).
-pub fn float32_step(reach: f64) -> f64 {
+pub(crate) fn float32_step(reach: f64) -> f64 {
     if !(reach.is_finite() && reach > 0.0) {
         return 0.0;
     }

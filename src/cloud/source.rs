@@ -36,7 +36,7 @@ impl<'a> MapSource<'a> {
     /// known: a consumer's region hint then reaches the file's reader even
     /// when the map is turned, so a tilted tiled map or COPC file is read
     /// only near the targets.
-    pub fn open_moved_within(
+    pub(crate) fn open_moved_within(
         &self,
         motion: Option<&super::RigidMotion>,
         z_range: Option<[f64; 2]>,

@@ -141,7 +141,7 @@ impl Distortion {
 
     /// A closure applying the distortion to world (survey-frame) points, with
     /// the rotation computed once.
-    pub fn applier(&self) -> impl Fn(&Point) -> Point + Sync + '_ {
+    pub(crate) fn applier(&self) -> impl Fn(&Point) -> Point + Sync + '_ {
         let local = self.local_applier();
         let f = Vector3::from(self.survey_origin);
         move |p: &Point| local(&Point::from(p.coords - f))
@@ -149,7 +149,7 @@ impl Distortion {
 
     /// The distortion of points in the scene's local frame (world − F): how
     /// the scanned points, built in that frame, become the map.
-    pub fn local_applier(&self) -> impl Fn(&Point) -> Point + Sync + '_ {
+    pub(crate) fn local_applier(&self) -> impl Fn(&Point) -> Point + Sync + '_ {
         let r = self.rotation();
         let c = Vector3::from(self.centre);
         let off = Vector3::from(self.params.offset_m);

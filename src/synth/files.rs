@@ -34,7 +34,7 @@ pub struct SceneFiles {
 /// The truth plus what evaluating the true map positions gives: the errors a
 /// perfect locator would report, which `eval` should reproduce.
 #[derive(Debug, Clone, serde::Serialize)]
-pub struct TruthFile<'a> {
+pub(crate) struct TruthFile<'a> {
     /// Scene truth.
     #[serde(flatten)]
     pub truth: &'a Truth,

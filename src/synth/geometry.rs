@@ -156,7 +156,7 @@ pub struct Plate {
 
 impl Plate {
     /// Whether the plate point at (s along u, v above the bottom) is metal.
-    pub fn solid_at(&self, s: f64, v: f64) -> bool {
+    pub(crate) fn solid_at(&self, s: f64, v: f64) -> bool {
         if s < 0.0 || s > self.w || v < 0.0 || v > self.h {
             return false;
         }
@@ -171,13 +171,13 @@ impl Plate {
 
 /// A uniform number in [0, 1) from a hash key (per-ray, per-primitive randomness).
 #[inline]
-pub fn unit_from(key: u64) -> f64 {
+pub(crate) fn unit_from(key: u64) -> f64 {
     (splitmix(key) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// SplitMix64 finaliser: a cheap, well-mixed 64-bit hash.
 #[inline]
-pub fn splitmix(mut z: u64) -> u64 {
+pub(crate) fn splitmix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
@@ -330,7 +330,7 @@ impl Prim {
     }
 
     /// Bounding box.
-    pub fn aabb(&self) -> Aabb {
+    pub(crate) fn aabb(&self) -> Aabb {
         match self {
             Prim::Box { c, half, cs } => {
                 let ex = cs.0.abs() * half.x + cs.1.abs() * half.y;

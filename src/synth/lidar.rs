@@ -91,7 +91,7 @@ impl LidarParams {
         (360.0 / self.az_step_deg).round().max(1.0) as u32
     }
     /// Rays per revolution.
-    pub fn rays_per_scan(&self) -> u64 {
+    pub(crate) fn rays_per_scan(&self) -> u64 {
         self.columns() as u64 * self.beams as u64
     }
     pub(crate) fn validate(&self) -> crate::Result<()> {
@@ -176,7 +176,7 @@ pub struct Pose {
 }
 
 /// Sensor pose when the vehicle is at road station `x`.
-pub fn pose_at(world: &World, road: &Road, lidar: &LidarParams, x: f64) -> Pose {
+pub(crate) fn pose_at(world: &World, road: &Road, lidar: &LidarParams, x: f64) -> Pose {
     let y = road.y(x);
     let z = world.ground.height(x, y) + lidar.height_m;
     Pose {

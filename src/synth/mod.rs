@@ -32,8 +32,11 @@ pub use obstacles::ObstacleParams;
 use rand::Rng;
 use scene::{Scene, build_scene, stream};
 
-pub use params::{ClutterParams, Layout, SecondPass, SynthParams, TargetShape};
-pub use truth::{ClutterInfo, SurveyPoint, TargetTruth, Truth};
+pub use params::{ClutterParams, Layout, SynthParams};
+pub use params::{SecondPass, TargetShape};
+pub use truth::SurveyPoint;
+pub use truth::Truth;
+pub use truth::{ClutterInfo, TargetTruth};
 
 /// Scans cast per parallel batch (at most); any value gives the same output.
 const BATCH: u64 = 16;
@@ -98,7 +101,7 @@ pub fn generate(
 
 /// What [`generate_labelled`] hands each block of points to: the points and
 /// what each is a return from.
-pub type LabelledSink<'a> = dyn FnMut(&[Point], &[PointLabel]) -> Result<()> + 'a;
+pub(crate) type LabelledSink<'a> = dyn FnMut(&[Point], &[PointLabel]) -> Result<()> + 'a;
 
 /// [`generate`], handing `sink` with each block of points what each point is
 /// a return from (the same points, in the same order, as [`generate`]).
@@ -269,4 +272,5 @@ fn add_false_origin(
 mod tests;
 
 mod files;
-pub use files::{SceneFiles, TruthFile, write_scene, write_scene_labelled};
+pub use files::SceneFiles;
+pub use files::{write_scene, write_scene_labelled};

@@ -45,7 +45,7 @@ pub struct ObstacleParams {
 
 impl ObstacleParams {
     /// No obstacle at all (the truth file then omits the section).
-    pub fn is_off(&self) -> bool {
+    pub(crate) fn is_off(&self) -> bool {
         *self == ObstacleParams::default()
     }
 

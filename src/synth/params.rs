@@ -222,7 +222,7 @@ pub struct SecondPass {
 
 impl SecondPass {
     /// No second pass (the truth file then omits the section).
-    pub fn is_off(&self) -> bool {
+    pub(crate) fn is_off(&self) -> bool {
         self.share == 0.0
     }
 }

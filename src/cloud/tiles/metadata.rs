@@ -96,7 +96,7 @@ pub(super) fn corner(e: &Entry) -> std::result::Result<[f64; 2], yaml::Fail> {
 
 /// A metadata file's contents: cell size `[x, y]`, and each tile's file name
 /// and cell corner `[min_x, min_y]` in file order.
-pub type MetadataTiles = ([f64; 2], Vec<(String, [f64; 2])>);
+pub(crate) type MetadataTiles = ([f64; 2], Vec<(String, [f64; 2])>);
 
 /// Reads the metadata file at `path` (for fuzzing and tools).
 pub fn read_metadata(path: &Path) -> Result<MetadataTiles> {

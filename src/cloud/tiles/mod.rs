@@ -30,10 +30,10 @@ use yaml::{Entry, Value};
 
 use metadata::TileEntry;
 pub(crate) use metadata::parse_metadata;
-pub use metadata::{MetadataTiles, read_metadata, write_tiles};
+pub use metadata::{read_metadata, write_tiles};
 pub(crate) use reader::open;
 /// The projector file Autoware keeps beside the map.
-pub const PROJECTOR_FILE: &str = "map_projector_info.yaml";
+pub(crate) const PROJECTOR_FILE: &str = "map_projector_info.yaml";
 
 /// One tile of a map.
 #[derive(Debug, Clone, PartialEq)]
@@ -81,7 +81,7 @@ pub struct TileStats {
 }
 
 /// Whether `path` names a tiled map: a folder, or a `*metadata*.yaml` file.
-pub fn is_tiled(path: &Path) -> bool {
+pub(crate) fn is_tiled(path: &Path) -> bool {
     path.is_dir() || is_metadata_name(path)
 }
 
