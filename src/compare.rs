@@ -142,13 +142,49 @@ pub fn scale_verdict(c: &Comparison) -> Option<String> {
 
 /// Compares `b` with `a` on the targets both located.
 pub fn compare(a: &ResultFile, b: &ResultFile, names: [String; 2]) -> crate::Result<Comparison> {
+    let targets = common_targets(a, b);
+    if targets.len() < 2 {
+        return Err(crate::Error::Input(format!(
+            "{} and {} have {} located target(s) in common; comparing needs at least 2",
+            names[0],
+            names[1],
+            targets.len()
+        )));
+    }
+    let (pairs, pair_idx) = common_pairs(a, b, &targets);
+    let (ci_abs, ci_rel) = if targets.len() >= MIN_COMMON {
+        bootstrap(&targets, &pairs, &pair_idx)
+    } else {
+        (None, None)
+    };
+    let e_abs = difference(
+        &mut targets.iter().map(|t| t.a),
+        &mut targets.iter().map(|t| t.b),
+        ci_abs,
+    );
+    let e_rel = difference(
+        &mut pairs.iter().map(|p| p.a),
+        &mut pairs.iter().map(|p| p.b),
+        if pairs.is_empty() { None } else { ci_rel },
+    );
+    Ok(Comparison {
+        names,
+        e_abs,
+        e_rel,
+        scale: scale_diff(a, b),
+        targets,
+        pairs,
+    })
+}
+
+/// The targets both runs located, in A's order, with both errors.
+fn common_targets(a: &ResultFile, b: &ResultFile) -> Vec<TargetDiff> {
     let b_abs: HashMap<&str, f64> = b
         .targets
         .iter()
         .filter_map(|t| t.abs_error.map(|e| (t.id.as_str(), e)))
         .collect();
-    let targets: Vec<TargetDiff> = a
-        .targets
+    a.targets
         .iter()
         .filter_map(|t| {
             let (ea, eb) = (t.abs_error?, *b_abs.get(t.id.as_str())?);
@@ -159,15 +195,17 @@ pub fn compare(a: &ResultFile, b: &ResultFile, names: [String; 2]) -> crate::Res
                 diff: eb - ea,
             })
         })
-        .collect();
-    if targets.len() < 2 {
-        return Err(crate::Error::Input(format!(
-            "{} and {} have {} located target(s) in common; comparing needs at least 2",
-            names[0],
-            names[1],
-            targets.len()
-        )));
-    }
+        .collect()
+}
+
+/// The pairs of common `targets` both runs report (in A's order, either
+/// way round in B), and each pair's two indices into `targets` for the
+/// bootstrap.
+fn common_pairs(
+    a: &ResultFile,
+    b: &ResultFile,
+    targets: &[TargetDiff],
+) -> (Vec<PairDiff>, Vec<(usize, usize)>) {
     let index: HashMap<&str, usize> = targets
         .iter()
         .enumerate()
@@ -203,47 +241,45 @@ pub fn compare(a: &ResultFile, b: &ResultFile, names: [String; 2]) -> crate::Res
             pair_idx.push((i, j));
         }
     }
-    let n = targets.len();
-    let mean = |v: &mut dyn Iterator<Item = f64>| {
-        let (s, k) = v.fold((0.0, 0usize), |(s, k), x| (s + x, k + 1));
-        (k > 0).then(|| s / k as f64)
-    };
-    let e_abs_a = mean(&mut targets.iter().map(|t| t.a)).unwrap_or(f64::NAN);
-    let e_abs_b = mean(&mut targets.iter().map(|t| t.b)).unwrap_or(f64::NAN);
-    let e_rel_a = mean(&mut pairs.iter().map(|p| p.a)).unwrap_or(f64::NAN);
-    let e_rel_b = mean(&mut pairs.iter().map(|p| p.b)).unwrap_or(f64::NAN);
-    let (ci_abs, ci_rel) = if n >= MIN_COMMON {
-        bootstrap(&targets, &pairs, &pair_idx)
-    } else {
-        (None, None)
-    };
-    Ok(Comparison {
-        names,
-        e_abs: Difference {
-            a: e_abs_a,
-            b: e_abs_b,
-            diff: e_abs_b - e_abs_a,
-            ci95: ci_abs,
-        },
-        e_rel: Difference {
-            a: e_rel_a,
-            b: e_rel_b,
-            diff: e_rel_b - e_rel_a,
-            ci95: if pairs.is_empty() { None } else { ci_rel },
-        },
-        scale: run_scale(a).zip(run_scale(b)).map(|(sa, sb)| {
-            let half = |s: &ScaleEstimate| (s.ci95_ppm[1] - s.ci95_ppm[0]) / 2.0;
-            let h = half(&sa).hypot(half(&sb));
-            let diff_ppm = sb.ppm - sa.ppm;
-            ScaleDiff {
-                a: sa,
-                b: sb,
-                diff_ppm,
-                ci95_ppm: [diff_ppm - h, diff_ppm + h],
-            }
-        }),
-        targets,
-        pairs,
+    (pairs, pair_idx)
+}
+
+/// A headline number (the mean of `a`'s and of `b`'s values; NaN without
+/// any) in both runs, with the interval of their difference.
+fn difference(
+    a: &mut dyn Iterator<Item = f64>,
+    b: &mut dyn Iterator<Item = f64>,
+    ci95: Option<[f64; 2]>,
+) -> Difference {
+    let a = mean(a).unwrap_or(f64::NAN);
+    let b = mean(b).unwrap_or(f64::NAN);
+    Difference {
+        a,
+        b,
+        diff: b - a,
+        ci95,
+    }
+}
+
+/// The mean, in the values' order (`None` without values).
+fn mean(v: &mut dyn Iterator<Item = f64>) -> Option<f64> {
+    let (s, k) = v.fold((0.0, 0usize), |(s, k), x| (s + x, k + 1));
+    (k > 0).then(|| s / k as f64)
+}
+
+/// The runs' scales and B − A, when both have one; the interval adds the
+/// two half-widths in quadrature.
+fn scale_diff(a: &ResultFile, b: &ResultFile) -> Option<ScaleDiff> {
+    run_scale(a).zip(run_scale(b)).map(|(sa, sb)| {
+        let half = |s: &ScaleEstimate| (s.ci95_ppm[1] - s.ci95_ppm[0]) / 2.0;
+        let h = half(&sa).hypot(half(&sb));
+        let diff_ppm = sb.ppm - sa.ppm;
+        ScaleDiff {
+            a: sa,
+            b: sb,
+            diff_ppm,
+            ci95_ppm: [diff_ppm - h, diff_ppm + h],
+        }
     })
 }
 

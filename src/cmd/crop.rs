@@ -51,20 +51,7 @@ pub struct Args {
 
 /// Runs `crop`.
 pub fn run(a: Args) -> Result<()> {
-    if !(1e-3..=1e4).contains(&a.radius) {
-        return Err(mapgauge::Error::Param(format!(
-            "--radius {}: must be within 0.001..10000 m",
-            a.radius
-        )));
-    }
-    if let Some(p) = a.plate_size {
-        if !a.tight {
-            return Err(mapgauge::Error::Param(
-                "--plate-size shapes the tight crops: add --tight (loose crops are cylinders whatever the plates)".into(),
-            ));
-        }
-        super::plate_size(p)?;
-    }
+    check_args(&a)?;
     super::check_out_dir(&a.out)?;
     let projector = cloud::map_projector(&a.map)?;
     let survey = read_survey_for_map(
@@ -88,25 +75,44 @@ pub fn run(a: Args) -> Result<()> {
     if a.tight {
         return write_tight(&a, &survey, &centres, shape);
     }
+    write_loose(&a, &survey, &centres, shape)
+}
+
+/// Refuses a radius out of range, and plate sizes without `--tight` (they
+/// would be silently ignored).
+fn check_args(a: &Args) -> Result<()> {
+    if !(1e-3..=1e4).contains(&a.radius) {
+        return Err(mapgauge::Error::Param(format!(
+            "--radius {}: must be within 0.001..10000 m",
+            a.radius
+        )));
+    }
+    if let Some(p) = a.plate_size {
+        if !a.tight {
+            return Err(mapgauge::Error::Param(
+                "--plate-size shapes the tight crops: add --tight (loose crops are cylinders whatever the plates)".into(),
+            ));
+        }
+        super::plate_size(p)?;
+    }
+    Ok(())
+}
+
+/// The loose crops streamed to one file per target, then which targets got
+/// points; a run where none did is an error.
+fn write_loose(
+    a: &Args,
+    survey: &mapgauge::survey::Survey,
+    centres: &[Point],
+    shape: Shape,
+) -> Result<()> {
     let mut reader = cloud::open(&a.map)?;
     std::fs::create_dir_all(&a.out).map_err(|e| mapgauge::Error::io(&a.out, e))?;
-    // One streaming writer per target: points go to disk as they are found, so
-    // memory does not grow with the crops (a 200 M-point map has millions of
-    // points within 5 m of its targets).
-    let mut paths = Vec::new();
-    let mut writers = Vec::new();
-    for t in &survey.targets {
-        let path = a
-            .out
-            .join(format!("{}.{}", file_stem(&t.id), a.format.extension()));
-        refuse_overwrite(&path, &[&a.map, &a.survey])?;
-        writers.push(cloud::CloudWriter::create(&path, a.format)?);
-        paths.push(path);
-    }
+    let (paths, mut writers) = open_writers(a, survey)?;
     let pb = progress_bar(reader.info().file_bytes, "reading map");
     let (map_points, skipped) = loose_crop_each(
         reader.as_mut(),
-        &centres,
+        centres,
         &LooseParams {
             radius: a.radius,
             shape,
@@ -122,19 +128,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    outln!("{:<12} {:>10}  file", "id", "points");
-    let mut empty = 0;
-    for ((t, w), path) in survey.targets.iter().zip(writers).zip(&paths) {
-        let n = w.finish()?;
-        outln!("{:<12} {:>10}  {}", t.id, n, path.display());
-        if n == 0 {
-            empty += 1;
-            eprintln!(
-                "warning: target {} has no map points within {} m (outside the map, or wrong frame?)",
-                t.id, a.radius
-            );
-        }
-    }
+    let empty = list_files(a, survey, writers, &paths)?;
     if empty > 0 {
         frame_hint();
     }
@@ -166,6 +160,50 @@ pub fn run(a: Args) -> Result<()> {
          `mapgauge locate` and `eval --crops` want tight crops: `mapgauge crop --tight`"
     );
     Ok(())
+}
+
+/// One streaming writer per target: points go to disk as they are found, so
+/// memory does not grow with the crops (a 200 M-point map has millions of
+/// points within 5 m of its targets).
+fn open_writers(
+    a: &Args,
+    survey: &mapgauge::survey::Survey,
+) -> Result<(Vec<PathBuf>, Vec<cloud::CloudWriter>)> {
+    let mut paths = Vec::new();
+    let mut writers = Vec::new();
+    for t in &survey.targets {
+        let path = a
+            .out
+            .join(format!("{}.{}", file_stem(&t.id), a.format.extension()));
+        refuse_overwrite(&path, &[&a.map, &a.survey])?;
+        writers.push(cloud::CloudWriter::create(&path, a.format)?);
+        paths.push(path);
+    }
+    Ok((paths, writers))
+}
+
+/// Each target's file finished and listed with its points; the number of
+/// targets without any (each warned of: outside the map, or another frame).
+fn list_files(
+    a: &Args,
+    survey: &mapgauge::survey::Survey,
+    writers: Vec<cloud::CloudWriter>,
+    paths: &[PathBuf],
+) -> Result<usize> {
+    outln!("{:<12} {:>10}  file", "id", "points");
+    let mut empty = 0;
+    for ((t, w), path) in survey.targets.iter().zip(writers).zip(paths) {
+        let n = w.finish()?;
+        outln!("{:<12} {:>10}  {}", t.id, n, path.display());
+        if n == 0 {
+            empty += 1;
+            eprintln!(
+                "warning: target {} has no map points within {} m (outside the map, or wrong frame?)",
+                t.id, a.radius
+            );
+        }
+    }
+    Ok(empty)
 }
 
 /// crop looks where the survey (or `--init`) puts the targets; it does not

@@ -15,7 +15,7 @@
 //!
 //! Memory follows the site's area (the two grids), not its number of points.
 
-use crate::cloud::{MapSource, RigidMotion, fold_points};
+use crate::cloud::{MapSource, PointReader, RigidMotion, fold_points};
 use crate::crop::{LooseParams, Shape, TightParams, loose_crop, tight_crop};
 use crate::frame::MapGround;
 use crate::frame::grid::CellGrid;
@@ -145,13 +145,56 @@ pub fn detect_map(
 ) -> Result<MapDetections> {
     params.validate()?;
     let floor = ground.floor(motion);
-    let z0 = ground.z0;
+    let mut reader = source.open_moved(Some(motion))?;
+    let occ = occupancy(reader.as_mut(), &floor, ground.z0, params, &mut progress)?;
+    let grid_bytes = occ.bytes() + floor.bytes() + ground.lowest.bytes();
+    let mut reads = vec![crate::cloud::PassRead::of("detect-cells", reader.as_ref())];
+    let mut rejected: HashMap<String, usize> = HashMap::new();
+    let centres = candidate_centres(&occ, params, &mut rejected);
+    let candidates = centres.len();
+    let mut detections = Vec::new();
+    if !centres.is_empty() {
+        // Candidate centres at their ground height (the crop is a cylinder).
+        let mut reader = source.open_moved_within(Some(motion), ground.z_range)?;
+        let loose = LooseParams {
+            radius: params.crop_radius,
+            shape: Shape::Cylinder,
+            max_points: 200_000,
+            by_level: false,
+        };
+        let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
+        reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));
+        for f in shapes(&crop.points, &centres, motion, params, tight) {
+            match f {
+                Ok(d) => detections.push(d),
+                Err(why) => *rejected.entry(why).or_default() += 1,
+            }
+        }
+    }
+    Ok(MapDetections {
+        detections: one_per_object(detections, tight),
+        candidates,
+        rejected: most_common_first(rejected),
+        grid_bytes,
+        reads,
+    })
+}
+
+/// The occupancy pass: the points between `min_height` and a metre above
+/// `max_height` over the ground (`floor`, heights from `z0`) counted per
+/// cell, with the highest of them.
+fn occupancy(
+    reader: &mut dyn PointReader,
+    floor: &CellGrid<f32>,
+    z0: f64,
+    params: &DetectParams,
+    progress: impl FnMut(u64),
+) -> Result<CellGrid<Occ>> {
     let (lo_h, hi_h) = (params.min_height as f32, params.max_height as f32);
     let origin = floor.origin;
     let cell = params.cell;
-    let mut reader = source.open_moved(Some(motion))?;
-    let occ = fold_points(
-        reader.as_mut(),
+    fold_points(
+        reader,
         || CellGrid::new(cell, origin, Occ { n: 0, hi: 0.0 }),
         |g, pts| {
             for p in pts {
@@ -178,13 +221,18 @@ pub fn detect_map(
                 x.hi = x.hi.max(y.hi);
             })
         },
-        &mut progress,
-    )?;
-    let grid_bytes = occ.bytes() + floor.bytes() + ground.lowest.bytes();
-    let mut reads = vec![crate::cloud::PassRead::of("detect-cells", reader.as_ref())];
-    let groups = groups(&occ, params);
-    let mut rejected: HashMap<String, usize> = HashMap::new();
-    let centres: Vec<Point> = groups
+        progress,
+    )
+}
+
+/// The centres of the groups of cells small enough to be a target; why each
+/// other group is not one is counted in `rejected`.
+fn candidate_centres(
+    occ: &CellGrid<Occ>,
+    params: &DetectParams,
+    rejected: &mut HashMap<String, usize>,
+) -> Vec<Point> {
+    groups(occ, params)
         .iter()
         .filter_map(|g| match g {
             Ok(c) => Some(*c),
@@ -193,62 +241,56 @@ pub fn detect_map(
                 None
             }
         })
-        .collect();
-    let candidates = centres.len();
-    let mut detections = Vec::new();
-    if !centres.is_empty() {
-        // Candidate centres at their ground height (the crop is a cylinder).
-        let mut reader = source.open_moved_within(Some(motion), ground.z_range)?;
-        let loose = LooseParams {
-            radius: params.crop_radius,
-            shape: Shape::Cylinder,
-            max_points: 200_000,
-            by_level: false,
-        };
-        let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
-        reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));
-        let tp = TightParams {
-            search_radius: params.search_radius,
-            ..tight.clone()
-        };
-        let found: Vec<std::result::Result<Detection, String>> = crop
-            .points
-            .par_iter()
-            .zip(&centres)
-            .map(|(pts, c)| {
-                let t = tight_crop(pts, c, &tp).map_err(|e| short_reason(&e.to_string()))?;
-                if t.plate_height < DETECT_MIN_HEIGHT_SHARE * tight.plate_height {
-                    return Err(format!(
-                        "an L under {:.0} % of a plate's height",
-                        100.0 * DETECT_MIN_HEIGHT_SHARE
-                    ));
-                }
-                let corner = t.corner_guess;
-                let [wa, wb] = t.plate_widths;
-                let fit = |m: f64, want: f64| 1.0 - ((m - want).abs() / want).min(1.0);
-                let score = (fit(wa, tight.plate_width)
-                    * fit(wb, tight.plate_width)
-                    * fit(t.plate_height, tight.plate_height))
-                .cbrt();
-                Ok(Detection {
-                    corner,
-                    corner_map: motion.invert(&corner),
-                    heading_deg: t.heading_deg,
-                    plate_widths: t.plate_widths,
-                    plate_height: t.plate_height,
-                    support: t.score,
-                    score,
-                })
-            })
-            .collect();
-        for f in found {
-            match f {
-                Ok(d) => detections.push(d),
-                Err(why) => *rejected.entry(why).or_default() += 1,
+        .collect()
+}
+
+/// The tight crop's L detector on each candidate's crop (in parallel): a
+/// detection, or why the candidate is not a target.
+fn shapes(
+    crops: &[Vec<Point>],
+    centres: &[Point],
+    motion: &RigidMotion,
+    params: &DetectParams,
+    tight: &TightParams,
+) -> Vec<std::result::Result<Detection, String>> {
+    let tp = TightParams {
+        search_radius: params.search_radius,
+        ..tight.clone()
+    };
+    crops
+        .par_iter()
+        .zip(centres)
+        .map(|(pts, c)| {
+            let t = tight_crop(pts, c, &tp).map_err(|e| short_reason(&e.to_string()))?;
+            if t.plate_height < DETECT_MIN_HEIGHT_SHARE * tight.plate_height {
+                return Err(format!(
+                    "an L under {:.0} % of a plate's height",
+                    100.0 * DETECT_MIN_HEIGHT_SHARE
+                ));
             }
-        }
-    }
-    // One detection per object: candidates close together may find the same L.
+            let corner = t.corner_guess;
+            let [wa, wb] = t.plate_widths;
+            let fit = |m: f64, want: f64| 1.0 - ((m - want).abs() / want).min(1.0);
+            let score = (fit(wa, tight.plate_width)
+                * fit(wb, tight.plate_width)
+                * fit(t.plate_height, tight.plate_height))
+            .cbrt();
+            Ok(Detection {
+                corner,
+                corner_map: motion.invert(&corner),
+                heading_deg: t.heading_deg,
+                plate_widths: t.plate_widths,
+                plate_height: t.plate_height,
+                support: t.score,
+                score,
+            })
+        })
+        .collect()
+}
+
+/// One detection per object, strongest first: candidates close together
+/// may find the same L.
+fn one_per_object(mut detections: Vec<Detection>, tight: &TightParams) -> Vec<Detection> {
     detections.sort_by(|a, b| {
         b.support
             .cmp(&a.support)
@@ -264,15 +306,15 @@ pub fn detect_map(
             kept.push(d);
         }
     }
+    kept
+}
+
+/// The rejections' reasons, most common first (then by reason, so the list
+/// does not depend on the hash map's order).
+fn most_common_first(rejected: HashMap<String, usize>) -> Vec<(String, usize)> {
     let mut rejected: Vec<(String, usize)> = rejected.into_iter().collect();
     rejected.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-    Ok(MapDetections {
-        detections: kept,
-        candidates,
-        rejected,
-        grid_bytes,
-        reads,
-    })
+    rejected
 }
 
 /// A tight-crop error as a kind, without its numbers, so that rejections can

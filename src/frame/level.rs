@@ -276,32 +276,9 @@ pub fn ground_level(
     sample: Option<u64>,
     progress: impl FnMut(u64),
 ) -> Result<MapGround> {
-    // The grid's origin: the first point, so cell keys and heights stay small
-    // for georeferenced maps.
-    let first = {
-        let mut r = source.open_moved(motion)?;
-        let mut buf = Vec::new();
-        let mut p = None;
-        while p.is_none() && r.next_chunk(&mut buf)? {
-            p = buf.first().copied();
-        }
-        match p {
-            Some(p) => p,
-            None => {
-                return Ok(MapGround {
-                    level: None,
-                    points: 0,
-                    read: r.stats(),
-                    pass_read: crate::cloud::PassRead::of("ground", r.as_ref()),
-                    centre: Point::origin(),
-                    z_range: None,
-                    sampled: false,
-                    float32_step: None,
-                    lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
-                    z0: 0.0,
-                });
-            }
-        }
+    let first = match first_point(&source, motion)? {
+        Ok(p) => p,
+        Err(empty) => return Ok(empty),
     };
     let origin = [first.x.round(), first.y.round()];
     let z0 = first.z.round();
@@ -309,100 +286,19 @@ pub fn ground_level(
     if let Some(n) = sample {
         reader.hint_sample(n);
     }
-    let new = || Lowest {
-        grid: CellGrid::new(CELL, origin, f32::INFINITY),
-        z0,
-        count: 0,
-        sum: [0; 3],
-        z: [f64::INFINITY, f64::NEG_INFINITY],
-        thin: false,
-        reach: 0.0,
-    };
     let low = fold_points_until(
         reader.as_mut(),
-        new,
-        |acc, pts| {
-            // In runs of 1024 points, so a grid spread too thin stops
-            // growing within a run of where it became so.
-            for run in pts.chunks(1024) {
-                if acc.thin {
-                    return;
-                }
-                let mut s = [0i128; 3];
-                let mut n = 0;
-                for p in run {
-                    acc.z = [acc.z[0].min(p.z), acc.z[1].max(p.z)];
-                    if let Some(k) = acc.grid.key(p.x, p.y) {
-                        // Of the points kept (a stray one beyond the
-                        // Earth's radius is no part of the site).
-                        acc.reach = acc.reach.max(p.x.abs()).max(p.y.abs()).max(p.z.abs());
-                        let z = (p.z - acc.z0) as f32;
-                        let c = acc.grid.entry(k);
-                        if z < *c {
-                            *c = z;
-                        }
-                        // Through i64: f64 -> i128 is a slow library call (7 %
-                        // of a 20 M-point eval), and i64 holds any offset from
-                        // the first point below 9e15 m exactly.
-                        let mm = |v: f64| (v * 1000.0).round_ties_even() as i64 as i128;
-                        s[0] += mm(p.x - origin[0]);
-                        s[1] += mm(p.y - origin[1]);
-                        s[2] += mm(p.z - z0);
-                        n += 1;
-                    }
-                }
-                acc.count += n;
-                for k in 0..3 {
-                    acc.sum[k] += s[k];
-                }
-                acc.thin = acc.grid.spread_thin();
-            }
-        },
-        |a, b| {
-            if a.thin || b.thin {
-                // Kept whichever grid shows it, and no more merged.
-                if b.thin && !a.thin {
-                    *a = b;
-                }
-                return;
-            }
-            a.grid.merge(b.grid, |x, y| {
-                if *y < *x {
-                    *x = *y
-                }
-            });
-            a.thin = a.grid.spread_thin();
-            a.count += b.count;
-            for k in 0..3 {
-                a.sum[k] += b.sum[k];
-            }
-            a.z = [a.z[0].min(b.z[0]), a.z[1].max(b.z[1])];
-            a.reach = a.reach.max(b.reach);
-        },
+        || Lowest::new(origin, z0),
+        |acc, pts| acc.add(pts, origin),
+        Lowest::merge,
         |a| a.thin,
         progress,
     )?;
     if low.thin {
         return Err(too_thin(&source, low.grid.extent()));
     }
-    let n = low.count.max(1) as f64 * 1000.0;
-    let centre = Point::new(
-        origin[0] + (low.sum[0] as f64 / n).round(),
-        origin[1] + (low.sum[1] as f64 / n).round(),
-        z0 + (low.sum[2] as f64 / n).round(),
-    );
-    let level = estimate(&low.grid).map(|(up, blocks, support)| {
-        let tilt_deg = up.angle(&Vector3::z()).to_degrees();
-        GroundLevel {
-            up,
-            tilt_deg,
-            azimuth_deg: (-up.y).atan2(-up.x).to_degrees().rem_euclid(360.0),
-            blocks,
-            support,
-            centre,
-            grid_bytes: low.grid.bytes(),
-        }
-    });
+    let centre = low.centre(origin);
+    let level = level_of(&low.grid, centre);
     let sampled = reader.sampled().is_some();
     let step = crate::cloud::float32_step(low.reach);
     let float32_step = (reader.float32_coords() && step > 1e-3).then_some((step, low.reach));
@@ -417,6 +313,140 @@ pub fn ground_level(
         pass_read: crate::cloud::PassRead::of("ground", reader.as_ref()),
         lowest: low.grid,
         z0,
+    })
+}
+
+/// The map's first point, the grid's origin (cell keys and heights stay
+/// small for georeferenced maps); or, for a map without points, its ground.
+fn first_point(
+    source: &MapSource,
+    motion: Option<&RigidMotion>,
+) -> Result<std::result::Result<Point, MapGround>> {
+    let mut r = source.open_moved(motion)?;
+    let mut buf = Vec::new();
+    let mut p = None;
+    while p.is_none() && r.next_chunk(&mut buf)? {
+        p = buf.first().copied();
+    }
+    Ok(match p {
+        Some(p) => Ok(p),
+        None => Err(MapGround {
+            level: None,
+            points: 0,
+            read: r.stats(),
+            pass_read: crate::cloud::PassRead::of("ground", r.as_ref()),
+            centre: Point::origin(),
+            z_range: None,
+            sampled: false,
+            float32_step: None,
+            lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),
+            z0: 0.0,
+        }),
+    })
+}
+
+impl Lowest {
+    /// An empty grid about the first point (`origin`, `z0`).
+    fn new(origin: [f64; 2], z0: f64) -> Self {
+        Lowest {
+            grid: CellGrid::new(CELL, origin, f32::INFINITY),
+            z0,
+            count: 0,
+            sum: [0; 3],
+            z: [f64::INFINITY, f64::NEG_INFINITY],
+            thin: false,
+            reach: 0.0,
+        }
+    }
+
+    /// Adds a batch's points, in runs of 1024 so that a grid spread too thin
+    /// stops growing within a run of where it became so.
+    fn add(&mut self, pts: &[Point], origin: [f64; 2]) {
+        let z0 = self.z0;
+        for run in pts.chunks(1024) {
+            if self.thin {
+                return;
+            }
+            let mut s = [0i128; 3];
+            let mut n = 0;
+            for p in run {
+                self.z = [self.z[0].min(p.z), self.z[1].max(p.z)];
+                if let Some(k) = self.grid.key(p.x, p.y) {
+                    // Of the points kept (a stray one beyond the
+                    // Earth's radius is no part of the site).
+                    self.reach = self.reach.max(p.x.abs()).max(p.y.abs()).max(p.z.abs());
+                    let z = (p.z - self.z0) as f32;
+                    let c = self.grid.entry(k);
+                    if z < *c {
+                        *c = z;
+                    }
+                    // Through i64: f64 -> i128 is a slow library call (7 %
+                    // of a 20 M-point eval), and i64 holds any offset from
+                    // the first point below 9e15 m exactly.
+                    let mm = |v: f64| (v * 1000.0).round_ties_even() as i64 as i128;
+                    s[0] += mm(p.x - origin[0]);
+                    s[1] += mm(p.y - origin[1]);
+                    s[2] += mm(p.z - z0);
+                    n += 1;
+                }
+            }
+            self.count += n;
+            for k in 0..3 {
+                self.sum[k] += s[k];
+            }
+            self.thin = self.grid.spread_thin();
+        }
+    }
+
+    /// Merges another thread's grid; a grid spread too thin is kept as it is
+    /// (whichever shows it), and no more is merged into it.
+    fn merge(&mut self, b: Lowest) {
+        if self.thin || b.thin {
+            if b.thin && !self.thin {
+                *self = b;
+            }
+            return;
+        }
+        self.grid.merge(b.grid, |x, y| {
+            if *y < *x {
+                *x = *y
+            }
+        });
+        self.thin = self.grid.spread_thin();
+        self.count += b.count;
+        for k in 0..3 {
+            self.sum[k] += b.sum[k];
+        }
+        self.z = [self.z[0].min(b.z[0]), self.z[1].max(b.z[1])];
+        self.reach = self.reach.max(b.reach);
+    }
+
+    /// The points' mean position rounded to whole metres: the centre of
+    /// rotation, the same whatever order the threads added the points in.
+    fn centre(&self, origin: [f64; 2]) -> Point {
+        let n = self.count.max(1) as f64 * 1000.0;
+        Point::new(
+            origin[0] + (self.sum[0] as f64 / n).round(),
+            origin[1] + (self.sum[1] as f64 / n).round(),
+            self.z0 + (self.sum[2] as f64 / n).round(),
+        )
+    }
+}
+
+/// The ground's vertical from the grid of lowest points, with the angles a
+/// report states it by; `None` when too little ground was seen.
+fn level_of(grid: &CellGrid<f32>, centre: Point) -> Option<GroundLevel> {
+    estimate(grid).map(|(up, blocks, support)| {
+        let tilt_deg = up.angle(&Vector3::z()).to_degrees();
+        GroundLevel {
+            up,
+            tilt_deg,
+            azimuth_deg: (-up.y).atan2(-up.x).to_degrees().rem_euclid(360.0),
+            blocks,
+            support,
+            centre,
+            grid_bytes: grid.bytes(),
+        }
     })
 }
 

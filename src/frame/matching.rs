@@ -125,7 +125,42 @@ pub fn match_frame(
         .iter()
         .map(|p| [p.at.x - dc[0], p.at.y - dc[1]])
         .collect();
-    // Detection pairs by length.
+    let dpairs = pairs_by_length(&d);
+    let mut hyps = proposals(&s, &d, &dpairs, tol, need);
+    if hyps.is_empty() {
+        // The most any pair could give is 2 (the pair itself).
+        return Err(too_few(if dpairs.is_empty() {
+            0
+        } else {
+            2.min(need - 1)
+        }));
+    }
+    hyps.sort_by(|a, b| {
+        b.matches
+            .len()
+            .cmp(&a.matches.len())
+            .then(a.rms.total_cmp(&b.rms))
+            .then(a.yaw.total_cmp(&b.yaw))
+    });
+    let best = hyps[0].clone();
+    let runner_up = runner_up(&hyps, &s, tol)?;
+    let dz = if survey_has_z {
+        median_dz(&best.matches, survey, dets)
+    } else {
+        0.0
+    };
+    Ok(FrameMatch {
+        init: full_frame(&best, sc, dc),
+        dz,
+        rms: best.rms,
+        matches: best.matches,
+        runner_up,
+    })
+}
+
+/// Every pair of detections with its length, shortest first: the survey's
+/// pairs look up the detections' of about their length by bisection.
+fn pairs_by_length(d: &[[f64; 2]]) -> Vec<(f64, u32, u32)> {
     let mut dpairs: Vec<(f64, u32, u32)> = Vec::new();
     for a in 0..d.len() {
         for b in a + 1..d.len() {
@@ -133,7 +168,19 @@ pub fn match_frame(
         }
     }
     dpairs.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
-    let index = Buckets::new(&d, tol);
+    dpairs
+}
+
+/// The transforms that a surveyed pair and a detected pair of about its
+/// length propose (both ways round), each refined, that match `need` or more.
+fn proposals(
+    s: &[[f64; 2]],
+    d: &[[f64; 2]],
+    dpairs: &[(f64, u32, u32)],
+    tol: f64,
+    need: usize,
+) -> Vec<Hyp> {
+    let index = Buckets::new(d, tol);
     let mut hyps: Vec<Hyp> = Vec::new();
     for i in 0..s.len() {
         for j in i + 1..s.len() {
@@ -151,31 +198,22 @@ pub fn match_frame(
                         s[i][0] - (cs * d[a][0] - sn * d[a][1]),
                         s[i][1] - (sn * d[a][0] + cs * d[a][1]),
                     ];
-                    let m = score(&s, &index, &d, yaw, t, tol);
+                    let m = score(s, &index, d, yaw, t, tol);
                     if m.len() >= need {
-                        hyps.push(refine(&s, &d, &index, m, tol));
+                        hyps.push(refine(s, d, &index, m, tol));
                     }
                 }
             }
         }
     }
-    if hyps.is_empty() {
-        // The most any pair could give is 2 (the pair itself).
-        return Err(too_few(if dpairs.is_empty() {
-            0
-        } else {
-            2.min(need - 1)
-        }));
-    }
-    hyps.sort_by(|a, b| {
-        b.matches
-            .len()
-            .cmp(&a.matches.len())
-            .then(a.rms.total_cmp(&b.rms))
-            .then(a.yaw.total_cmp(&b.yaw))
-    });
-    let best = hyps[0].clone();
-    // The best proposal that puts the survey somewhere else.
+    hyps
+}
+
+/// Matches of the best ranked proposal (`hyps[0]` the best) that puts the
+/// survey somewhere else; an error when it explains about as many
+/// detections: a wrong frame must not be reported as a very poor map.
+fn runner_up(hyps: &[Hyp], s: &[[f64; 2]], tol: f64) -> Result<usize, MatchError> {
+    let best = &hyps[0];
     let extent = s.iter().map(|p| p[0].hypot(p[1])).fold(1.0, f64::max);
     let differs = |h: &Hyp| {
         let dyaw = wrap(h.yaw - best.yaw).abs();
@@ -200,32 +238,31 @@ pub fn match_frame(
             yaw: wrap(o.yaw - best.yaw).to_degrees().abs(),
         });
     }
-    // Back to full coordinates: survey = R·(map − dc) + t + sc.
+    Ok(runner_up)
+}
+
+/// The best proposal, found in local coordinates, back in the full ones:
+/// survey = R·(map − dc) + t + sc.
+fn full_frame(best: &Hyp, sc: [f64; 2], dc: [f64; 2]) -> super::MapToSurvey {
     let (sn, cs) = best.yaw.sin_cos();
     let tx = best.t[0] + sc[0] - (cs * dc[0] - sn * dc[1]);
     let ty = best.t[1] + sc[1] - (sn * dc[0] + cs * dc[1]);
-    let dz = if survey_has_z {
-        let mut dzs: Vec<f64> = best
-            .matches
-            .iter()
-            .map(|&(i, a, _)| survey[i].z - dets[a].at.z)
-            .collect();
-        dzs.sort_by(f64::total_cmp);
-        dzs[dzs.len() / 2]
-    } else {
-        0.0
-    };
-    Ok(FrameMatch {
-        init: super::MapToSurvey {
-            x: tx,
-            y: ty,
-            yaw_deg: best.yaw.to_degrees().rem_euclid(360.0),
-        },
-        dz,
-        rms: best.rms,
-        matches: best.matches,
-        runner_up,
-    })
+    super::MapToSurvey {
+        x: tx,
+        y: ty,
+        yaw_deg: best.yaw.to_degrees().rem_euclid(360.0),
+    }
+}
+
+/// Survey z minus map z over the matches: the median, so that a target
+/// whose corner height is off does not move the others.
+fn median_dz(matches: &[(usize, usize, f64)], survey: &[Point], dets: &[Candidate]) -> f64 {
+    let mut dzs: Vec<f64> = matches
+        .iter()
+        .map(|&(i, a, _)| survey[i].z - dets[a].at.z)
+        .collect();
+    dzs.sort_by(f64::total_cmp);
+    dzs[dzs.len() / 2]
 }
 
 /// Detections hashed by cell of side `tol`.

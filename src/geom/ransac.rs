@@ -72,18 +72,49 @@ impl Ransac {
         inliers: &mut Vec<u32>,
         admit: F,
     ) -> Option<Plane> {
-        let Ransac {
-            iterations,
-            threshold,
-            score_points,
-            confidence,
-            draw,
-        } = *self;
         inliers.clear();
         let n = idx.len();
         if n < 3 {
             return None;
         }
+        let preemptive = self.score_points > 0 && self.score_points < n;
+        if preemptive {
+            scratch.clear();
+            scratch
+                .extend((0..self.score_points).map(|_| pts[idx[rng.random_range(0..n)] as usize]));
+        }
+        let subset = preemptive.then_some(&scratch[..]);
+        let (_, plane) = self.search(pts, idx, rng, subset, &admit)?;
+        let threshold = self.threshold;
+        inliers.extend(
+            idx.iter()
+                .copied()
+                .filter(|&i| plane.distance(&pts[i as usize]).abs() < threshold),
+        );
+        Some(plane)
+    }
+
+    /// The hypotheses drawn and scored (on `subset` when preemptive, then the
+    /// best [`KEEP`] on all of `idx`): the best one and its inlier count.
+    /// Drawing, scoring and the stopping bound stay one loop: it is the hot
+    /// one of every plane search.
+    fn search<R: Rng, F: Fn(Plane) -> Option<Plane>>(
+        &self,
+        pts: &[Vector3<f64>],
+        idx: &[u32],
+        rng: &mut R,
+        subset: Option<&[Vector3<f64>]>,
+        admit: &F,
+    ) -> Option<(usize, Plane)> {
+        let Ransac {
+            iterations,
+            threshold,
+            draw,
+            ..
+        } = *self;
+        let n = idx.len();
+        let preemptive = subset.is_some();
+        let scratch = subset.unwrap_or(&[]);
         let count_in = |plane: &Plane, set: &[Vector3<f64>]| {
             set.iter()
                 .filter(|q| plane.distance(q).abs() < threshold)
@@ -94,20 +125,11 @@ impl Ransac {
                 .filter(|&&i| plane.distance(&pts[i as usize]).abs() < threshold)
                 .count()
         };
-        let preemptive = score_points > 0 && score_points < n;
-        if preemptive {
-            scratch.clear();
-            scratch.extend((0..score_points).map(|_| pts[idx[rng.random_range(0..n)] as usize]));
-        }
         let mut best: Option<(usize, Plane)> = None;
         // Preemptive: the KEEP best by subset score, best first; ties keep the earlier one.
         let mut top: [(usize, Option<Plane>); KEEP] = [(0, None); KEEP];
-        let log_miss = if confidence > 0.0 && confidence < 1.0 {
-            (1.0 - confidence).ln()
-        } else {
-            0.0
-        };
-        let scored = if preemptive { score_points } else { n } as f64;
+        let log_miss = self.log_miss();
+        let scored = if preemptive { scratch.len() } else { n } as f64;
         for it in 1..=iterations {
             let [a, b, c] = match draw {
                 Draw::Distinct => distinct3(rng, n),
@@ -122,7 +144,7 @@ impl Ransac {
                 &pts[idx[b] as usize],
                 &pts[idx[c] as usize],
             );
-            if let Some(plane) = Plane::through(pa, pb, pc).and_then(&admit) {
+            if let Some(plane) = Plane::through(pa, pb, pc).and_then(admit) {
                 if preemptive {
                     let count = count_in(&plane, scratch);
                     if let Some(pos) = top.iter().position(|(k, p)| p.is_none() || count > *k) {
@@ -157,13 +179,17 @@ impl Ransac {
                 }
             }
         }
-        let (_, plane) = best?;
-        inliers.extend(
-            idx.iter()
-                .copied()
-                .filter(|&i| plane.distance(&pts[i as usize]).abs() < threshold),
-        );
-        Some(plane)
+        best
+    }
+
+    /// ln(1 − confidence), the numerator of the stopping bound; 0 when no
+    /// confidence is set (every hypothesis is drawn).
+    fn log_miss(&self) -> f64 {
+        if self.confidence > 0.0 && self.confidence < 1.0 {
+            (1.0 - self.confidence).ln()
+        } else {
+            0.0
+        }
     }
 }
 

@@ -246,9 +246,13 @@ fn plate_layers(
     width: f64,
     height: f64,
 ) -> PlateLayers {
-    let on = |v: &Vector3<f64>, lo: f64, hi: f64| {
-        let t = u.dot(v);
-        t > lo && t < hi && up.dot(v).abs() < 0.4 * height && n.dot(v).abs() < REACH
+    let mut plate = PlateFrame {
+        n,
+        u,
+        up,
+        width,
+        height,
+        tilt: (0.0, 0.0, 0.0, 0.0),
     };
     // Distances from the plate's own least-squares plane through the middle
     // points (offset kept from the located plane): a sparse plate's located
@@ -257,78 +261,26 @@ fn plate_layers(
     // are parallel and cover the same part of it, so the tilt is theirs.
     let mid: Vec<&Vector3<f64>> = q
         .iter()
-        .filter(|v| on(v, 0.3 * width, 0.9 * width))
+        .filter(|v| plate.on(v, 0.3 * width, 0.9 * width))
         .collect();
-    let tilt = plane_tilt(&mid, n, u, up);
-    let dist =
-        |v: &Vector3<f64>| n.dot(v) - tilt.0 * (u.dot(v) - tilt.2) - tilt.1 * (up.dot(v) - tilt.3);
-    let mut d: Vec<f64> = mid.iter().map(|v| dist(v)).collect();
+    plate.tilt = plane_tilt(&mid, n, u, up);
+    let mut d: Vec<f64> = mid.iter().map(|v| plate.dist(v)).collect();
     d.sort_unstable_by(f64::total_cmp);
-    let one = |d: &[f64]| {
-        let m = d.iter().sum::<f64>() / d.len().max(1) as f64;
-        let s = (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len().max(1) as f64).sqrt();
-        PlateLayers {
-            points: d.len(),
-            offsets: [m, m],
-            counts: [d.len(), 0],
-            sigma: s,
-            spreads: [s, s],
-            single: s,
-            doubled: false,
-        }
-    };
     if d.len() < MIN_PLATE_POINTS {
-        return one(&d);
+        return one_layer(&d);
     }
     let Some(mix) = two_layers(&d) else {
-        return one(&d);
+        return one_layer(&d);
     };
-    let apart = mix.means[1] - mix.means[0];
-    let small = mix.counts[0].min(mix.counts[1]);
-    let layered = small >= MIN_LAYER_POINTS
-        && small as f64 >= MIN_SHARE * d.len() as f64
-        && apart >= MIN_SEPARATION
-        && apart >= MIN_SEPARATION_SIGMAS * mix.sigma;
-    if !layered {
-        return one(&d);
+    if !stands_apart(&mix, d.len()) {
+        return one_layer(&d);
     }
-    // Either layer past the plate's far edge: a surface going on (a wall
-    // behind the plate, seen through the grill) has as many points per
-    // metre there as on the plate; both copies of a plate stop with it.
     let band = 2.0 * mix.sigma;
-    let goes_on = |at: f64| {
-        let in_layer = |v: &&Vector3<f64>| (dist(v) - at).abs() < band;
-        let on_plate = q
-            .iter()
-            .filter(|v| on(v, 0.3 * width, 0.9 * width))
-            .filter(in_layer)
-            .count();
-        let past = q
-            .iter()
-            .filter(|v| on(v, width + 0.2, width + 0.8))
-            .filter(in_layer)
-            .count();
-        // Per metre along the plate: 0.6 w on the plate, 0.6 m past it.
-        past as f64 / 0.6 > GOING_ON_SHARE * on_plate as f64 / (0.6 * width)
-    };
-    if mix.means.iter().any(|&at| goes_on(at)) {
-        return one(&d);
+    if mix.means.iter().any(|&at| plate.goes_on(q, at, band)) {
+        return one_layer(&d);
     }
-    // Each layer spread along the plate, as a copy of it is: a surface
-    // standing across the plate (a wall beside the other plate, a pole)
-    // puts its points at one distance from the corner.
-    let across = |at: f64| {
-        let mut t: Vec<f64> = q
-            .iter()
-            .filter(|v| on(v, 0.3 * width, 0.9 * width) && (dist(v) - at).abs() < band)
-            .map(|v| u.dot(v))
-            .collect();
-        t.sort_unstable_by(f64::total_cmp);
-        // A fifth of the span holds a fifth of an even layer's points.
-        densest_run(&t, 0.12 * width) as f64 > MAX_RUN_SHARE * t.len() as f64
-    };
-    if mix.means.iter().any(|&at| across(at)) {
-        return one(&d);
+    if mix.means.iter().any(|&at| plate.across(q, at, band)) {
+        return one_layer(&d);
     }
     PlateLayers {
         points: d.len(),
@@ -336,8 +288,99 @@ fn plate_layers(
         counts: mix.counts,
         sigma: mix.sigma,
         spreads: mix.spreads,
-        single: one(&d).single,
+        single: one_layer(&d).single,
         doubled: true,
+    }
+}
+
+/// The plate's sorted distances `d` as one layer.
+fn one_layer(d: &[f64]) -> PlateLayers {
+    let m = d.iter().sum::<f64>() / d.len().max(1) as f64;
+    let s = (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / d.len().max(1) as f64).sqrt();
+    PlateLayers {
+        points: d.len(),
+        offsets: [m, m],
+        counts: [d.len(), 0],
+        sigma: s,
+        spreads: [s, s],
+        single: s,
+        doubled: false,
+    }
+}
+
+/// Whether the mixture of a plate's `points` is two layers at all: each
+/// holding enough of them, further apart than the plate's own structure
+/// and than their σ.
+fn stands_apart(mix: &Mixture, points: usize) -> bool {
+    let apart = mix.means[1] - mix.means[0];
+    let small = mix.counts[0].min(mix.counts[1]);
+    small >= MIN_LAYER_POINTS
+        && small as f64 >= MIN_SHARE * points as f64
+        && apart >= MIN_SEPARATION
+        && apart >= MIN_SEPARATION_SIGMAS * mix.sigma
+}
+
+/// One plate as seen from the corner (points as offsets from it): its
+/// normal `n`, the direction `u` along it, and its plane's `tilt` (from
+/// [`plane_tilt`]) once fitted.
+struct PlateFrame<'a> {
+    n: &'a Vector3<f64>,
+    u: &'a Vector3<f64>,
+    up: &'a Vector3<f64>,
+    width: f64,
+    height: f64,
+    tilt: (f64, f64, f64, f64),
+}
+
+impl PlateFrame<'_> {
+    /// Within the slab about the plate, between `lo` and `hi` along it.
+    #[inline]
+    fn on(&self, v: &Vector3<f64>, lo: f64, hi: f64) -> bool {
+        let t = self.u.dot(v);
+        t > lo && t < hi && self.up.dot(v).abs() < 0.4 * self.height && self.n.dot(v).abs() < REACH
+    }
+
+    /// Distance from the plate's own (tilted) plane.
+    #[inline]
+    fn dist(&self, v: &Vector3<f64>) -> f64 {
+        let tilt = &self.tilt;
+        self.n.dot(v) - tilt.0 * (self.u.dot(v) - tilt.2) - tilt.1 * (self.up.dot(v) - tilt.3)
+    }
+
+    /// The layer at `at` (±`band`) past the plate's far edge: a surface
+    /// going on (a wall behind the plate, seen through the grill) has as
+    /// many points per metre there as on the plate; both copies of a plate
+    /// stop with it.
+    fn goes_on(&self, q: &[Vector3<f64>], at: f64, band: f64) -> bool {
+        let width = self.width;
+        let in_layer = |v: &&Vector3<f64>| (self.dist(v) - at).abs() < band;
+        let on_plate = q
+            .iter()
+            .filter(|v| self.on(v, 0.3 * width, 0.9 * width))
+            .filter(in_layer)
+            .count();
+        let past = q
+            .iter()
+            .filter(|v| self.on(v, width + 0.2, width + 0.8))
+            .filter(in_layer)
+            .count();
+        // Per metre along the plate: 0.6 w on the plate, 0.6 m past it.
+        past as f64 / 0.6 > GOING_ON_SHARE * on_plate as f64 / (0.6 * width)
+    }
+
+    /// The layer at `at` (±`band`) bunched at one distance from the corner:
+    /// a surface standing across the plate (a wall beside the other plate,
+    /// a pole), where a copy of the plate spreads along it.
+    fn across(&self, q: &[Vector3<f64>], at: f64, band: f64) -> bool {
+        let width = self.width;
+        let mut t: Vec<f64> = q
+            .iter()
+            .filter(|v| self.on(v, 0.3 * width, 0.9 * width) && (self.dist(v) - at).abs() < band)
+            .map(|v| self.u.dot(v))
+            .collect();
+        t.sort_unstable_by(f64::total_cmp);
+        // A fifth of the span holds a fifth of an even layer's points.
+        densest_run(&t, 0.12 * width) as f64 > MAX_RUN_SHARE * t.len() as f64
     }
 }
 

@@ -74,103 +74,27 @@ impl Projector {
         let entries = yaml::parse(text)?;
         yaml::check_unique(&entries)?;
         let get = |k: &str| entries.iter().find(|e| e.key == k);
-        let scalar = |e: &Entry| match &e.value {
-            Value::Scalar(s) if !s.is_empty() => Ok(s.clone()),
-            _ => Err((e.line, format!("`{}` must be a single value", e.key))),
-        };
         let Some(t) = get("projector_type") else {
             return Err((0, "no `projector_type`".into()));
         };
         let kind = scalar(t)?;
-        let known: &[&str] = match kind.as_str() {
-            "LocalCartesianUTM" | "LocalCartesian" | "TransverseMercator" => &[
-                "projector_type",
-                "vertical_datum",
-                "map_origin",
-                "mgrs_grid",
-            ],
-            "MGRS" => &[
-                "projector_type",
-                "vertical_datum",
-                "mgrs_grid",
-                "map_origin",
-            ],
-            "Local" => {
-                return Err((
-                    t.line,
-                    "projector_type Local: the map is not georeferenced, so a WGS84 survey cannot be placed in it (give the survey in the map's x,y or use --frame)".into(),
-                ));
-            }
-            other => {
-                return Err((
-                    t.line,
-                    format!(
-                        "projector_type `{other}` is not one of LocalCartesianUTM, LocalCartesian, TransverseMercator, MGRS"
-                    ),
-                ));
-            }
-        };
+        let known = known_keys(&kind, t.line)?;
         if let Some(e) = entries.iter().find(|e| !known.contains(&e.key.as_str())) {
             return Err((e.line, format!("unexpected key `{}`", e.key)));
         }
         if let Some(v) = get("vertical_datum") {
-            let d = scalar(v)?;
-            if d != "WGS84" && heights {
-                return Err((
-                    v.line,
-                    format!(
-                        "vertical_datum {d}: the survey's heights are WGS84 ellipsoidal and mapgauge has no geoid model to convert them; drop the survey's alt column (2D evaluation) or convert its heights to {d} and the map's to WGS84"
-                    ),
-                ));
-            }
+            check_datum(v, heights)?;
         }
         if kind == "MGRS" {
             let Some(g) = get("mgrs_grid") else {
                 return Err((t.line, "projector_type MGRS needs `mgrs_grid`".into()));
             };
-            let grid = scalar(g)?;
-            let (zone, north, corner) = mgrs_square(&grid).map_err(|m| (g.line, m))?;
-            return Ok(Projector::Mgrs {
-                grid,
-                zone,
-                north,
-                corner,
-            });
+            return mgrs(g);
         }
         let Some(o) = get("map_origin") else {
             return Err((t.line, format!("projector_type {kind} needs `map_origin`")));
         };
-        let Value::Map(fields) = &o.value else {
-            return Err((
-                o.line,
-                "`map_origin` must hold latitude, longitude and altitude".into(),
-            ));
-        };
-        yaml::check_unique(fields)?;
-        let mut v = [None; 3];
-        for f in fields {
-            let k = match f.key.as_str() {
-                "latitude" => 0,
-                "longitude" => 1,
-                "altitude" => 2,
-                other => return Err((f.line, format!("unexpected key `{other}` in map_origin"))),
-            };
-            v[k] = Some(yaml::number(f, &scalar(f)?)?);
-        }
-        let [Some(lat), Some(lon), Some(alt)] = v else {
-            let missing = ["latitude", "longitude", "altitude"]
-                [v.iter().position(Option::is_none).unwrap_or(0)];
-            return Err((o.line, format!("map_origin has no `{missing}`")));
-        };
-        if !(-80.0..=84.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {
-            return Err((
-                o.line,
-                format!(
-                    "map_origin {lat}, {lon}: latitude must be within -80..84 (UTM's range) and longitude within -180..180"
-                ),
-            ));
-        }
-        let origin = Geodetic { lat, lon, alt };
+        let origin = map_origin(o)?;
         Ok(match kind.as_str() {
             "LocalCartesianUTM" => Projector::LocalCartesianUtm { origin },
             "LocalCartesian" => Projector::LocalCartesian { origin },
@@ -225,6 +149,107 @@ impl Projector {
             Projector::Mgrs { grid, .. } => format!("MGRS grid square {grid}"),
         }
     }
+}
+
+/// An entry's single value (a key with a block under it, or none, is a
+/// mistake in any of the projector's keys).
+fn scalar(e: &Entry) -> std::result::Result<String, yaml::Fail> {
+    match &e.value {
+        Value::Scalar(s) if !s.is_empty() => Ok(s.clone()),
+        _ => Err((e.line, format!("`{}` must be a single value", e.key))),
+    }
+}
+
+/// The keys a projector of type `kind` (given on `line`) may have; an
+/// error for a type that cannot place a WGS84 survey.
+fn known_keys(kind: &str, line: u64) -> std::result::Result<&'static [&'static str], yaml::Fail> {
+    match kind {
+        "LocalCartesianUTM" | "LocalCartesian" | "TransverseMercator" => Ok(&[
+            "projector_type",
+            "vertical_datum",
+            "map_origin",
+            "mgrs_grid",
+        ]),
+        "MGRS" => Ok(&[
+            "projector_type",
+            "vertical_datum",
+            "mgrs_grid",
+            "map_origin",
+        ]),
+        "Local" => Err((
+            line,
+            "projector_type Local: the map is not georeferenced, so a WGS84 survey cannot be placed in it (give the survey in the map's x,y or use --frame)".into(),
+        )),
+        other => Err((
+            line,
+            format!(
+                "projector_type `{other}` is not one of LocalCartesianUTM, LocalCartesian, TransverseMercator, MGRS"
+            ),
+        )),
+    }
+}
+
+/// Refuses a `vertical_datum` other than WGS84 when the survey has
+/// `heights`: converting them needs a geoid model.
+fn check_datum(v: &Entry, heights: bool) -> std::result::Result<(), yaml::Fail> {
+    let d = scalar(v)?;
+    if d != "WGS84" && heights {
+        return Err((
+            v.line,
+            format!(
+                "vertical_datum {d}: the survey's heights are WGS84 ellipsoidal and mapgauge has no geoid model to convert them; drop the survey's alt column (2D evaluation) or convert its heights to {d} and the map's to WGS84"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The MGRS projector of the grid square in `mgrs_grid` (entry `g`).
+fn mgrs(g: &Entry) -> std::result::Result<Projector, yaml::Fail> {
+    let grid = scalar(g)?;
+    let (zone, north, corner) = mgrs_square(&grid).map_err(|m| (g.line, m))?;
+    Ok(Projector::Mgrs {
+        grid,
+        zone,
+        north,
+        corner,
+    })
+}
+
+/// The `map_origin` entry `o`: latitude, longitude and altitude, each once,
+/// within UTM's range.
+fn map_origin(o: &Entry) -> std::result::Result<Geodetic, yaml::Fail> {
+    let Value::Map(fields) = &o.value else {
+        return Err((
+            o.line,
+            "`map_origin` must hold latitude, longitude and altitude".into(),
+        ));
+    };
+    yaml::check_unique(fields)?;
+    let mut v = [None; 3];
+    for f in fields {
+        let k = match f.key.as_str() {
+            "latitude" => 0,
+            "longitude" => 1,
+            "altitude" => 2,
+            other => return Err((f.line, format!("unexpected key `{other}` in map_origin"))),
+        };
+        v[k] = Some(yaml::number(f, &scalar(f)?)?);
+    }
+    let [Some(lat), Some(lon), Some(alt)] = v else {
+        let missing =
+            ["latitude", "longitude", "altitude"][v.iter().position(Option::is_none).unwrap_or(0)];
+        return Err((o.line, format!("map_origin has no `{missing}`")));
+    };
+    if !(-80.0..=84.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {
+        return Err((
+            o.line,
+            format!(
+                "map_origin {lat}, {lon}: latitude must be within -80..84 (UTM's range) and longitude within -180..180"
+            ),
+        ));
+    }
+    Ok(Geodetic { lat, lon, alt })
 }
 
 /// The standard UTM zone of a position, with the Norway and Svalbard
