@@ -126,29 +126,8 @@ pub(super) fn too_few_found(
     );
     // Objects located where the survey says, but in a layout no map bends
     // to: the survey (or the unit) is the first suspect, not the frame.
-    if found
-        .iter()
-        .any(|r| matches!(r.outcome, Err(Failure::OffLayout { alone: false, .. })))
-    {
-        let off: Vec<String> = found
-            .iter()
-            .filter_map(|r| match &r.outcome {
-                Err(Failure::OffLayout {
-                    misfit, distance, ..
-                }) if *misfit > 0.0 => {
-                    Some(format!("{} {misfit:.2} m off over {distance:.1} m", r.id))
-                }
-                _ => None,
-            })
-            .collect();
-        msg += &format!(
-            ". The objects located at the surveyed places do not stand as the survey places them (their distances to each other: {})",
-            off.join(", ")
-        );
-        if let Some(r) = layout::distance_ratio(&layout::placed(found), survey) {
-            msg += &format!("; map distances are {r:.3} × the survey's, median over the pairs");
-        }
-        msg += ", by more than a working map's error: check the survey's positions, ids and unit (metres, both files), that these objects are the targets, and the map itself (a failed loop closure bends a map by metres)";
+    if let Some(off) = off_layout(found, survey) {
+        msg += &off;
         return Error::TooFewFound {
             found: n_found,
             need,
@@ -172,16 +151,65 @@ pub(super) fn too_few_found(
             msg += "; ...";
         }
     }
+    msg += &remedy(found, survey, n_found, need, cfg, how);
+    Error::TooFewFound {
+        found: n_found,
+        need,
+        msg,
+    }
+}
+
+/// The sentence when objects were located where the survey says, but not
+/// standing as the survey places them (their distances to each other);
+/// `None` when no such object was refused.
+fn off_layout(found: &[TargetRun], survey: &Survey) -> Option<String> {
+    if !found
+        .iter()
+        .any(|r| matches!(r.outcome, Err(Failure::OffLayout { alone: false, .. })))
+    {
+        return None;
+    }
+    let off: Vec<String> = found
+        .iter()
+        .filter_map(|r| match &r.outcome {
+            Err(Failure::OffLayout {
+                misfit, distance, ..
+            }) if *misfit > 0.0 => Some(format!("{} {misfit:.2} m off over {distance:.1} m", r.id)),
+            _ => None,
+        })
+        .collect();
+    let mut msg = format!(
+        ". The objects located at the surveyed places do not stand as the survey places them (their distances to each other: {})",
+        off.join(", ")
+    );
+    if let Some(r) = layout::distance_ratio(&layout::placed(found), survey) {
+        msg += &format!("; map distances are {r:.3} × the survey's, median over the pairs");
+    }
+    msg += ", by more than a working map's error: check the survey's positions, ids and unit (metres, both files), that these objects are the targets, and the map itself (a failed loop closure bends a map by metres)";
+    Some(msg)
+}
+
+/// What to try, from what the survey and the frame say: too few surveyed
+/// targets, a detected frame whose targets would not locate, a seam, or
+/// the frame (empty when none fits).
+fn remedy(
+    found: &[TargetRun],
+    survey: &Survey,
+    n_found: usize,
+    need: usize,
+    cfg: &Config,
+    how: &FrameHow,
+) -> String {
     if survey.targets.len() < need {
-        msg += &format!(
+        format!(
             ". The survey has {} target(s): {need} are needed to align",
             survey.targets.len()
-        );
+        )
     } else if let FrameHow::Detected { matched, .. } = how {
-        msg += &format!(
+        format!(
             ". The map's frame was found by matching {} detected targets to the survey, but they could not be located there (see the reasons above)",
             matched.len()
-        );
+        )
     } else if n_found
         + found
             .iter()
@@ -191,13 +219,13 @@ pub(super) fn too_few_found(
     {
         // Counting the targets seen twice, enough were where the survey
         // puts them: the frame is right, the map has a seam.
-        msg += ". Targets mapped twice are where the survey places them: the map has a seam there (a loop closed badly?), which no frame or flag can mend; each such target's reason names its copies";
+        ". Targets mapped twice are where the survey places them: the map has a seam there (a loop closed badly?), which no frame or flag can mend; each such target's reason names its copies".into()
     } else if n_found < survey.targets.len()
         && !found
             .iter()
             .all(|r| r.outcome.is_ok() || matches!(r.outcome, Err(Failure::HandCrop(_))))
     {
-        msg += &match (survey.frame, survey.origin) {
+        match (survey.frame, survey.origin) {
             (crate::survey::SurveyFrame::Wgs84Enu, Some(o)) => format!(
                 ". The survey is WGS84, placed in a local east-north-up frame about {:.7}, {:.7}; if the map's origin is elsewhere, give --origin LAT,LON[,ALT] of the map's origin (and --init x,y,yaw_deg if its axes are not east and north)",
                 o.lat, o.lon
@@ -205,12 +233,9 @@ pub(super) fn too_few_found(
             // Told to look in the survey frame only: detection never ran.
             _ if cfg.frame.mode == config::FrameMode::Survey => ". Is the map in the survey frame? If not, run without --frame survey (eval then looks for the targets map-wide) or give --init x,y,yaw_deg".into(),
             _ => ". Is the map in the survey frame? If not, give --init x,y,yaw_deg".into(),
-        };
-    }
-    Error::TooFewFound {
-        found: n_found,
-        need,
-        msg,
+        }
+    } else {
+        String::new()
     }
 }
 

@@ -14,7 +14,7 @@ use crate::cloud::{MapSource, RigidMotion};
 use crate::detect::{DetectParams, Detection, detect_map};
 use crate::frame::MapToSurvey;
 use crate::frame::hints::read_hints;
-use crate::frame::matching::{Candidate, MatchError, MatchParams, match_frame};
+use crate::frame::matching::{Candidate, FrameMatch, MatchError, MatchParams, match_frame};
 use crate::frame::{GroundLevel, MapGround};
 use crate::survey::Survey;
 use crate::{Error, Point, Result};
@@ -222,59 +222,14 @@ pub(super) fn detect_and_match(
         min_matches: 3,
     };
     let m = match_frame(&cands, &sur, survey.has_z(), &params);
-    // A survey with x and y exchanged is the map's mirror image: no rigid
-    // motion fits it, though a few targets may happen to fit one (an
-    // isosceles three of them does). Its mirror fitting more is the mistake.
-    let mirrored: Vec<Point> = sur.iter().map(|p| Point::new(p.y, p.x, p.z)).collect();
-    if let Ok(mm) = match_frame(&cands, &mirrored, survey.has_z(), &params) {
-        // As given: its matches, or the most any transform found when none
-        // was chosen (too few, or two about equal).
-        let given = match &m {
-            Ok(m) => m.matches.len(),
-            Err(MatchError::TooFew { best, .. }) => *best,
-            Err(MatchError::Ambiguous { a, .. }) => *a,
-        };
-        if mm.matches.len() > given {
-            return Err(NoFrame::Failed(Error::Input(format!(
-                "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. Check the order of the survey's columns (id,x,y: x east, y north) and run again",
-                mm.matches.len(),
-                sur.len(),
-                mm.rms * 1e3
-            ))));
-        }
-    }
-    // A survey in another unit than the map (feet, millimetres) is the map's
-    // layout scaled: no rigid motion fits it. Scaled back, it fitting is
-    // the mistake (about the survey's centroid: UTM-sized coordinates stay
-    // small).
-    if m.is_err() && sur.len() >= 3 {
-        let n = sur.len() as f64;
-        let c = sur
-            .iter()
-            .fold(nalgebra::Vector3::zeros(), |a, p| a + p.coords)
-            / n;
-        let given = match &m {
-            Err(MatchError::TooFew { best, .. }) => *best,
-            Err(MatchError::Ambiguous { a, .. }) => *a,
-            Ok(_) => 0,
-        };
-        for (factor, what) in UNITS {
-            let scaled: Vec<Point> = sur
-                .iter()
-                .map(|p| Point::from(c + (p.coords - c) * factor))
-                .collect();
-            if let Ok(sm) = match_frame(&cands, &scaled, survey.has_z(), &params)
-                && sm.matches.len() > given
-            {
-                return Err(NoFrame::Failed(Error::Input(format!(
-                    "the survey looks {what}: scaled by {factor}, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. mapgauge reads both files in metres: convert the survey, or the map (`mapgauge convert --scale`), and run again",
-                    sm.matches.len(),
-                    sur.len(),
-                    sm.rms * 1e3
-                ))));
-            }
-        }
-    }
+    let survey_xy = SurveyXy {
+        cands: &cands,
+        sur: &sur,
+        has_z: survey.has_z(),
+        params: &params,
+    };
+    survey_xy.not_swapped(&m)?;
+    survey_xy.in_metres(&m)?;
     let m = m.map_err(|why| NoFrame::NotMatched {
         detections: found.detections.len(),
         why,
@@ -298,4 +253,86 @@ pub(super) fn detect_and_match(
         runner_up: m.runner_up,
     };
     Ok((how, m.init, m.dz, unmatched))
+}
+
+/// The survey's layout tried against the map's detections in the forms a
+/// mistaken survey takes, to say what the mistake is instead of "not
+/// matched".
+struct SurveyXy<'a> {
+    cands: &'a [Candidate],
+    sur: &'a [Point],
+    has_z: bool,
+    params: &'a MatchParams,
+}
+
+impl SurveyXy<'_> {
+    /// A survey with x and y exchanged is the map's mirror image: no rigid
+    /// motion fits it, though a few targets may happen to fit one (an
+    /// isosceles three of them does). Its mirror fitting more is the mistake.
+    fn not_swapped(
+        &self,
+        m: &std::result::Result<FrameMatch, MatchError>,
+    ) -> std::result::Result<(), NoFrame> {
+        let mirrored: Vec<Point> = self.sur.iter().map(|p| Point::new(p.y, p.x, p.z)).collect();
+        let Ok(mm) = match_frame(self.cands, &mirrored, self.has_z, self.params) else {
+            return Ok(());
+        };
+        let given = matched_as_given(m);
+        if mm.matches.len() > given {
+            return Err(NoFrame::Failed(Error::Input(format!(
+                "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. Check the order of the survey's columns (id,x,y: x east, y north) and run again",
+                mm.matches.len(),
+                self.sur.len(),
+                mm.rms * 1e3
+            ))));
+        }
+        Ok(())
+    }
+
+    /// A survey in another unit than the map (feet, millimetres) is the
+    /// map's layout scaled: no rigid motion fits it. Scaled back, it
+    /// fitting is the mistake (about the survey's centroid: UTM-sized
+    /// coordinates stay small).
+    fn in_metres(
+        &self,
+        m: &std::result::Result<FrameMatch, MatchError>,
+    ) -> std::result::Result<(), NoFrame> {
+        let sur = self.sur;
+        if m.is_ok() || sur.len() < 3 {
+            return Ok(());
+        }
+        let n = sur.len() as f64;
+        let c = sur
+            .iter()
+            .fold(nalgebra::Vector3::zeros(), |a, p| a + p.coords)
+            / n;
+        let given = matched_as_given(m);
+        for (factor, what) in UNITS {
+            let scaled: Vec<Point> = sur
+                .iter()
+                .map(|p| Point::from(c + (p.coords - c) * factor))
+                .collect();
+            if let Ok(sm) = match_frame(self.cands, &scaled, self.has_z, self.params)
+                && sm.matches.len() > given
+            {
+                return Err(NoFrame::Failed(Error::Input(format!(
+                    "the survey looks {what}: scaled by {factor}, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. mapgauge reads both files in metres: convert the survey, or the map (`mapgauge convert --scale`), and run again",
+                    sm.matches.len(),
+                    sur.len(),
+                    sm.rms * 1e3
+                ))));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Targets the survey as given matched: its matches, or the most any
+/// transform found when none was chosen (too few, or two about equal).
+fn matched_as_given(m: &std::result::Result<FrameMatch, MatchError>) -> usize {
+    match m {
+        Ok(m) => m.matches.len(),
+        Err(MatchError::TooFew { best, .. }) => *best,
+        Err(MatchError::Ambiguous { a, .. }) => *a,
+    }
 }

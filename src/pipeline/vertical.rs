@@ -214,37 +214,7 @@ pub(super) fn plumb(
     survey: &Survey,
     turned: bool,
 ) -> Option<(Plumb, Option<Rotation3<f64>>)> {
-    // Each line weighs as its weaker plate's points: a plate's normal is
-    // known to about 1/√(points), so a target seen with 50 returns counts
-    // far less than one seen with 500.
-    let axes: Vec<(Vector3<f64>, f64)> = found
-        .iter()
-        .filter_map(|r| {
-            r.outcome
-                .as_ref()
-                .ok()
-                .and_then(|f| plain_axis(&r.tight, f))
-        })
-        .collect();
-    let n = axes.len();
-    if n < 3 {
-        return None;
-    }
-    let sw: f64 = axes.iter().map(|a| a.1).sum();
-    let sw2: f64 = axes.iter().map(|a| a.1 * a.1).sum();
-    let mean = axes
-        .iter()
-        .fold(Vector3::zeros(), |s, (a, w)| s + a * *w)
-        .normalize();
-    let tilt = mean.angle(&Vector3::z()).to_degrees();
-    let var = axes
-        .iter()
-        .map(|(a, w)| w * a.angle(&mean).powi(2))
-        .sum::<f64>()
-        / sw
-        * n as f64
-        / (n - 1) as f64;
-    let se = (var * sw2 / (sw * sw)).sqrt().to_degrees();
+    let PlumbLines { mean, tilt, se, n } = plumb_lines(found)?;
     // The estimates of the vertical, each with its covariance, combined by
     // inverse variance: the plumb lines (their standard error, both ways);
     // in a turned frame, the ground that turned it (the vertical is where
@@ -285,23 +255,8 @@ pub(super) fn plumb(
     let up = lean.up();
     let angle = up.angle(&Vector3::z()).to_degrees();
     let se_c = lean.se_deg();
-    // A map read as it is turns only beyond three standard errors, and
-    // beyond half a degree on plumb lines alone (their noise must not turn
-    // a level map: a 0.2° turn moves targets 2 m apart in height by 7 mm),
-    // a tenth of one with the surveyed heights. The heights only refine a
-    // lean the map itself shows (its plumb lines beyond two standard
-    // errors): heights alone cannot tell a lean from odometry's vertical
-    // drift, which bends a map's heights and leaves it level where the
-    // targets stand, and turning such a map would move its targets by
-    // their heights times the drift's slope. Up to 20°: beyond, a few
-    // targets agreeing is more likely a mistake.
-    let bar = if turned {
-        0.005
-    } else if with_heights {
-        (3.0 * se_c).max(0.1)
-    } else {
-        (3.0 * se_c).max(0.5)
-    };
+    let bar = turn_bar(turned, with_heights, se_c);
+    // Up to 20°: beyond, a few targets agreeing is more likely a mistake.
     let applied = angle > bar && tilt <= 20.0;
     let rot = applied
         .then(|| Rotation3::rotation_between(&up, &Vector3::z()))
@@ -317,6 +272,71 @@ pub(super) fn plumb(
         },
         rot,
     ))
+}
+
+/// The targets' plumb lines averaged: their mean axis, its tilt from +z and
+/// standard error (degrees), and how many targets gave one.
+struct PlumbLines {
+    mean: Vector3<f64>,
+    tilt: f64,
+    se: f64,
+    n: usize,
+}
+
+/// The located targets' plumb lines weighed and averaged; `None` with
+/// fewer than three.
+fn plumb_lines(found: &[TargetRun]) -> Option<PlumbLines> {
+    // Each line weighs as its weaker plate's points: a plate's normal is
+    // known to about 1/√(points), so a target seen with 50 returns counts
+    // far less than one seen with 500.
+    let axes: Vec<(Vector3<f64>, f64)> = found
+        .iter()
+        .filter_map(|r| {
+            r.outcome
+                .as_ref()
+                .ok()
+                .and_then(|f| plain_axis(&r.tight, f))
+        })
+        .collect();
+    let n = axes.len();
+    if n < 3 {
+        return None;
+    }
+    let sw: f64 = axes.iter().map(|a| a.1).sum();
+    let sw2: f64 = axes.iter().map(|a| a.1 * a.1).sum();
+    let mean = axes
+        .iter()
+        .fold(Vector3::zeros(), |s, (a, w)| s + a * *w)
+        .normalize();
+    let tilt = mean.angle(&Vector3::z()).to_degrees();
+    let var = axes
+        .iter()
+        .map(|(a, w)| w * a.angle(&mean).powi(2))
+        .sum::<f64>()
+        / sw
+        * n as f64
+        / (n - 1) as f64;
+    let se = (var * sw2 / (sw * sw)).sqrt().to_degrees();
+    Some(PlumbLines { mean, tilt, se, n })
+}
+
+/// The lean beyond which a map is turned (degrees). A map read as it is
+/// turns only beyond three standard errors, and beyond half a degree on
+/// plumb lines alone (their noise must not turn a level map: a 0.2° turn
+/// moves targets 2 m apart in height by 7 mm), a tenth of one with the
+/// surveyed heights. The heights only refine a lean the map itself shows
+/// (its plumb lines beyond two standard errors): heights alone cannot tell a
+/// lean from odometry's vertical drift, which bends a map's heights and
+/// leaves it level where the targets stand, and turning such a map would
+/// move its targets by their heights times the drift's slope.
+fn turn_bar(turned: bool, with_heights: bool, se_c: f64) -> f64 {
+    if turned {
+        0.005
+    } else if with_heights {
+        (3.0 * se_c).max(0.1)
+    } else {
+        (3.0 * se_c).max(0.5)
+    }
 }
 
 /// Standard error (degrees) of the vertical a levelled frame was turned to:

@@ -147,34 +147,7 @@ impl std::fmt::Display for Warning {
                 plate_height_m,
                 sigma_m,
                 every,
-            } => {
-                let one = ids.len() == 1;
-                let span = if seen_m.1 - seen_m.0 < 0.005 {
-                    format!("{:.2} m", seen_m.0)
-                } else {
-                    format!("{:.2}-{:.2} m", seen_m.0, seen_m.1)
-                };
-                write!(
-                    f,
-                    "the {} {} {} uncertain by up to {:.0} mm (1σ): {} plates' points cover {span} of the {plate_height_m:.2} m plate height, or crowd toward part of it (a barrier, grass or a vehicle hiding the plates from below, or sparse scan lines), and the reference point at mid plate height is placed only to within that. The vertical σ includes it; horizontal positions are unaffected while the plates stand upright",
-                    if one {
-                        "height of target"
-                    } else {
-                        "heights of targets"
-                    },
-                    ids.join(", "),
-                    if one { "is" } else { "are" },
-                    sigma_m * 1e3,
-                    if one { "its" } else { "their" },
-                )?;
-                if *every {
-                    write!(
-                        f,
-                        ". Every located target shows it: are the plates {plate_height_m:.2} m tall (--plate-size W,H)?"
-                    )?;
-                }
-                Ok(())
-            }
+            } => heights_uncertain(f, ids, *seen_m, *plate_height_m, *sigma_m, *every),
             Warning::WrongObjects(ids) => write!(
                 f,
                 "objects located for {} are not those targets (far from where the other targets place them, or another target's object): reported as not found, each with its reason",
@@ -237,4 +210,42 @@ impl std::fmt::Display for Warning {
             ),
         }
     }
+}
+
+/// [`Warning::HeightsUncertain`]'s sentence, singular or plural, with the
+/// plate height asked about when every target shows it.
+fn heights_uncertain(
+    f: &mut std::fmt::Formatter<'_>,
+    ids: &[String],
+    seen_m: (f64, f64),
+    plate_height_m: f64,
+    sigma_m: f64,
+    every: bool,
+) -> std::fmt::Result {
+    let one = ids.len() == 1;
+    let span = if seen_m.1 - seen_m.0 < 0.005 {
+        format!("{:.2} m", seen_m.0)
+    } else {
+        format!("{:.2}-{:.2} m", seen_m.0, seen_m.1)
+    };
+    write!(
+        f,
+        "the {} {} {} uncertain by up to {:.0} mm (1σ): {} plates' points cover {span} of the {plate_height_m:.2} m plate height, or crowd toward part of it (a barrier, grass or a vehicle hiding the plates from below, or sparse scan lines), and the reference point at mid plate height is placed only to within that. The vertical σ includes it; horizontal positions are unaffected while the plates stand upright",
+        if one {
+            "height of target"
+        } else {
+            "heights of targets"
+        },
+        ids.join(", "),
+        if one { "is" } else { "are" },
+        sigma_m * 1e3,
+        if one { "its" } else { "their" },
+    )?;
+    if every {
+        write!(
+            f,
+            ". Every located target shows it: are the plates {plate_height_m:.2} m tall (--plate-size W,H)?"
+        )?;
+    }
+    Ok(())
 }
