@@ -7,10 +7,14 @@
 //! hits are appended in block order, so the output is identical for any thread
 //! count.
 
-use crate::cloud::{PointReader, Region, Scratch};
+use crate::cloud::{Batch, PointReader, Region, Scratch};
 use crate::{Error, Point, Result};
 use rayon::prelude::*;
 use std::sync::Mutex;
+
+#[path = "loose_grid.rs"]
+mod grid;
+use grid::CentreIndex;
 
 /// The region kept around each expected target position.
 #[derive(
@@ -208,103 +212,6 @@ fn lock_any<T>(m: &[Mutex<T>], own: usize) -> (usize, std::sync::MutexGuard<'_, 
 /// Where a piece's hits lie: lane, segment, start, end.
 type Span = (usize, usize, usize, usize);
 
-/// Upper bound on grid cells; the cell size grows when targets span a huge area.
-const MAX_CELLS: usize = 1 << 22;
-
-struct CentreIndex {
-    min: [f64; 2],
-    /// 1 / cell size: a multiplication per axis instead of a division.
-    inv: f64,
-    nx: usize,
-    ny: usize,
-    /// `nx`, `ny` as f64 (the bounds test is done before the conversion).
-    nxf: f64,
-    nyf: f64,
-    /// CSR: cell → range in `ids`.
-    starts: Vec<u32>,
-    ids: Vec<u32>,
-}
-
-impl CentreIndex {
-    fn new(centres: &[Point], radius: f64) -> CentreIndex {
-        let mut min = [f64::INFINITY; 2];
-        let mut max = [f64::NEG_INFINITY; 2];
-        for c in centres {
-            for k in 0..2 {
-                min[k] = min[k].min(c[k] - radius);
-                max[k] = max[k].max(c[k] + radius);
-            }
-        }
-        let mut cell = radius.max(1e-3);
-        let (mut nx, mut ny);
-        loop {
-            nx = (((max[0] - min[0]) / cell).ceil() as usize).max(1);
-            ny = (((max[1] - min[1]) / cell).ceil() as usize).max(1);
-            if nx.saturating_mul(ny) <= MAX_CELLS {
-                break;
-            }
-            cell *= 2.0;
-        }
-        let inv = 1.0 / cell;
-        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); nx * ny];
-        // A point's cell is computed as `(p - min) * inv`, which is monotone in
-        // p; a region's cells are computed the same way from its extent widened
-        // by far more than the rounding error, so every point that passes the
-        // distance test lies in a cell that lists its target.
-        let idx =
-            |v: f64, lo: f64, n: usize| (((v - lo) * inv).floor().max(0.0) as usize).min(n - 1);
-        for (i, c) in centres.iter().enumerate() {
-            let ex = 1e-9 * (c.x.abs() + radius + 1.0);
-            let ey = 1e-9 * (c.y.abs() + radius + 1.0);
-            let x0 = idx(c.x - radius - ex, min[0], nx);
-            let x1 = idx(c.x + radius + ex, min[0], nx);
-            let y0 = idx(c.y - radius - ey, min[1], ny);
-            let y1 = idx(c.y + radius + ey, min[1], ny);
-            for iy in y0..=y1 {
-                for ix in x0..=x1 {
-                    lists[iy * nx + ix].push(i as u32);
-                }
-            }
-        }
-        let mut starts = Vec::with_capacity(nx * ny + 1);
-        let mut ids = Vec::new();
-        starts.push(0);
-        for l in &lists {
-            ids.extend_from_slice(l);
-            starts.push(ids.len() as u32);
-        }
-        CentreIndex {
-            min,
-            inv,
-            nx,
-            ny,
-            nxf: nx as f64,
-            nyf: ny as f64,
-            starts,
-            ids,
-        }
-    }
-
-    #[inline]
-    fn candidates(&self, p: &Point) -> &[u32] {
-        let fx = (p.x - self.min[0]) * self.inv;
-        let fy = (p.y - self.min[1]) * self.inv;
-        // One combined test; NaN fails it too.
-        if !(fx >= 0.0 && fy >= 0.0 && fx < self.nxf && fy < self.nyf) {
-            return &[];
-        }
-        // Both lie in [0, 2^22) here (at most `MAX_CELLS` cells), so a u32
-        // conversion truncates exactly as a usize one would, and costs one
-        // instruction instead of a 64-bit unsigned conversion's dozen.
-        let c =
-            (fy as u32 as usize).min(self.ny - 1) * self.nx + (fx as u32 as usize).min(self.nx - 1);
-        match (self.starts.get(c), self.starts.get(c + 1)) {
-            (Some(&a), Some(&b)) if a < b => self.ids.get(a as usize..b as usize).unwrap_or(&[]),
-            _ => &[],
-        }
-    }
-}
-
 /// Streams `reader` once and returns, for every centre (map frame), the points
 /// inside its crop region. `progress` is called with the bytes consumed so far.
 pub fn loose_crop(
@@ -379,7 +286,7 @@ fn crop_each(
     params: &LooseParams,
     enough: Option<u64>,
     mut progress: impl FnMut(u64),
-    mut sink: impl FnMut(usize, &[Point]) -> Result<()>,
+    sink: impl FnMut(usize, &[Point]) -> Result<()>,
 ) -> Result<(u64, u64)> {
     if !(params.radius.is_finite() && params.radius > 0.0) {
         return Err(Error::Param(format!(
@@ -390,55 +297,144 @@ fn crop_each(
     if centres.is_empty() {
         return Ok((0, 0));
     }
-    let grid = CentreIndex::new(centres, params.radius);
-    // Handed to the reader so that it drops most of the map before building
-    // points; the exact test below still decides.
-    let discs: Vec<[f64; 2]> = centres.iter().map(|c| [c.x, c.y]).collect();
-    // A tiled map opens only the tiles within reach of a centre.
-    reader.hint_discs(&discs, params.radius);
-    if let Some(n) = enough {
-        reader.hint_enough(n);
-    }
-    let region = Region::discs(&discs, params.radius);
-    let r2 = params.radius * params.radius;
-    let sphere = params.shape == Shape::Sphere;
-    let inside = |p: &Point, c: &Point| {
-        let dx = p.x - c.x;
-        let dy = p.y - c.y;
-        let mut d2 = dx * dx + dy * dy;
-        if sphere {
-            let dz = p.z - c.z;
-            d2 += dz * dz;
-        }
-        d2 < r2
+    let within = Within::new(reader, centres, params, enough);
+    let mut gens = Generations::new(rayon::current_num_threads() + 1);
+    let mut drain = Drain {
+        per: vec![Vec::new(); centres.len()],
+        sink,
     };
-    // Pieces are read, decoded and tested by the same thread, so each piece's
-    // points are used while they are in its cache; hits are handed to `sink`
-    // in piece order, so the result does not depend on the thread count.
-    //
-    // Each worker thread has its own scratch buffers and, per batch, its own
-    // hit lane: a piece appends its hits to the lane of the thread that ran
-    // it and records where they lie. Two generations of lanes: the hits of
-    // one batch are handed to `sink` on this thread while the pool works on
-    // the next, so neither core waits for the writer. Lanes keep their memory
-    // across batches, so it is faulted in once, and it is bounded by a
-    // batch's hits per thread (one list per piece, as before, grew by copying
-    // and grew each list to the most hits its slot ever saw: with 2 x 128
-    // slots that was about half of the crop's page faults).
-    let lanes = rayon::current_num_threads() + 1;
-    let scratch: Vec<Mutex<Scratch>> = (0..lanes).map(|_| Mutex::default()).collect();
-    let mut cur: Vec<Mutex<Lane>> = (0..lanes).map(|_| Mutex::default()).collect();
-    let mut prev: Vec<Mutex<Lane>> = (0..lanes).map(|_| Mutex::default()).collect();
-    // Per piece of a batch: (lane, segment, start, end) of its hits.
-    let mut cur_spans: Vec<Span> = Vec::new();
-    let mut prev_spans: Vec<Span> = Vec::new();
     let mut buf = Vec::new();
-    // A piece's hits usually belong to one target and go to `sink` as they
-    // lie, without a copy; a piece that mixes targets (crops overlapping, or
-    // two targets near one piece) is sorted out per target first, in order,
-    // so that `sink` is never called point by point.
-    let mut per: Vec<Vec<Point>> = vec![Vec::new(); centres.len()];
-    let mut drain = |lanes: &mut [Mutex<Lane>], spans: &[Span]| -> Result<()> {
+    loop {
+        let Some(batch) = reader.next_batch(&mut buf)? else {
+            break;
+        };
+        let scanned = scan_batch(&*batch, &within, &mut gens, &mut drain);
+        drop(batch);
+        scanned?;
+        gens.swap();
+        progress(reader.bytes_read());
+    }
+    drain.drain(&mut gens.prev, &gens.prev_spans)?;
+    let st = reader.stats();
+    Ok((st.points, st.skipped_nonfinite))
+}
+
+/// Which crops a point lies in: shared read-only by the pool's threads, so
+/// the exact test runs where the piece was decoded, while it is in the cache.
+struct Within<'a> {
+    centres: &'a [Point],
+    grid: CentreIndex,
+    /// Handed to the reader so that it drops most of the map before building
+    /// points; the exact test still decides.
+    region: Option<Region>,
+    r2: f64,
+    sphere: bool,
+}
+
+impl<'a> Within<'a> {
+    /// The test for `centres`, with the reader told where they are (a tiled
+    /// map then opens only the tiles within reach of a centre) and, when
+    /// crops are capped, how many points per crop are kept.
+    fn new(
+        reader: &mut dyn PointReader,
+        centres: &'a [Point],
+        params: &LooseParams,
+        enough: Option<u64>,
+    ) -> Within<'a> {
+        let grid = CentreIndex::new(centres, params.radius);
+        let discs: Vec<[f64; 2]> = centres.iter().map(|c| [c.x, c.y]).collect();
+        reader.hint_discs(&discs, params.radius);
+        if let Some(n) = enough {
+            reader.hint_enough(n);
+        }
+        Within {
+            centres,
+            grid,
+            region: Region::discs(&discs, params.radius),
+            r2: params.radius * params.radius,
+            sphere: params.shape == Shape::Sphere,
+        }
+    }
+
+    /// Appends each point of `block` to `h` once per crop it lies in. The
+    /// whole per-point loop stays in this one function so that the distance
+    /// test inlines into it.
+    #[inline]
+    fn collect(&self, block: &[Point], h: &mut Hits) {
+        let (r2, sphere) = (self.r2, self.sphere);
+        let inside = |p: &Point, c: &Point| {
+            let dx = p.x - c.x;
+            let dy = p.y - c.y;
+            let mut d2 = dx * dx + dy * dy;
+            if sphere {
+                let dz = p.z - c.z;
+                d2 += dz * dz;
+            }
+            d2 < r2
+        };
+        for p in block {
+            for &t in self.grid.candidates(p) {
+                if inside(p, &self.centres[t as usize]) {
+                    h.ids.push(t);
+                    h.pts.push(*p);
+                }
+            }
+        }
+    }
+}
+
+/// Per-thread buffers and two generations of hit lanes: the hits of one
+/// batch are handed to `sink` on the calling thread while the pool works on
+/// the next, so neither core waits for the writer.
+///
+/// Each worker thread has its own scratch buffers and, per batch, its own
+/// hit lane: a piece appends its hits to the lane of the thread that ran it
+/// and records where they lie. Lanes keep their memory across batches, so it
+/// is faulted in once, and it is bounded by a batch's hits per thread (one
+/// list per piece, as before, grew by copying and grew each list to the most
+/// hits its slot ever saw: with 2 x 128 slots that was about half of the
+/// crop's page faults).
+struct Generations {
+    scratch: Vec<Mutex<Scratch>>,
+    cur: Vec<Mutex<Lane>>,
+    prev: Vec<Mutex<Lane>>,
+    /// Per piece of a batch: (lane, segment, start, end) of its hits.
+    cur_spans: Vec<Span>,
+    prev_spans: Vec<Span>,
+}
+
+impl Generations {
+    /// `lanes` of each kind: one per worker thread and one shared by any
+    /// other thread.
+    fn new(lanes: usize) -> Generations {
+        Generations {
+            scratch: (0..lanes).map(|_| Mutex::default()).collect(),
+            cur: (0..lanes).map(|_| Mutex::default()).collect(),
+            prev: (0..lanes).map(|_| Mutex::default()).collect(),
+            cur_spans: Vec::new(),
+            prev_spans: Vec::new(),
+        }
+    }
+
+    /// The batch just scanned becomes the one to drain.
+    fn swap(&mut self) {
+        std::mem::swap(&mut self.cur, &mut self.prev);
+        std::mem::swap(&mut self.cur_spans, &mut self.prev_spans);
+    }
+}
+
+/// Hands hits to `sink` in piece order, so the result does not depend on the
+/// thread count. A piece's hits usually belong to one target and go to `sink`
+/// as they lie, without a copy; a piece that mixes targets (crops
+/// overlapping, or two targets near one piece) is sorted out per target
+/// first, in order, so that `sink` is never called point by point.
+struct Drain<S> {
+    per: Vec<Vec<Point>>,
+    sink: S,
+}
+
+impl<S: FnMut(usize, &[Point]) -> Result<()>> Drain<S> {
+    fn drain(&mut self, lanes: &mut [Mutex<Lane>], spans: &[Span]) -> Result<()> {
         let lanes: Vec<&Lane> = lanes
             .iter_mut()
             .map(|m| &*m.get_mut().unwrap_or_else(|e| e.into_inner()))
@@ -452,81 +448,74 @@ fn crop_each(
                 continue;
             };
             if ids.iter().all(|&i| i == first) {
-                sink(first as usize, pts)?;
+                (self.sink)(first as usize, pts)?;
                 continue;
             }
             for (&i, &p) in ids.iter().zip(pts) {
-                per[i as usize].push(p);
+                self.per[i as usize].push(p);
             }
-            for (i, v) in per.iter_mut().enumerate() {
+            for (i, v) in self.per.iter_mut().enumerate() {
                 if !v.is_empty() {
-                    sink(i, v)?;
+                    (self.sink)(i, v)?;
                     v.clear();
                 }
             }
         }
         Ok(())
-    };
-    loop {
-        let Some(batch) = reader.next_batch(&mut buf)? else {
-            break;
-        };
-        let n = batch.pieces();
-        for l in cur.iter_mut() {
-            l.get_mut().unwrap_or_else(|e| e.into_inner()).clear();
-        }
-        cur_spans.clear();
-        cur_spans.resize(n, (0, 0, 0, 0));
-        let mut done: Vec<Result<()>> = Vec::new();
-        let drained = rayon::in_place_scope(|s| {
-            let (cur, spans, done, batch) = (&cur, &mut cur_spans, &mut done, &batch);
-            let (scratch, region, grid, inside) = (&scratch, &region, &grid, &inside);
-            s.spawn(move |_| {
-                *done = spans
-                    .par_iter_mut()
-                    .enumerate()
-                    .map(|(i, span)| {
-                        // The worker's own lane; the last one is shared by
-                        // any other thread (none in practice): the locks
-                        // keep it correct either way.
-                        let own =
-                            rayon::current_thread_index().map_or(lanes - 1, |t| t.min(lanes - 1));
-                        let (_, mut sc) = lock_any(scratch, own);
-                        let (lane, mut l) = lock_any(cur, own);
-                        let block = match region {
-                            Some(r) => batch.piece_within(i, &mut sc, r),
-                            None => batch.piece(i, &mut sc),
-                        }?;
-                        // Room for every point of the block: more hits only
-                        // where crops overlap (then the segment grows).
-                        let seg = l.room(block.len());
-                        let h = &mut l.segments[seg];
-                        let start = h.pts.len();
-                        for p in block {
-                            for &t in grid.candidates(p) {
-                                if inside(p, &centres[t as usize]) {
-                                    h.ids.push(t);
-                                    h.pts.push(*p);
-                                }
-                            }
-                        }
-                        *span = (lane, seg, start, h.pts.len());
-                        Ok(())
-                    })
-                    .collect();
-            });
-            drain(&mut prev, &prev_spans)
-        });
-        drop(batch);
-        drained?;
-        done.into_iter().collect::<Result<()>>()?;
-        std::mem::swap(&mut cur, &mut prev);
-        std::mem::swap(&mut cur_spans, &mut prev_spans);
-        progress(reader.bytes_read());
     }
-    drain(&mut prev, &prev_spans)?;
-    let st = reader.stats();
-    Ok((st.points, st.skipped_nonfinite))
+}
+
+/// Scans `batch` on the pool into the current lanes while this thread
+/// drains the previous batch's. Pieces are read, decoded and tested by the
+/// same thread, so each piece's points are used while they are in its
+/// cache. The drain's error comes first, then the first piece's.
+fn scan_batch<S: FnMut(usize, &[Point]) -> Result<()>>(
+    batch: &dyn Batch,
+    within: &Within,
+    gens: &mut Generations,
+    drain: &mut Drain<S>,
+) -> Result<()> {
+    let n = batch.pieces();
+    for l in gens.cur.iter_mut() {
+        l.get_mut().unwrap_or_else(|e| e.into_inner()).clear();
+    }
+    gens.cur_spans.clear();
+    gens.cur_spans.resize(n, (0, 0, 0, 0));
+    let lanes = gens.cur.len();
+    let mut done: Vec<Result<()>> = Vec::new();
+    let drained = rayon::in_place_scope(|s| {
+        let (cur, spans, done) = (&gens.cur, &mut gens.cur_spans, &mut done);
+        let scratch = &gens.scratch;
+        s.spawn(move |_| {
+            *done = spans
+                .par_iter_mut()
+                .enumerate()
+                .map(|(i, span)| {
+                    // The worker's own lane; the last one is shared by
+                    // any other thread (none in practice): the locks
+                    // keep it correct either way.
+                    let own = rayon::current_thread_index().map_or(lanes - 1, |t| t.min(lanes - 1));
+                    let (_, mut sc) = lock_any(scratch, own);
+                    let (lane, mut l) = lock_any(cur, own);
+                    let block = match &within.region {
+                        Some(r) => batch.piece_within(i, &mut sc, r),
+                        None => batch.piece(i, &mut sc),
+                    }?;
+                    // Room for every point of the block: more hits only
+                    // where crops overlap (then the segment grows).
+                    let seg = l.room(block.len());
+                    let h = &mut l.segments[seg];
+                    let start = h.pts.len();
+                    within.collect(block, h);
+                    *span = (lane, seg, start, h.pts.len());
+                    Ok(())
+                })
+                .collect();
+        });
+        drain.drain(&mut gens.prev, &gens.prev_spans)
+    });
+    drained?;
+    done.into_iter().collect::<Result<()>>()
 }
 
 #[cfg(test)]

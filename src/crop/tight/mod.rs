@@ -27,7 +27,7 @@ mod ground;
 mod tests;
 
 use crate::Point;
-use finder::find_l;
+use finder::{Rejected, find_l};
 use ground::Ground;
 use nalgebra::Vector3;
 
@@ -233,32 +233,13 @@ pub fn tight_crop_among(
     // the slab against its shells). The kept points are taken from them all.
     let sample: Vec<Vector3<f64>>;
     let seen_by_finder = if ap.len() > DETECT_POINTS {
-        let mut t = crate::crop::loose::Thinned::new(DETECT_POINTS);
-        t.extend(&above.iter().map(|&i| points[i]).collect::<Vec<_>>());
-        sample = t.points.iter().map(|p| p - expected).collect();
+        sample = finder_sample(points, &above, expected);
         &sample
     } else {
         &ap
     };
     let (best, candidates, best_score, seen) = find_l(seen_by_finder, &up, params, &others);
-    let seen = seen.map(|r| {
-        let at = expected + r.corner;
-        let decided = r.along.iter().all(|a| a.norm() > 0.5);
-        Seen {
-            what: r.why,
-            at: [at.x, at.y],
-            faces: decided.then(|| {
-                r.along.map(|a| {
-                    let e = at + a * params.plate_width;
-                    [e.x, e.y]
-                })
-            }),
-            from_expected: r.corner.xy().norm(),
-            plate_size: r
-                .size
-                .map(|s| Box::new(s.map(|v| v.is_finite().then_some(v)))),
-        }
-    });
+    let seen = seen.map(|r| seen_of(r, expected, params.plate_width));
     let Some(l) = best else {
         return Err(TightError::NoTargetShape {
             radius: params.search_radius,
@@ -293,4 +274,35 @@ pub fn tight_crop_among(
         plate_widths: l.widths,
         plate_height: l.band.1 - l.band.0,
     })
+}
+
+/// The uniform sample of the above-ground points (`above`, indices into
+/// `points`) that the L finder sees beyond `DETECT_POINTS`, local about
+/// `expected`: thinned by the loose crop's hash, so the sets nest.
+fn finder_sample(points: &[Point], above: &[usize], expected: &Point) -> Vec<Vector3<f64>> {
+    let mut t = crate::crop::loose::Thinned::new(DETECT_POINTS);
+    t.extend(&above.iter().map(|&i| points[i]).collect::<Vec<_>>());
+    t.points.iter().map(|p| p - expected).collect()
+}
+
+/// A refused window in the crop's frame, for the user: where it stands, its
+/// faces' ends when the checks decided which side each lies on, and its
+/// measured size when only its size refused it.
+fn seen_of(r: Rejected, expected: &Point, plate_width: f64) -> Seen {
+    let at = expected + r.corner;
+    let decided = r.along.iter().all(|a| a.norm() > 0.5);
+    Seen {
+        what: r.why,
+        at: [at.x, at.y],
+        faces: decided.then(|| {
+            r.along.map(|a| {
+                let e = at + a * plate_width;
+                [e.x, e.y]
+            })
+        }),
+        from_expected: r.corner.xy().norm(),
+        plate_size: r
+            .size
+            .map(|s| Box::new(s.map(|v| v.is_finite().then_some(v)))),
+    }
 }

@@ -63,16 +63,43 @@ pub(super) fn fit_l(
 ) -> Result<LShape, Rejected> {
     let [e1, e2] = flat.e;
     let bin = 0.02;
-    let [f1, f2] = flat.xy[*win.first().ok_or(Rejected::unnamed(0))? as usize];
+    let first = flat.xy[*win.first().ok_or(Rejected::unnamed(0))? as usize];
     // Histograms over a fixed range around the first point (every window point
     // is within two window radii of it, plus what a slightly tilted "up" adds):
     // arrays, not hash maps, since this loop is most of a dense map's crop time.
-    let half = ((4.0 * p.plate_width + 0.3) / bin).ceil() as i64 + 2;
+    let bins = Bins {
+        first,
+        half: ((4.0 * p.plate_width + 0.3) / bin).ceil() as i64 + 2,
+        bin,
+    };
+    let xy: Vec<[f64; 2]> = win.iter().map(|&i| flat.xy[i as usize]).collect();
+    let deg = best_heading(&xy, &bins);
+    let (sn, cs) = deg.to_radians().sin_cos();
+    let na = e1 * cs + e2 * sn;
+    let at = AtHeading {
+        cs,
+        sn,
+        n: [na, up.cross(&na)],
+        peaks: heading_peaks(&xy, &bins, [cs, sn], p.min_plate_points),
+    };
+    first_l(flat, win, p, &at, bounded)
+}
+
+/// The fixed histogram range of a window: `half` bins of `bin` either side
+/// of the bin of its first point's projection.
+struct Bins {
+    first: [f64; 2],
+    half: i64,
+    bin: f64,
+}
+
+/// The heading (1.5° steps) where the weaker plate's peak is sharpest; ties
+/// keep the lower angle.
+fn best_heading(xy: &[[f64; 2]], bins: &Bins) -> f64 {
+    let (bin, half) = (bins.bin, bins.half);
+    let [f1, f2] = bins.first;
     let mut hist_a = vec![0u32; (2 * half + 1) as usize];
     let mut hist_b = vec![0u32; (2 * half + 1) as usize];
-    let xy: Vec<[f64; 2]> = win.iter().map(|&i| flat.xy[i as usize]).collect();
-    // The heading (1.5° steps) where the weaker plate's peak is sharpest;
-    // ties keep the lower angle.
     let mut score = |deg: f64, pts: &[[f64; 2]]| {
         // In bins: a product, not a division, per point (a point within an
         // ulp of a bin's edge may fall in the other bin than `peaks` puts
@@ -94,7 +121,7 @@ pub(super) fn fit_l(
     // sample of `HEADING_POINTS`, and its best few headings are scored
     // again on every point: the choice is the whole window's unless the
     // sample ranks the best heading below `HEADING_RESCORE` others.
-    let stride = win.len().div_ceil(HEADING_POINTS).max(1);
+    let stride = xy.len().div_ceil(HEADING_POINTS).max(1);
     if stride > 1 {
         let sample: Vec<[f64; 2]> = xy.iter().step_by(stride).copied().collect();
         let mut ranked: Vec<(usize, usize)> = headings
@@ -109,32 +136,61 @@ pub(super) fn fit_l(
     }
     let mut best = (0, 0.0);
     for deg in headings {
-        let support = score(deg, &xy);
+        let support = score(deg, xy);
         if support > best.0 {
             best = (support, deg);
         }
     }
-    let deg = best.1;
-    let mut why = Rejected::unnamed(0);
-    let (sn, cs) = deg.to_radians().sin_cos();
-    let na = e1 * cs + e2 * sn;
-    let nb = up.cross(&na);
-    // At the winning heading, every strong peak of each histogram: a wall or a
-    // container parallel behind a plate makes a peak of its own, often the
-    // highest. Each pairing is checked in turn, strongest first; the plate
-    // is the one that stops where a plate stops.
+    best.1
+}
+
+/// The winning heading: its cosine and sine, the two plates' normals, and
+/// the strong peaks across each.
+struct AtHeading {
+    cs: f64,
+    sn: f64,
+    n: [Vector3<f64>; 2],
+    peaks: [Vec<(usize, f64)>; 2],
+}
+
+/// At the winning heading `[cs, sn]`, every strong peak of each histogram: a
+/// wall or a container parallel behind a plate makes a peak of its own,
+/// often the highest, so each is a candidate plane.
+fn heading_peaks(
+    xy: &[[f64; 2]],
+    bins: &Bins,
+    [cs, sn]: [f64; 2],
+    min_plate_points: usize,
+) -> [Vec<(usize, f64)>; 2] {
+    let (bin, half) = (bins.bin, bins.half);
+    let [f1, f2] = bins.first;
     let peaks = |proj: &dyn Fn(f64, f64) -> f64| {
         let base = (proj(f1, f2) / bin).floor() as i64 - half;
         let mut h = vec![0u32; (2 * half + 1) as usize];
-        for &[x, y] in &xy {
+        for &[x, y] in xy {
             h[((proj(x, y) / bin).floor() as i64 - base).clamp(0, 2 * half) as usize] += 1;
         }
-        strong_peaks(&h, base, bin, p.min_plate_points)
+        strong_peaks(&h, base, bin, min_plate_points)
     };
-    let (pa, pb) = (
+    [
         peaks(&|x, y| cs * x + sn * y),
         peaks(&|x, y| cs * y - sn * x),
-    );
+    ]
+}
+
+/// The first pairing of peaks, strongest first, that the checks and
+/// `bounded` accept; else the first named refusal. The plate is the one
+/// that stops where a plate stops.
+fn first_l(
+    flat: &Flat,
+    win: &[u32],
+    p: &TightParams,
+    at: &AtHeading,
+    bounded: impl Fn(&LShape) -> bool,
+) -> Result<LShape, Rejected> {
+    let [pa, pb] = &at.peaks;
+    let (cs, sn) = (at.cs, at.sn);
+    let mut why = Rejected::unnamed(0);
     let mut pairs: Vec<(usize, usize, usize)> = (0..pa.len())
         .flat_map(|i| (0..pb.len()).map(move |j| (i, j)))
         .map(|(i, j)| (pa[i].0.min(pb[j].0), i, j))
@@ -157,7 +213,7 @@ pub(super) fn fit_l(
         }
         let a = &*planes_a[i].get_or_insert_with(|| PlanePoints::gather(&by_height, ca, oa, cb));
         let b = &*planes_b[j].get_or_insert_with(|| PlanePoints::gather(&by_height, cb, ob, ca));
-        let checked = check_l(p, [na, nb], [oa, ob], [a, b], score).and_then(|l| {
+        let checked = check_l(p, at.n, [oa, ob], [a, b], score).and_then(|l| {
             if bounded(&l) {
                 Ok(l)
             } else {

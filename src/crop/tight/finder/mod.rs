@@ -102,7 +102,15 @@ pub(super) fn find_l(
 ) -> (Option<LShape>, usize, usize, Option<Rejected>) {
     let w = params.plate_width;
     let step = 0.25_f64.min(w / 2.0);
-    let rw = 0.47 * w / 0.6 * 1.0 + step * 0.75;
+    let cells = cells_of(ap, step);
+    let fits = fit_windows(ap, up, params, &cells, step);
+    let (found, best_score, seen) = tally(fits, params.min_plate_points);
+    choose(found, others, w, best_score, seen)
+}
+
+/// The points' indices by cell of `step`, so that a window, and
+/// `is_bounded`, look only at the cells within their reach.
+fn cells_of(ap: &[Vector3<f64>], step: f64) -> TileMap<(i64, i64), Vec<u32>> {
     // Keys are sorted before use: the fast hasher changes nothing but time.
     let mut cells: TileMap<(i64, i64), Vec<u32>> = TileMap::default();
     for (i, v) in ap.iter().enumerate() {
@@ -111,18 +119,28 @@ pub(super) fn find_l(
             .or_default()
             .push(i as u32);
     }
+    cells
+}
+
+/// The fit of a window about a target's size centred on each occupied cell,
+/// in key order (`None` where too few points for two plates).
+fn fit_windows(
+    ap: &[Vector3<f64>],
+    up: &Vector3<f64>,
+    params: &TightParams,
+    cells: &TileMap<(i64, i64), Vec<u32>>,
+    step: f64,
+) -> Vec<Option<Result<LShape, Rejected>>> {
+    let w = params.plate_width;
+    let rw = 0.47 * w / 0.6 * 1.0 + step * 0.75;
     let mut keys: Vec<(i64, i64)> = cells.keys().copied().collect();
     keys.sort_unstable();
     let reach = (rw / step).ceil() as i64;
-    let mut found: Vec<LShape> = Vec::new();
-    let mut best_score = 0;
-    let mut seen: Option<Rejected> = None;
     // Windows are independent: fitted in parallel (a dense crop's finder
     // then uses the cores its neighbours' targets left idle), consumed in
     // key order, so the choice is the same for any thread count.
     let flat = Flat::new(ap, up);
-    let fits: Vec<Option<Result<LShape, Rejected>>> = keys
-        .par_iter()
+    keys.par_iter()
         .map_init(Vec::new, |window: &mut Vec<u32>, &(kx, ky)| {
             let centre = Vector3::new((kx as f64 + 0.5) * step, (ky as f64 + 0.5) * step, 0.0);
             window.clear();
@@ -141,15 +159,27 @@ pub(super) fn find_l(
             if window.len() < 2 * params.min_plate_points {
                 return None;
             }
-            let bounded = |l: &LShape| is_bounded(l, &cells, ap, step, up, params);
+            let bounded = |l: &LShape| is_bounded(l, cells, ap, step, up, params);
             Some(fit_l(&flat, window, up, params, bounded))
         })
-        .collect();
+        .collect()
+}
+
+/// The windows' Ls strong enough to compete (at least `min` on the weaker
+/// plate), the best score of any, and the best-supported named refusal, to
+/// show the user when nothing passed.
+fn tally(
+    fits: Vec<Option<Result<LShape, Rejected>>>,
+    min: usize,
+) -> (Vec<LShape>, usize, Option<Rejected>) {
+    let mut found: Vec<LShape> = Vec::new();
+    let mut best_score = 0;
+    let mut seen: Option<Rejected> = None;
     for fit in fits.into_iter().flatten() {
         match fit {
             Ok(l) => {
                 best_score = best_score.max(l.score);
-                if l.score >= params.min_plate_points {
+                if l.score >= min {
                     found.push(l);
                 }
             }
@@ -160,6 +190,19 @@ pub(super) fn find_l(
             }
         }
     }
+    (found, best_score, seen)
+}
+
+/// Step 4, the choice: the strong candidate nearest the expected position
+/// (the origin), unless every candidate is nearer another target's
+/// position; returns what `find_l` does.
+fn choose(
+    found: Vec<LShape>,
+    others: &[Vector3<f64>],
+    w: f64,
+    best_score: usize,
+    seen: Option<Rejected>,
+) -> (Option<LShape>, usize, usize, Option<Rejected>) {
     // An L nearer another target's expected position is that target's.
     let theirs = |l: &LShape| {
         others
