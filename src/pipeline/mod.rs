@@ -29,6 +29,7 @@ mod config;
 mod crops;
 mod diagnosis;
 mod frame;
+mod heights;
 mod layout;
 mod passes;
 mod score;
@@ -39,9 +40,10 @@ mod warning;
 
 pub use config::{Config, FrameConfig, FrameMode, MetricsConfig};
 pub use frame::{FrameFound, FrameHow};
+pub use heights::HeightsLean;
 pub use target::{Failure, FarBy, Found, Pass, TargetRun, locate_with};
+pub use vertical::Plumb;
 pub(crate) use vertical::vertical_se_deg;
-pub use vertical::{HeightsLean, Plumb};
 
 use crate::accuracy::{self, Accuracy, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};

@@ -172,35 +172,7 @@ impl std::fmt::Display for Failure {
                     f.write_str(", and too few located targets agree with each other to tell which: check the survey (positions, ids, unit), that these objects are the targets, and the map (a failed loop closure bends a map by metres)")
                 }
             }
-            Failure::Doubled(d) => {
-                let [a, b] = d.copies;
-                let plates: Vec<String> = d
-                    .plates
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, p)| p.doubled)
-                    .map(|(k, p)| {
-                        format!(
-                            "plate {} two layers {:.0} mm apart ({} and {} points, each {:.0} mm thick)",
-                            k + 1,
-                            (p.offsets[1] - p.offsets[0]) * 1e3,
-                            p.counts[0],
-                            p.counts[1],
-                            p.sigma * 1e3
-                        )
-                    })
-                    .collect();
-                write!(
-                    f,
-                    "mapped twice (a seam where a loop closed badly?): {}; the copies' corners are near ({:.3}, {:.3}) and ({:.3}, {:.3}), {:.0} mm apart, and one fit through both would lie between them: not used in the fit",
-                    plates.join(", "),
-                    a.x,
-                    a.y,
-                    b.x,
-                    b.y,
-                    d.separation * 1e3
-                )
-            }
+            Failure::Doubled(d) => doubled(f, d),
             Failure::SameObject { other, at } => write!(
                 f,
                 "the object located at ({:.2}, {:.2}) is target {other}'s, which was expected nearer to it",
@@ -208,6 +180,38 @@ impl std::fmt::Display for Failure {
             ),
         }
     }
+}
+
+/// [`Failure::Doubled`]'s sentence: each doubled plate's two layers, and
+/// where the copies' corners are.
+fn doubled(f: &mut std::fmt::Formatter<'_>, d: &locate::Doubled) -> std::fmt::Result {
+    let [a, b] = d.copies;
+    let plates: Vec<String> = d
+        .plates
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.doubled)
+        .map(|(k, p)| {
+            format!(
+                "plate {} two layers {:.0} mm apart ({} and {} points, each {:.0} mm thick)",
+                k + 1,
+                (p.offsets[1] - p.offsets[0]) * 1e3,
+                p.counts[0],
+                p.counts[1],
+                p.sigma * 1e3
+            )
+        })
+        .collect();
+    write!(
+        f,
+        "mapped twice (a seam where a loop closed badly?): {}; the copies' corners are near ({:.3}, {:.3}) and ({:.3}, {:.3}), {:.0} mm apart, and one fit through both would lie between them: not used in the fit",
+        plates.join(", "),
+        a.x,
+        a.y,
+        b.x,
+        b.y,
+        d.separation * 1e3
+    )
 }
 
 /// Everything the pipeline did for one target.
