@@ -1,8 +1,10 @@
 //! `mapgauge._mapgauge`: the Rust side of the Python package. Each function
 //! here is a thin shim over the library: arguments are checked, the GIL is
 //! released while Rust works, and every `mapgauge::Error` becomes a
-//! `MapgaugeError` carrying the CLI's one-line message. The public API
-//! (argument normalisation, result objects) is `python/mapgauge/__init__.py`.
+//! `MapgaugeError` (or a subclass: `errors.rs`) carrying the CLI's one-line
+//! message. The public API (argument normalisation, result objects) is
+//! `python/mapgauge/__init__.py`; `survey.rs` holds the survey object,
+//! `convert.rs` the arguments' conversions.
 
 use mapgauge::accuracy::{self, ScoreOptions};
 use mapgauge::cloud::{self, MapSource};
@@ -10,372 +12,27 @@ use mapgauge::pipeline::{self, Config, Evaluation, MetricsConfig};
 use mapgauge::record::{ResultFile, SCHEMA, refuse_overwrite};
 use mapgauge::render::{self, OutputFormat};
 use mapgauge::report;
-use mapgauge::survey::{
-    Estimate, EstimateStatus, Geodetic, Survey, SurveyFrame, SurveyOptions, SurveyTarget,
-};
+use mapgauge::survey::{Estimate, EstimateStatus};
 use mapgauge::synth::{self, SynthParams};
 use mapgauge::{Error, Point};
-use numpy::ndarray::{Array2, ArrayView2};
+use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
-use pyo3::create_exception;
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
-use std::time::{Duration, Instant};
 
-create_exception!(
-    mapgauge,
-    MapgaugeError,
-    PyValueError,
-    "Bad input or a failed evaluation; the message is the CLI's one-line error."
-);
+mod convert;
+mod errors;
+mod survey;
 
-create_exception!(
-    mapgauge,
-    TooFewFoundError,
-    MapgaugeError,
-    "Too few targets were located to align the map to the survey (`found`, `need`)."
-);
-create_exception!(
-    mapgauge,
-    FrameNotFoundError,
-    MapgaugeError,
-    "Map-wide detection could not match the map to the survey: its frame is unknown."
-);
-create_exception!(
-    mapgauge,
-    ParseError,
-    MapgaugeError,
-    "A file's contents do not follow its format, or a table has a bad row (`path`, `line`: 0 when not tied to a line)."
-);
-create_exception!(
-    mapgauge,
-    ParamError,
-    MapgaugeError,
-    "A parameter or configuration value is out of range or unknown."
-);
-create_exception!(
-    mapgauge,
-    FileError,
-    MapgaugeError,
-    "The operating system refused a read or write (`path`, `errno`: None when it gave none)."
-);
-create_exception!(
-    mapgauge,
-    NotMetresError,
-    MapgaugeError,
-    "The map's points are spread too thin for metres (a map in millimetres?)."
-);
-
-/// The CLI's message as a Python exception: a subclass of `MapgaugeError`
-/// for the failures a caller may act on, with their numbers as attributes.
-fn err(e: Error) -> PyErr {
-    let msg = e.to_string();
-    match e {
-        Error::TooFewFound { found, need, .. } => {
-            let pe = TooFewFoundError::new_err(msg);
-            Python::attach(|py| {
-                let v = pe.value(py);
-                let _ = v.setattr("found", found);
-                let _ = v.setattr("need", need);
-            });
-            pe
-        }
-        Error::FrameNotFound { detections, .. } => {
-            let pe = FrameNotFoundError::new_err(msg);
-            Python::attach(|py| {
-                let _ = pe.value(py).setattr("detections", detections);
-            });
-            pe
-        }
-        Error::NotMetres { .. } => NotMetresError::new_err(msg),
-        Error::Format { path, .. } => with_path(ParseError::new_err(msg), &path, Some(0)),
-        Error::Table { path, line, .. } => with_path(ParseError::new_err(msg), &path, Some(line)),
-        Error::Param(_) => ParamError::new_err(msg),
-        Error::Io { path, source } => {
-            let pe = with_path(FileError::new_err(msg), &path, None);
-            Python::attach(|py| {
-                let _ = pe.value(py).setattr("errno", source.raw_os_error());
-            });
-            pe
-        }
-        _ => MapgaugeError::new_err(msg),
-    }
-}
-
-/// `e` with the file it is about as `path` (and, for a parse error, `line`).
-fn with_path(e: PyErr, path: &Path, line: Option<u64>) -> PyErr {
-    Python::attach(|py| {
-        let v = e.value(py);
-        let _ = v.setattr("path", path.display().to_string());
-        if let Some(line) = line {
-            let _ = v.setattr("line", line);
-        }
-    });
-    e
-}
-
-fn input_err(msg: impl Into<String>) -> PyErr {
-    MapgaugeError::new_err(msg.into())
-}
-
-/// A serde_json error without its " at line 1 column 42" (the JSON was made
-/// from a Python dict the user never saw as text).
-fn json_msg(e: &serde_json::Error) -> String {
-    let s = e.to_string();
-    match s.rfind(" at line ") {
-        Some(i) => s[..i].to_string(),
-        None => s,
-    }
-}
-
-/// A configuration from the JSON of a Python dict: keys exactly those of
-/// `mapgauge eval --print-config`, unknown keys are errors, ranges checked.
-fn config_from_json(json: Option<&str>) -> PyResult<Config> {
-    let cfg: Config = match json {
-        None => Config::default(),
-        Some(s) => serde_json::from_str(s)
-            .map_err(|e| ParamError::new_err(format!("config: {}", json_msg(&e))))?,
-    };
-    cfg.validate().map_err(err)?;
-    Ok(cfg)
-}
-
-/// Copies an (N, 3) array into points (the pipeline runs without the GIL,
-/// so it cannot borrow memory Python may change meanwhile).
-fn points_of<T: Copy + Into<f64>>(a: ArrayView2<'_, T>, what: &str) -> PyResult<Vec<Point>> {
-    if a.ncols() != 3 {
-        return Err(input_err(format!(
-            "{what}: expected an (N, 3) array, got shape ({}, {})",
-            a.nrows(),
-            a.ncols()
-        )));
-    }
-    Ok(a.rows()
-        .into_iter()
-        .map(|r| Point::new(r[0].into(), r[1].into(), r[2].into()))
-        .collect())
-}
-
-/// Points from a float64 or float32 (N, 3) array.
-fn points_from_any(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<Point>> {
-    if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f64>>() {
-        return points_of(a.as_array(), what);
-    }
-    if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f32>>() {
-        return points_of(a.as_array(), what);
-    }
-    Err(input_err(format!(
-        "{what}: expected a 2-D float64 or float32 numpy array of shape (N, 3)"
-    )))
-}
-
-/// (N, 3) float64 array of points.
-fn points_array<'py>(py: Python<'py>, pts: &[Point]) -> Bound<'py, PyArray2<f64>> {
-    let flat: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-    Array2::from_shape_vec((pts.len(), 3), flat)
-        .expect("3 values per point")
-        .into_pyarray(py)
-}
-
-/// Calls a Python progress callback at most every 0.1 s from Rust code that
-/// runs without the GIL; the first exception it raises is kept for the end
-/// (the pipeline itself cannot be interrupted) and stops further calls.
-struct Progress {
-    cb: Option<Py<PyAny>>,
-    last: Option<Instant>,
-    error: Option<PyErr>,
-}
-
-impl Progress {
-    fn new(cb: Option<Py<PyAny>>) -> Self {
-        Progress {
-            cb,
-            last: None,
-            error: None,
-        }
-    }
-    fn call(&mut self, done: u64, total: u64) {
-        let Some(cb) = &self.cb else { return };
-        if total == 0 {
-            return; // points in memory: nothing streams
-        }
-        if self.error.is_some() {
-            return;
-        }
-        let now = Instant::now();
-        let end = total > 0 && done >= total;
-        if !end
-            && self
-                .last
-                .is_some_and(|l| now - l < Duration::from_millis(100))
-        {
-            return;
-        }
-        self.last = Some(now);
-        if let Err(e) = Python::attach(|py| cb.call1(py, (done, total)).map(drop)) {
-            self.error = Some(e);
-        }
-    }
-    fn finish(self) -> PyResult<()> {
-        match self.error {
-            Some(e) => Err(e),
-            None => Ok(()),
-        }
-    }
-}
-
-/// A survey: the ground truth every map is measured against.
-#[pyclass(frozen, name = "Survey", module = "mapgauge")]
-struct PySurvey {
-    inner: Survey,
-    /// How result.json names it: the path as given, or `<memory>`.
-    name: String,
-    path: Option<PathBuf>,
-}
-
-#[pymethods]
-impl PySurvey {
-    /// Target ids in survey order.
-    #[getter]
-    fn ids(&self) -> Vec<String> {
-        self.inner.targets.iter().map(|t| t.id.clone()).collect()
-    }
-    /// (M, 3) float64 reference points (antenna height removed), z = NaN where
-    /// the survey gives no height.
-    #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let pts: Vec<Point> = self
-            .inner
-            .targets
-            .iter()
-            .map(|t| {
-                let mut p = t.reference();
-                if !t.has_z {
-                    p.z = f64::NAN;
-                }
-                p
-            })
-            .collect();
-        points_array(py, &pts)
-    }
-    /// True when every target has a height.
-    #[getter]
-    fn has_z(&self) -> bool {
-        self.inner.has_z()
-    }
-    /// `local`, `wgs84_enu` or `wgs84_map`.
-    #[getter]
-    fn frame(&self) -> &'static str {
-        match self.inner.frame {
-            SurveyFrame::Local => "local",
-            SurveyFrame::Wgs84Enu => "wgs84_enu",
-            SurveyFrame::Wgs84Map => "wgs84_map",
-        }
-    }
-    /// The survey as result.json names it: the file as given, or `<memory>`.
-    #[getter]
-    fn name(&self) -> String {
-        self.name.clone()
-    }
-    fn __len__(&self) -> usize {
-        self.inner.targets.len()
-    }
-    fn __repr__(&self) -> String {
-        format!(
-            "Survey({}, {} targets, {})",
-            self.name,
-            self.inner.targets.len(),
-            if self.inner.has_z() { "3d" } else { "2d" }
-        )
-    }
-}
-
-/// An ENU origin, checked as the CLI's `--origin` is.
-fn geodetic(lat: f64, lon: f64, alt: f64) -> PyResult<Geodetic> {
-    if !(-90.0..=90.0).contains(&lat) || !(-180.0..=360.0).contains(&lon) || !alt.is_finite() {
-        return Err(input_err(
-            "origin: latitude must be within ±90° and longitude within ±180°",
-        ));
-    }
-    Ok(Geodetic { lat, lon, alt })
-}
-
-/// Reads a survey CSV exactly as `mapgauge eval --survey` does.
-#[pyfunction]
-#[pyo3(signature = (path, origin=None))]
-fn read_survey(py: Python<'_>, path: PathBuf, origin: Option<Vec<f64>>) -> PyResult<PySurvey> {
-    let origin = match origin.as_deref() {
-        None => None,
-        Some(&[lat, lon]) => Some(geodetic(lat, lon, 0.0)?),
-        Some(&[lat, lon, alt]) => Some(geodetic(lat, lon, alt)?),
-        Some(_) => return Err(input_err("origin: expected (lat, lon) or (lat, lon, alt)")),
-    };
-    let inner = py
-        .detach(|| mapgauge::survey::read_survey(&path, &SurveyOptions { origin }))
-        .map_err(err)?;
-    Ok(PySurvey {
-        inner,
-        name: path.display().to_string(),
-        path: Some(path),
-    })
-}
-
-/// A local-frame survey from ids and an (M, 3) array (`has_z` false: heights unknown).
-#[pyfunction]
-fn _survey_from_arrays(
-    ids: Vec<String>,
-    xyz: PyReadonlyArray2<'_, f64>,
-    has_z: bool,
-) -> PyResult<PySurvey> {
-    let pts = points_of(xyz.as_array(), "survey")?;
-    if pts.len() != ids.len() {
-        return Err(input_err(format!(
-            "survey: {} ids for {} positions",
-            ids.len(),
-            pts.len()
-        )));
-    }
-    let mut seen = HashSet::new();
-    let mut targets = Vec::with_capacity(ids.len());
-    for (i, (id, p)) in ids.into_iter().zip(pts).enumerate() {
-        if id.trim().is_empty() {
-            return Err(input_err(format!(
-                "survey: target {} has an empty id",
-                i + 1
-            )));
-        }
-        if !seen.insert(id.clone()) {
-            return Err(input_err(format!("survey: duplicate target id `{id}`")));
-        }
-        let z_ok = !has_z || p.z.is_finite();
-        if !(p.x.is_finite() && p.y.is_finite() && z_ok) {
-            return Err(input_err(format!(
-                "survey: target `{id}` has a non-finite coordinate"
-            )));
-        }
-        targets.push(SurveyTarget {
-            id,
-            position: Point::new(p.x, p.y, if has_z { p.z } else { 0.0 }),
-            has_z,
-            role: None,
-            antenna_height: 0.0,
-            line: i as u64 + 2,
-        });
-    }
-    Ok(PySurvey {
-        inner: Survey {
-            targets,
-            frame: SurveyFrame::Local,
-            origin: None,
-        },
-        name: "<memory>".into(),
-        path: None,
-    })
-}
+use convert::{Progress, config_from_json, points_array, points_from_any, points_of};
+use errors::{
+    FileError, FrameNotFoundError, MapgaugeError, NotMetresError, ParamError, ParseError,
+    TooFewFoundError, err, input_err, json_msg,
+};
+use survey::PySurvey;
 
 /// An evaluation's Rust side: the pipeline's output, its result file and
 /// what is needed to write the report.
@@ -797,8 +454,8 @@ fn _mapgauge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySurvey>()?;
     m.add_class::<EvalCore>()?;
     m.add_class::<ScoreCore>()?;
-    m.add_function(wrap_pyfunction!(read_survey, m)?)?;
-    m.add_function(wrap_pyfunction!(_survey_from_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(survey::read_survey, m)?)?;
+    m.add_function(wrap_pyfunction!(survey::_survey_from_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(_evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(_config, m)?)?;
     m.add_function(wrap_pyfunction!(_errors, m)?)?;
