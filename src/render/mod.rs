@@ -13,7 +13,7 @@ pub use tables::{absolute_grid, relative_grid, survey_mismatches, surveyed_elsew
 pub(crate) use tables::{extra_grid, target_label};
 pub use text::mm;
 pub use text::render_text;
-pub(crate) use text::{fixed, signed_ppm};
+pub(crate) use text::{PAPER_TABLES_UP_TO, fixed, signed_ppm};
 
 use crate::{Error, Result};
 use std::fmt::Write as _;

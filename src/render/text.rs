@@ -11,8 +11,9 @@ use super::tables::{absolute_grid, extra_grid, relative_grid};
 use crate::record::ResultFile;
 use std::fmt::Write as _;
 
-/// Up to this many targets the paper's Tables I and II are printed too.
-const PAPER_TABLES_UP_TO: usize = 6;
+/// Up to this many targets the paper's Tables I and II are printed too
+/// (the terminal summary and the report alike).
+pub(crate) const PAPER_TABLES_UP_TO: usize = 6;
 
 /// Millimetres with one decimal, never "-0.0".
 pub fn mm(m: f64) -> String {

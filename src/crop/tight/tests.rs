@@ -13,15 +13,15 @@ struct Scene {
 /// antenna on top), and optional clutter, sampled uniformly with noise.
 fn scene(seed: u64, slope_deg: f64, heading: f64, clutter: &[&str]) -> Scene {
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
-    let noise = Normal::new(0.0, 0.01).unwrap();
     let origin = Vector3::new(352_000.0, 4_150_000.0, 40.0);
     let slope = slope_deg.to_radians().tan();
     let ground = |x: f64, y: f64| slope * x + 0.05 * (x * 0.8).sin() * (y * 0.6).cos();
-    let mut pts = Vec::new();
-    let mut push = |v: Vector3<f64>, rng: &mut rand_pcg::Pcg64Mcg| {
-        let n = Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng));
-        pts.push(Point::from(origin + v + n));
+    let mut out = Points {
+        noise: Normal::new(0.0, 0.01).unwrap(),
+        origin,
+        pts: Vec::new(),
     };
+    let mut push = |v: Vector3<f64>, rng: &mut rand_pcg::Pcg64Mcg| out.push(v, rng);
     for _ in 0..20_000 {
         let (x, y) = (rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0));
         push(Vector3::new(x, y, ground(x, y)), &mut rng);
@@ -56,72 +56,105 @@ fn scene(seed: u64, slope_deg: f64, heading: f64, clutter: &[&str]) -> Scene {
         ); // antenna
     }
     for what in clutter {
-        match *what {
-            "wall" => {
-                for _ in 0..4000 {
-                    let (s, h) = (rng.random_range(-4.0..4.0), rng.random_range(0.0..3.0));
-                    push(Vector3::new(-2.5, s, ground(-2.5, s) + h), &mut rng);
-                }
-            }
-            "pole" => {
-                for _ in 0..500 {
-                    let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-                    let h = rng.random_range(0.0..4.0);
-                    push(
-                        Vector3::new(
-                            2.2 + 0.1 * a.cos(),
-                            0.3 + 0.1 * a.sin(),
-                            ground(2.2, 0.3) + h,
-                        ),
-                        &mut rng,
-                    );
-                }
-            }
-            "bush" => {
-                // A blob touching the back of the target.
-                let b = c - (d[0] + d[1]) * 0.45 + Vector3::new(0.0, 0.0, base + 0.6);
-                for _ in 0..1500 {
-                    let v = Vector3::new(
-                        rng.random_range(-1.0..1.0),
-                        rng.random_range(-1.0..1.0),
-                        rng.random_range(-1.0..1.0),
-                    );
-                    if v.norm() < 1.0 {
-                        push(b + v * 0.5, &mut rng);
-                    }
-                }
-            }
-            "car" => {
-                // A car body 0.8 m tall (as tall as an L of plates), its
-                // corner nearer the expected position than the target.
-                for _ in 0..8000 {
-                    let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.3..1.1));
-                    let v = match rng.random_range(0..4) {
-                        0 => Vector3::new(-4.0 + s, -2.0, 0.0),
-                        1 => Vector3::new(-4.0 + s, -3.8, 0.0),
-                        2 => Vector3::new(-4.0, -2.0 - s * 0.4, 0.0),
-                        _ => Vector3::new(0.5, -2.0 - s * 0.4, 0.0),
-                    };
-                    push(v + Vector3::new(0.0, 0.0, ground(v.x, v.y) + h), &mut rng);
-                }
-            }
-            "box" => {
-                for _ in 0..6000 {
-                    let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.0..1.5));
-                    let side = rng.random_range(0..2);
-                    let v = if side == 0 {
-                        Vector3::new(-1.0 + s, 2.6, 0.0)
-                    } else {
-                        Vector3::new(-1.0, 2.6 + s * 0.4, 0.0)
-                    };
-                    push(v + Vector3::new(0.0, 0.0, ground(v.x, v.y) + h), &mut rng);
-                }
-            }
-            _ => unreachable!(),
-        }
+        add_clutter(what, (c, d, base), &ground, &mut rng, &mut push);
     }
     let corner = Point::from(origin + c + Vector3::new(0.0, 0.0, bottom + 0.3));
-    Scene { pts, corner }
+    Scene {
+        pts: out.pts,
+        corner,
+    }
+}
+
+/// The scene's points, each `origin + v` with 1 cm noise.
+struct Points {
+    noise: Normal<f64>,
+    origin: Vector3<f64>,
+    pts: Vec<Point>,
+}
+
+impl Points {
+    fn push(&mut self, v: Vector3<f64>, rng: &mut rand_pcg::Pcg64Mcg) {
+        let n = Vector3::new(
+            self.noise.sample(rng),
+            self.noise.sample(rng),
+            self.noise.sample(rng),
+        );
+        self.pts.push(Point::from(self.origin + v + n));
+    }
+}
+
+/// One kind of clutter beside the target at `c` (plates along `d`, post
+/// standing on the ground at `base`).
+fn add_clutter(
+    what: &str,
+    (c, d, base): (Vector3<f64>, [Vector3<f64>; 2], f64),
+    ground: &impl Fn(f64, f64) -> f64,
+    rng: &mut rand_pcg::Pcg64Mcg,
+    push: &mut impl FnMut(Vector3<f64>, &mut rand_pcg::Pcg64Mcg),
+) {
+    match what {
+        "wall" => {
+            for _ in 0..4000 {
+                let (s, h) = (rng.random_range(-4.0..4.0), rng.random_range(0.0..3.0));
+                push(Vector3::new(-2.5, s, ground(-2.5, s) + h), rng);
+            }
+        }
+        "pole" => {
+            for _ in 0..500 {
+                let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+                let h = rng.random_range(0.0..4.0);
+                push(
+                    Vector3::new(
+                        2.2 + 0.1 * a.cos(),
+                        0.3 + 0.1 * a.sin(),
+                        ground(2.2, 0.3) + h,
+                    ),
+                    rng,
+                );
+            }
+        }
+        "bush" => {
+            // A blob touching the back of the target.
+            let b = c - (d[0] + d[1]) * 0.45 + Vector3::new(0.0, 0.0, base + 0.6);
+            for _ in 0..1500 {
+                let v = Vector3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                if v.norm() < 1.0 {
+                    push(b + v * 0.5, rng);
+                }
+            }
+        }
+        "car" => {
+            // A car body 0.8 m tall (as tall as an L of plates), its
+            // corner nearer the expected position than the target.
+            for _ in 0..8000 {
+                let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.3..1.1));
+                let v = match rng.random_range(0..4) {
+                    0 => Vector3::new(-4.0 + s, -2.0, 0.0),
+                    1 => Vector3::new(-4.0 + s, -3.8, 0.0),
+                    2 => Vector3::new(-4.0, -2.0 - s * 0.4, 0.0),
+                    _ => Vector3::new(0.5, -2.0 - s * 0.4, 0.0),
+                };
+                push(v + Vector3::new(0.0, 0.0, ground(v.x, v.y) + h), rng);
+            }
+        }
+        "box" => {
+            for _ in 0..6000 {
+                let (s, h) = (rng.random_range(0.0..4.5), rng.random_range(0.0..1.5));
+                let side = rng.random_range(0..2);
+                let v = if side == 0 {
+                    Vector3::new(-1.0 + s, 2.6, 0.0)
+                } else {
+                    Vector3::new(-1.0, 2.6 + s * 0.4, 0.0)
+                };
+                push(v + Vector3::new(0.0, 0.0, ground(v.x, v.y) + h), rng);
+            }
+        }
+        _ => unreachable!(),
+    }
 }
 
 fn check(sc: &Scene, expected_offset: Vector3<f64>) -> TightCrop {

@@ -4,9 +4,9 @@
 
 use super::*;
 
-/// Up to this many targets the report shows the paper's one-row Tables I and
-/// II (as the terminal does); beyond, a pair matrix and a column.
-const PAPER_TABLES_UP_TO: usize = 6;
+// Up to this many targets the report shows the paper's one-row Tables I and
+// II (as the terminal does); beyond, a pair matrix and a column.
+use crate::render::PAPER_TABLES_UP_TO;
 
 /// Millimetres with one decimal for a table cell, "–" when absent.
 fn mm_cell(v: Option<f64>) -> String {

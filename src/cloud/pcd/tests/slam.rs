@@ -132,7 +132,7 @@ fn packed_rgb_and_padding_fields_are_read_exactly() {
     // A packed rgb with alpha 255 (PCL's PointXYZRGB default) is a NaN as a
     // float; it must neither skip the point nor disturb the coordinates.
     let rgb = |i: usize| (0xff00_0000u32 | (i as u32 * 2_654_435_761 & 0xff_ffff)).to_le_bytes();
-    let layouts: [(&str, &[F], usize, &dyn Fn(usize) -> Vec<u8>); 4] = [
+    let layouts: [Layout; 4] = [
         (
             // FAST-LIVO2's map: PointXYZRGB through pcl::io::savePCDFileBinary.
             "fastlivo2",
@@ -211,47 +211,58 @@ fn packed_rgb_and_padding_fields_are_read_exactly() {
         ),
     ];
     let reg = region();
-    for (name, fields, stride, rest) in layouts {
-        let mut body = Vec::new();
-        let mut want = Vec::new();
-        for (i, p) in pts.iter().enumerate() {
-            let mut c = [p.x as f32, p.y as f32, p.z as f32];
-            // Some points without a return (NaN, as organised clouds hold them).
-            if i % 1009 == 5 {
-                c[i % 3] = f32::NAN;
-            } else {
-                want.push(*p);
-            }
-            let r = if name == "pad_first" {
-                let mut r = vec![0xff; 4];
-                r.extend(record(c, &[]));
-                r
-            } else {
-                record(c, &rest(i))
-            };
-            assert_eq!(r.len(), stride, "{name}");
-            body.extend(r);
-        }
-        let mut bytes = header(fields, pts.len() as u64, 1, "binary").into_bytes();
-        bytes.extend(body);
-        let p = file(&dir, &format!("{name}.pcd"), &bytes);
-        let (all, kept, stats) = read_both(&p, &reg);
-        assert_eq!(all, want, "{name}");
-        let in_reg: Vec<Point> = want
-            .iter()
-            .copied()
-            .filter(|q| reg.contains(q.x, q.y))
-            .collect();
-        assert_eq!(kept, in_reg, "{name}");
-        assert_eq!(
-            stats,
-            ReadStats {
-                points: want.len() as u64,
-                skipped_nonfinite: (pts.len() - want.len()) as u64
-            },
-            "{name}"
-        );
+    for layout in layouts {
+        reads_exactly(&dir, &pts, &reg, layout);
     }
+}
+
+/// A SLAM writer's record layout: name, fields, record size, and the bytes
+/// after x, y, z of point `i`.
+type Layout<'a> = (&'a str, &'a [F], usize, &'a dyn Fn(usize) -> Vec<u8>);
+
+/// `pts` written with `layout` (some without a return) read back exactly,
+/// whole and within `reg`, with the points without a return counted.
+fn reads_exactly(dir: &tempfile::TempDir, pts: &[Point], reg: &Region, layout: Layout) {
+    let (name, fields, stride, rest) = layout;
+    let mut body = Vec::new();
+    let mut want = Vec::new();
+    for (i, p) in pts.iter().enumerate() {
+        let mut c = [p.x as f32, p.y as f32, p.z as f32];
+        // Some points without a return (NaN, as organised clouds hold them).
+        if i % 1009 == 5 {
+            c[i % 3] = f32::NAN;
+        } else {
+            want.push(*p);
+        }
+        let r = if name == "pad_first" {
+            let mut r = vec![0xff; 4];
+            r.extend(record(c, &[]));
+            r
+        } else {
+            record(c, &rest(i))
+        };
+        assert_eq!(r.len(), stride, "{name}");
+        body.extend(r);
+    }
+    let mut bytes = header(fields, pts.len() as u64, 1, "binary").into_bytes();
+    bytes.extend(body);
+    let p = file(&dir, &format!("{name}.pcd"), &bytes);
+    let (all, kept, stats) = read_both(&p, &reg);
+    assert_eq!(all, want, "{name}");
+    let in_reg: Vec<Point> = want
+        .iter()
+        .copied()
+        .filter(|q| reg.contains(q.x, q.y))
+        .collect();
+    assert_eq!(kept, in_reg, "{name}");
+    assert_eq!(
+        stats,
+        ReadStats {
+            points: want.len() as u64,
+            skipped_nonfinite: (pts.len() - want.len()) as u64
+        },
+        "{name}"
+    );
 }
 
 #[test]
