@@ -2,18 +2,22 @@
 //! per-target and per-pair tables, statistics) and their encoders to plain
 //! text, Markdown, LaTeX, CSV, HTML and JSON.
 
+mod html;
+mod numbers;
 mod page;
 mod summary;
 mod tables;
 mod text;
 
+pub use html::{CSS, page};
+pub use numbers::mm;
+pub(crate) use numbers::{fixed, signed_ppm};
 pub use page::{Which, tables_page};
 pub use summary::{OUTPUT_FILES, refuse_overwriting_inputs, render_report, write_outputs};
 pub use tables::{absolute_grid, relative_grid, survey_mismatches, surveyed_elsewhere};
 pub(crate) use tables::{extra_grid, target_label};
-pub use text::mm;
+pub(crate) use text::PAPER_TABLES_UP_TO;
 pub use text::render_text;
-pub(crate) use text::{PAPER_TABLES_UP_TO, fixed, signed_ppm};
 
 use crate::{Error, Result};
 use std::fmt::Write as _;

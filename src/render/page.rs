@@ -76,7 +76,7 @@ pub fn tables_page(
             "<p class=\"sub\">Means and standard deviations in bold as in the paper; \
              a blank cell: the run has no such target; –: it has, but could not locate it.</p>",
         );
-        return crate::report::html::page("mapgauge tables", &body, &[]);
+        return super::page("mapgauge tables", &body, &[]);
     }
     let mut out = String::new();
     for (k, (_, caption, g)) in tables.iter().enumerate() {

@@ -2,7 +2,7 @@
 //! per-pair and statistics tables of one run.
 
 use super::Grid;
-use super::text::mm;
+use super::numbers::mm;
 use crate::record::ResultFile;
 
 /// The paper's label for a target: `t3` for id `3`, the id itself otherwise.

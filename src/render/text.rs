@@ -7,6 +7,7 @@
 
 use super::Grid;
 use super::TableFormat;
+use super::numbers::{fixed, mm, signed_ppm};
 use super::tables::{absolute_grid, extra_grid, relative_grid};
 use crate::record::ResultFile;
 use std::fmt::Write as _;
@@ -14,39 +15,6 @@ use std::fmt::Write as _;
 /// Up to this many targets the paper's Tables I and II are printed too
 /// (the terminal summary and the report alike).
 pub(crate) const PAPER_TABLES_UP_TO: usize = 6;
-
-/// Millimetres with one decimal, never "-0.0".
-pub fn mm(m: f64) -> String {
-    if !m.is_finite() {
-        return "–".into();
-    }
-    let v = (m * 1e4).round() / 10.0;
-    if v == 0.0 {
-        "0.0".into()
-    } else {
-        format!("{v:.1}")
-    }
-}
-
-/// `v` with `d` decimals, never a negative zero ("-0.000").
-pub(crate) fn fixed(v: f64, d: usize) -> String {
-    let s = format!("{v:.d$}");
-    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
-        s[1..].to_string()
-    } else {
-        s
-    }
-}
-
-/// Parts per million with a sign and no decimals ("+1520", "−310", "0").
-pub(crate) fn signed_ppm(v: f64) -> String {
-    let r = v.round();
-    if r == 0.0 {
-        "0".into()
-    } else {
-        format!("{r:+.0}")
-    }
-}
 
 /// Every pair for the terminal: distances in metres, errors in millimetres as
 /// everywhere else on the terminal and in the report (`pairs.csv` keeps metres).

@@ -6,7 +6,7 @@
 
 use super::geometry::{Ground, Object};
 use super::lidar::Road;
-use super::scene::{box_on_ground, l_plate, stream, yaw_box};
+use super::parts::{box_on_ground, l_plate, stream, yaw_box};
 use super::{ClutterInfo, SynthParams, TargetTruth};
 use nalgebra::Vector3;
 use rand::Rng;

@@ -18,6 +18,7 @@ pub mod geometry;
 pub mod lidar;
 mod obstacles;
 mod params;
+mod parts;
 mod scene;
 mod truth;
 
@@ -29,8 +30,9 @@ use geometry::{Ground, World};
 use lidar::{LidarParams, Pose, Road};
 use nalgebra::Vector3;
 pub use obstacles::ObstacleParams;
+use parts::stream;
 use rand::Rng;
-use scene::{Scene, build_scene, stream};
+use scene::{Scene, build_scene};
 
 pub use params::{ClutterParams, Layout, SynthParams};
 pub use params::{SecondPass, TargetShape};

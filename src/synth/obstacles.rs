@@ -4,7 +4,7 @@
 
 use super::geometry::{Ground, Object, Prim};
 use super::lidar::Road;
-use super::scene::{build_target, l_plate, stream, target_truth, yaw_box};
+use super::parts::{build_target, l_plate, stream, target_truth, yaw_box};
 use super::{ClutterInfo, SynthParams, TargetShape, TargetTruth};
 use crate::{Error, Result};
 use nalgebra::Vector3;

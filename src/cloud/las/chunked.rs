@@ -14,8 +14,9 @@
 
 use super::super::producer::{on_reader_thread, panic_text, reader_pool};
 use super::super::{CloudInfo, Format, PointReader, ReadStats, TileStats};
+use super::Chunk;
 use super::laz_check::{check_layers, layer_words};
-pub(super) use super::octree::Octree;
+use super::octree::Octree;
 use crate::{Error, Point, Result};
 use laz::record::{LayeredPointRecordDecompressor, RecordDecompressor};
 use rayon::prelude::*;
@@ -31,14 +32,6 @@ const BLOCK_POINTS: u64 = 1 << 20;
 /// crate (every layer decompressed), as before coordinate-only decoding:
 /// the benchmark's "before".
 pub(super) const CRATE_PATH_ENV: &str = "MAPGAUGE_LAZ_CRATE";
-
-/// One LASzip chunk: where its bytes are and how many points to decode.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Chunk {
-    pub(super) offset: u64,
-    pub(super) bytes: u64,
-    pub(super) points: u64,
-}
 
 /// What a chunked reader is built from (see [`ChunkedLaz::new`]).
 pub(super) struct Layout {

@@ -18,7 +18,9 @@
 
 use super::super::producer::on_reader_thread;
 use super::super::{CloudInfo, Format, TileStats};
-use super::chunked::{Chunk, ChunkedLaz, Layout, Octree};
+use super::Chunk;
+use super::chunked::{ChunkedLaz, Layout};
+use super::octree::Octree;
 use crate::{Error, Result};
 use std::fs::File;
 use std::io::BufReader;

@@ -29,6 +29,14 @@ mod tests;
 
 pub(super) use sink::las_sink;
 
+/// One LASzip chunk: where its bytes are and how many points to decode.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Chunk {
+    pub(super) offset: u64,
+    pub(super) bytes: u64,
+    pub(super) points: u64,
+}
+
 /// Points per block.
 const CHUNK: u64 = 1 << 18;
 /// Points per block of a LAZ file (about 20 LASzip chunks).

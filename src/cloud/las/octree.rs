@@ -6,7 +6,7 @@
 //! cubes, apart from decoding the chosen chunks (`chunked.rs`).
 
 use super::super::TileStats;
-use super::chunked::Chunk;
+use super::Chunk;
 
 /// A COPC file's octree: the voxel key and cube of each chunk (node).
 pub(super) struct Octree {
