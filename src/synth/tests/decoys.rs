@@ -104,23 +104,7 @@ fn decoys_are_deterministic_and_move_nothing_else() {
     assert!(with_decoys(1, 1, 201).validate().is_err());
     // Same seed, same bytes (points and truth), whatever the thread count.
     let p = with_decoys(4, 120_000, 10);
-    let (a, ta, _) = collect(&p);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    let (b, tb, _) = pool.install(|| collect(&p));
-    assert_eq!(a.len(), b.len());
-    assert!(
-        a.iter()
-            .zip(&b)
-            .all(|(x, y)| x.coords.map(f64::to_bits) == y.coords.map(f64::to_bits))
-    );
-    assert_eq!(ta, tb);
-    assert_eq!(
-        serde_json::to_string(&ta).unwrap(),
-        serde_json::to_string(&tb).unwrap()
-    );
+    same_on_one_thread(&p);
 }
 
 #[test]
