@@ -17,6 +17,8 @@
 //! | align | [`align`] | rigid / similarity / robust (Eq. 1) map → survey fits |
 //! | accuracy | [`accuracy`] | absolute, relative, leave-one-out, ASPRS: typed numbers |
 //! | all of it | [`pipeline`] | the stages composed, as `mapgauge eval` runs them: [`pipeline::run`] |
+//! | many runs | [`batch`] | methods × sequences from a manifest, in parallel, resumable: tables per sequence, a leaderboard, each method against a baseline |
+//! | gates | [`gate`] | quality gates (`E_abs<=0.05`) judged with their 95 % intervals, for CI |
 //! | record | [`record`] | `result.json`: its schema, built from the typed values, read and written |
 //! | render | [`render`] | the paper's tables and others as text, Markdown, LaTeX, CSV, HTML, JSON |
 //! | report | [`report`] | report.html, SVG and PNG figures of an evaluation |
@@ -106,12 +108,14 @@
 
 pub mod accuracy;
 pub mod align;
+pub mod batch;
 pub mod cloud;
 pub mod compare;
 pub mod crop;
 pub mod detect;
 mod error;
 pub mod frame;
+pub mod gate;
 pub(crate) mod geom;
 pub mod locate;
 pub mod pipeline;

@@ -1,7 +1,10 @@
 //! The `mapgauge` command line: parses flags, calls the library, prints.
 //!
-//! Exit codes: 0 success; 1 the run could not produce a result (the reason is
-//! one line on stderr, `error: ...`); 2 bad command-line usage (from clap).
+//! Exit codes: 0 success (every gate passed, or none was set); 1 a quality
+//! gate failed (`--gate`); 2 bad command-line usage (from clap); 3 a gate was
+//! undecided under `--gate-policy strict` (its 95 % interval straddles the
+//! threshold); 4 the run could not produce a result (the reason is one line
+//! on stderr, `error: ...`).
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -10,7 +13,13 @@ mod cmd;
 
 /// Measure the accuracy of a LiDAR SLAM point-cloud map with surveyed L-shaped targets.
 #[derive(Parser)]
-#[command(name = "mapgauge", version, about, long_about = None)]
+#[command(
+    name = "mapgauge",
+    version,
+    about,
+    long_about = None,
+    after_help = "Exit codes: 0 a result (every gate passed, or none set); 1 a gate failed; 2 usage error; 3 a gate undecided (--gate-policy strict); 4 no result could be produced (the reason on stderr)."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -38,27 +47,37 @@ enum Command {
     Synth(cmd::synth::Args),
     /// Synthesise a scene, evaluate it, and print the tables.
     Demo(cmd::demo::Args),
+    /// Many maps from a manifest (methods × sequences), in parallel and
+    /// resumable: tables per sequence, a leaderboard, comparisons with a baseline.
+    Batch(cmd::batch::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let unit = |r: mapgauge::Result<()>| r.map(|()| 0);
     let result = match cli.command {
         Command::Eval(a) => cmd::eval::run(*a),
-        Command::Crop(a) => cmd::crop::run(a),
-        Command::Locate(a) => cmd::locate::run(a),
-        Command::Detect(a) => cmd::detect::run(a),
+        Command::Crop(a) => unit(cmd::crop::run(a)),
+        Command::Locate(a) => unit(cmd::locate::run(a)),
+        Command::Detect(a) => unit(cmd::detect::run(a)),
         Command::Errors(a) => cmd::errors::run(a),
-        Command::Table(a) => cmd::table::run(a),
-        Command::Compare(a) => cmd::compare::run(a),
-        Command::Synth(a) => cmd::synth::run(a),
-        Command::Convert(a) => cmd::convert::run(a),
-        Command::Demo(a) => cmd::demo::run(a),
+        Command::Table(a) => unit(cmd::table::run(a)),
+        Command::Compare(a) => unit(cmd::compare::run(a)),
+        Command::Synth(a) => unit(cmd::synth::run(a)),
+        Command::Convert(a) => unit(cmd::convert::run(a)),
+        Command::Demo(a) => unit(cmd::demo::run(a)),
+        Command::Batch(a) => cmd::batch::run(a),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(COULD_NOT_EVALUATE)
         }
     }
 }
+
+/// The exit code of a run that could not produce a result: apart from a
+/// failed gate's 1, so CI can tell "the map is not good enough" from "the
+/// map was not measured".
+const COULD_NOT_EVALUATE: u8 = 4;

@@ -68,6 +68,7 @@ __all__ = [
     "survey",
     "synth",
     "table",
+    "batch",
     "config",
     "__version__",
 ]
@@ -76,7 +77,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 SurveyLike = Union[Survey, PathLike, Mapping[str, Sequence[float]]]
 Progress = Callable[[int, int], Any]
 
-_SECTIONS = ("crop", "tight", "locate", "metrics", "frame")
+_SECTIONS = ("crop", "tight", "locate", "metrics", "frame", "gates")
 
 
 def _is_path(x: Any) -> bool:
@@ -258,6 +259,17 @@ class Accuracy:
         return json.loads(json.dumps(self._d()["alignment"]))
 
     @property
+    def gates(self) -> List[Dict[str, Any]]:
+        """Each quality gate's verdict (``result.json``'s ``gates``): empty without gates."""
+        return list(self._d().get("gates", []))
+
+    @property
+    def gate_outcome(self) -> Optional[Dict[str, Any]]:
+        """What the gates decided under their policy (``policy``, ``outcome``,
+        ``exit_code``, ``counts``), or ``None`` without gates."""
+        return self._d().get("gate_outcome")
+
+    @property
     def warnings(self) -> List[str]:
         """Caveats for the reader, as result.json's ``warnings``."""
         return list(self._d()["warnings"])
@@ -338,7 +350,9 @@ def evaluate(
     Configuration keys are those of ``mapgauge eval --print-config``: a nested
     ``config`` dict and/or one keyword per section, e.g.
     ``evaluate(m, s, metrics={"align": "rigid3d", "dim": "3d"}, crop={"radius": 3})``;
-    ``seed`` sets both random streams as ``--seed`` does. ``crops`` is a
+    ``seed`` sets both random streams as ``--seed`` does; quality gates go in
+    ``gates={"checks": ["E_abs<=0.05", "found>=0.9"], "policy": "strict"}``
+    and come back as ``Evaluation.gates`` and ``.gate_outcome``. ``crops`` is a
     directory of hand-made tight crops (``--crops``). ``progress(bytes_read,
     total_bytes)`` is called at most every 0.1 s while a map file streams.
     """
@@ -510,3 +524,93 @@ def table(
     for c in cautions:
         warnings.warn(c, UserWarning, stacklevel=2)
     return text
+
+
+def _batch_worker(kind: str, payload: str, base: str, index: int, out: str) -> str:
+    """One run of a batch, in whatever process the executor chose (module
+    level, so process pools and clusters can pickle it)."""
+    return _mapgauge._batch_run(kind, payload, base, index, out)
+
+
+def batch(
+    manifest: Union[PathLike, Sequence[Mapping[str, Any]]],
+    *,
+    out: Optional[PathLike] = None,
+    executor: Optional[Any] = None,
+    jobs: Optional[int] = None,
+    baseline: Optional[str] = None,
+    config: Optional[PathLike] = None,
+    overrides: Optional[Mapping[str, Any]] = None,
+) -> Dict[str, Any]:
+    """Evaluates many maps, as ``mapgauge batch`` does, on any executor.
+
+    ``manifest`` is a batch manifest (TOML, as for ``mapgauge batch``) or a
+    list of runs, each a dict with ``method``, ``sequence``, ``map``,
+    ``survey`` and optionally ``config`` (a TOML file) and ``overrides``
+    (dicts of config sections); with a list, ``baseline``, ``config`` and
+    ``overrides`` apply to every run and relative paths are from the current
+    directory. Each run's files go to ``out/<sequence>/<method>/``; a run
+    whose inputs, settings and version are those of its last finished run
+    is reused; a failed run leaves ``error.txt`` and stops nothing.
+
+    ``executor`` is any :class:`concurrent.futures.Executor`: by default a
+    process pool of ``jobs`` workers (the manifest's ``jobs``, else the
+    cores; "spawn" processes), or e.g. a Dask cluster's
+    ``distributed.Client(...).get_executor()`` to spread the runs over many
+    machines (the paths must be readable where the runs execute). The
+    summary is written into ``out`` (``batch.json``, ``leaderboard.csv``,
+    ``index.html``...) and returned as a dict: ``runs``, ``leaderboard``,
+    ``comparisons`` and ``exit_code`` (``mapgauge batch``'s). With the default
+    process pool, call it under ``if __name__ == "__main__":`` in a script
+    ("spawn" workers import the script).
+    """
+    if _is_path(manifest):
+        if baseline is not None or config is not None or overrides is not None:
+            raise ParamError("batch: baseline, config and overrides go in the manifest file")
+        # Absolute: the runs may execute in other processes, other directories.
+        kind, payload, base = "path", os.path.abspath(os.fspath(manifest)), ""
+    else:
+        raw: Dict[str, Any] = {"run": [dict(r) for r in manifest]}
+        for r in raw["run"]:
+            for k in ("map", "survey", "config"):
+                if k in r and r[k] is not None:
+                    r[k] = os.fspath(r[k])
+        if baseline is not None:
+            raw["baseline"] = baseline
+        if config is not None:
+            raw["config"] = os.fspath(config)
+        if overrides is not None:
+            raw["overrides"] = dict(overrides)
+        kind, payload, base = "json", _json(raw, "batch runs"), os.getcwd()
+    runs, m_out, _, m_jobs = _mapgauge._batch_plan(kind, payload, base)
+    target = os.fspath(out) if out is not None else m_out
+    if target is None:
+        raise ParamError("batch: give out= (or `out` in the manifest)")
+    target = os.path.abspath(target)
+    if jobs is not None and jobs < 1:
+        raise ParamError("batch: jobs must be 1 or more")
+    own = executor is None
+    if own:
+        import concurrent.futures
+        import multiprocessing
+
+        # "spawn": a forked child would inherit the parent's thread pools mid-state.
+        executor = concurrent.futures.ProcessPoolExecutor(
+            max_workers=min(jobs or m_jobs or os.cpu_count() or 2, len(runs)),
+            mp_context=multiprocessing.get_context("spawn"),
+        )
+    try:
+        futures = [executor.submit(_batch_worker, kind, payload, base, i, target) for i in range(len(runs))]
+        records = []
+        for (seq, method), f in zip(runs, futures):
+            # A worker lost (killed, out of memory) fails its run, not the batch.
+            try:
+                records.append(f.result())
+            except Exception as e:  # noqa: BLE001 - any executor's failure
+                error = f"the executor lost the run: {type(e).__name__}: {e}"
+                records.append(json.dumps({"sequence": seq, "method": method, "status": "failed",
+                                           "error": error, "seconds": 0.0}))
+    finally:
+        if own:
+            executor.shutdown()
+    return json.loads(_mapgauge._batch_summary(kind, payload, base, target, records))

@@ -23,6 +23,7 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
+mod batch;
 mod convert;
 mod errors;
 mod survey;
@@ -150,7 +151,9 @@ fn _evaluate(
     prog.finish()?;
     let ev = run.map_err(err)?;
     // The same file as the CLI's, caveats included.
-    let result = ResultFile::from_evaluation(&ev, &survey.inner, &survey.name);
+    let mut result = ResultFile::from_evaluation(&ev, &survey.inner, &survey.name);
+    // The gates as `eval` judges them, so `to_dict()` stays its result.json.
+    mapgauge::gate::judge(&cfg.gates.checks, cfg.gates.policy, &mut result);
     Ok(EvalCore {
         ev,
         result,
@@ -463,5 +466,8 @@ fn _mapgauge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_locate, m)?)?;
     m.add_function(wrap_pyfunction!(_synth, m)?)?;
     m.add_function(wrap_pyfunction!(_table, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_run, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_summary, m)?)?;
     Ok(())
 }

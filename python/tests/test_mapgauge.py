@@ -454,3 +454,104 @@ def test_errors_are_typed(tmp_path):
     assert e.value.path == str(missing) and e.value.errno == 2
     for cls in (mapgauge.ParseError, mapgauge.ParamError, mapgauge.FileError):
         assert issubclass(cls, mapgauge.MapgaugeError) and issubclass(cls, ValueError)
+
+
+# --- gates and JUnit (issue 34) ----------------------------------------------
+
+
+def test_gates_are_the_cli_gates_and_junit_reads_in_a_real_consumer(cli, scene, tmp_path):
+    """The same gates through Python and the CLI give the same result.json; the
+    CLI's exit code is its outcome's; its JUnit file is read by junitparser (the
+    library GitLab-style tooling uses) with one case per gate and per target."""
+    import junitparser  # .ci/run installs it; a missing consumer fails, not skips
+
+    gates = ["E_abs<=1m", "max_abs<=1mm", "found>=0.5"]
+    out = tmp_path / "cli"
+    flags = [f"--gate={g}" for g in gates]
+    r = run_cli(cli, "eval", "--map", str(scene / "map.ply"), "--survey", str(scene / "survey.csv"),
+                "--out", str(out), "--no-report", "--junit", str(tmp_path / "junit.xml"), *flags, check=False)
+    want = json.loads((out / "result.json").read_text())
+    assert [g["verdict"] for g in want["gates"]] == ["pass", "fail", "pass"]
+    assert r.returncode == want["gate_outcome"]["exit_code"] == 1, r.stderr
+    ev = mapgauge.evaluate(str(scene / "map.ply"), str(scene / "survey.csv"), gates={"checks": gates})
+    assert ev.to_dict() == want
+    assert ev.gates == want["gates"] and ev.gate_outcome["outcome"] == "fail"
+    xml = junitparser.JUnitXml.fromfile(str(tmp_path / "junit.xml"))
+    suites = {s.name: s for s in xml}
+    g = suites["mapgauge eval: gates"]
+    t = suites["mapgauge eval: targets"]
+    assert (g.tests, g.failures) == (3, 1)
+    assert t.tests == len(want["targets"])
+    not_ok = [x for x in want["targets"] if x["status"] != "ok"]
+    assert t.failures == len(not_ok)
+    failed = [c.name for c in g if any(isinstance(x, junitparser.Failure) for x in c.result)]
+    assert failed == ["max_abs<=0.001"]
+    # A bad gate from Python is a ParamError, as a bad flag is a usage error.
+    with pytest.raises(mapgauge.ParamError):
+        mapgauge.evaluate(str(scene / "map.ply"), str(scene / "survey.csv"), gates={"checks": ["E_abs=1"]})
+
+
+# --- batch on any executor (issue 34) -----------------------------------------
+
+
+@pytest.fixture(scope="module")
+def batch_runs(cli, tmp_path_factory):
+    """2 methods × 2 sequences: method b's map drifts 4 times as much as a's;
+    one survey per sequence (the seed's), shared by both methods."""
+    root = tmp_path_factory.mktemp("batch")
+    runs = []
+    for s in (1, 2):
+        for m, k in (("a", 0.5), ("b", 2.0)):
+            cfg = root / f"drift_{m}.toml"
+            cfg.write_text(f"[distortion]\ndrift_m = [{0.04 * k}, {-0.03 * k}, {0.02 * k}]\n")
+            d = root / f"s{s}" / m
+            run_cli(cli, "synth", "--points", "700000", "--seed", str(s), "--config", str(cfg), "--out", str(d))
+            runs.append({"method": m, "sequence": f"s{s}", "map": d / "map.ply", "survey": root / f"s{s}" / "a" / "survey.csv"})
+    return runs
+
+
+def _statuses(summary):
+    return [r["status"] for r in summary["runs"]]
+
+
+def test_batch_on_a_process_pool_is_the_cli_batch(cli, batch_runs, tmp_path):
+    import concurrent.futures
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(2, mp_context=ctx) as ex:
+        s = mapgauge.batch(batch_runs, out=tmp_path / "py", executor=ex, baseline="a")
+    assert _statuses(s) == ["evaluated"] * 4 and s["exit_code"] == 0
+    assert [l["method"] for l in s["leaderboard"]] == ["a", "b"]
+    assert len(s["comparisons"]) == 2
+    # The CLI's batch of the same runs: the same files, byte for byte.
+    manifest = 'baseline = "a"\n\n' + "".join(
+        f'[[run]]\nmethod = "{r["method"]}"\nsequence = "{r["sequence"]}"\nmap = "{r["map"]}"\nsurvey = "{r["survey"]}"\n\n'
+        for r in batch_runs
+    )
+    (tmp_path / "runs.toml").write_text(manifest)
+    run_cli(cli, "batch", str(tmp_path / "runs.toml"), "--out", str(tmp_path / "cli"))
+    for r in batch_runs:
+        for f in ("result.json", "targets.csv"):
+            rel = Path(r["sequence"]) / r["method"] / f
+            assert (tmp_path / "py" / rel).read_bytes() == (tmp_path / "cli" / rel).read_bytes(), rel
+    assert (tmp_path / "py" / "leaderboard.csv").read_bytes() == (tmp_path / "cli" / "leaderboard.csv").read_bytes()
+    # Again with the default executor: nothing changed, nothing evaluated.
+    again = mapgauge.batch(batch_runs, out=tmp_path / "py", baseline="a")
+    assert _statuses(again) == ["reused"] * 4
+    assert again["leaderboard"] == s["leaderboard"]
+    with pytest.raises(mapgauge.ParamError):
+        mapgauge.batch([dict(batch_runs[0], sequence="../up")], out=tmp_path / "bad")
+
+
+def test_batch_on_a_dask_cluster(batch_runs, tmp_path):
+    """A Dask cluster's executor runs the batch: the recipe for hundreds of
+    runs over many machines (here two local worker processes)."""
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            s = mapgauge.batch(batch_runs, out=tmp_path / "dask", executor=client.get_executor(), baseline="a")
+    assert _statuses(s) == ["evaluated"] * 4 and s["exit_code"] == 0
+    assert [l["method"] for l in s["leaderboard"]] == ["a", "b"]
+    assert (tmp_path / "dask" / "index.html").is_file()

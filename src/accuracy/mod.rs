@@ -9,6 +9,7 @@ pub mod intervals;
 mod scale;
 mod score;
 mod stats;
+mod unfitted;
 
 pub use asprs::{Asprs, AsprsCaveat};
 pub use intervals::{Ci95, Intervals};
@@ -18,6 +19,7 @@ pub use score::{score, score_with_covariances};
 pub(crate) use stats::t975;
 pub use stats::{AxisStats, PairError, Summary, leave_one_out};
 pub(crate) use stats::{dist, relative_errors, summarize};
+pub use unfitted::{Unfitted, unfitted};
 
 use crate::align::{self, AlignMethod, Alignment};
 use crate::survey::{Estimate, EstimateStatus, Role, Survey};

@@ -40,10 +40,12 @@ pub struct Args {
     /// Also write result.json, targets.csv and pairs.csv into this directory.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub gates: super::GateArgs,
 }
 
-/// Runs `mapgauge errors`.
-pub fn run(a: Args) -> Result<()> {
+/// Runs `mapgauge errors`; `Ok` holds the exit code its gates decided.
+pub fn run(a: Args) -> Result<u8> {
     if let Some((h, v)) = a.survey_sigma {
         if h < 0.0 || v.is_some_and(|v| v < 0.0) {
             return Err(Error::Param("--survey-sigma must be ≥ 0".into()));
@@ -52,6 +54,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(out) = &a.out {
         super::check_out_dir(out)?;
     }
+    a.gates.check(&[&a.survey, &a.estimates])?;
     let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
     super::check_origin_used(&survey, a.origin, &a.survey)?;
     let estimates = read_estimates(&a.estimates)?;
@@ -65,12 +68,20 @@ pub fn run(a: Args) -> Result<()> {
             vertical: None,
         },
     )?;
-    let result = ResultFile::from_accuracy(&acc, &survey);
+    let mut result = ResultFile::from_accuracy(&acc, &survey);
+    let policy = a.gates.gate_policy.unwrap_or_default();
+    mapgauge::gate::judge(&a.gates.gate, policy, &mut result);
     if let Some(dir) = &a.out {
         mapgauge::render::refuse_overwriting_inputs(dir, &[&a.survey, &a.estimates])?;
         write_outputs(&result, dir)?;
         eprintln!("wrote {}", dir.join("result.json").display());
     }
     super::eval::print_result(&result, a.format, a.verbose);
-    Ok(())
+    if a.format != OutputFormat::Table(mapgauge::render::TableFormat::Text) {
+        for line in mapgauge::render::gate_lines(&result) {
+            eprintln!("{line}");
+        }
+    }
+    a.gates.write_junit(&result, "mapgauge errors")?;
+    Ok(result.gate_outcome.map_or(0, |o| o.exit_code))
 }

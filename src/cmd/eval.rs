@@ -110,6 +110,8 @@ pub struct Args {
     /// distance driven to it [default: none].
     #[arg(long, value_name = "FILE")]
     pub trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    pub gates: super::GateArgs,
 }
 
 /// Builds the configuration: defaults, then the TOML file, then flags.
@@ -158,16 +160,42 @@ pub fn config(a: &Args) -> Result<Config> {
     if let Some(o) = a.origin {
         cfg.frame.origin = Some([o.lat, o.lon, o.alt]);
     }
+    if !a.gates.gate.is_empty() {
+        cfg.gates.checks = a.gates.gate.clone();
+    }
+    if let Some(p) = a.gates.gate_policy {
+        cfg.gates.policy = p;
+    }
     cfg.validate()?;
     Ok(cfg)
 }
 
-/// Runs `eval`.
-pub fn run(a: Args) -> Result<()> {
+/// Runs `eval`; `Ok` holds the exit code its gates decided (0 without gates).
+/// With `--junit`, a run that cannot produce a result still leaves a JUnit
+/// file that says why (unless the file would overwrite an input).
+pub fn run(a: Args) -> Result<u8> {
+    let r = run_eval(&a);
+    if let Err(e) = &r
+        && a.gates.check(&given_inputs(&a)).is_ok()
+    {
+        a.gates.write_junit_error(e, "mapgauge eval");
+    }
+    r
+}
+
+/// Every input file named on the command line (what no output may overwrite).
+fn given_inputs(a: &Args) -> Vec<&Path> {
+    [&a.map, &a.survey, &a.config, &a.trajectory, &a.hints]
+        .into_iter()
+        .filter_map(|p| p.as_deref())
+        .collect()
+}
+
+fn run_eval(a: &Args) -> Result<u8> {
     let cfg = config(&a)?;
     if a.print_config {
         out!("{}", cfg.to_toml());
-        return Ok(());
+        return Ok(0);
     }
     let (Some(map), Some(survey_path)) = (a.map.as_deref(), a.survey.as_deref()) else {
         return Err(Error::Param("--map and --survey are required".into()));
@@ -180,6 +208,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = &a.plots {
         super::check_dir_flag(dir, "--plots")?;
     }
+    a.gates.check(&given_inputs(&a))?;
     // Read before the run: a bad trajectory should cost nothing.
     let route = a
         .trajectory
@@ -244,6 +273,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(e) = hash_error {
         return Err(e);
     }
+    eprintln!("{}", provenance(&cfg, hashed.as_ref()));
     write_report(
         &ev,
         &result,
@@ -253,7 +283,65 @@ pub fn run(a: Args) -> Result<()> {
         html.as_deref(),
         a.plots.as_deref(),
         route.as_ref(),
-    )
+    )?;
+    // Last: a JUnit file holds the verdicts only when everything else was
+    // written (else the error's JUnit, from `run`, says what went wrong).
+    a.gates.write_junit(&result, "mapgauge eval")?;
+    Ok(result.gate_outcome.map_or(0, |o| o.exit_code))
+}
+
+/// One line that says how the numbers were made, to paste beside them:
+/// the version, the command as typed (shell-quoted), the effective settings
+/// that move the numbers (and the hash of the whole effective
+/// configuration, defaults included), the inputs' hashes.
+fn provenance(cfg: &Config, hashed: Option<&HashedInputs>) -> String {
+    let argv: Vec<String> = std::env::args_os()
+        .skip(1)
+        .map(|a| shell_quote(&a.to_string_lossy()))
+        .collect();
+    let tight = if cfg.tight.seed != cfg.locate.seed {
+        format!(" (tight crop {})", cfg.tight.seed)
+    } else {
+        String::new()
+    };
+    let mut line = format!(
+        "provenance: mapgauge {} {}; settings: align {}, dim {}, seed {}{tight}, frame {}",
+        env!("CARGO_PKG_VERSION"),
+        argv.join(" "),
+        cfg.metrics.align,
+        cfg.metrics.dim.label().to_lowercase(),
+        cfg.locate.seed,
+        format!("{:?}", cfg.frame.mode).to_lowercase()
+    );
+    if !cfg.gates.checks.is_empty() {
+        let gates: Vec<String> = cfg.gates.checks.iter().map(|g| g.to_string()).collect();
+        line += &format!(", gates {} ({})", gates.join(" "), cfg.gates.policy.name());
+    }
+    let whole = blake3::hash(cfg.to_toml().as_bytes()).to_hex();
+    line += &format!(", config blake3:{}", &whole[..16]);
+    match hashed {
+        Some(h) => {
+            let files: Vec<String> = h
+                .files
+                .iter()
+                .map(|f| format!("{} blake3:{}", f.role, &f.blake3[..16.min(f.blake3.len())]))
+                .collect();
+            line += &format!("; inputs {}", files.join(", "));
+        }
+        None => line += "; inputs not hashed (no report written)",
+    }
+    line
+}
+
+/// `s` as one POSIX shell word: as it is when it holds only safe
+/// characters, else single-quoted (a `'` inside as `'\''`).
+fn shell_quote(s: &str) -> String {
+    let safe = |c: char| c.is_ascii_alphanumeric() || "_./=:,+@%-".contains(c);
+    if !s.is_empty() && s.chars().all(safe) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
 }
 
 /// Says when located targets lie far from every point of the trajectory: a
@@ -403,12 +491,16 @@ pub fn evaluate(
             return Err(f.error);
         }
     };
-    let result = result_file(&ev, &survey, survey_path);
+    let mut result = result_file(&ev, &survey, survey_path);
+    mapgauge::gate::judge(&cfg.gates.checks, cfg.gates.policy, &mut result);
     // The text summary gives the warnings, ranked, and each target's reason
     // in its table: saying them on stderr too would only double the noise.
     // Other formats say on stderr the caveats result.json holds, in the text
     // summary's order.
     if a.format != OutputFormat::Table(TableFormat::Text) {
+        for line in render::gate_lines(&result) {
+            eprintln!("{line}");
+        }
         for w in result.caveats() {
             eprintln!("warning: {w}");
         }

@@ -14,6 +14,7 @@ macro_rules! outln {
     ($($arg:tt)*) => {{ out!($($arg)*); out!("\n") }};
 }
 
+pub mod batch;
 pub mod compare;
 pub mod convert;
 pub mod crop;
@@ -26,7 +27,9 @@ pub mod synth;
 pub mod table;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use mapgauge::Result;
 use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Set once stdout failed: nothing more is written to it.
@@ -62,6 +65,20 @@ pub fn progress_bar(total: u64, what: &str) -> Option<ProgressBar> {
         .progress_chars("=> "),
     );
     pb.set_message(what.to_string());
+    Some(pb)
+}
+
+/// A progress bar over a batch's runs, on a terminal only.
+pub fn runs_bar(total: u64) -> Option<ProgressBar> {
+    if !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let pb = ProgressBar::new(total);
+    pb.set_style(
+        ProgressStyle::with_template("runs [{bar:40}] {pos}/{len} eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
     Some(pb)
 }
 
@@ -176,5 +193,66 @@ pub fn say_projected(survey: &mapgauge::survey::Survey, projector: Option<&std::
             "the WGS84 survey is placed in the map frame by {}",
             p.display()
         );
+    }
+}
+
+/// The quality-gate flags of `eval` and `errors`.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct GateArgs {
+    /// A quality gate `STATISTIC OP NUMBER[UNIT]`, repeatable: `E_abs<=0.05`,
+    /// `max_abs<10cm`, `RMSE_H<=25mm`, `found>=0.9`, `scale_ppm<=200`.
+    /// Statistics: E_abs E_rel max_abs median_abs max_rel E_loo RMSE_H RMSE_V
+    /// RMSE_3D NSSDA_H NSSDA_V (metres, or cm/mm), scale_ppm, found (0-1 or %).
+    /// Each is judged with its 95 % interval: pass when the whole interval
+    /// meets the threshold, fail when none of it does, undecided otherwise.
+    /// Replaces the config's `[gates] checks` (eval) [default: none].
+    #[arg(long = "gate", value_name = "GATE")]
+    pub gate: Vec<mapgauge::gate::Gate>,
+    /// What the gates do to the exit code: strict (a failed gate exits 1, an
+    /// undecided one 3), point (each gate on its value alone, interval
+    /// ignored: exit 1 when one misses), report-only (verdicts written,
+    /// exit 0) [default: strict].
+    #[arg(long, value_enum, value_name = "POLICY")]
+    pub gate_policy: Option<mapgauge::gate::Policy>,
+    /// Also write a JUnit XML report to FILE, for CI test reports (GitLab,
+    /// GitHub, Jenkins): one test case per gate and per target (a target
+    /// not found fails with its reason).
+    #[arg(long, value_name = "FILE")]
+    pub junit: Option<PathBuf>,
+}
+
+impl GateArgs {
+    /// Refuses a JUnit path that names an input, before any work.
+    pub fn check(&self, inputs: &[&Path]) -> Result<()> {
+        match &self.junit {
+            Some(j) => mapgauge::record::refuse_overwrite(j, inputs),
+            None => Ok(()),
+        }
+    }
+    /// Writes a JUnit report of the error when asked for: the run could not
+    /// produce a result (a failure to write it is said, not returned: the
+    /// run's own error is the one to report).
+    pub fn write_junit_error(&self, e: &mapgauge::Error, suite: &str) {
+        if let Some(j) = &self.junit {
+            if let Some(dir) = j.parent().filter(|d| !d.as_os_str().is_empty()) {
+                let _ = std::fs::create_dir_all(dir);
+            }
+            let xml = mapgauge::render::junit_error(suite, &e.to_string());
+            if let Err(w) = mapgauge::record::write_atomic(j, xml.as_bytes()) {
+                eprintln!("warning: the JUnit report could not be written: {w}");
+            }
+        }
+    }
+    /// Writes the JUnit report when asked for.
+    pub fn write_junit(&self, result: &mapgauge::record::ResultFile, suite: &str) -> Result<()> {
+        if let Some(j) = &self.junit {
+            if let Some(dir) = j.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| mapgauge::Error::io(dir, e))?;
+            }
+            let xml = mapgauge::render::junit_xml(result, suite);
+            mapgauge::record::write_atomic(j, xml.as_bytes())?;
+            eprintln!("JUnit report written to {}", j.display());
+        }
+        Ok(())
     }
 }

@@ -39,7 +39,9 @@ mod height;
 pub(crate) mod kmeans;
 mod layers;
 mod params;
-#[doc(hidden)]
+/// Random L-target crops with known corners, for the unit tests and the
+/// locator's benchmark: behind the `testgen` feature, not part of the API.
+#[cfg(any(test, feature = "testgen"))]
 pub mod testgen;
 #[cfg(test)]
 mod tests;

@@ -24,6 +24,8 @@ pub struct Config {
     pub metrics: MetricsConfig,
     /// Frames: where to look for the targets in the map.
     pub frame: FrameConfig,
+    /// Quality gates the result is held to (none by default).
+    pub gates: crate::gate::GateConfig,
 }
 
 impl Default for Config {
@@ -36,6 +38,7 @@ impl Default for Config {
             locate: LocateParams::default(),
             metrics: MetricsConfig::default(),
             frame: FrameConfig::default(),
+            gates: crate::gate::GateConfig::default(),
         }
     }
 }
@@ -230,6 +233,16 @@ impl Config {
             unset.push((
                 "frame",
                 "# origin = [lat, lon, alt]   # unset: a WGS84 survey's first target ([lat, lon]: alt 0)",
+            ));
+        }
+        if self.gates.checks.is_empty() {
+            unset.push((
+                "gates",
+                "# e.g. checks = [\"E_abs<=0.05\", \"max_abs<=10cm\", \"found>=0.9\"]   # none: exit 0 whenever a result is produced; each gate is judged with its 95 % interval (pass, fail, undecided)",
+            ));
+            unset.push((
+                "gates",
+                "# statistics: E_abs E_rel max_abs median_abs max_rel E_loo RMSE_H RMSE_V RMSE_3D NSSDA_H NSSDA_V (m), scale_ppm, found (0-1); policy: strict (undecided exits 3), point (values only), report-only",
             ));
         }
         let mut out = String::new();

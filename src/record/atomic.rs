@@ -9,7 +9,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
-    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
+    // Process and a per-process count: two threads writing the same name
+    // (a batch's runs) never share a temporary.
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = path.with_file_name(format!(".{name}.tmp{}.{k}", std::process::id()));
     std::fs::write(&tmp, bytes).map_err(|e| {
         // A disk that filled up must not be left holding a partial temporary.
         let _ = std::fs::remove_file(&tmp);

@@ -26,6 +26,8 @@ impl ResultFile {
                 ci95_targets: Some(acc.intervals.e_abs.targets),
                 ..stats(&acc.absolute)
             },
+            unfitted: None,
+            fit_absorbed: None,
             relative: relative(acc),
             leave_one_out: acc.leave_one_out.as_ref().map(held_out),
             control_check: acc.control_check.as_ref().map(|c| ControlCheck {
@@ -46,6 +48,8 @@ impl ResultFile {
             scale: acc.scale,
             warnings: ranked(acc.warnings.iter().map(|w| (w.weight(), warning_text(w)))),
             eval: None,
+            gates: Vec::new(),
+            gate_outcome: None,
         }
     }
 
@@ -68,6 +72,15 @@ impl ResultFile {
                 .chain(ev.warnings.iter().map(|w| (w.weight(), w.to_string()))),
         );
         result.eval = Some(super::EvalInfo::from_evaluation(ev, survey_name));
+        // The map's positions are the survey's frame's only when the
+        // targets were found where the survey places them and the map was
+        // not turned: then the error without a fit means something.
+        let as_is = matches!(ev.frame.how, crate::pipeline::FrameHow::Survey)
+            && ev.frame.levelling.is_identity();
+        if as_is && let Some(u) = crate::accuracy::unfitted(&ev.accuracy) {
+            result.unfitted = Some(stats(&u.summary));
+            result.fit_absorbed = Some(u.absorbed);
+        }
         result
     }
 }

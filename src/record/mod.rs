@@ -291,6 +291,15 @@ pub struct ResultFile {
     pub targets: Vec<TargetOut>,
     /// Absolute error statistics.
     pub absolute: Stats,
+    /// The absolute error without any fit, when the map is in the survey's
+    /// frame (`eval` found the targets where the survey places them, on a
+    /// map it did not level): the error the map carries as it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unfitted: Option<Stats>,
+    /// The share of the unfitted mean error the alignment removed,
+    /// (unfitted − absolute) / unfitted; absent with `unfitted`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_absorbed: Option<f64>,
     /// Relative error statistics.
     pub relative: RelativeStats,
     /// Leave-one-out absolute errors (≥ 3 targets).
@@ -319,6 +328,13 @@ pub struct ResultFile {
     /// Provenance and per-target details of a map evaluation (`eval` only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub eval: Option<EvalInfo>,
+    /// The quality gates the run was held to, each with its verdict, in the
+    /// order given; absent when none were set.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gates: Vec<crate::gate::GateVerdict>,
+    /// What the gates decided under their policy; absent without gates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate_outcome: Option<crate::gate::GateOutcome>,
 }
 
 fn local() -> SurveyFrame {

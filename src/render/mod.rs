@@ -2,6 +2,7 @@
 //! per-target and per-pair tables, statistics) and their encoders to plain
 //! text, Markdown, LaTeX, CSV, HTML and JSON.
 
+mod gates;
 mod html;
 mod numbers;
 mod page;
@@ -9,6 +10,8 @@ mod summary;
 mod tables;
 mod text;
 
+pub(crate) use gates::{evidence as gate_evidence, headline as gates_headline};
+pub use gates::{gate_lines, junit_error, junit_xml};
 pub use html::{CSS, page};
 pub use numbers::mm;
 pub(crate) use numbers::{fixed, signed_ppm};

@@ -48,6 +48,10 @@ fn pairs_mm(r: &ResultFile) -> Grid {
 /// The terminal report of one run; `verbose` adds every pair.
 pub fn render_text(r: &ResultFile, verbose: bool) -> String {
     let mut o = String::new();
+    // A run held to gates says first whether it passed them.
+    for line in super::gate_lines(r) {
+        let _ = writeln!(o, "{line}");
+    }
     headline(&mut o, r);
     intervals(&mut o, r);
     if let Some(sc) = &r.scale {
@@ -92,6 +96,9 @@ fn headline(o: &mut String, r: &ResultFile) {
         mm(r.absolute.rmse),
         mm(r.absolute.max)
     );
+    if let Some(line) = unfitted_line(r) {
+        let _ = writeln!(o, "  {line}");
+    }
     let _ = writeln!(
         o,
         "  E_rel  {:>7} mm   σ_rel {:>7} mm   over {} pairs",
@@ -111,6 +118,30 @@ fn headline(o: &mut String, r: &ResultFile) {
             ", also used to fit"
         }
     );
+}
+
+/// The error of the map as it is, beside the fitted one, and what the fit
+/// took away: `without a fit: E_abs 412.3 mm, max …; the rigid2d fit absorbed
+/// 96 % of it (rotation -1.004°, shift 1.80 m)`. `None` unless the map is in
+/// the survey's frame.
+fn unfitted_line(r: &ResultFile) -> Option<String> {
+    let u = r.unfitted.as_ref()?;
+    let a = &r.alignment;
+    let shift = a.translation[0].hypot(a.translation[1]);
+    let share = r.fit_absorbed.unwrap_or(0.0) * 100.0;
+    let what = if share >= 0.0 {
+        format!("absorbed {} % of it", fixed(share, 0))
+    } else {
+        format!("made it {} % larger", fixed(-share, 0))
+    };
+    Some(format!(
+        "without a fit (the map as it is, in the survey's frame): E_abs {} mm, max {} mm; the {} fit {what} (rotation {}°, shift {} m)",
+        mm(u.mean),
+        mm(u.max),
+        a.method,
+        fixed(a.rotation_deg, 3),
+        fixed(shift, 3)
+    ))
 }
 
 /// The 95 % intervals of the three figures, when the run computed any: how

@@ -70,6 +70,7 @@ pub(crate) fn report_page(rep: &Report, figs: &[Figure]) -> String {
         escape(&p.date_utc)
     );
     let dim = r.dim.label();
+    gates_section(&mut o, r);
     summary_section(&mut o, r, dim);
     if let Some(e) = &r.eval {
         frame_section(&mut o, &e.frame, e.doubling.as_ref());
@@ -88,6 +89,31 @@ pub(crate) fn report_page(rep: &Report, figs: &[Figure]) -> String {
     )
 }
 
+/// The quality gates first, when the run was held to any: whether it
+/// passed, then each gate with the value and interval that decided it.
+fn gates_section(o: &mut String, r: &ResultFile) {
+    let Some(head) = crate::render::gates_headline(r) else {
+        return;
+    };
+    let failed = r.gate_outcome.is_some_and(|g| g.exit_code != 0);
+    let _ = write!(
+        o,
+        "<section id=\"gates\"><h2>Gates</h2><p class=\"{}\">{}</p><div class=\"scroll\"><table class=\"grid\"><thead><tr><th>verdict</th><th class=\"t\">gate</th><th class=\"t\">what decided it</th></tr></thead><tbody>",
+        if failed { "reason" } else { "facts" },
+        escape(&head)
+    );
+    for g in &r.gates {
+        let _ = write!(
+            o,
+            "<tr><td>{}</td><td class=\"t\"><code>{}</code></td><td class=\"t\">{}</td></tr>",
+            g.verdict.word(),
+            escape(&g.gate),
+            escape(&crate::render::gate_evidence(g))
+        );
+    }
+    o.push_str("</tbody></table></div></section>\n");
+}
+
 /// The headline numbers as cards, then every caveat and failed target.
 fn summary_section(o: &mut String, r: &ResultFile, dim: &str) {
     let n_ok = r.targets.iter().filter(|t| t.status == "ok").count();
@@ -102,6 +128,28 @@ fn summary_section(o: &mut String, r: &ResultFile, dim: &str) {
             r.absolute.n
         ),
     );
+    if let (Some(u), Some(share)) = (&r.unfitted, r.fit_absorbed) {
+        card(
+            o,
+            "E_abs without a fit",
+            &mm(u.mean),
+            &format!(
+                "the map as it is in the survey's frame · the {} fit {}",
+                r.alignment.method,
+                if share >= 0.0 {
+                    format!(
+                        "absorbed {} % of it",
+                        crate::render::fixed(share * 100.0, 0)
+                    )
+                } else {
+                    format!(
+                        "made it {} % larger",
+                        crate::render::fixed(-share * 100.0, 0)
+                    )
+                }
+            ),
+        );
+    }
     card(
         o,
         "E_rel (mean relative error)",

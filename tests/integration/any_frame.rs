@@ -290,7 +290,7 @@ fn a_symmetric_layout_is_refused_and_hints_settle_it() {
         ],
     );
     let out = eval(&scene, &dir.path().join("auto"), &[]);
-    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
     let err = stderr(&out);
     assert!(
         err.contains("ambiguous") && err.contains("--hints"),

@@ -255,7 +255,7 @@ fn a_crop_that_finds_nothing_fails_with_the_reason() {
         ],
     );
     let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(4), "{err}");
     assert!(err.contains("no tight crop made: none of the"), "{err}");
     assert!(err.contains("--init X,Y,YAW_DEG"), "{err}");
     let far_path = dir.path().join("far.csv");
@@ -269,14 +269,14 @@ fn a_crop_that_finds_nothing_fails_with_the_reason() {
         ],
     );
     let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(4), "{err}");
     assert!(err.contains("no map points within"), "{err}");
 }
 
 /// Exit code 1 (never the panic code 101) and one line `error: <path>...`.
 fn assert_clean_failure(o: &Output, path: &Path) {
     let err = stderr(o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(4), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
     let want = format!("error: {}", path.display());
     assert!(err.starts_with(&want), "expected `{want}...`, got {err}");
@@ -372,7 +372,7 @@ fn radius_out_of_range_is_a_one_line_error() {
             &[("--map", &map), ("--survey", &survey), ("--out", &out)],
         );
         let err = stderr(&o);
-        assert_eq!(o.status.code(), Some(1), "{r}: {err}");
+        assert_eq!(o.status.code(), Some(4), "{r}: {err}");
         assert_eq!(err.lines().count(), 1, "{r}: {err}");
         assert!(
             err.starts_with("error: ") && err.contains("--radius"),
@@ -407,7 +407,7 @@ fn a_map_in_another_frame_gets_the_way_to_its_frame() {
             &[("--map", &moved), ("--survey", &survey), ("--out", &out)],
         );
         // Nothing found is a failed run (issue 31), with the way to the frame.
-        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
         assert!(
             stderr(&o).contains("needs --init X,Y,YAW_DEG: `mapgauge eval` finds the frame by itself and writes it to result.json as eval.frame.init"),
             "{}",
@@ -430,7 +430,7 @@ fn a_map_in_another_frame_gets_the_way_to_its_frame() {
             ("--out", &dir.path().join("p")),
         ],
     );
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(4));
     assert!(stderr(&o).contains("add --tight"), "{}", stderr(&o));
     let o = run(
         &["crop", "--tight", "--plate-size", "0.6,0.6"],

@@ -199,7 +199,7 @@ fn a_single_plate_is_reported_with_its_reason() {
     // Alone: nothing located → exit 1, the reason as a warning, then one error line.
     let o = locate(&["--format", "csv"], std::slice::from_ref(&bad));
     let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(4), "{err}");
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 2, "{err}");
     assert!(
@@ -240,7 +240,7 @@ fn unreadable_file_is_a_row_not_a_crash() {
     assert!(out.lines().nth(1).unwrap().starts_with("missing,"), "{out}");
     assert!(out.contains("not_found"), "{out}");
     let o = locate(&[], &[missing]);
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(stderr(&o).contains("missing.ply"), "{}", stderr(&o));
 }
 
@@ -265,7 +265,7 @@ fn plate_size_reaches_the_loose_crop_check() {
     let file = dir.path().join("big.ply");
     mapgauge::cloud::write(&file, mapgauge::cloud::OutFormat::Ply, &big).unwrap();
     let o = locate(&["--format", "csv"], std::slice::from_ref(&file));
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("looks like a loose crop"),
         "{}",

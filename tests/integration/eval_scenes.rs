@@ -348,7 +348,7 @@ fn init_transform_hand_crops_and_failures() {
         os("--frame"),
         os("survey"),
     ]);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(4));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("--init") && err.contains("targets found"),
@@ -453,7 +453,7 @@ fn init_transform_hand_crops_and_failures() {
         os("--survey"),
         survey.as_os_str(),
     ]);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(4));
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("error: "));
     let bad = d.join("bad.csv");
     std::fs::write(&bad, "id,x,y\n1,2,3\n2,abc,4\n").unwrap();
@@ -463,7 +463,7 @@ fn init_transform_hand_crops_and_failures() {
         os("--survey"),
         bad.as_os_str(),
     ]);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(4));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.csv:3"), "{err}");
 

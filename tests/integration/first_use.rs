@@ -29,7 +29,7 @@ fn eval_refused(map: &Path, survey: &Path, extra: &[&str]) -> String {
         .output()
         .unwrap();
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(o.status.code(), Some(4), "{e}");
     e
 }
 
@@ -52,7 +52,7 @@ fn crop_tight_then_locate_works_and_a_loose_crop_is_named() {
         .arg(loose.join("1.ply"))
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(4));
     assert!(
         stderr(&o).contains("looks like a loose crop") && stderr(&o).contains("crop --tight"),
         "{}",
@@ -153,7 +153,7 @@ fn surveys_with_semicolons_tabs_or_no_header() {
         .arg(&est)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(4));
     let e = stderr(&o);
     assert!(
         e.starts_with(&format!("error: {}:1: no header line", p.display()))
@@ -193,7 +193,7 @@ fn messages_name_the_remedy() {
         .arg(&f)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(4));
     assert!(
         stderr(&o).contains("exists and is not a directory"),
         "{}",
@@ -225,7 +225,7 @@ fn messages_name_the_remedy() {
             .arg(d.path().join("none.csv"))
             .output()
             .unwrap();
-        assert_eq!(o.status.code(), Some(1), "{cmd}: {}", stderr(&o));
+        assert_eq!(o.status.code(), Some(4), "{cmd}: {}", stderr(&o));
         assert!(
             stderr(&o).contains("-1: must be within 0.001..10000"),
             "{cmd}: {}",
@@ -245,7 +245,7 @@ fn messages_name_the_remedy() {
         .arg(d.path().join("swapped"))
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(
         stderr(&o).contains(
             "only 5 finite points; a map holds thousands around each target: is this the map?"
@@ -323,7 +323,7 @@ fn plots_naming_a_file_is_refused_before_any_work() {
         .arg(&f)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert_eq!(
         stderr(&o).trim_end(),
         format!(
@@ -435,7 +435,7 @@ fn table_warns_about_different_surveys() {
         .args([&results[0], &results[2]])
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("`a` and `c` were scored against different surveys: targets 3 are surveyed at other positions")
             && stderr(&o).contains("--force"),
@@ -481,7 +481,7 @@ fn toml_origin_takes_two_or_three_numbers() {
         .arg(&c)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(4));
     assert!(
         stderr(&o).starts_with(&format!("error: {}:2: ", c.display()))
             && stderr(&o).contains("origin takes [lat, lon] or [lat, lon, alt], got 4 numbers"),
@@ -527,7 +527,7 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
         .unwrap();
     let secs = t0.elapsed().as_secs_f64();
     let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(4), "{err}");
     assert!(
         err.contains("spread too thin")
             && err.contains("millimetres")
@@ -571,7 +571,7 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
         .arg(dir.path().join("z.pcd"))
         .output()
         .unwrap();
-    assert_eq!(bad.status.code(), Some(1), "{}", stderr(&bad));
+    assert_eq!(bad.status.code(), Some(4), "{}", stderr(&bad));
     assert!(stderr(&bad).contains("--scale 0"), "{}", stderr(&bad));
 }
 
@@ -593,7 +593,7 @@ fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis(
         .arg(&sw)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(
         stderr(&o)
             .contains("the survey's x and y look swapped: with them exchanged, 5 of its 5 targets"),
@@ -611,7 +611,7 @@ fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis(
             .output()
             .unwrap();
         let e = stderr(&o);
-        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert_eq!(o.status.code(), Some(4), "{e}");
         assert!(
             e.contains("L's of other plates than configured stand at")
                 && e.contains(&format!("plates about {seen}"))
@@ -632,7 +632,7 @@ fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis(
         .arg(&survey)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(
         stderr(&o).contains(
             "only 0 finite points; a map holds thousands around each target: is this the map?"
@@ -783,7 +783,7 @@ fn float32_coordinates_far_from_the_origin_are_named() {
     };
     let o = shifted("utm", 4.5e5, 5.4e6);
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(o.status.code(), Some(4), "{e}");
     assert!(
         e.contains("stores its coordinates as float32")
             && e.contains("steps of 0.50 m")
@@ -823,7 +823,7 @@ fn a_failed_eval_leaves_a_failure_page() {
         .output()
         .unwrap();
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(o.status.code(), Some(4), "{e}");
     assert!(
         e.contains("failed.csv") && e.contains("report.html") && e.contains("--save-crops"),
         "{e}"
@@ -873,7 +873,7 @@ fn a_failed_eval_still_saves_its_crops_and_reasons() {
         .output()
         .unwrap();
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(o.status.code(), Some(4), "{e}");
     assert!(e.contains("only 0 of 5 targets found"), "{e}");
     assert!(e.contains("failed.csv"), "{e}");
     let csv = std::fs::read_to_string(out.join("failed.csv")).unwrap();

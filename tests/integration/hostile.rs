@@ -33,7 +33,7 @@ fn run(args: &[&std::ffi::OsStr]) -> Output {
 /// Exit code 1, one stderr line `error: <file>...` containing every `want`.
 fn assert_one_line_error(o: &Output, file: &Path, want: &[&str], case: &str) {
     let err = stderr(o);
-    assert_eq!(o.status.code(), Some(1), "{case}: exit code; stderr: {err}");
+    assert_eq!(o.status.code(), Some(4), "{case}: exit code; stderr: {err}");
     assert_eq!(
         err.lines().count(),
         1,
@@ -1292,7 +1292,7 @@ fn an_output_that_is_an_input_is_refused_under_any_spelling() {
         os("--points"),
         os("1000"),
     ]);
-    assert_eq!(r.status.code(), Some(1), "{}", stderr(&r));
+    assert_eq!(r.status.code(), Some(4), "{}", stderr(&r));
     assert!(stderr(&r).contains("is the input"), "{}", stderr(&r));
     assert_eq!(std::fs::read_to_string(&cfg).unwrap(), "seed = 3\n");
     // An --out that is a file is a one-line error too.

@@ -194,7 +194,7 @@ fn the_report_shows_the_map_the_route_and_the_fitted_plates() {
         .output()
         .unwrap();
     let e = crate::util::stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(o.status.code(), Some(4), "{e}");
     assert!(
         e.contains("poses.txt:2: 3 numbers") && e.contains("TUM"),
         "{e}"
