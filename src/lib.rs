@@ -19,6 +19,7 @@
 //! | all of it | [`pipeline`] | the stages composed, as `mapgauge eval` runs them: [`pipeline::run`] |
 //! | many runs | [`batch`] | methods × sequences from a manifest, in parallel, resumable: tables per sequence, a leaderboard, each method against a baseline |
 //! | gates | [`gate`] | quality gates (`E_abs<=0.05`) judged with their 95 % intervals, for CI |
+//! | scores | [`scores`] | benchmark scores (Hilti 2022/2023/2026 points per checkpoint) |
 //! | record | [`record`] | `result.json`: its schema, built from the typed values, read and written |
 //! | render | [`render`] | the paper's tables and others as text, Markdown, LaTeX, CSV, HTML, JSON |
 //! | report | [`report`] | report.html, SVG and PNG figures of an evaluation |
@@ -122,6 +123,7 @@ pub mod pipeline;
 pub mod record;
 pub mod render;
 pub mod report;
+pub mod scores;
 pub mod survey;
 pub mod synth;
 pub mod trajectory;

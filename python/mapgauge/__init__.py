@@ -270,6 +270,13 @@ class Accuracy:
         return self._d().get("gate_outcome")
 
     @property
+    def scores(self) -> Dict[str, Dict[str, Any]]:
+        """Benchmark scores asked for with ``metrics={"scores": ["hilti2023"]}``
+        (``result.json``'s ``scores``): by rule, each with ``total`` (0-100),
+        ``range95``, ``targets``, ``located`` and ``per_target``; empty when none."""
+        return json.loads(json.dumps(self._d().get("scores", {})))
+
+    @property
     def warnings(self) -> List[str]:
         """Caveats for the reader, as result.json's ``warnings``."""
         return list(self._d()["warnings"])
@@ -352,7 +359,9 @@ def evaluate(
     ``evaluate(m, s, metrics={"align": "rigid3d", "dim": "3d"}, crop={"radius": 3})``;
     ``seed`` sets both random streams as ``--seed`` does; quality gates go in
     ``gates={"checks": ["E_abs<=0.05", "found>=0.9"], "policy": "strict"}``
-    and come back as ``Evaluation.gates`` and ``.gate_outcome``. ``crops`` is a
+    and come back as ``Evaluation.gates`` and ``.gate_outcome``; benchmark
+    scores in ``metrics={"scores": ["hilti2022", "hilti2026"]}`` come back as
+    ``Evaluation.scores``. ``crops`` is a
     directory of hand-made tight crops (``--crops``). ``progress(bytes_read,
     total_bytes)`` is called at most every 0.1 s while a map file streams.
     """

@@ -152,8 +152,9 @@ fn _evaluate(
     let ev = run.map_err(err)?;
     // The same file as the CLI's, caveats included.
     let mut result = ResultFile::from_evaluation(&ev, &survey.inner, &survey.name);
-    // The gates as `eval` judges them, so `to_dict()` stays its result.json.
-    mapgauge::gate::judge(&cfg.gates.checks, cfg.gates.policy, &mut result);
+    // The scores and gates as `eval` gives them, so `to_dict()` stays its
+    // result.json.
+    cfg.finish(&mut result);
     Ok(EvalCore {
         ev,
         result,
@@ -435,7 +436,7 @@ fn _table(
         .zip(results.iter())
         .collect();
     Ok((
-        render::tables_page(&named, fmt, which, false),
+        render::tables_page(&named, fmt, which, false, &render::stored_scores(&named)),
         render::survey_mismatches(&named),
     ))
 }

@@ -491,6 +491,54 @@ def test_gates_are_the_cli_gates_and_junit_reads_in_a_real_consumer(cli, scene, 
         mapgauge.evaluate(str(scene / "map.ply"), str(scene / "survey.csv"), gates={"checks": ["E_abs=1"]})
 
 
+# --- benchmark scores (issue 35) ----------------------------------------------
+
+
+def _hilti_points(rule: str, e: np.ndarray) -> np.ndarray:
+    """The challenges' points per checkpoint, from their published bands,
+    written apart from the Rust code (np.select over the bands' edges)."""
+    cm = e * 100.0
+    if rule == "hilti2022":
+        return np.select([cm < 1, cm < 3, cm < 6, cm < 10], [10, 6, 3, 1], 0).astype(float)
+    if rule == "hilti2023":
+        return np.select([cm < 0.5, cm < 1, cm < 3, cm < 6, cm < 10, cm < 40],
+                         [20, 10, 6, 5, 3, 1], 0).astype(float)
+    return 100.0 * np.exp(-0.4605 * cm)
+
+
+def test_scores_recomputed_independently_and_as_the_cli(cli, scene, tmp_path):
+    """Each rule's per-target points and total from numpy over result.json's
+    own errors (a target not located earns 0, the total is 100 × earned /
+    most possible), equal to the CLI's and Python's; in 3D too; `table
+    --score` scores a result written without scores by the same rule."""
+    rules = ["hilti2022", "hilti2023", "hilti2026"]
+    for dim in ("2d", "3d"):
+        out = tmp_path / dim
+        want = json.loads(cli_eval(cli, scene, out, "--score", ",".join(rules), "--dim", dim))
+        ev = mapgauge.evaluate(str(scene / "map.ply"), str(scene / "survey.csv"),
+                               metrics={"scores": rules, "dim": dim})
+        assert ev.to_dict() == want
+        assert list(ev.scores) == rules
+        ts = want["targets"]
+        located = np.array([t["status"] in ("ok", "excluded") and t["abs_error"] is not None for t in ts])
+        errs = np.array([t["abs_error"] if ok else np.inf for t, ok in zip(ts, located)], dtype=float)
+        assert located.sum() >= 3
+        for rule, most in zip(rules, (10.0, 20.0, 100.0)):
+            got = want["scores"][rule]
+            pts = np.where(located, _hilti_points(rule, errs), 0.0)
+            assert [p["points"] for p in got["per_target"]] == pytest.approx(pts, abs=1e-9)
+            assert got["total"] == pytest.approx(100.0 * pts.sum() / (most * len(ts)), abs=1e-9)
+            assert got["range95"][0] <= got["total"] <= got["range95"][1]
+            assert (got["targets"], got["located"]) == (len(ts), int(located.sum()))
+    plain = tmp_path / "plain"
+    cli_eval(cli, scene, plain, "--dim", "3d")
+    tab = json.loads(run_cli(cli, "table", str(plain / "result.json"), str(tmp_path / "3d" / "result.json"),
+                             "--format", "json", "--score", "hilti2026").stdout)
+    totals = [row["Hilti 2026"] for row in tab["scores"]]
+    want3 = json.loads((tmp_path / "3d" / "result.json").read_text())["scores"]["hilti2026"]["total"]
+    assert totals == pytest.approx([want3, want3], abs=1e-9)
+
+
 # --- batch on any executor (issue 34) -----------------------------------------
 
 

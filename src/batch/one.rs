@@ -178,7 +178,7 @@ fn evaluate(run: &Run, dir: &Path, hashed: HashedInputs, inputs: &[&Path]) -> Re
     }
     let ev = crate::pipeline::run(MapSource::File(&run.map), &survey, cfg, |_, _| {})?;
     let mut result = ResultFile::from_evaluation(&ev, &survey, &run.survey.display().to_string());
-    crate::gate::judge(&cfg.gates.checks, cfg.gates.policy, &mut result);
+    cfg.finish(&mut result);
     crate::render::write_outputs(&result, dir)?;
     let html = dir.join("report.html");
     report::write_report(

@@ -9,8 +9,10 @@ use crate::compare::{self, AcrossRuns, across_runs};
 use crate::gate::Outcome;
 use crate::record::{ResultFile, write_atomic};
 use crate::render::{self, Grid, OutputFormat, TableFormat, Which, escape, mm};
+use crate::scores::ScoreKind;
 use crate::{Error, Result};
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -36,6 +38,9 @@ pub struct RunLine {
     pub found: Option<[usize; 2]>,
     /// What its gates decided, when it had any (and they were not report-only).
     pub gates: Option<Outcome>,
+    /// Its benchmark scores' totals (0-100), when the config asked for any.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub scores: BTreeMap<ScoreKind, f64>,
 }
 
 /// One method across the sequences.
@@ -56,6 +61,10 @@ pub struct Leader {
     pub found: [usize; 2],
     /// Runs whose gates passed, failed, were undecided.
     pub gates: [usize; 3],
+    /// Mean of each benchmark score over its sequences, with its 95 %
+    /// interval as `e_abs`'s.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub scores: BTreeMap<ScoreKind, AcrossRuns>,
 }
 
 /// One method against the baseline on one sequence.
@@ -146,6 +155,9 @@ fn run_line(r: &RunRecord) -> RunLine {
             .and_then(|r| r.gate_outcome)
             .filter(|o| o.policy != crate::gate::Policy::ReportOnly)
             .map(|o| o.outcome),
+        scores: res
+            .map(|r| r.scores.iter().map(|(k, s)| (*k, s.total)).collect())
+            .unwrap_or_default(),
     }
 }
 
@@ -179,6 +191,16 @@ fn leader(method: &str, runs: &[RunLine]) -> Leader {
             count(Outcome::Fail),
             count(Outcome::Undecided),
         ],
+        scores: ScoreKind::ALL
+            .into_iter()
+            .filter_map(|k| {
+                let v: Vec<f64> = mine
+                    .iter()
+                    .filter_map(|r| r.scores.get(&k).copied())
+                    .collect();
+                across(v).map(|a| (k, a))
+            })
+            .collect(),
     }
 }
 
@@ -265,8 +287,22 @@ fn mean_ci(a: &Option<AcrossRuns>) -> (String, String) {
     }
 }
 
-/// The leaderboard as a grid (millimetres).
+/// A score's `mean` and `[lo, hi]` (0-100, one decimal).
+fn score_ci(a: Option<&AcrossRuns>) -> (String, String) {
+    let f = |v: f64| render::fixed(v, 1);
+    match a {
+        None => ("–".into(), "–".into()),
+        Some(a) if a.n < 2 => (f(a.mean), "– (1 sequence)".into()),
+        Some(a) => (f(a.mean), format!("[{}, {}]", f(a.ci95[0]), f(a.ci95[1]))),
+    }
+}
+
+/// The leaderboard as a grid (millimetres; scores 0-100 after the errors).
 pub fn leaderboard_grid(s: &Summary) -> Grid {
+    let kinds: Vec<ScoreKind> = ScoreKind::ALL
+        .into_iter()
+        .filter(|k| s.leaderboard.iter().any(|l| l.scores.contains_key(k)))
+        .collect();
     let header = [
         "rank",
         "method",
@@ -286,7 +322,7 @@ pub fn leaderboard_grid(s: &Summary) -> Grid {
         .map(|(i, l)| {
             let (ea, eac) = mean_ci(&l.e_abs);
             let (er, erc) = mean_ci(&l.e_rel);
-            vec![
+            let mut row = vec![
                 (i + 1).to_string(),
                 l.method.clone(),
                 l.sequences.to_string(),
@@ -297,11 +333,22 @@ pub fn leaderboard_grid(s: &Summary) -> Grid {
                 format!("{}/{}", l.found[0], l.found[1]),
                 format!("{}/{}/{}", l.gates[0], l.gates[1], l.gates[2]),
                 l.failed.to_string(),
-            ]
+            ];
+            for k in &kinds {
+                let (m, ci) = score_ci(l.scores.get(k));
+                row.push(m);
+                row.push(ci);
+            }
+            row
         })
         .collect();
+    let mut header: Vec<String> = header.map(String::from).to_vec();
+    for k in &kinds {
+        header.push(format!("{} score", k.title()));
+        header.push(format!("{} 95 %", k.title()));
+    }
     Grid {
-        header: header.map(String::from).to_vec(),
+        header,
         rows,
         bold: Vec::new(),
         values: Vec::new(),
@@ -399,6 +446,7 @@ pub fn write_summary(out: &Path, s: &Summary, records: &[RunRecord]) -> Result<(
             OutputFormat::Table(TableFormat::Markdown),
             Which::Both,
             false,
+            &render::stored_scores(&runs),
         );
         write_atomic(&out.join(seq).join("tables.md"), page.as_bytes())?;
         let mine = || s.comparisons.iter().filter(|v| v.sequence == *seq);

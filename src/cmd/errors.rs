@@ -40,6 +40,14 @@ pub struct Args {
     /// Also write result.json, targets.csv and pairs.csv into this directory.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Benchmark scores to add, repeatable or comma-separated: hilti2022
+    /// (10/6/3/1 points per target below 1/3/6/10 cm), hilti2023
+    /// (20/10/6/5/3/1 below 0.5/1/3/6/10/40 cm), hilti2026 (100·e^(−0.4605·cm));
+    /// each 0-100 over every surveyed target, a target not located earning 0.
+    /// In result.json's `scores` and the summary [default: none; eval: the
+    /// config's `[metrics] scores`].
+    #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
+    pub score: Vec<mapgauge::scores::ScoreKind>,
     #[command(flatten)]
     pub gates: super::GateArgs,
 }
@@ -69,6 +77,7 @@ pub fn run(a: Args) -> Result<u8> {
         },
     )?;
     let mut result = ResultFile::from_accuracy(&acc, &survey);
+    mapgauge::scores::apply(&a.score, &mut result);
     let policy = a.gates.gate_policy.unwrap_or_default();
     mapgauge::gate::judge(&a.gates.gate, policy, &mut result);
     if let Some(dir) = &a.out {

@@ -110,6 +110,14 @@ pub struct Args {
     /// distance driven to it [default: none].
     #[arg(long, value_name = "FILE")]
     pub trajectory: Option<PathBuf>,
+    /// Benchmark scores to add, repeatable or comma-separated: hilti2022
+    /// (10/6/3/1 points per target below 1/3/6/10 cm), hilti2023
+    /// (20/10/6/5/3/1 below 0.5/1/3/6/10/40 cm), hilti2026 (100·e^(−0.4605·cm));
+    /// each 0-100 over every surveyed target, a target not located earning 0.
+    /// In result.json's `scores` and the summary [default: none; eval: the
+    /// config's `[metrics] scores`].
+    #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
+    pub score: Vec<mapgauge::scores::ScoreKind>,
     #[command(flatten)]
     pub gates: super::GateArgs,
 }
@@ -159,6 +167,9 @@ pub fn config(a: &Args) -> Result<Config> {
     }
     if let Some(o) = a.origin {
         cfg.frame.origin = Some([o.lat, o.lon, o.alt]);
+    }
+    if !a.score.is_empty() {
+        cfg.metrics.scores = a.score.clone();
     }
     if !a.gates.gate.is_empty() {
         cfg.gates.checks = a.gates.gate.clone();
@@ -313,6 +324,10 @@ fn provenance(cfg: &Config, hashed: Option<&HashedInputs>) -> String {
         cfg.locate.seed,
         format!("{:?}", cfg.frame.mode).to_lowercase()
     );
+    if !cfg.metrics.scores.is_empty() {
+        let names: Vec<&str> = cfg.metrics.scores.iter().map(|k| k.name()).collect();
+        line += &format!(", scores {}", names.join(" "));
+    }
     if !cfg.gates.checks.is_empty() {
         let gates: Vec<String> = cfg.gates.checks.iter().map(|g| g.to_string()).collect();
         line += &format!(", gates {} ({})", gates.join(" "), cfg.gates.policy.name());
@@ -492,7 +507,7 @@ pub fn evaluate(
         }
     };
     let mut result = result_file(&ev, &survey, survey_path);
-    mapgauge::gate::judge(&cfg.gates.checks, cfg.gates.policy, &mut result);
+    cfg.finish(&mut result);
     // The text summary gives the warnings, ranked, and each target's reason
     // in its table: saying them on stderr too would only double the noise.
     // Other formats say on stderr the caveats result.json holds, in the text

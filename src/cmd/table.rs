@@ -1,4 +1,5 @@
-//! `mapgauge table`: the paper's Tables I and II, one row per result file.
+//! `mapgauge table`: the paper's Tables I and II, one row per result file
+//! (and benchmark scores when asked or stored).
 
 use mapgauge::record::ResultFile;
 use mapgauge::render::{OutputFormat, Which, survey_mismatches, tables_page};
@@ -25,6 +26,12 @@ pub struct Args {
     /// one system: mean ± t·s/√n over runs).
     #[arg(long)]
     stats: bool,
+    /// Add a table of benchmark scores (0-100): hilti2022, hilti2023,
+    /// hilti2026, repeatable or comma-separated; computed from each result's
+    /// targets, so results written without --score are scored too
+    /// [default: the rules the results were scored by].
+    #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
+    score: Vec<mapgauge::scores::ScoreKind>,
 }
 
 /// Runs `table`.
@@ -62,6 +69,11 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let which: Which = a.which.parse()?;
-    out!("{}", tables_page(&runs, a.format, which, a.stats));
+    let scores = if a.score.is_empty() {
+        mapgauge::render::stored_scores(&runs)
+    } else {
+        a.score.clone()
+    };
+    out!("{}", tables_page(&runs, a.format, which, a.stats, &scores));
     Ok(())
 }

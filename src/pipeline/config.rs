@@ -59,6 +59,20 @@ pub struct MetricsConfig {
     /// inconsistent with their covariance and with the other targets); they
     /// stay in the result as `excluded`, with the reason.
     pub exclude_outliers: bool,
+    /// Benchmark scores to add to the result: "hilti2022", "hilti2023",
+    /// "hilti2026" (none by default).
+    pub scores: Vec<crate::scores::ScoreKind>,
+}
+
+impl Config {
+    /// What the configuration asks of a finished result beyond the
+    /// measurement: its benchmark scores, then its gates' verdicts. One
+    /// place, so `eval`, `batch` and Python's `evaluate` write the same
+    /// `result.json`.
+    pub fn finish(&self, result: &mut crate::record::ResultFile) {
+        crate::scores::apply(&self.metrics.scores, result);
+        crate::gate::judge(&self.gates.checks, self.gates.policy, result);
+    }
 }
 
 /// How the map → survey frame is found.

@@ -50,6 +50,7 @@ impl ResultFile {
             eval: None,
             gates: Vec::new(),
             gate_outcome: None,
+            scores: Default::default(),
         }
     }
 

@@ -335,6 +335,9 @@ pub struct ResultFile {
     /// What the gates decided under their policy; absent without gates.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gate_outcome: Option<crate::gate::GateOutcome>,
+    /// Benchmark scores asked for (`--score`), by rule; absent when none.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub scores: std::collections::BTreeMap<crate::scores::ScoreKind, crate::scores::BenchScore>,
 }
 
 fn local() -> SurveyFrame {

@@ -3,6 +3,7 @@
 
 use super::{Grid, OutputFormat, TableFormat, absolute_grid, relative_grid};
 use crate::record::ResultFile;
+use crate::scores::ScoreKind;
 use crate::{Error, Result};
 
 /// Which of the paper's tables a page holds.
@@ -34,11 +35,14 @@ impl std::str::FromStr for Which {
 /// object `{"relative": …, "absolute": …}`, HTML a standalone page, the
 /// others the tables one after the other (Markdown with their captions).
 /// `stats` appends the mean and 95 % interval of every column over the runs.
+/// With `scores`, a third table gives each run's benchmark scores (JSON key
+/// `scores`).
 pub fn tables_page(
     runs: &[(String, &ResultFile)],
     fmt: OutputFormat,
     which: Which,
     stats: bool,
+    scores: &[ScoreKind],
 ) -> String {
     let st = |g: Grid| if stats { with_stats(g) } else { g };
     let mut tables: Vec<(&str, &str, Grid)> = Vec::new();
@@ -49,6 +53,10 @@ pub fn tables_page(
     if which != Which::Relative {
         let g = st(absolute_grid(runs));
         tables.push(("absolute", "Absolute error (m) — Table II", g));
+    }
+    if !scores.is_empty() {
+        let g = st(super::scores::scores_grid(runs, scores));
+        tables.push(("scores", "Benchmark scores (0–100)", g));
     }
     let fmt = match fmt {
         OutputFormat::Table(f) => f,

@@ -118,6 +118,9 @@ fn headline(o: &mut String, r: &ResultFile) {
             ", also used to fit"
         }
     );
+    for line in super::score_lines(r) {
+        let _ = writeln!(o, "  {line}");
+    }
 }
 
 /// The error of the map as it is, beside the fitted one, and what the fit

@@ -162,6 +162,26 @@ fn summary_section(o: &mut String, r: &ResultFile, dim: &str) {
         &mm(r.asprs.rmse_h),
         &format!("NSSDA 95 %: {}", mm(r.asprs.nssda_horizontal_95)),
     );
+    for (k, s) in &r.scores {
+        let range = if s.range95[0] == s.range95[1] {
+            String::new()
+        } else {
+            format!(
+                " · 95 %: {}–{}",
+                crate::render::fixed(s.range95[0], 1),
+                crate::render::fixed(s.range95[1], 1)
+            )
+        };
+        card(
+            o,
+            &format!("{} score", k.title()),
+            &crate::render::fixed(s.total, 1),
+            &format!(
+                "of 100{range} · {} of {} targets located",
+                s.located, s.targets
+            ),
+        );
+    }
     let a = &r.alignment;
     card(
         o,

@@ -11,8 +11,9 @@ use std::path::Path;
 /// Method k's map drifts k/2, 1, 2 times synth's default drift; the four
 /// sequences are four seeds (one survey each, shared by the methods).
 fn scenes(dir: &Path) -> String {
-    let mut manifest =
-        String::from("baseline = \"m1\"\n\n[overrides]\ngates = { checks = [\"E_abs<=0.2\"] }\n\n");
+    let mut manifest = String::from(
+        "baseline = \"m1\"\n\n[overrides]\ngates = { checks = [\"E_abs<=0.2\"] }\nmetrics = { scores = [\"hilti2026\"] }\n\n",
+    );
     for (m, k) in [(1, 0.5), (2, 1.0), (3, 2.0)] {
         let cfg = dir.join(format!("drift{m}.toml"));
         std::fs::write(
@@ -120,6 +121,36 @@ fn twelve_runs_in_parallel_resume_rank_and_compare() {
         serde_json::from_slice(&std::fs::read(out.join("s2/m2/result.json")).expect("result"))
             .expect("json");
     assert_eq!(r["gates"][0]["gate"], "E_abs<=0.2");
+    // ... and scored it; the leaderboard's score is the mean of its runs'
+    // totals, lowest for the most drifting method.
+    assert!(
+        r["scores"]["hilti2026"]["total"].is_f64(),
+        "{}",
+        r["scores"]
+    );
+    let mean_score = |m: &str| {
+        let l = s["leaderboard"]
+            .as_array()
+            .expect("leaderboard")
+            .iter()
+            .find(|l| l["method"] == m)
+            .expect("method");
+        l["scores"]["hilti2026"]["mean"]
+            .as_f64()
+            .expect("mean score")
+    };
+    let totals: Vec<f64> = s["runs"]
+        .as_array()
+        .expect("runs")
+        .iter()
+        .filter(|r| r["method"] == "m2")
+        .map(|r| r["scores"]["hilti2026"].as_f64().expect("total"))
+        .collect();
+    assert_eq!(totals.len(), 4);
+    assert!((mean_score("m2") - totals.iter().sum::<f64>() / 4.0).abs() < 1e-9);
+    assert!(mean_score("m3") < mean_score("m1"), "{}", s["leaderboard"]);
+    let board_csv = std::fs::read_to_string(out.join("leaderboard.csv")).expect("csv");
+    assert!(board_csv.contains("Hilti 2026 score"), "{board_csv}");
     // Again: nothing changed, so nothing is evaluated, and the same summary.
     let (code, again) = batch(&manifest, &out, "2");
     assert_eq!(code, 0);
