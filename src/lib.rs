@@ -19,6 +19,7 @@
 //! | all of it | [`pipeline`] | the stages composed, as `mapgauge eval` runs them: [`pipeline::run`] |
 //! | many runs | [`batch`] | methods × sequences from a manifest, in parallel, resumable: tables per sequence, a leaderboard, each method against a baseline |
 //! | gates | [`gate`] | quality gates (`E_abs<=0.05`) judged with their 95 % intervals, for CI |
+//! | checkpoints | [`checkpoints`] | each target as a checkpoint in the survey's CRS: GeoPackage, GeoJSON, CSV |
 //! | scores | [`scores`] | benchmark scores (Hilti 2022/2023/2026 points per checkpoint) |
 //! | record | [`record`] | `result.json`: its schema, built from the typed values, read and written |
 //! | render | [`render`] | the paper's tables and others as text, Markdown, LaTeX, CSV, HTML, JSON |
@@ -110,6 +111,7 @@
 pub mod accuracy;
 pub mod align;
 pub mod batch;
+pub mod checkpoints;
 pub mod cloud;
 pub mod compare;
 pub mod crop;

@@ -306,6 +306,14 @@ class Accuracy:
         """Writes result.json, targets.csv and pairs.csv into ``out_dir`` (created if needed)."""
         self._core.write(os.fspath(out_dir))
 
+    def write_checkpoints(self, path: PathLike, crs: Optional[str] = None) -> str:
+        """Writes every target as a checkpoint to ``path`` (.gpkg, .geojson for
+        WGS84 surveys, or .csv), as ``--checkpoints`` does: surveyed and measured
+        positions in the survey's CRS, dx/dy/dz, error, σ, status and role.
+        ``crs`` names a projected survey's EPSG code (``"EPSG:32633"``).
+        Returns the CRS the positions are written in."""
+        return self._core.write_checkpoints(os.fspath(path), crs)
+
     def __repr__(self) -> str:
         a, r = self._d()["absolute"], self._d()["relative"]
         return f"<{type(self).__name__} E_abs={a['mean']:.4f} m σ_abs={a['std']:.4f} m E_rel={r['mean']:.4f} m, {a['n']} targets scored>"

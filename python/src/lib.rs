@@ -116,6 +116,42 @@ impl EvalCore {
         })
         .map_err(err)
     }
+    /// Writes the checkpoints file, as `eval --checkpoints` does.
+    #[pyo3(signature = (path, crs=None))]
+    fn write_checkpoints(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        crs: Option<String>,
+    ) -> PyResult<String> {
+        let inputs: Vec<&Path> = [&self.map_path, &self.survey_path]
+            .into_iter()
+            .flatten()
+            .map(|p| p.as_path())
+            .collect();
+        write_checkpoints(py, &self.result, &inputs, &path, crs)
+    }
+}
+
+/// `eval`'s and `errors`' `--checkpoints`: refuses an input, then writes;
+/// returns the CRS the positions are in.
+fn write_checkpoints(
+    py: Python<'_>,
+    result: &ResultFile,
+    inputs: &[&Path],
+    path: &Path,
+    crs: Option<String>,
+) -> PyResult<String> {
+    py.detach(|| {
+        let epsg = crs
+            .as_deref()
+            .map(mapgauge::checkpoints::parse_epsg)
+            .transpose()?;
+        mapgauge::checkpoints::check_path(path)?;
+        refuse_overwrite(path, inputs)?;
+        mapgauge::checkpoints::write(path, result, epsg).map(|c| c.label())
+    })
+    .map_err(err)
 }
 
 /// Runs the whole pipeline (`mapgauge eval`) on a map file or an (N, 3) array.
@@ -196,6 +232,17 @@ impl ScoreCore {
             render::write_outputs(&self.result, &out)
         })
         .map_err(err)
+    }
+    /// Writes the checkpoints file, as `errors --checkpoints` does.
+    #[pyo3(signature = (path, crs=None))]
+    fn write_checkpoints(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        crs: Option<String>,
+    ) -> PyResult<String> {
+        let inputs: Vec<&Path> = self.inputs.iter().map(|p| p.as_path()).collect();
+        write_checkpoints(py, &self.result, &inputs, &path, crs)
     }
 }
 

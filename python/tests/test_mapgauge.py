@@ -539,6 +539,33 @@ def test_scores_recomputed_independently_and_as_the_cli(cli, scene, tmp_path):
     assert totals == pytest.approx([want3, want3], abs=1e-9)
 
 
+def test_checkpoints_are_the_cli_files(cli, scene, tmp_path):
+    """write_checkpoints writes the CLI's CSV byte for byte and a GeoPackage
+    whose rows (read with the standard library's sqlite3) are result.json's."""
+    import sqlite3
+
+    cli_eval(cli, scene, tmp_path / "cli", "--checkpoints", str(tmp_path / "cli.csv"),
+             "--checkpoints-crs", "EPSG:32652")
+    ev = mapgauge.evaluate(str(scene / "map.ply"), str(scene / "survey.csv"))
+    assert ev.write_checkpoints(tmp_path / "py.csv", crs="EPSG:32652") == "EPSG:32652"
+    assert (tmp_path / "py.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    ev.write_checkpoints(tmp_path / "py.gpkg", crs="EPSG:32652")
+    db = sqlite3.connect(tmp_path / "py.gpkg")
+    assert db.execute("PRAGMA application_id").fetchone()[0] == 0x47504B47
+    assert db.execute("SELECT srs_id FROM gpkg_geometry_columns").fetchone()[0] == 32652
+    rows = db.execute("SELECT id, status, dx_m FROM checkpoints ORDER BY fid").fetchall()
+    d = ev.to_dict()
+    assert [r[0] for r in rows] == [t["id"] for t in d["targets"]]
+    for (_, status, dx), t in zip(rows, d["targets"]):
+        assert status == t["status"]
+        if t["aligned"] is not None:
+            assert dx == t["aligned"]["x"] - t["survey"]["x"]
+    with pytest.raises(mapgauge.ParamError, match="RFC 7946"):
+        ev.write_checkpoints(tmp_path / "py.geojson")
+    with pytest.raises(mapgauge.MapgaugeError, match="refusing to overwrite"):
+        ev.write_checkpoints(scene / "survey.csv")
+
+
 # --- batch on any executor (issue 34) -----------------------------------------
 
 

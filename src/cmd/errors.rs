@@ -49,6 +49,8 @@ pub struct Args {
     #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
     pub score: Vec<mapgauge::scores::ScoreKind>,
     #[command(flatten)]
+    pub checkpoints: super::CheckpointArgs,
+    #[command(flatten)]
     pub gates: super::GateArgs,
 }
 
@@ -63,7 +65,9 @@ pub fn run(a: Args) -> Result<u8> {
         super::check_out_dir(out)?;
     }
     a.gates.check(&[&a.survey, &a.estimates])?;
+    a.checkpoints.check(&[&a.survey, &a.estimates])?;
     let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
+    a.checkpoints.check_survey(survey.frame)?;
     super::check_origin_used(&survey, a.origin, &a.survey)?;
     let estimates = read_estimates(&a.estimates)?;
     let acc = score(
@@ -86,6 +90,7 @@ pub fn run(a: Args) -> Result<u8> {
         eprintln!("wrote {}", dir.join("result.json").display());
     }
     super::eval::print_result(&result, a.format, a.verbose);
+    a.checkpoints.write(&result)?;
     if a.format != OutputFormat::Table(mapgauge::render::TableFormat::Text) {
         for line in mapgauge::render::gate_lines(&result) {
             eprintln!("{line}");

@@ -119,6 +119,8 @@ pub struct Args {
     #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
     pub score: Vec<mapgauge::scores::ScoreKind>,
     #[command(flatten)]
+    pub checkpoints: super::CheckpointArgs,
+    #[command(flatten)]
     pub gates: super::GateArgs,
 }
 
@@ -220,6 +222,7 @@ fn run_eval(a: &Args) -> Result<u8> {
         super::check_dir_flag(dir, "--plots")?;
     }
     a.gates.check(&given_inputs(&a))?;
+    a.checkpoints.check(&given_inputs(&a))?;
     // Read before the run: a bad trajectory should cost nothing.
     let route = a
         .trajectory
@@ -280,6 +283,7 @@ fn run_eval(a: &Args) -> Result<u8> {
         write_outputs(&ev, &result, out, a.save_crops, &[map, survey_path])?;
         eprintln!("results written to {}", out.display());
     }
+    a.checkpoints.write(&result)?;
     let in_paths: Vec<&Path> = inputs.iter().map(|i| i.1).collect();
     if let Some(e) = hash_error {
         return Err(e);
@@ -452,6 +456,7 @@ pub fn evaluate(
     let survey = read_survey_for_map(survey_path, &SurveyOptions { origin }, projector.as_deref())?;
     super::say_projected(&survey, projector.as_deref());
     super::check_origin_used(&survey, origin, survey_path)?;
+    a.checkpoints.check_survey(survey.frame)?;
     let pb = progress_bar(
         cloud::map_bytes(map),
         &format!("pass 1: {}", pass_label("ground")),

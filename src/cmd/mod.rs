@@ -196,6 +196,57 @@ pub fn say_projected(survey: &mapgauge::survey::Survey, projector: Option<&std::
     }
 }
 
+/// The checkpoint-file flags of `eval` and `errors`.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct CheckpointArgs {
+    /// Also write every target as a checkpoint to FILE, by its extension:
+    /// .gpkg (a GeoPackage point layer), .geojson (WGS84 surveys only: RFC
+    /// 7946) or .csv. Surveyed and measured positions in the survey's CRS
+    /// (a WGS84 survey's as lon, lat, ellipsoidal height), dx/dy/dz, error,
+    /// σ per axis (m), status and role [default: none].
+    #[arg(long, value_name = "FILE")]
+    pub checkpoints: Option<PathBuf>,
+    /// The EPSG code of a survey given in projected x, y, written with its
+    /// checkpoints, e.g. EPSG:32633 (UTM 33N) [default: undefined; a WGS84
+    /// survey's is EPSG:4979].
+    #[arg(long, value_name = "EPSG:CODE", value_parser = epsg, requires = "checkpoints")]
+    pub checkpoints_crs: Option<u32>,
+}
+
+fn epsg(s: &str) -> std::result::Result<u32, String> {
+    mapgauge::checkpoints::parse_epsg(s).map_err(|e| e.to_string())
+}
+
+impl CheckpointArgs {
+    /// Refuses, before any work, a file of no known format or one that
+    /// names an input.
+    pub fn check(&self, inputs: &[&Path]) -> Result<()> {
+        let Some(f) = &self.checkpoints else {
+            return Ok(());
+        };
+        mapgauge::checkpoints::check_path(f)?;
+        mapgauge::record::refuse_overwrite(f, inputs)
+    }
+    /// Refuses, once the survey is read, a format its CRS cannot take.
+    pub fn check_survey(&self, frame: mapgauge::survey::SurveyFrame) -> Result<()> {
+        match &self.checkpoints {
+            Some(f) => mapgauge::checkpoints::check(f, frame, self.checkpoints_crs),
+            None => Ok(()),
+        }
+    }
+    /// Writes the checkpoints when asked for.
+    pub fn write(&self, result: &mapgauge::record::ResultFile) -> Result<()> {
+        if let Some(f) = &self.checkpoints {
+            if let Some(dir) = f.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| mapgauge::Error::io(dir, e))?;
+            }
+            let crs = mapgauge::checkpoints::write(f, result, self.checkpoints_crs)?;
+            eprintln!("checkpoints written to {} ({})", f.display(), crs.label());
+        }
+        Ok(())
+    }
+}
+
 /// The quality-gate flags of `eval` and `errors`.
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct GateArgs {

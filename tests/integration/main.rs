@@ -11,6 +11,7 @@ mod util;
 
 mod any_frame;
 mod batch;
+mod checkpoints;
 mod cli_crop;
 mod cli_formats;
 mod cli_locate;
