@@ -270,6 +270,13 @@ class Accuracy:
         return self._d().get("gate_outcome")
 
     @property
+    def iso19157(self) -> Optional[Dict[str, Any]]:
+        """ISO 19157 measures of the checkpoints (``result.json``'s ``iso19157``):
+        ``bias`` per axis with ``ci95``, ``ce90``/``ce95``/``le90``/``le95`` with
+        the bias accounted for, the count and rate beyond ``threshold_m``."""
+        return json.loads(json.dumps(self._d().get("iso19157")))
+
+    @property
     def scores(self) -> Dict[str, Dict[str, Any]]:
         """Benchmark scores asked for with ``metrics={"scores": ["hilti2023"]}``
         (``result.json``'s ``scores``): by rule, each with ``total`` (0-100),
@@ -393,16 +400,22 @@ def errors(
     align: str = "rigid2d",
     dim: str = "2d",
     survey_sigma: Union[None, float, Tuple[float, Optional[float]]] = None,
+    threshold: Optional[float] = None,
+    scores: Sequence[str] = (),
 ) -> Accuracy:
     """Scores map positions of the targets against a survey, as ``mapgauge errors`` does.
 
     ``estimates`` is an estimates CSV or ``{id: (x, y[, z]) or None}`` in the map
     frame (``None``: not found). ``align`` is none, rigid2d, rigid2d+z, rigid3d,
     similarity2d, similarity3d or robust2d; ``dim`` 2d or 3d; ``survey_sigma`` the
-    survey's own 1-σ error ``(h, v)`` folded into the ASPRS figures.
+    survey's own 1-σ error ``(h, v)`` folded into the ASPRS figures; ``threshold``
+    (m) ISO 19157's count of checkpoints beyond it; ``scores`` benchmark rules
+    (``"hilti2022"``, ``"hilti2023"``, ``"hilti2026"``), as ``--score``.
     """
     s = _as_survey(survey)
-    metrics: Dict[str, Any] = {"align": align, "dim": dim}
+    metrics: Dict[str, Any] = {"align": align, "dim": dim, "scores": list(scores)}
+    if threshold is not None:
+        metrics["threshold_m"] = float(threshold)
     if survey_sigma is not None:
         if isinstance(survey_sigma, (int, float)):
             metrics["survey_sigma_h"] = float(survey_sigma)

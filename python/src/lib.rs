@@ -268,6 +268,7 @@ fn _errors(
         dim: m.dim,
         survey_sigma: m.survey_sigma_h.map(|h| (h, m.survey_sigma_v)),
         vertical: None,
+        threshold: m.threshold_m,
     };
     let survey = survey.get();
     let mut inputs: Vec<PathBuf> = survey.path.iter().cloned().collect();
@@ -316,10 +317,10 @@ fn _errors(
     let acc = py
         .detach(|| accuracy::score(&survey.inner, &est, &opts))
         .map_err(err)?;
-    Ok(ScoreCore {
-        result: ResultFile::from_accuracy(&acc, &survey.inner),
-        inputs,
-    })
+    let mut result = ResultFile::from_accuracy(&acc, &survey.inner);
+    // As `errors --score`: the scores its metrics ask for.
+    mapgauge::scores::apply(&m.scores, &mut result);
+    Ok(ScoreCore { result, inputs })
 }
 
 /// Reads every point of a map file (any format), streamed chunk by chunk and

@@ -539,6 +539,44 @@ def test_scores_recomputed_independently_and_as_the_cli(cli, scene, tmp_path):
     assert totals == pytest.approx([want3, want3], abs=1e-9)
 
 
+def test_iso19157_recomputed_independently():
+    """ISO 19157's numbers from numpy alone: the bias and its Student-t
+    interval (t from a printed table), CE90/CE95/LE90/LE95 of a normal with
+    the residuals' mean and covariance by 4 M Monte Carlo draws (to 0.1 mm),
+    the count beyond the threshold; the positions given straight (align
+    none), so the residuals are known without any fit."""
+    rng = np.random.default_rng(11)
+    n = 12
+    truth = rng.uniform(0, 100, size=(n, 3))
+    res = rng.normal([0.012, -0.006, 0.02], [0.010, 0.018, 0.015], size=(n, 3))
+    survey = {f"p{i}": tuple(t) for i, t in enumerate(truth)}
+    est = {f"p{i}": tuple(t + r) for i, (t, r) in enumerate(zip(truth, res))}
+    acc = mapgauge.errors(survey, est, align="none", dim="3d", threshold=0.02, scores=["hilti2022"])
+    iso = acc.iso19157
+    assert iso["n"] == n
+    t975_11 = 2.200985  # Student's t, 97.5 %, 11 degrees of freedom
+    for k in range(3):
+        m, s = res[:, k].mean(), res[:, k].std(ddof=1)
+        b = iso["bias"][k]
+        assert b["mean"] == pytest.approx(m, abs=1e-12)
+        # mapgauge's t quantile is tabled to 3 decimals (2.201): 1 µm here.
+        assert b["ci95"] == pytest.approx([m - t975_11 * s / np.sqrt(n), m + t975_11 * s / np.sqrt(n)], abs=1e-6)
+    draws = np.random.default_rng(5).multivariate_normal(res[:, :2].mean(0), np.cov(res[:, :2].T), size=4_000_000)
+    radial = np.hypot(draws[:, 0], draws[:, 1])
+    assert iso["ce90"] == pytest.approx(np.quantile(radial, 0.90), abs=1e-4)
+    assert iso["ce95"] == pytest.approx(np.quantile(radial, 0.95), abs=1e-4)
+    vz = np.abs(np.random.default_rng(6).normal(res[:, 2].mean(), res[:, 2].std(ddof=1), size=4_000_000))
+    assert iso["le90"] == pytest.approx(np.quantile(vz, 0.90), abs=1e-4)
+    assert iso["le95"] == pytest.approx(np.quantile(vz, 0.95), abs=1e-4)
+    h = np.hypot(res[:, 0], res[:, 1])
+    assert iso["above_h"] == int((h > 0.02).sum())
+    assert iso["rate_above_h"] == pytest.approx((h > 0.02).mean())
+    assert iso["above_v"] == int((np.abs(res[:, 2]) > 0.02).sum())
+    # The errors' 3D distances scored by the 2022 bands (errors() took scores too).
+    pts = np.select([np.linalg.norm(res, axis=1) < x for x in (0.01, 0.03, 0.06, 0.10)], [10, 6, 3, 1], 0)
+    assert acc.to_dict()["scores"]["hilti2022"]["total"] == pytest.approx(100 * pts.sum() / (10 * n))
+
+
 def test_checkpoints_are_the_cli_files(cli, scene, tmp_path):
     """write_checkpoints writes the CLI's CSV byte for byte and a GeoPackage
     whose rows (read with the standard library's sqlite3) are result.json's."""

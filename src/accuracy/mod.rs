@@ -6,6 +6,7 @@
 
 mod asprs;
 pub mod intervals;
+mod iso19157;
 mod scale;
 mod score;
 mod stats;
@@ -13,6 +14,7 @@ mod unfitted;
 
 pub use asprs::{Asprs, AsprsCaveat};
 pub use intervals::{Ci95, Intervals};
+pub use iso19157::{Bias, Iso19157};
 pub use scale::ScaleEstimate;
 pub(crate) use scale::layout_scale;
 pub use score::{score, score_with_covariances};
@@ -76,6 +78,8 @@ pub struct ScoreOptions {
     /// the measurement intervals (it moves every target together, by its
     /// height above the origin horizontally).
     pub vertical: Option<Vertical>,
+    /// ISO 19157's threshold (m): how many checkpoints err beyond it.
+    pub threshold: Option<f64>,
 }
 
 /// The vertical a levelled map was turned to, as far as it is known.
@@ -283,6 +287,8 @@ pub struct Accuracy {
     pub sigma_hat: Option<SigmaHat>,
     /// Survey-standard statistics.
     pub asprs: Asprs,
+    /// ISO 19157 measures of the same checkpoints.
+    pub iso19157: Iso19157,
     /// In the survey, not in the estimates.
     pub survey_only: Vec<String>,
     /// In the estimates, not in the survey.
@@ -516,6 +522,7 @@ mod tests {
             dim: Dim::D3,
             survey_sigma: None,
             vertical: None,
+            threshold: None,
         };
         let r = score(&s, &est, &opts).unwrap();
         assert!((r.absolute.mean - 0.01).abs() < 1e-9, "{:?}", r.absolute);
@@ -532,6 +539,7 @@ mod tests {
             dim: Dim::D3,
             survey_sigma: None,
             vertical: None,
+            threshold: None,
         };
         let r3 = score(&s, &est, &none).unwrap();
         assert!(r3.asprs.rmse_v.unwrap() > 99.0);

@@ -56,10 +56,14 @@ pub fn score_with_covariances(
     // Heights are comparable when the fit corrected them or the map is already in the survey frame.
     let vertical = all_z && (opts.method.uses_z() || opts.method == AlignMethod::None);
     let residuals: Vec<Vector3<f64>> = aligned.iter().zip(&m.survey).map(|(a, s)| a - s).collect();
-    let asprs = match check_residuals {
-        Some(r) => asprs::asprs(&r, vertical, opts.survey_sigma, true),
-        None => asprs::asprs(&residuals, vertical, opts.survey_sigma, false),
-    };
+    let checkpoints = check_residuals.as_deref().unwrap_or(&residuals);
+    let asprs = asprs::asprs(
+        checkpoints,
+        vertical,
+        opts.survey_sigma,
+        check_residuals.is_some(),
+    );
+    let iso19157 = super::iso19157::iso19157(checkpoints, vertical, opts.threshold);
     if all_z && !vertical {
         warnings.push(Warning::VerticalNotReported);
     }
@@ -98,6 +102,7 @@ pub fn score_with_covariances(
         control_check,
         sigma_hat,
         asprs,
+        iso19157,
         survey_only: m.survey_only,
         estimates_only: m.estimates_only,
         intervals,

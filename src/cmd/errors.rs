@@ -40,6 +40,11 @@ pub struct Args {
     /// Also write result.json, targets.csv and pairs.csv into this directory.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// ISO 19157's threshold in metres: the result counts the checkpoints
+    /// whose horizontal (and vertical) error exceeds it [default: none; eval:
+    /// the config's `[metrics] threshold_m`].
+    #[arg(long, value_name = "M")]
+    pub threshold: Option<f64>,
     /// Benchmark scores to add, repeatable or comma-separated: hilti2022
     /// (10/6/3/1 points per target below 1/3/6/10 cm), hilti2023
     /// (20/10/6/5/3/1 below 0.5/1/3/6/10/40 cm), hilti2026 (100·e^(−0.4605·cm));
@@ -61,6 +66,13 @@ pub fn run(a: Args) -> Result<u8> {
             return Err(Error::Param("--survey-sigma must be ≥ 0".into()));
         }
     }
+    if let Some(t) = a.threshold
+        && !(t.is_finite() && (0.0..=1e3).contains(&t))
+    {
+        return Err(Error::Param(format!(
+            "--threshold {t}: a distance from 0 to 1000 m"
+        )));
+    }
     if let Some(out) = &a.out {
         super::check_out_dir(out)?;
     }
@@ -78,6 +90,7 @@ pub fn run(a: Args) -> Result<u8> {
             dim: a.dim,
             survey_sigma: a.survey_sigma,
             vertical: None,
+            threshold: a.threshold,
         },
     )?;
     let mut result = ResultFile::from_accuracy(&acc, &survey);

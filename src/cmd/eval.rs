@@ -110,6 +110,11 @@ pub struct Args {
     /// distance driven to it [default: none].
     #[arg(long, value_name = "FILE")]
     pub trajectory: Option<PathBuf>,
+    /// ISO 19157's threshold in metres: the result counts the checkpoints
+    /// whose horizontal (and vertical) error exceeds it [default: none; eval:
+    /// the config's `[metrics] threshold_m`].
+    #[arg(long, value_name = "M")]
+    pub threshold: Option<f64>,
     /// Benchmark scores to add, repeatable or comma-separated: hilti2022
     /// (10/6/3/1 points per target below 1/3/6/10 cm), hilti2023
     /// (20/10/6/5/3/1 below 0.5/1/3/6/10/40 cm), hilti2026 (100·e^(−0.4605·cm));
@@ -169,6 +174,9 @@ pub fn config(a: &Args) -> Result<Config> {
     }
     if let Some(o) = a.origin {
         cfg.frame.origin = Some([o.lat, o.lon, o.alt]);
+    }
+    if a.threshold.is_some() {
+        cfg.metrics.threshold_m = a.threshold;
     }
     if !a.score.is_empty() {
         cfg.metrics.scores = a.score.clone();

@@ -59,6 +59,9 @@ pub struct MetricsConfig {
     /// inconsistent with their covariance and with the other targets); they
     /// stay in the result as `excluded`, with the reason.
     pub exclude_outliers: bool,
+    /// ISO 19157's threshold (m): the result counts the checkpoints whose
+    /// horizontal (and vertical) error exceeds it; unset: not counted.
+    pub threshold_m: Option<f64>,
     /// Benchmark scores to add to the result: "hilti2022", "hilti2023",
     /// "hilti2026" (none by default).
     pub scores: Vec<crate::scores::ScoreKind>,
@@ -234,6 +237,12 @@ impl Config {
                 "# survey_sigma_v = 0.03   # unset: the survey's own error is not folded in",
             ));
         }
+        if self.metrics.threshold_m.is_none() {
+            unset.push((
+                "metrics",
+                "# threshold_m = 0.05   # unset: ISO 19157's count of checkpoints beyond a threshold is not given",
+            ));
+        }
         if self.frame.init.is_none() {
             unset.push(("frame", "# init = [x, y, yaw_deg]   # unset: the map is in the survey frame (survey = R(yaw)·map + (x, y))"));
         }
@@ -351,11 +360,12 @@ fn validate_locate(l: &LocateParams) -> Result<()> {
 }
 
 impl MetricsConfig {
-    /// Checks the survey sigmas.
+    /// Checks the survey sigmas and the threshold.
     pub fn validate(&self) -> Result<()> {
         for (k, v) in [
             ("metrics.survey_sigma_h", self.survey_sigma_h),
             ("metrics.survey_sigma_v", self.survey_sigma_v),
+            ("metrics.threshold_m", self.threshold_m),
         ] {
             if let Some(v) = v {
                 range(k, v, 0.0, 1e3)?;

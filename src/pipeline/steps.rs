@@ -452,6 +452,7 @@ fn score_options(
             .survey_sigma_h
             .map(|h| (h, cfg.metrics.survey_sigma_v)),
         vertical,
+        threshold: cfg.metrics.threshold_m,
     }
 }
 

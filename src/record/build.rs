@@ -41,6 +41,7 @@ impl ResultFile {
                 dof: s.dof,
             }),
             asprs: asprs(&acc.asprs, &acc.intervals.rmse_h),
+            iso19157: Some(acc.iso19157.clone()),
             unmatched: Unmatched {
                 survey_only: acc.survey_only.clone(),
                 estimates_only: acc.estimates_only.clone(),

@@ -313,6 +313,11 @@ pub struct ResultFile {
     pub sigma_hat: Option<SigmaHat>,
     /// Survey-standard statistics.
     pub asprs: Asprs,
+    /// ISO 19157 measures of the checkpoints (bias per axis with its 95 %
+    /// interval, CE90/CE95 and LE90/LE95 with the bias accounted for, the
+    /// count beyond a threshold); absent in results written before them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iso19157: Option<crate::accuracy::Iso19157>,
     /// Ids on one side only.
     #[serde(default)]
     pub unmatched: Unmatched,

@@ -21,8 +21,8 @@ pub use scores::{score_lines, scores_grid, stored_scores};
 pub use summary::{OUTPUT_FILES, refuse_overwriting_inputs, render_report, write_outputs};
 pub use tables::{absolute_grid, relative_grid, survey_mismatches, surveyed_elsewhere};
 pub(crate) use tables::{extra_grid, target_label};
-pub(crate) use text::PAPER_TABLES_UP_TO;
 pub use text::render_text;
+pub(crate) use text::{PAPER_TABLES_UP_TO, iso_line};
 
 use crate::{Error, Result};
 use std::fmt::Write as _;

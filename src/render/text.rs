@@ -294,19 +294,64 @@ fn tables(o: &mut String, r: &ResultFile, verbose: bool) {
     }
 }
 
+/// ISO 19157's measures in one line: `ISO 19157: bias x +1.2 [-3.0, 5.4] mm,
+/// y …; CE90 35.1 mm, CE95 40.2 mm (bias included); LE90 …; 2 of 6
+/// checkpoints beyond 50.0 mm`. `None` for results without them.
+pub(crate) fn iso_line(r: &ResultFile) -> Option<String> {
+    let m = r.iso19157.as_ref()?;
+    if m.n == 0 {
+        return None;
+    }
+    let axes = ["x", "y", "z"];
+    let bias: Vec<String> = m
+        .bias
+        .iter()
+        .zip(axes)
+        .map(|(b, a)| {
+            let ci = b
+                .ci95
+                .map(|c| format!(" [{}, {}]", mm(c[0]), mm(c[1])))
+                .unwrap_or_default();
+            format!("{a} {}{ci}", mm(b.mean))
+        })
+        .collect();
+    let mut parts = vec![format!("bias {} mm", bias.join(", "))];
+    if let (Some(a), Some(b)) = (m.ce90, m.ce95) {
+        parts.push(format!("CE90 {} mm, CE95 {} mm", mm(a), mm(b)));
+    }
+    if let (Some(a), Some(b)) = (m.le90, m.le95) {
+        parts.push(format!("LE90 {} mm, LE95 {} mm", mm(a), mm(b)));
+    }
+    if let (Some(t), Some(h)) = (m.threshold_m, m.above_h) {
+        let v = m
+            .above_v
+            .map(|v| format!(" ({v} vertically)"))
+            .unwrap_or_default();
+        parts.push(format!(
+            "{h} of {} checkpoints beyond {} mm horizontally{v}",
+            m.n,
+            mm(t)
+        ));
+    }
+    Some(format!("ISO 19157 (bias included): {}", parts.join("; ")))
+}
+
 /// The last lines: NSSDA's statement, the folded caveats, and where to find
 /// what the terminal left out.
 fn closing(o: &mut String, r: &ResultFile, verbose: bool, stock: &str) {
     let n = r.targets.len();
     let _ = writeln!(
         o,
-        "NSSDA: tested {} mm horizontal accuracy at 95 % confidence level{}",
+        "NSSDA (legacy: ASPRS Ed. 2 no longer uses it): tested {} mm horizontal accuracy at 95 % confidence level{}",
         mm(r.asprs.nssda_horizontal_95),
         r.asprs
             .nssda_vertical_95
             .map(|v| format!(", {} mm vertical", mm(v)))
             .unwrap_or_default()
     );
+    if let Some(line) = iso_line(r) {
+        let _ = writeln!(o, "{line}");
+    }
     if let Some(note) = stock_note(r, stock) {
         let _ = writeln!(o, "note: {note}");
     }

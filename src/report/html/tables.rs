@@ -163,10 +163,14 @@ pub(super) fn tables_section(o: &mut String, rep: &Report, dim: &str) {
         },
         targets_mm(r).render(TableFormat::Html)
     );
-    if !r.asprs.nssda_lines.is_empty() {
+    let iso = crate::render::iso_line(r);
+    if !r.asprs.nssda_lines.is_empty() || iso.is_some() {
         o.push_str("<ul>");
         for l in &r.asprs.nssda_lines {
-            let _ = write!(o, "<li>{}</li>", escape(l));
+            let _ = write!(o, "<li>NSSDA (legacy): {}</li>", escape(l));
+        }
+        if let Some(l) = iso {
+            let _ = write!(o, "<li>{}</li>", escape(&l));
         }
         o.push_str("</ul>");
     }

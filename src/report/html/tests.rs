@@ -49,6 +49,7 @@ pub(crate) fn result(ids: &[&str]) -> crate::record::ResultFile {
         dim: Dim::D2,
         survey_sigma: None,
         vertical: None,
+        threshold: None,
     };
     crate::record::ResultFile::from_accuracy(&score(&survey, &est, &opts).unwrap(), &survey)
 }
