@@ -202,7 +202,7 @@ fn circular_share(b: [f64; 2], s: [f64; 2], r: f64) -> f64 {
             linear_share(b[1], s[1], half)
         };
     }
-    const STEPS: usize = 2000;
+    const STEPS: usize = 256;
     let h = std::f64::consts::PI / STEPS as f64;
     let f = |theta: f64| {
         let (sn, cs) = theta.sin_cos();
@@ -232,7 +232,7 @@ fn solve(p: f64, hi: f64, share: impl Fn(f64) -> f64) -> f64 {
         } else {
             hi = mid;
         }
-        if hi - lo < 1e-10 {
+        if hi - lo < 1e-9 * hi.max(1e-3) {
             break;
         }
     }

@@ -181,7 +181,7 @@ fn cli_table_json_and_out_dir() {
     );
     // Millimetres on the terminal, the NSSDA statement too.
     assert!(text.contains("Relative error (mm, 2D)"), "{text}");
-    assert!(text.contains("NSSDA: tested 91.3 mm horizontal accuracy at 95 % confidence level"));
+    assert!(text.contains("NSSDA (legacy: ASPRS Ed. 2 no longer uses it): tested 91.3 mm horizontal accuracy at 95 % confidence level"));
     let r = RunResult::from_json_file(&dir.path().join("result.json")).unwrap();
     assert_eq!(r, paper_roundtrip());
     let v: serde_json::Value =

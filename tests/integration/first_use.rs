@@ -945,7 +945,8 @@ fn the_summary_ranks_its_warnings_and_folds_the_stock_ones() {
         "{out}"
     );
     assert!(
-        !out.contains("Tested 0.") && out.contains("NSSDA: tested "),
+        !out.contains("Tested 0.")
+            && out.contains("NSSDA (legacy: ASPRS Ed. 2 no longer uses it): tested "),
         "{out}"
     );
     assert!(out.contains("Relative error (mm, 2D)") && out.contains("Absolute error (mm, 2D)"));
