@@ -40,19 +40,8 @@ pub struct Args {
     /// Also write result.json, targets.csv and pairs.csv into this directory.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// ISO 19157's threshold in metres: the result counts the checkpoints
-    /// whose horizontal (and vertical) error exceeds it [default: none; eval:
-    /// the config's `[metrics] threshold_m`].
-    #[arg(long, value_name = "M")]
-    pub threshold: Option<f64>,
-    /// Benchmark scores to add, repeatable or comma-separated: hilti2022
-    /// (10/6/3/1 points per target below 1/3/6/10 cm), hilti2023
-    /// (20/10/6/5/3/1 below 0.5/1/3/6/10/40 cm), hilti2026 (100·e^(−0.4605·cm));
-    /// each 0-100 over every surveyed target, a target not located earning 0.
-    /// In result.json's `scores` and the summary [default: none; eval: the
-    /// config's `[metrics] scores`].
-    #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
-    pub score: Vec<mapgauge::scores::ScoreKind>,
+    #[command(flatten)]
+    pub surveyor: super::SurveyorArgs,
     #[command(flatten)]
     pub checkpoints: super::CheckpointArgs,
     #[command(flatten)]
@@ -66,7 +55,7 @@ pub fn run(a: Args) -> Result<u8> {
             return Err(Error::Param("--survey-sigma must be ≥ 0".into()));
         }
     }
-    if let Some(t) = a.threshold
+    if let Some(t) = a.surveyor.threshold
         && !(t.is_finite() && (0.0..=1e3).contains(&t))
     {
         return Err(Error::Param(format!(
@@ -90,11 +79,11 @@ pub fn run(a: Args) -> Result<u8> {
             dim: a.dim,
             survey_sigma: a.survey_sigma,
             vertical: None,
-            threshold: a.threshold,
+            threshold: a.surveyor.threshold,
         },
     )?;
     let mut result = ResultFile::from_accuracy(&acc, &survey);
-    mapgauge::scores::apply(&a.score, &mut result);
+    mapgauge::scores::apply(&a.surveyor.score, &mut result);
     let policy = a.gates.gate_policy.unwrap_or_default();
     mapgauge::gate::judge(&a.gates.gate, policy, &mut result);
     if let Some(dir) = &a.out {

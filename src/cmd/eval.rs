@@ -110,19 +110,8 @@ pub struct Args {
     /// distance driven to it [default: none].
     #[arg(long, value_name = "FILE")]
     pub trajectory: Option<PathBuf>,
-    /// ISO 19157's threshold in metres: the result counts the checkpoints
-    /// whose horizontal (and vertical) error exceeds it [default: none; eval:
-    /// the config's `[metrics] threshold_m`].
-    #[arg(long, value_name = "M")]
-    pub threshold: Option<f64>,
-    /// Benchmark scores to add, repeatable or comma-separated: hilti2022
-    /// (10/6/3/1 points per target below 1/3/6/10 cm), hilti2023
-    /// (20/10/6/5/3/1 below 0.5/1/3/6/10/40 cm), hilti2026 (100·e^(−0.4605·cm));
-    /// each 0-100 over every surveyed target, a target not located earning 0.
-    /// In result.json's `scores` and the summary [default: none; eval: the
-    /// config's `[metrics] scores`].
-    #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
-    pub score: Vec<mapgauge::scores::ScoreKind>,
+    #[command(flatten)]
+    pub surveyor: super::SurveyorArgs,
     #[command(flatten)]
     pub checkpoints: super::CheckpointArgs,
     #[command(flatten)]
@@ -175,11 +164,11 @@ pub fn config(a: &Args) -> Result<Config> {
     if let Some(o) = a.origin {
         cfg.frame.origin = Some([o.lat, o.lon, o.alt]);
     }
-    if a.threshold.is_some() {
-        cfg.metrics.threshold_m = a.threshold;
+    if a.surveyor.threshold.is_some() {
+        cfg.metrics.threshold_m = a.surveyor.threshold;
     }
-    if !a.score.is_empty() {
-        cfg.metrics.scores = a.score.clone();
+    if !a.surveyor.score.is_empty() {
+        cfg.metrics.scores = a.surveyor.score.clone();
     }
     if !a.gates.gate.is_empty() {
         cfg.gates.checks = a.gates.gate.clone();

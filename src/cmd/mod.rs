@@ -196,6 +196,24 @@ pub fn say_projected(survey: &mapgauge::survey::Survey, projector: Option<&std::
     }
 }
 
+/// The surveyors' and benchmarks' flags of `eval` and `errors`.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct SurveyorArgs {
+    /// ISO 19157's threshold in metres: the result counts the checkpoints
+    /// whose horizontal (and vertical) error exceeds it [default: none; eval:
+    /// the config's `[metrics] threshold_m`].
+    #[arg(long, value_name = "M")]
+    pub threshold: Option<f64>,
+    /// Benchmark scores to add, repeatable or comma-separated: hilti2022
+    /// (10/6/3/1 points per target below 1/3/6/10 cm), hilti2023
+    /// (20/10/6/5/3/1 below 0.5/1/3/6/10/40 cm), hilti2026 (100·e^(−0.4605·cm));
+    /// each 0-100 over every surveyed target, a target not located earning 0.
+    /// In result.json's `scores` and the summary [default: none; eval: the
+    /// config's `[metrics] scores`].
+    #[arg(long = "score", value_name = "RULE", value_delimiter = ',')]
+    pub score: Vec<mapgauge::scores::ScoreKind>,
+}
+
 /// The checkpoint-file flags of `eval` and `errors`.
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct CheckpointArgs {

@@ -7,6 +7,7 @@ use super::{
 };
 use crate::Point;
 use crate::accuracy::{self, Accuracy, AsprsCaveat, Fit, Status, Summary, Warning};
+use crate::align::AlignMethod;
 use crate::survey::Survey;
 
 impl ResultFile {
@@ -40,7 +41,7 @@ impl ResultFile {
                 sse: s.sse,
                 dof: s.dof,
             }),
-            asprs: asprs(&acc.asprs, &acc.intervals.rmse_h),
+            asprs: asprs(&acc.asprs, &acc.intervals.rmse_h, acc.fit.alignment.method),
             iso19157: Some(acc.iso19157.clone()),
             unmatched: Unmatched {
                 survey_only: acc.survey_only.clone(),
@@ -255,14 +256,28 @@ fn axis(a: &accuracy::AxisStats) -> AxisStats {
     }
 }
 
-fn asprs(a: &accuracy::Asprs, ci: &accuracy::Ci95) -> Asprs {
+/// The NSSDA statements in FGDC's words, with what the test rested on: how
+/// many checkpoints and whether they also fitted the alignment (the report
+/// adds the test's date, which result.json leaves out to stay reproducible).
+fn asprs(a: &accuracy::Asprs, ci: &accuracy::Ci95, method: AlignMethod) -> Asprs {
+    let basis = format!(
+        "using {} checkpoint{}, {} the {} alignment",
+        a.n_checkpoints,
+        if a.n_checkpoints == 1 { "" } else { "s" },
+        if a.independent {
+            "held out of"
+        } else {
+            "also used to fit"
+        },
+        method
+    );
     let mut lines = vec![format!(
-        "Tested {:.3} m horizontal accuracy at 95% confidence level",
+        "Tested {:.3} m horizontal accuracy at 95% confidence level {basis}",
         a.nssda_horizontal_95
     )];
     if let Some(v) = a.nssda_vertical_95 {
         lines.push(format!(
-            "Tested {v:.3} m vertical accuracy at 95% confidence level"
+            "Tested {v:.3} m vertical accuracy at 95% confidence level {basis}"
         ));
     }
     Asprs {

@@ -167,7 +167,14 @@ pub(super) fn tables_section(o: &mut String, rep: &Report, dim: &str) {
     if !r.asprs.nssda_lines.is_empty() || iso.is_some() {
         o.push_str("<ul>");
         for l in &r.asprs.nssda_lines {
-            let _ = write!(o, "<li>NSSDA (legacy): {}</li>", escape(l));
+            // The test's date is the report's (result.json stays reproducible).
+            let day = rep.provenance.date_utc.get(..10).unwrap_or_default();
+            let _ = write!(
+                o,
+                "<li>NSSDA (legacy): {}, test dated {}</li>",
+                escape(l),
+                escape(day)
+            );
         }
         if let Some(l) = iso {
             let _ = write!(o, "<li>{}</li>", escape(&l));
