@@ -15,9 +15,9 @@
 //! run's dimension (the challenges score 3D positions: `--dim 3d`).
 //!
 //! A score is a step function of errors that are measured, not known: each
-//! target's points are also given over its error ± 1.96 σ (σ the largest
-//! axis of its covariance), and the total over those, so a score that a
-//! millimetre could move by a band says so.
+//! target's points are also given over its error ± 1.96 σ (σ of the error
+//! along its own direction, from the target's covariance), and the total
+//! over those, so a score that a millimetre could move by a band says so.
 //!
 //! Scores are computed from a result's targets alone, so `table --score`
 //! scores results written before scores existed, by the same rule.
@@ -31,7 +31,7 @@
 
 use crate::record::{ResultFile, TargetOut};
 use crate::{Error, Result};
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -153,7 +153,8 @@ pub struct TargetPoints {
     pub error_m: Option<f64>,
     /// Points earned.
     pub points: f64,
-    /// Points anywhere within its error ± 1.96 σ ([fewest, most]); the
+    /// Points anywhere within its error ± 1.96 σ (σ along the error;
+    /// [fewest, most]); the
     /// points themselves when it has no covariance or was not located.
     pub range95: [f64; 2],
 }
@@ -197,7 +198,7 @@ pub fn score(kind: ScoreKind, r: &ResultFile) -> BenchScore {
                 };
             };
             let points = kind.points(e);
-            let range95 = match sigma_max(t, three) {
+            let range95 = match sigma_of_error(t, r, three) {
                 Some(s) => kind.points_over((e - 1.96 * s).max(0.0), e + 1.96 * s),
                 None => [points, points],
             };
@@ -231,18 +232,35 @@ pub fn apply(kinds: &[ScoreKind], r: &mut ResultFile) {
     r.scores = scores;
 }
 
-/// The largest 1-σ of a target's position (m): the horizontal block of its
-/// covariance, or the whole for 3D errors. `None` without a covariance.
-fn sigma_max(t: &TargetOut, three: bool) -> Option<f64> {
-    let c = t.map_covariance?;
-    let largest = if three {
-        let m = Matrix3::from_fn(|i, j| c[i][j]);
-        m.symmetric_eigenvalues().max()
+/// The 1-σ of a target's error (m): its covariance turned into the survey's
+/// axes by the alignment (s² R Σ Rᵀ), along the error's own direction
+/// (horizontal for 2D errors); the largest axis where the error is too small
+/// to have one. `None` without a covariance or an aligned position.
+fn sigma_of_error(t: &TargetOut, r: &ResultFile, three: bool) -> Option<f64> {
+    let cov = t.map_covariance?;
+    let c = Matrix3::from_fn(|i, j| cov[i][j]);
+    let rot = Matrix3::from_fn(|i, j| r.alignment.rotation_matrix[i][j]);
+    let s = r.alignment.scale * r.alignment.scale * rot * c * rot.transpose();
+    let a = t.aligned?;
+    let mut d = Vector3::new(
+        a.x - t.survey.x,
+        a.y - t.survey.y,
+        a.z.zip(t.survey.z).map_or(0.0, |(m, v)| m - v),
+    );
+    if !three {
+        d.z = 0.0;
+    }
+    let var = if d.norm() > 1e-9 {
+        let u = d.normalize();
+        (u.transpose() * s * u)[0]
+    } else if three {
+        s.symmetric_eigenvalues().max()
     } else {
-        let m = Matrix2::new(c[0][0], c[0][1], c[1][0], c[1][1]);
-        m.symmetric_eigenvalues().max()
+        Matrix2::new(s[(0, 0)], s[(0, 1)], s[(1, 0)], s[(1, 1)])
+            .symmetric_eigenvalues()
+            .max()
     };
-    (largest.is_finite() && largest >= 0.0).then(|| largest.sqrt())
+    (var.is_finite() && var >= 0.0).then(|| var.sqrt())
 }
 
 #[cfg(test)]

@@ -61,21 +61,44 @@ fn totals_by_hand_count_targets_not_located_as_zero() {
 #[test]
 fn the_range_spans_a_band_edge_within_the_noise() {
     let mut r = result([0.009, 0.02, 0.02, 0.02]);
-    // 1 mm σ: 9 ± 1.96 mm crosses 1 cm; 20 ± 1.96 mm crosses nothing.
+    // σ 1 mm along x, 0.5 mm along y, 2 mm along z; each error along x (the
+    // fixture's alignment turns by well under a milliradian).
     let c = [[1e-6, 0.0, 0.0], [0.0, 0.25e-6, 0.0], [0.0, 0.0, 4e-6]];
     for t in &mut r.targets[..4] {
         t.map_covariance = Some(c);
+        let e = t.abs_error.unwrap();
+        t.aligned = Some(crate::record::Xyz {
+            x: t.survey.x + e,
+            y: t.survey.y,
+            z: Some(0.0),
+        });
+        t.survey.z = Some(0.0);
     }
+    // 9 ± 1.96 mm crosses 1 cm; 20 ± 1.96 mm crosses nothing.
     let s = score(ScoreKind::Hilti2022, &r);
     assert_eq!(s.per_target[0].points, 10.0);
     assert_eq!(s.per_target[0].range95, [6.0, 10.0]);
     assert_eq!(s.per_target[1].range95, [6.0, 6.0]);
     assert!((s.range95[0] - 100.0 * 24.0 / 60.0).abs() < 1e-9);
     assert!((s.range95[1] - 100.0 * 28.0 / 60.0).abs() < 1e-9);
-    // In 3D the vertical σ (2 mm) is the largest: 20 ± 3.9 mm still 6.
+    // Along y the σ is 0.5 mm: 9 ± 0.98 mm stays below 1 cm.
+    let t = &mut r.targets[0];
+    t.aligned = Some(crate::record::Xyz {
+        x: t.survey.x,
+        y: t.survey.y + 0.009,
+        z: Some(0.0),
+    });
+    assert_eq!(
+        score(ScoreKind::Hilti2022, &r).per_target[0].range95,
+        [10.0, 10.0]
+    );
+    // In 3D a horizontal error does not take the vertical σ (2 mm), which
+    // the largest axis would: still 10 points only.
     r.dim = crate::accuracy::Dim::D3;
-    let s = score(ScoreKind::Hilti2022, &r);
-    assert_eq!(s.per_target[0].range95, [6.0, 10.0]);
+    assert_eq!(
+        score(ScoreKind::Hilti2022, &r).per_target[0].range95,
+        [10.0, 10.0]
+    );
 }
 
 #[test]
