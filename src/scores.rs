@@ -101,6 +101,10 @@ impl ScoreKind {
 
     /// Points for one checkpoint whose error is `error` (m).
     pub fn points(self, error: f64) -> f64 {
+        // An error that is not a number earns nothing (NaN.max(0) is 0).
+        if !error.is_finite() {
+            return 0.0;
+        }
         let banded = |bands: &[(f64, f64)]| {
             bands
                 .iter()
@@ -184,11 +188,10 @@ pub fn score(kind: ScoreKind, r: &ResultFile) -> BenchScore {
         .targets
         .iter()
         .map(|t| {
-            // Targets not located, or mapped twice, earn nothing: only a
-            // measured position is scored (`excluded` ones were located).
-            let error = t
-                .abs_error
-                .filter(|_| t.status == "ok" || t.status == "excluded");
+            // Only a target located and kept earns points: one not located,
+            // mapped twice, or excluded as a gross error (its error is not
+            // scored: `abs_error` is null) earns nothing.
+            let error = t.abs_error.filter(|_| t.status == "ok");
             let Some(e) = error else {
                 return TargetPoints {
                     id: t.id.clone(),
@@ -260,7 +263,8 @@ fn sigma_of_error(t: &TargetOut, r: &ResultFile, three: bool) -> Option<f64> {
             .symmetric_eigenvalues()
             .max()
     };
-    (var.is_finite() && var >= 0.0).then(|| var.sqrt())
+    // A rounding error's tiny negative variance is none, not unknown.
+    var.is_finite().then(|| var.max(0.0).sqrt())
 }
 
 #[cfg(test)]

@@ -57,8 +57,9 @@ fn fill(file: &Path, crs: &Crs, rows: &[Checkpoint]) -> Result<()> {
            CONSTRAINT fk_gc_srs FOREIGN KEY (srs_id) REFERENCES gpkg_spatial_ref_sys (srs_id));",
     )
     .map_err(sql)?;
+    // OR IGNORE: a user-named EPSG:4326 is the row every GeoPackage holds.
     let mut srs = tx
-        .prepare("INSERT INTO gpkg_spatial_ref_sys VALUES (?1, ?2, ?3, ?4, ?5, ?6)")
+        .prepare("INSERT OR IGNORE INTO gpkg_spatial_ref_sys VALUES (?1, ?2, ?3, ?4, ?5, ?6)")
         .map_err(sql)?;
     srs.execute(params![
         "Undefined cartesian SRS",

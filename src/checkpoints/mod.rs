@@ -62,10 +62,10 @@ pub struct Checkpoint {
     pub surveyed_z: Option<f64>,
     /// Measured position (the map's, aligned onto the survey) in the CRS.
     pub measured: Option<[f64; 2]>,
-    /// Measured height (m).
+    /// Measured height (m), when heights were compared.
     pub measured_z: Option<f64>,
-    /// Measured − surveyed along the survey's axes (m); dz `None` without
-    /// heights on both sides.
+    /// Measured − surveyed along the survey's axes (m); dz `None` unless
+    /// heights were compared (a 2D fit leaves the map's z uncorrected).
     pub d: Option<[Option<f64>; 3]>,
     /// The absolute error the result reports (m, in its dimension).
     pub error: Option<f64>,
@@ -94,6 +94,10 @@ pub fn rows(r: &ResultFile, epsg: Option<u32>) -> Result<(Crs, Vec<Checkpoint>)>
         ),
         (_, Some(c), _) => return Err(wgs84_has_its_crs(c)),
     };
+    // Heights are compared only when the alignment fitted them (or none was
+    // fitted): a 2D fit leaves the map's own z, whose difference from the
+    // survey's means nothing.
+    let heights = r.asprs.z.is_some();
     let rot = r.alignment.rotation_matrix;
     let s2 = r.alignment.scale * r.alignment.scale;
     let rows = r
@@ -112,7 +116,7 @@ pub fn rows(r: &ResultFile, epsg: Option<u32>) -> Result<(Crs, Vec<Checkpoint>)>
             let (surveyed, surveyed_z) = place(t.survey.x, t.survey.y, t.survey.z);
             let (measured, measured_z) = match t.aligned {
                 Some(a) => {
-                    let (p, z) = place(a.x, a.y, a.z);
+                    let (p, z) = place(a.x, a.y, a.z.filter(|_| heights));
                     (Some(p), z)
                 }
                 None => (None, None),
@@ -121,7 +125,7 @@ pub fn rows(r: &ResultFile, epsg: Option<u32>) -> Result<(Crs, Vec<Checkpoint>)>
                 [
                     Some(a.x - t.survey.x),
                     Some(a.y - t.survey.y),
-                    a.z.zip(t.survey.z).map(|(m, s)| m - s),
+                    a.z.zip(t.survey.z).filter(|_| heights).map(|(m, s)| m - s),
                 ]
             });
             // The covariance in the survey's axes: s² R Σ Rᵀ.

@@ -67,6 +67,8 @@ pub fn run(a: Args) -> Result<u8> {
     }
     a.gates.check(&[&a.survey, &a.estimates])?;
     a.checkpoints.check(&[&a.survey, &a.estimates])?;
+    a.checkpoints
+        .check_outputs(a.out.as_deref(), a.gates.junit.as_deref())?;
     let survey = read_survey(&a.survey, &SurveyOptions { origin: a.origin })?;
     a.checkpoints.check_survey(survey.frame)?;
     super::check_origin_used(&survey, a.origin, &a.survey)?;

@@ -220,6 +220,8 @@ fn run_eval(a: &Args) -> Result<u8> {
     }
     a.gates.check(&given_inputs(&a))?;
     a.checkpoints.check(&given_inputs(&a))?;
+    a.checkpoints
+        .check_outputs(a.out.as_deref(), a.gates.junit.as_deref())?;
     // Read before the run: a bad trajectory should cost nothing.
     let route = a
         .trajectory

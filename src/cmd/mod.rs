@@ -245,6 +245,29 @@ impl CheckpointArgs {
         mapgauge::checkpoints::check_path(f)?;
         mapgauge::record::refuse_overwrite(f, inputs)
     }
+    /// Refuses a checkpoints file that another output of the run would be
+    /// written over or would overwrite: a file of `--out` or the JUnit report.
+    pub fn check_outputs(&self, out: Option<&Path>, junit: Option<&Path>) -> Result<()> {
+        let Some(f) = &self.checkpoints else {
+            return Ok(());
+        };
+        let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+        let mine = abs(f);
+        let mut taken: Vec<PathBuf> = junit.map(abs).into_iter().collect();
+        if let Some(dir) = out {
+            let names = mapgauge::render::OUTPUT_FILES
+                .iter()
+                .chain(&["report.html", "failed.csv"]);
+            taken.extend(names.map(|n| abs(&dir.join(n))));
+        }
+        if taken.contains(&mine) {
+            return Err(mapgauge::Error::Param(format!(
+                "--checkpoints {}: another output of this run is written there",
+                f.display()
+            )));
+        }
+        Ok(())
+    }
     /// Refuses, once the survey is read, a format its CRS cannot take.
     pub fn check_survey(&self, frame: mapgauge::survey::SurveyFrame) -> Result<()> {
         match &self.checkpoints {

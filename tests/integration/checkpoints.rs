@@ -65,6 +65,25 @@ fn refusals_come_before_the_work_and_write_nothing() {
         std::fs::read_to_string(&survey).expect("kept"),
         "id,x,y\n1,0,0\n2,30,0\n3,0,40\n"
     );
+    // Over a file --out writes: refused.
+    let out = format!("{d}/out");
+    let o = run(&[
+        "eval",
+        "--map",
+        &map,
+        "--survey",
+        &survey,
+        "--out",
+        &out,
+        "--checkpoints",
+        &format!("{out}/targets.csv"),
+    ]);
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("another output of this run"),
+        "{}",
+        stderr(&o)
+    );
     // A CRS without a file to write it in is a usage error.
     let o = run(&[
         "eval",
@@ -145,6 +164,8 @@ fn errors_writes_the_checkpoints_of_the_positions_it_scores() {
     assert_eq!(rows[1][4], "EPSG:25832");
     assert_eq!((rows[1][5], rows[1][6]), ("0.000000", "0.000000"));
     assert_eq!(rows[4][2], "not_found");
+    // A 2D fit leaves the map's z as it is: no measured height, no dz.
+    assert_eq!((rows[1][10], rows[1][13]), ("", ""), "{text}");
     // The located ones are within a few mm of their surveyed points.
     for r in &rows[1..4] {
         let dx: f64 = r[11].parse().expect("dx");
