@@ -88,6 +88,8 @@
 //!             has_z: false,
 //!             role: None,
 //!             antenna_height: 0.0,
+//!             model: Default::default(),
+//!             size: None,
 //!             line: i as u64 + 2,
 //!         })
 //!         .collect(),
@@ -121,6 +123,7 @@ pub mod frame;
 pub mod gate;
 pub(crate) mod geom;
 pub mod locate;
+pub mod model;
 pub mod pipeline;
 pub mod record;
 pub mod render;

@@ -148,6 +148,8 @@ pub(crate) fn _survey_from_arrays(
             has_z,
             role: None,
             antenna_height: 0.0,
+            model: Default::default(),
+            size: None,
             line: i as u64 + 2,
         });
     }

@@ -86,6 +86,11 @@ pub struct Args {
     /// e.g. 352000,4026000,0 for UTM-size coordinates [default: 0,0,0].
     #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
     survey_false_origin_m: Option<[f64; 3]>,
+    /// The targets' models in turn, comma-separated: target i is the
+    /// (i mod count)-th (l, sphere; a sphere stands on a pole, 145 mm, its
+    /// centre 1.3 m up) [default: l].
+    #[arg(long, value_delimiter = ',')]
+    models: Option<Vec<mapgauge::model::ModelKind>>,
 }
 
 fn parse_list<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
@@ -136,6 +141,7 @@ fn params(a: &Args) -> Result<SynthParams> {
     set!(a.survey_noise_m, p.survey_noise_m);
     set!(a.decoys, p.clutter.decoys);
     set!(a.survey_false_origin_m, p.survey_false_origin_m);
+    set!(a.models.clone(), p.models);
     if let Some(l) = &a.layout {
         p.layout = if l == "square" {
             synth::Layout::Square

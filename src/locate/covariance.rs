@@ -53,7 +53,7 @@ fn residual_variance(p: &PlateFitPoints, band: Option<f64>) -> Option<f64> {
 /// variance `v` (fixed point of v = σ² g(band/σ), g the truncated normal's
 /// variance ratio). When `v` is too large for any σ (the residuals are not a
 /// truncated normal), `v` itself.
-fn untruncate(v: f64, band: f64) -> f64 {
+pub(crate) fn untruncate(v: f64, band: f64) -> f64 {
     // g(a) = 1 − 2aφ(a) / (2Φ(a) − 1), decreasing in σ (a = band/σ); g → 1/3 as σ → ∞.
     let g = |a: f64| {
         let phi = (-0.5 * a * a).exp() / (2.0 * std::f64::consts::PI).sqrt();

@@ -34,7 +34,7 @@
 //! are consumed in index order, so results are bit-identical for any thread count.
 
 mod attempt;
-mod covariance;
+pub(crate) mod covariance;
 mod height;
 pub(crate) mod kmeans;
 mod layers;

@@ -133,6 +133,50 @@ impl Located {
     }
 }
 
+impl PlateFit {
+    /// No plate: what a target model without plates (a sphere) has.
+    pub const NONE: PlateFit = PlateFit {
+        normal: [0.0; 3],
+        inliers: 0,
+        tilt_deg: f64::NAN,
+    };
+}
+
+impl Located {
+    /// The estimate of a target model without plates (a sphere's centre):
+    /// its point, covariance and refitted samples (whose spread is `std`).
+    /// The plates are [`PlateFit::NONE`], the plate angle NaN, and no point
+    /// is labelled.
+    pub fn without_plates(
+        corner: Point,
+        covariance: [[f64; 3]; 3],
+        samples: Vec<Point>,
+    ) -> Located {
+        let n = samples.len().max(1) as f64;
+        let mean = samples.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
+        let std = [0, 1, 2].map(|k| {
+            (samples
+                .iter()
+                .map(|p| (p[k] - mean[k]).powi(2))
+                .sum::<f64>()
+                / n)
+                .sqrt()
+        });
+        Located {
+            corner,
+            std,
+            covariance,
+            accepted: samples.len(),
+            attempts: samples.len(),
+            rejects: Rejects::default(),
+            plates: [PlateFit::NONE; 2],
+            plate_angle_deg: f64::NAN,
+            labels: Vec::new(),
+            samples,
+        }
+    }
+}
+
 fn ser_point<S: serde::Serializer>(p: &Point, s: S) -> Result<S::Ok, S::Error> {
     [p.x, p.y, p.z].serialize(s)
 }

@@ -20,6 +20,8 @@ pub struct Config {
     pub tight: TightParams,
     /// Target localisation (the paper's algorithm).
     pub locate: LocateParams,
+    /// Sphere targets (survey rows with `model = sphere`).
+    pub sphere: crate::model::SphereParams,
     /// Alignment and metrics.
     pub metrics: MetricsConfig,
     /// Frames: where to look for the targets in the map.
@@ -36,6 +38,7 @@ impl Default for Config {
             crop: LooseParams::default(),
             tight: TightParams::default(),
             locate: LocateParams::default(),
+            sphere: crate::model::SphereParams::default(),
             metrics: MetricsConfig::default(),
             frame: FrameConfig::default(),
             gates: crate::gate::GateConfig::default(),
@@ -215,6 +218,7 @@ impl Config {
         validate_loose(&self.crop)?;
         validate_tight(&self.tight)?;
         validate_locate(&self.locate)?;
+        self.sphere.check().map_err(Error::Param)?;
         self.metrics.validate()?;
         self.frame.validate()
     }

@@ -93,6 +93,10 @@ impl Search<'_> {
                 expected: c,
                 others: &others,
                 more_ups: &ups,
+                model: {
+                    let t = &self.survey.targets[i];
+                    (t.model, t.size)
+                },
             };
             let mut r = target::locate_target(place, pts, None, &tight, self.cfg, Pass::Second);
             r.loose_thinned_from = thinned;
@@ -214,7 +218,9 @@ pub(super) fn common_vertical(found: &mut [TargetRun], cfg: &Config) {
     let redo: Vec<usize> = (0..found.len())
         .filter(|&i| {
             let used = found[i].outcome.as_ref().ok().map(|f| f.up);
-            !found[i].tight.is_empty()
+            // A sphere needs no vertical to be located; an L does.
+            let l = found[i].outcome.as_ref().map_or(true, |f| f.is_l());
+            l && !found[i].tight.is_empty()
                 && used.is_none_or(|u| u.angle(&axis).to_degrees() > cfg.frame.tilt_redo_deg)
         })
         .collect();
@@ -245,7 +251,7 @@ pub(super) fn common_vertical(found: &mut [TargetRun], cfg: &Config) {
 fn consensus_up(found: &[TargetRun]) -> Option<Vector3<f64>> {
     let axes: Vec<Vector3<f64>> = found
         .iter()
-        .filter_map(|r| r.outcome.as_ref().ok().map(|f| f.axis))
+        .filter_map(|r| r.outcome.as_ref().ok().filter(|f| f.is_l()).map(|f| f.axis))
         .collect();
     if axes.len() < 3 {
         return None;

@@ -524,6 +524,7 @@ impl FirstPass<'_> {
                     expected: *e,
                     others: &others,
                     more_ups: &ups,
+                    model: (t.model, t.size),
                 };
                 let mut r =
                     target::locate_target(place, pts, self.crops_dir, &cfg.tight, cfg, Pass::First);

@@ -4,6 +4,7 @@
 use super::Config;
 use crate::crop::{self, TightError};
 use crate::locate::{self, LocateError, LocateParams, Located};
+use crate::model::ModelKind;
 use crate::{Error, Point, Result};
 use nalgebra::Vector3;
 use std::path::Path;
@@ -24,8 +25,25 @@ pub struct Found {
     pub located: Located,
     /// The direction the gates used as vertical.
     pub up: Vector3<f64>,
-    /// The plates' intersection line, pointing up: the target's plumb line in the map.
+    /// The plates' intersection line, pointing up: the target's plumb line
+    /// in the map (`up` for a sphere, which has none).
     pub axis: Vector3<f64>,
+    /// The sphere fitted, for a sphere target (`None`: an L).
+    pub sphere: Option<crate::model::SphereFit>,
+}
+
+impl Found {
+    /// What was located.
+    pub fn model(&self) -> crate::model::ModelKind {
+        match self.sphere {
+            Some(_) => crate::model::ModelKind::Sphere,
+            None => crate::model::ModelKind::L,
+        }
+    }
+    /// Whether it is an L: only an L has plates, a plumb line, layers.
+    pub fn is_l(&self) -> bool {
+        self.sphere.is_none()
+    }
 }
 
 /// Why a target was not located, by stage.
@@ -54,6 +72,10 @@ pub enum Failure {
         /// it (not with hand crops, nor for a target flagged only at the end).
         searched: bool,
     },
+    /// No sphere of the surveyed size stood near the expected position.
+    Sphere(crate::model::SphereError),
+    /// The survey names a model mapgauge does not locate yet.
+    Unsupported(crate::model::ModelKind),
     /// The target is mapped twice (a loop closed badly): a plate shows two
     /// layers, and the located corner is a blend of the copies.
     Doubled(crate::locate::Doubled),
@@ -85,7 +107,8 @@ impl Failure {
     pub fn stage(&self) -> &'static str {
         match self {
             Failure::NoLoosePoints => "loose",
-            Failure::HandCrop(_) | Failure::Tight(_) => "tight",
+            Failure::HandCrop(_) | Failure::Tight(_) | Failure::Sphere(_) => "tight",
+            Failure::Unsupported(_) => "model",
             Failure::Locate(_) => "locate",
             Failure::FarFromOthers { .. }
             | Failure::OffLayout { .. }
@@ -114,6 +137,11 @@ impl std::fmt::Display for Failure {
             }
             Failure::HandCrop(e) => write!(f, "{e}"),
             Failure::Tight(e) => write!(f, "{e}"),
+            Failure::Sphere(e) => write!(f, "{e}"),
+            Failure::Unsupported(m) => write!(
+                f,
+                "a {m} target: mapgauge does not locate {m} targets yet (give its map position in an estimates file to `mapgauge errors`)"
+            ),
             Failure::Locate(e) => write!(f, "localisation failed: {e}"),
             Failure::FarFromOthers {
                 at,
@@ -234,6 +262,8 @@ pub struct TargetRun {
     pub ground_normal: Option<Vector3<f64>>,
     /// The located target, or why not.
     pub outcome: std::result::Result<Found, Failure>,
+    /// What the survey says the target is.
+    pub model: ModelKind,
 }
 
 impl TargetRun {
@@ -251,6 +281,8 @@ pub(crate) struct Place<'a> {
     pub(crate) expected: Point,
     pub(crate) others: &'a [Point],
     pub(crate) more_ups: &'a [Vector3<f64>],
+    /// What the target is, and its surveyed size (m) when given.
+    pub(crate) model: (crate::model::ModelKind, Option<f64>),
 }
 
 /// Steps 4–5 for one target: tight crop (hand-made from `crops_dir`, else
@@ -272,6 +304,7 @@ pub(crate) fn locate_target(
         expected,
         others,
         more_ups,
+        model,
     } = place;
     let mut run = TargetRun {
         id: id.to_string(),
@@ -282,6 +315,36 @@ pub(crate) fn locate_target(
         tight: Vec::new(),
         ground_normal: None,
         outcome: Err(Failure::NoLoosePoints),
+        model: model.0,
+    };
+    let sized;
+    let tight = match model {
+        (ModelKind::L, None) => tight,
+        (ModelKind::L, Some(w)) => {
+            sized = crate::crop::TightParams {
+                plate_width: w,
+                ..tight.clone()
+            };
+            &sized
+        }
+        (ModelKind::Sphere, size) => {
+            if let Some(dir) = crops_dir {
+                // A hand-made crop is searched as the loose one would be.
+                match hand_crop(dir, id, tight.plate_width) {
+                    Ok(p) => run.loose = p,
+                    Err(e) => {
+                        run.outcome = Err(Failure::HandCrop(e));
+                        return run;
+                    }
+                }
+            }
+            sphere_target(&mut run, others, size, tight, cfg);
+            return run;
+        }
+        (m @ ModelKind::Board, _) => {
+            run.outcome = Err(Failure::Unsupported(m));
+            return run;
+        }
     };
     // Hand-made tight crops (the paper's workflow) or the automatic one.
     let ups: Vec<Vector3<f64>> = match crops_dir {
@@ -322,6 +385,49 @@ pub(crate) fn locate_target(
     };
     run.outcome = locate_with(&run.tight, &ups, cfg).map_err(Failure::Locate);
     run
+}
+
+/// A sphere target: found in the loose crop and fitted
+/// (`model::sphere`); its points near it are the tight crop. A search
+/// narrowed below the configured L's (the second pass's, near a
+/// prediction) narrows the sphere's too.
+fn sphere_target(
+    run: &mut TargetRun,
+    others: &[Point],
+    size: Option<f64>,
+    tight: &crate::crop::TightParams,
+    cfg: &Config,
+) {
+    if run.loose.is_empty() {
+        return;
+    }
+    let mut p = cfg.sphere.clone();
+    if tight.search_radius < cfg.tight.search_radius {
+        p.search_radius_m = p.search_radius_m.min(tight.search_radius);
+    }
+    let search = crate::model::sphere::Search {
+        points: &run.loose,
+        expected: run.expected,
+        others,
+        radius: size.unwrap_or(p.diameter_m) / 2.0,
+        up: Vector3::z(),
+    };
+    match crate::model::sphere::locate(&search, &p) {
+        Ok((fit, near)) => {
+            run.tight = near;
+            run.outcome = Ok(Found {
+                located: locate::Located::without_plates(
+                    fit.centre,
+                    fit.covariance,
+                    fit.samples.clone(),
+                ),
+                up: Vector3::z(),
+                axis: Vector3::z(),
+                sphere: Some(fit),
+            });
+        }
+        Err(e) => run.outcome = Err(Failure::Sphere(e)),
+    }
 }
 
 /// Step 5 on a tight crop, trying each "up" in turn (and each of the
@@ -365,6 +471,7 @@ fn found(l: locate::Located, up: Vector3<f64>) -> Found {
         located: l,
         up,
         axis: axis.normalize(),
+        sphere: None,
     }
 }
 
@@ -402,7 +509,7 @@ pub(super) fn check_doubled(
     let layering: Vec<Option<crate::locate::Layering>> = found
         .iter()
         .map(|r| {
-            let f = r.outcome.as_ref().ok()?;
+            let f = r.outcome.as_ref().ok().filter(|f| f.is_l())?;
             crate::locate::layering(&r.loose, &f.located, &f.up, w, h)
         })
         .collect();
@@ -451,7 +558,9 @@ pub(super) fn widen_heights(
 ) -> Vec<(String, crate::locate::HeightSeen, f64)> {
     let mut widened = Vec::new();
     for r in found.iter_mut() {
-        let Ok(f) = r.outcome.as_mut() else { continue };
+        let Some(f) = r.outcome.as_mut().ok().filter(|f| f.is_l()) else {
+            continue;
+        };
         let Some(seen) = crate::locate::HeightSeen::of(&r.tight, &f.located, &f.up, plate_height)
         else {
             continue;

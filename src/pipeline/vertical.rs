@@ -124,6 +124,7 @@ fn plumb_lines(found: &[TargetRun]) -> Option<PlumbLines> {
             r.outcome
                 .as_ref()
                 .ok()
+                .filter(|f| f.is_l())
                 .and_then(|f| plain_axis(&r.tight, f))
         })
         .collect();

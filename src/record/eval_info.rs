@@ -48,6 +48,37 @@ pub struct TargetDetail {
     /// and where (the report draws it on the loose crop).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seen: Option<crate::crop::Seen>,
+    /// What the target is (absent: an L).
+    #[serde(default, skip_serializing_if = "is_l")]
+    pub model: crate::model::ModelKind,
+    /// The sphere fitted, for a sphere target located.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sphere: Option<SphereDetail>,
+}
+
+fn is_l(m: &crate::model::ModelKind) -> bool {
+    *m == crate::model::ModelKind::L
+}
+
+/// A located sphere as `result.json` keeps it (see [`crate::model::SphereFit`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SphereDetail {
+    /// Centre (evaluation frame).
+    pub centre: [f64; 3],
+    /// Radius fitted with (half the surveyed diameter), m.
+    pub radius: f64,
+    /// Radius of the fit with the radius free, m, and its 1-σ.
+    pub free_radius: f64,
+    /// 1-σ of `free_radius`, m.
+    pub free_radius_sigma: f64,
+    /// Points on the surface.
+    pub inliers: usize,
+    /// Their RMS distance from the fitted surface, m.
+    pub rms: f64,
+    /// Half-angle of the cap seen, the narrower way (degrees).
+    pub cap_deg: f64,
+    /// Spheres of the surveyed size seen in the search.
+    pub candidates: usize,
 }
 
 /// How the map's frame was found (the `frame` key of the `eval` section).
@@ -262,6 +293,7 @@ fn detail(t: &TargetRun) -> TargetDetail {
         loose_thinned_from: t.loose_thinned_from,
         tight_points: t.tight.len(),
         ground_normal: t.ground_normal.as_ref().map(arr),
+        model: t.model,
         ..Default::default()
     };
     match &t.outcome {
@@ -271,7 +303,19 @@ fn detail(t: &TargetRun) -> TargetDetail {
             d.accepted = f.located.accepted;
             d.attempts = f.located.attempts;
             d.spread = Some(f.located.std);
-            d.plate_angle_deg = Some(f.located.plate_angle_deg);
+            if f.is_l() {
+                d.plate_angle_deg = Some(f.located.plate_angle_deg);
+            }
+            d.sphere = f.sphere.as_ref().map(|s| SphereDetail {
+                centre: [s.centre.x, s.centre.y, s.centre.z],
+                radius: s.radius,
+                free_radius: s.free_radius,
+                free_radius_sigma: s.free_radius_sigma,
+                inliers: s.inliers,
+                rms: s.rms,
+                cap_deg: s.cap_deg,
+                candidates: s.candidates,
+            });
         }
         Err(e) => {
             d.failed_stage = Some(e.stage().into());

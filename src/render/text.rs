@@ -399,6 +399,8 @@ mod tests {
                     has_z: false,
                     role: None,
                     antenna_height: 0.0,
+                    model: Default::default(),
+                    size: None,
                     line: i as u64 + 2,
                 })
                 .collect(),

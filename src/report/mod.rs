@@ -186,6 +186,8 @@ pub struct Diagnostics<'a> {
     pub corner: Option<Point>,
     /// Every accepted sample corner (map frame): the spread behind `corner`.
     pub samples: &'a [Point],
+    /// A sphere's radius (m): its outline is drawn about `corner`, its centre.
+    pub circle: Option<f64>,
 }
 
 /// The crops and fits of one target, borrowed from an [`Evaluation`].
@@ -233,9 +235,12 @@ impl<'a> Report<'a> {
                 tight: &t.tight,
                 diag: t.outcome.as_ref().ok().map(|f| Diagnostics {
                     labels: &f.located.labels,
-                    plate_normals: Some([f.located.plates[0].normal, f.located.plates[1].normal]),
+                    plate_normals: f
+                        .is_l()
+                        .then(|| [f.located.plates[0].normal, f.located.plates[1].normal]),
                     corner: Some(f.located.corner),
                     samples: &f.located.samples,
+                    circle: f.sphere.as_ref().map(|s| s.radius),
                 }),
             })
             .collect();

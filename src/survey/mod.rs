@@ -56,6 +56,11 @@ pub struct SurveyTarget {
     pub role: Option<Role>,
     /// Metres from the antenna down to the target's reference height (0 if absent).
     pub antenna_height: f64,
+    /// What the target is (the `model` column; the L when absent).
+    pub model: crate::model::ModelKind,
+    /// Its size (m: the L's plate width, a sphere's diameter, a board's
+    /// side), when the survey gives it; else the configuration's.
+    pub size: Option<f64>,
     /// 1-based line in the survey file, for messages.
     pub line: u64,
 }
@@ -98,6 +103,8 @@ impl Survey {
                     has_z,
                     role: None,
                     antenna_height: 0.0,
+                    model: Default::default(),
+                    size: None,
                     line: i as u64 + 2,
                 })
                 .collect(),
@@ -160,6 +167,8 @@ struct Columns {
     names: [&'static str; 3],
     role: Option<usize>,
     antenna: Option<usize>,
+    model: Option<usize>,
+    size: Option<usize>,
     geodetic: bool,
 }
 
@@ -245,6 +254,8 @@ impl Columns {
             names,
             role: t.col(ROLE),
             antenna: t.col(ANTENNA),
+            model: t.col(MODEL),
+            size: t.col(SIZE),
             geodetic,
         })
     }
@@ -299,16 +310,45 @@ impl Columns {
             let antenna_height = t
                 .opt_number(line, rec, self.antenna, "antenna_height")?
                 .unwrap_or(0.0);
+            let (model, size) = self.model_and_size(t, path, line, rec)?;
             targets.push(SurveyTarget {
                 id,
                 position: Point::new(a, b, c.unwrap_or(0.0)),
                 has_z: c.is_some(),
                 role,
                 antenna_height,
+                model,
+                size,
                 line,
             });
         }
         Ok((targets, geo))
+    }
+}
+
+impl Columns {
+    /// A row's `model` (the L when empty or absent) and `size` (m), each
+    /// refused with the line when it is not one mapgauge knows or builds.
+    fn model_and_size(
+        &self,
+        t: &Table,
+        path: &Path,
+        line: u64,
+        rec: &csv::StringRecord,
+    ) -> Result<(crate::model::ModelKind, Option<f64>)> {
+        let model = match self.model.and_then(|c| rec.get(c)).map(str::trim) {
+            None | Some("") => crate::model::ModelKind::L,
+            Some(s) => s
+                .parse::<crate::model::ModelKind>()
+                .map_err(|e| Error::table(path, line, e))?,
+        };
+        let size = t.opt_number(line, rec, self.size, "size")?;
+        if let Some(s) = size {
+            model
+                .check_size(s)
+                .map_err(|e| Error::table(path, line, e))?;
+        }
+        Ok((model, size))
     }
 }
 

@@ -214,6 +214,8 @@ pub(super) const LON: &[&str] = &["lon", "lng", "long", "longitude"];
 pub(super) const ALT: &[&str] = &["alt", "altitude", "h", "ellipsoidal_height"];
 pub(super) const ROLE: &[&str] = &["role"];
 pub(super) const ANTENNA: &[&str] = &["antenna_height", "antenna"];
+pub(super) const MODEL: &[&str] = &["model"];
+pub(super) const SIZE: &[&str] = &["size", "size_m"];
 
 /// Height columns under names mapgauge does not read.
 pub(super) const ELEVATION: &[&str] = &[
@@ -232,7 +234,7 @@ pub(super) const ELEVATION: &[&str] = &[
 /// columns (`description`, `note`, `weight`, `easting_sd`) are ignored.
 pub(super) fn misspelt_column(h: &str) -> Option<&'static str> {
     let known = || {
-        [ID, X, Y, Z, LAT, LON, ALT, ROLE, ANTENNA]
+        [ID, X, Y, Z, LAT, LON, ALT, ROLE, ANTENNA, MODEL, SIZE]
             .into_iter()
             .flatten()
             .copied()

@@ -87,23 +87,36 @@ fn scene(
     }
     let truth = write_map(&files.map, files.labels.as_deref(), params, format)?;
 
-    let mut local = String::from("id,x,y,z,antenna_height\n");
-    let mut llh = String::from("id,lat,lon,alt,antenna_height\n");
+    // Model and size columns only for a survey of more than Ls: an L-only
+    // survey is written as the paper's.
+    let models = truth
+        .targets
+        .iter()
+        .any(|t| t.model != crate::model::ModelKind::L);
+    let extra = if models { ",model,size" } else { "" };
+    let mut local = format!("id,x,y,z,antenna_height{extra}\n");
+    let mut llh = format!("id,lat,lon,alt,antenna_height{extra}\n");
     let [lat, lon, alt] = params.origin_llh;
     let origin = Geodetic { lat, lon, alt };
     // `origin_llh` is the local frame's origin: the false origin comes off first.
     let [fx, fy, fz] = params.survey_false_origin_m;
     for t in &truth.targets {
         let s = &t.survey;
+        let tail = if models {
+            let size = t.size.map_or(String::new(), |v| format!("{v}"));
+            format!(",{},{size}", t.model.name())
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             local,
-            "{},{:.4},{:.4},{:.4},{:.4}",
+            "{},{:.4},{:.4},{:.4},{:.4}{tail}",
             t.id, s.x, s.y, s.z, s.antenna_height
         );
         let g = origin.geodetic_of(&Point::new(s.x - fx, s.y - fy, s.z - fz));
         let _ = writeln!(
             llh,
-            "{},{:.10},{:.10},{:.4},{:.4}",
+            "{},{:.10},{:.10},{:.4},{:.4}{tail}",
             t.id, g.lat, g.lon, g.alt, s.antenna_height
         );
     }
@@ -276,6 +289,8 @@ impl Truth {
                     has_z: true,
                     role: None,
                     antenna_height: t.survey.antenna_height,
+                    model: t.model,
+                    size: t.size,
                     line: i as u64 + 2,
                 })
                 .collect(),

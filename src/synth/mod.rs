@@ -35,7 +35,7 @@ use rand::Rng;
 use scene::{Scene, build_scene};
 
 pub use params::{ClutterParams, Layout, SynthParams};
-pub use params::{SecondPass, TargetShape};
+pub use params::{SecondPass, SphereShape, TargetShape};
 pub use truth::SurveyPoint;
 pub use truth::Truth;
 pub use truth::{ClutterInfo, TargetTruth};

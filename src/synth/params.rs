@@ -206,6 +206,50 @@ pub struct SynthParams {
     /// ```
     #[serde(skip_serializing_if = "SecondPass::is_off")]
     pub second_pass: SecondPass,
+    /// The targets' models in turn: target i is `models[i % len]` (`l`,
+    /// `sphere`). The L alone by default, and then absent from the printed
+    /// config and truth.json.
+    ///
+    /// ```toml
+    /// models = ["l", "sphere"]
+    /// [sphere]
+    /// diameter_m = 0.145
+    /// ```
+    #[serde(skip_serializing_if = "only_l")]
+    pub models: Vec<crate::model::ModelKind>,
+    /// How sphere targets are built.
+    #[serde(skip_serializing_if = "no_spheres_default")]
+    pub sphere: SphereShape,
+}
+
+fn only_l(m: &[crate::model::ModelKind]) -> bool {
+    m.iter().all(|k| *k == crate::model::ModelKind::L)
+}
+
+fn no_spheres_default(s: &SphereShape) -> bool {
+    *s == SphereShape::default()
+}
+
+/// A sphere target: a sphere on a thin pole standing on the ground.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SphereShape {
+    /// Diameter, metres.
+    pub diameter_m: f64,
+    /// Height of the centre above the ground, metres.
+    pub centre_height_m: f64,
+    /// Radius of the pole under it, metres.
+    pub pole_radius_m: f64,
+}
+
+impl Default for SphereShape {
+    fn default() -> Self {
+        SphereShape {
+            diameter_m: 0.145,
+            centre_height_m: 1.3,
+            pole_radius_m: 0.015,
+        }
+    }
 }
 
 /// The end of the road driven again, its points landing `offset_m` from
@@ -236,6 +280,8 @@ impl Default for SynthParams {
             spread_m: 100.0,
             target_distance_m: [5.0, 15.0],
             target: TargetShape::default(),
+            models: vec![crate::model::ModelKind::L],
+            sphere: SphereShape::default(),
             slope_deg: 1.5,
             slope_dir_deg: 30.0,
             undulation_m: 0.08,
@@ -262,6 +308,22 @@ impl SynthParams {
         }
         if self.targets == 0 || self.targets > 1000 {
             return bad("targets must be in 1..=1000");
+        }
+        if self.models.is_empty() {
+            return bad("models must name at least one model (l, sphere)");
+        }
+        if self.models.contains(&crate::model::ModelKind::Board) {
+            return bad("models: synth builds no checkerboard boards yet (l, sphere)");
+        }
+        let sp = &self.sphere;
+        if let Err(e) = crate::model::ModelKind::Sphere.check_size(sp.diameter_m) {
+            return Err(Error::Param(format!("sphere.diameter_m: {e}")));
+        }
+        if !(sp.centre_height_m >= sp.diameter_m && sp.centre_height_m <= 5.0) {
+            return bad("sphere.centre_height_m must be in [diameter_m, 5]");
+        }
+        if !(sp.pole_radius_m > 0.0 && sp.pole_radius_m < 0.4 * sp.diameter_m) {
+            return bad("sphere.pole_radius_m must be in (0, 0.4 diameter_m)");
         }
         if !(self.spread_m >= 0.0 && self.spread_m <= 10_000.0) {
             return bad("spread_m must be in [0, 10000]");

@@ -155,5 +155,59 @@ pub(super) fn target_truth(
         points: 0,
         ghost: None,
         ghost_points: 0,
+        model: crate::model::ModelKind::L,
+        size: None,
     }
+}
+
+/// A sphere target at (x, y): the sphere on a thin pole from the ground.
+/// Returns the object and its truth (the survey gives the centre).
+pub(super) fn sphere_target(
+    g: &Ground,
+    shape: &super::SphereShape,
+    id: String,
+    (x, y): (f64, f64),
+    road_distance_m: f64,
+) -> (Object, TargetTruth) {
+    let gz = g.height(x, y);
+    let r = shape.diameter_m / 2.0;
+    let zc = gz + shape.centre_height_m;
+    let prims = vec![
+        Prim::Sphere {
+            c: Vector3::new(x, y, zc),
+            r,
+            porosity: 0.0,
+        },
+        // The pole ends inside the sphere, as a threaded stud does.
+        Prim::VCyl {
+            x,
+            y,
+            r: shape.pole_radius_m,
+            z0: gz - 0.05,
+            z1: zc - 0.5 * r,
+        },
+    ];
+    let truth = TargetTruth {
+        id,
+        world: [x, y, zc],
+        survey: SurveyPoint {
+            x,
+            y,
+            z: zc,
+            antenna_height: 0.0,
+        },
+        map: [0.0; 3],
+        heading_deg: 0.0,
+        ground_z: gz,
+        plate_bottom_z: zc - r,
+        plate_top_z: zc + r,
+        antenna_top_z: zc + r,
+        road_distance_m,
+        points: 0,
+        ghost: None,
+        ghost_points: 0,
+        model: crate::model::ModelKind::Sphere,
+        size: Some(shape.diameter_m),
+    };
+    (Object::new(prims), truth)
 }

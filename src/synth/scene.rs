@@ -3,7 +3,7 @@
 
 use super::geometry::{Ground, Object, Prim, Wave, World};
 use super::lidar::Road;
-use super::parts::{build_target, stream, target_truth, yaw_box};
+use super::parts::{build_target, sphere_target, stream, target_truth, yaw_box};
 use super::{ClutterInfo, DecoyTruth, Layout, SynthParams, TargetTruth};
 use nalgebra::Vector3;
 use rand::Rng;
@@ -167,6 +167,18 @@ fn place_targets(
             }
             None => road_side(p, road, &mut rng, i),
         };
+        let model = p
+            .models
+            .get(i % p.models.len().max(1))
+            .copied()
+            .unwrap_or_default();
+        if model == crate::model::ModelKind::Sphere {
+            let (obj, truth) =
+                sphere_target(ground, &p.sphere, (i + 1).to_string(), (cx, cy), dist);
+            objects.push(obj);
+            targets.push(truth);
+            continue;
+        }
         let (obj, levels) = build_target(ground, &p.target, cx, cy, heading);
         objects.push(obj);
         targets.push(target_truth(

@@ -49,6 +49,18 @@ pub struct TargetTruth {
     /// Of `points`, the returns of the second pass (the copy's).
     #[serde(default, skip_serializing_if = "is_zero_u64")]
     pub ghost_points: u64,
+    /// What the target is; an L when absent. For a sphere, `world` is its
+    /// centre, the survey gives the centre, the plate heights are the
+    /// sphere's bottom and top and `antenna_top_z` its top.
+    #[serde(default, skip_serializing_if = "is_l")]
+    pub model: crate::model::ModelKind,
+    /// Its size when not an L (a sphere's diameter, m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<f64>,
+}
+
+fn is_l(m: &crate::model::ModelKind) -> bool {
+    *m == crate::model::ModelKind::L
 }
 
 fn is_zero_u64(v: &u64) -> bool {

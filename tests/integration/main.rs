@@ -25,6 +25,7 @@ mod gates;
 mod golden;
 mod hostile;
 mod locate_acceptance;
+mod models;
 mod pipeline;
 mod real_corpus;
 mod report_cli;

@@ -18,6 +18,8 @@ pub(crate) fn result(ids: &[&str]) -> crate::record::ResultFile {
             has_z: false,
             role: None,
             antenna_height: 0.0,
+            model: Default::default(),
+            size: None,
             line: i as u64 + 2,
         })
         .collect();
@@ -99,6 +101,8 @@ fn many_targets_get_tables_that_fit() {
             has_z: false,
             role: None,
             antenna_height: 0.0,
+            model: Default::default(),
+            size: None,
             line: i as u64 + 2,
         })
         .collect();

@@ -158,6 +158,7 @@ mod tests {
             plate_normals: Some([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
             corner: Some(c),
             samples: &samples,
+            circle: None,
         };
         let mut views = vec![TargetView::default(); 4];
         views[0] = TargetView {

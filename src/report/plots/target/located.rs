@@ -95,6 +95,7 @@ fn top_view(f: &mut Figure, l: &Located) -> Vec<Vector2<f64>> {
         MAX_POINTS_PER_VIEW,
     );
     let dirs = plate_traces(f, &top, l);
+    outline(f, &top, l.d.circle);
     f.marker(top.map(0.0, 0.0), MarkerKind::Plus, 8.0, palette::ESTIMATE);
     if top.contains(ds.0, ds.1) {
         f.marker(
@@ -105,6 +106,22 @@ fn top_view(f: &mut Figure, l: &Located) -> Vec<Vector2<f64>> {
         );
     }
     dirs
+}
+
+/// A sphere's fitted outline about its centre (the view's origin): a
+/// sphere cut through its centre is a circle in any view.
+fn outline(f: &mut Figure, view: &Panel, radius: Option<f64>) {
+    let Some(r) = radius else { return };
+    let at = |k: usize| {
+        let a = k as f64 * std::f64::consts::TAU / 72.0;
+        (r * a.cos(), r * a.sin())
+    };
+    for k in 0..72 {
+        let (p, q) = (at(k), at(k + 1));
+        if let Some((p, q)) = view.clip(p, q) {
+            f.line(p, q, palette::ESTIMATE, 1.0, false);
+        }
+    }
 }
 
 /// Plate traces: each plane's horizontal line, over its inliers' extent;
@@ -192,6 +209,7 @@ fn side_view(f: &mut Figure, rep: &Report, t: &TargetOut, l: &Located, dirs: &[V
             }
         }
     }
+    outline(f, &side, l.d.circle);
     f.marker(side.map(0.0, 0.0), MarkerKind::Plus, 8.0, palette::ESTIMATE);
     side_survey(f, rep, t, l, &side, u);
 }

@@ -1,0 +1,760 @@
+//! The sphere: found near its expected position among poles, bollards, bins
+//! and trees, and located by its centre.
+//!
+//! 1. **Hypotheses.** The crop is binned in cells a radius wide. In each
+//!    occupied cell, triples of points a radius or so apart each give the two
+//!    spheres of the surveyed radius through them; a hypothesis scores the
+//!    points within a tolerance of its surface.
+//! 2. **Refinement.** The best hypotheses, one per place, are refitted by
+//!    least squares with the radius known (Gauss–Newton on the distances),
+//!    the inlier band shrinking to three times the residual's σ.
+//! 3. **What a sphere is.** Round in every direction and of the surveyed
+//!    size: its points spread over the surface in two directions (a pole or
+//!    a post gives a ring), nothing stands inside it (a bush or a tree crown
+//!    does), the surface does not go on below it as a cylinder (a bollard's
+//!    round top does), and a fit with the radius free agrees with the
+//!    surveyed radius. A candidate failing any is refused with the reason.
+//! 4. **Choice.** Of the spheres with at least a quarter of the best's
+//!    support, the one nearest the expected position, unless nearer another
+//!    target's.
+//!
+//! The covariance is the least-squares one, s² (JᵀJ)⁻¹ with the residual
+//! variance corrected for the inlier band, plus what an error of the radius
+//! does to a centre seen from one side (the radius' tolerance, and the part
+//! of the free fit's disagreement its own σ does not explain), and at least
+//! the spread of refits on resampled inliers.
+
+use crate::Point;
+use crate::frame::grid::TileMap;
+use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Sphere parameters; the default size is the common 145 mm TLS sphere.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SphereParams {
+    /// Diameter (m) of spheres the survey gives no `size` for.
+    pub diameter_m: f64,
+    /// 1-σ of the sphere's true radius about the nominal one (m): the
+    /// build's tolerance and what the sensor's footprint does to the apparent
+    /// size. A centre seen from one side moves with the radius.
+    pub radius_sigma_m: f64,
+    /// Fewest points on the surface for a sphere.
+    pub min_points: usize,
+    /// Horizontal search radius around the expected position (m).
+    pub search_radius_m: f64,
+    /// Most points of a crop looked at (a uniform, deterministic sample
+    /// beyond), so the cost stays bounded however dense the map.
+    pub max_points: usize,
+    /// Seed of the hypotheses' and the resampling's draws.
+    pub seed: u64,
+}
+
+impl Default for SphereParams {
+    fn default() -> Self {
+        SphereParams {
+            diameter_m: 0.145,
+            radius_sigma_m: 0.0005,
+            min_points: 30,
+            search_radius_m: 4.5,
+            max_points: 60_000,
+            seed: 0,
+        }
+    }
+}
+
+impl SphereParams {
+    /// Range checks: a typo must not make a run loop or allocate unbounded.
+    pub fn check(&self) -> Result<(), String> {
+        super::ModelKind::Sphere.check_size(self.diameter_m)?;
+        if !(self.radius_sigma_m >= 0.0 && self.radius_sigma_m < 0.05) {
+            return Err(format!(
+                "sphere.radius_sigma_m = {} must be in 0..0.05 m",
+                self.radius_sigma_m
+            ));
+        }
+        if !(8..=100_000).contains(&self.min_points) {
+            return Err(format!(
+                "sphere.min_points = {} must be in 8..100000",
+                self.min_points
+            ));
+        }
+        if !(self.search_radius_m > 0.0 && self.search_radius_m <= 50.0) {
+            return Err(format!(
+                "sphere.search_radius_m = {} must be in (0, 50] m",
+                self.search_radius_m
+            ));
+        }
+        if !(1_000..=10_000_000).contains(&self.max_points) {
+            return Err(format!(
+                "sphere.max_points = {} must be in 1000..10000000",
+                self.max_points
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A located sphere.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SphereFit {
+    /// The centre (the frame the points are in).
+    #[serde(serialize_with = "ser_point")]
+    pub centre: Point,
+    /// The radius it was fitted with (half the surveyed diameter), m.
+    pub radius: f64,
+    /// The radius of a fit with the radius free, m, and its 1-σ.
+    pub free_radius: f64,
+    /// 1-σ of `free_radius`, m.
+    pub free_radius_sigma: f64,
+    /// Points on the surface (within the final inlier band).
+    pub inliers: usize,
+    /// Residual RMS of the surface points, m.
+    pub rms: f64,
+    /// How much of the surface was seen: the half-angle (degrees) of the
+    /// cap the points' directions from the centre cover, the narrower way.
+    pub cap_deg: f64,
+    /// Covariance of the centre (m², row-major).
+    pub covariance: [[f64; 3]; 3],
+    /// Centres refitted on resampled inliers (their spread is in the
+    /// covariance too).
+    #[serde(skip)]
+    pub samples: Vec<Point>,
+    /// Round candidates of the right size seen in the search.
+    pub candidates: usize,
+}
+
+fn ser_point<S: serde::Serializer>(p: &Point, s: S) -> Result<S::Ok, S::Error> {
+    [p.x, p.y, p.z].serialize(s)
+}
+
+/// Why no sphere was located.
+#[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum SphereError {
+    /// Nothing within the search radius.
+    #[error("no map points within {radius} m of the expected position")]
+    NoPoints {
+        /// Search radius (m).
+        radius: f64,
+    },
+    /// Nothing round of the surveyed size stood there.
+    #[error(
+        "no sphere of {diameter_mm:.0} mm within {radius} m ({points} points looked at){}",
+        seen.as_ref().map_or(String::new(), |s| format!("; closest thing seen: {s}"))
+    )]
+    NoSphere {
+        /// Search radius (m).
+        radius: f64,
+        /// The surveyed diameter (mm).
+        diameter_mm: f64,
+        /// Points looked at.
+        points: usize,
+        /// The best-supported candidate refused, and why.
+        seen: Option<String>,
+    },
+}
+
+/// What a sphere needs to be found: the points around it, where it is
+/// expected, where the other targets are expected, its radius, and "up".
+pub struct Search<'a> {
+    /// The loose crop.
+    pub points: &'a [Point],
+    /// Where the survey places the centre (the points' frame).
+    pub expected: Point,
+    /// The other targets' expected positions: objects nearer them are theirs.
+    pub others: &'a [Point],
+    /// The sphere's radius (m).
+    pub radius: f64,
+    /// The vertical (a post goes on along it below a bollard's round top).
+    pub up: Vector3<f64>,
+}
+
+/// Finds and locates the sphere of `s`; also returns the points near it (its
+/// tight crop: the surface and a radius around it).
+pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), SphereError> {
+    let r = s.radius;
+    let o = s.expected;
+    let reach = p.search_radius_m + r;
+    let mut local: Vec<Vector3<f64>> = s
+        .points
+        .iter()
+        .map(|q| q - o)
+        .filter(|v| v.xy().norm() <= reach)
+        .collect();
+    if local.is_empty() {
+        return Err(SphereError::NoPoints {
+            radius: p.search_radius_m,
+        });
+    }
+    thin(&mut local, p.max_points, p.seed);
+    let tol0 = (0.15 * r).max(0.01);
+    let grid = Grid::new(&local, r + tol0);
+    let hyps = hypotheses(&local, &grid, r, tol0, p.seed);
+    let mut cands: Vec<Candidate> = distinct(hyps, r, 16, p.min_points / 2)
+        .into_iter()
+        .map(|c| refine(&local, &grid, c, r, tol0))
+        .collect();
+    for c in &mut cands {
+        c.refusal = judge(&local, &grid, c, r, &s.up, p);
+    }
+    let chosen = choose(&cands, &s.others.iter().map(|q| q - o).collect::<Vec<_>>());
+    let Some(best) = chosen else {
+        let seen = cands
+            .iter()
+            .filter(|c| c.refusal.is_some() && c.inliers.len() >= p.min_points / 2)
+            .max_by_key(|c| c.inliers.len())
+            .map(|c| {
+                format!(
+                    "{} ({} points, centre {:.2} m from the expected position)",
+                    c.refusal.as_deref().unwrap_or(""),
+                    c.inliers.len(),
+                    c.centre.norm()
+                )
+            });
+        return Err(SphereError::NoSphere {
+            radius: p.search_radius_m,
+            diameter_mm: 2e3 * r,
+            points: local.len(),
+            seen,
+        });
+    };
+    let c = &cands[best];
+    let surface: Vec<Vector3<f64>> = c.inliers.iter().map(|&i| local[i as usize]).collect();
+    let (free, free_sigma) = free_fit(&surface, c.centre, r);
+    let samples = resampled(&surface, c.centre, r, p.seed);
+    let covariance = covariance(&surface, c, r, (free, free_sigma), &samples, p);
+    let near: Vec<Point> = grid
+        .near(&local, &c.centre, 2.0 * r)
+        .map(|i| o + local[i])
+        .collect();
+    let fit = SphereFit {
+        centre: o + c.centre,
+        radius: r,
+        free_radius: free,
+        free_radius_sigma: free_sigma,
+        inliers: c.inliers.len(),
+        rms: c.rms,
+        cap_deg: cap_half_angle(&surface, &c.centre),
+        covariance,
+        samples: samples.iter().map(|v| o + v).collect(),
+        candidates: cands.iter().filter(|c| c.refusal.is_none()).count(),
+    };
+    Ok((fit, near))
+}
+
+/// Keeps at most `max` of `v`, chosen by a hash of each index (uniform,
+/// deterministic, and free of the scan lines' order that a stride aliases).
+fn thin(v: &mut Vec<Vector3<f64>>, max: usize, seed: u64) {
+    if v.len() <= max {
+        return;
+    }
+    let keep = max as f64 / v.len() as f64;
+    let mut i = 0u64;
+    v.retain(|_| {
+        i += 1;
+        unit(seed ^ 0x5f3a_9d1b, i) < keep
+    });
+}
+
+/// A uniform number in [0, 1) from a key: SplitMix64's finaliser.
+fn unit(seed: u64, key: u64) -> f64 {
+    let mut z = seed
+        .wrapping_add(key.wrapping_mul(0x9e37_79b9_7f4a_7c15))
+        .wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// The points by cubic cell of `size`.
+struct Grid {
+    size: f64,
+    cells: TileMap<(i64, i64, i64), Vec<u32>>,
+}
+
+impl Grid {
+    fn new(v: &[Vector3<f64>], size: f64) -> Grid {
+        let mut cells: TileMap<(i64, i64, i64), Vec<u32>> = TileMap::default();
+        for (i, q) in v.iter().enumerate() {
+            cells
+                .entry(Self::key_of(q, size))
+                .or_default()
+                .push(i as u32);
+        }
+        Grid { size, cells }
+    }
+    fn key_of(q: &Vector3<f64>, size: f64) -> (i64, i64, i64) {
+        (
+            (q.x / size).floor() as i64,
+            (q.y / size).floor() as i64,
+            (q.z / size).floor() as i64,
+        )
+    }
+    /// Indices of the points within `d` of `c` (any order the cells give).
+    fn near<'a>(
+        &'a self,
+        v: &'a [Vector3<f64>],
+        c: &Vector3<f64>,
+        d: f64,
+    ) -> impl Iterator<Item = usize> + 'a {
+        let k = Self::key_of(c, self.size);
+        let n = (d / self.size).ceil() as i64;
+        let c = *c;
+        (-n..=n)
+            .flat_map(move |dx| (-n..=n).flat_map(move |dy| (-n..=n).map(move |dz| (dx, dy, dz))))
+            .filter_map(move |(dx, dy, dz)| self.cells.get(&(k.0 + dx, k.1 + dy, k.2 + dz)))
+            .flatten()
+            .map(|&i| i as usize)
+            .filter(move |&i| (v[i] - c).norm_squared() <= d * d)
+    }
+}
+
+/// A sphere hypothesis or candidate: its centre (local frame), the points
+/// on its surface, their RMS residual, and why it is not the target.
+#[derive(Debug, Clone)]
+struct Candidate {
+    centre: Vector3<f64>,
+    inliers: Vec<u32>,
+    rms: f64,
+    refusal: Option<String>,
+}
+
+/// Triples per occupied cell: enough that one of them lies on a sphere that
+/// fills a few cells, few enough to stay bounded on a dense wall.
+const TRIPLES: u64 = 8;
+
+/// Step 1: the best sphere hypothesis of each occupied cell (score, centre),
+/// in key order.
+fn hypotheses(
+    v: &[Vector3<f64>],
+    grid: &Grid,
+    r: f64,
+    tol: f64,
+    seed: u64,
+) -> Vec<(usize, Vector3<f64>)> {
+    let mut keys: Vec<(i64, i64, i64)> = grid
+        .cells
+        .iter()
+        .filter(|(_, ids)| ids.len() >= 2)
+        .map(|(k, _)| *k)
+        .collect();
+    keys.sort_unstable();
+    keys.par_iter()
+        .filter_map(|k| {
+            let own = &grid.cells[k];
+            let centre = Vector3::new(
+                (k.0 as f64 + 0.5) * grid.size,
+                (k.1 as f64 + 0.5) * grid.size,
+                (k.2 as f64 + 0.5) * grid.size,
+            );
+            let near: Vec<usize> = grid.near(v, &centre, 2.0 * grid.size).collect();
+            if near.len() < 3 {
+                return None;
+            }
+            let key = (k.0 as u64).wrapping_mul(73_856_093)
+                ^ (k.1 as u64).wrapping_mul(19_349_663)
+                ^ (k.2 as u64).wrapping_mul(83_492_791);
+            let mut best: Option<(usize, Vector3<f64>)> = None;
+            let mut draw = 0u64;
+            for t in 0..TRIPLES {
+                let a = v[own[(unit(seed ^ key, t) * own.len() as f64) as usize] as usize];
+                let mut pick = |avoid: Option<Vector3<f64>>| {
+                    for _ in 0..12 {
+                        draw += 1;
+                        let q =
+                            v[near[(unit(seed ^ key ^ 0xabcd, draw) * near.len() as f64) as usize]];
+                        let d = (q - a).norm();
+                        let apart = avoid.is_none_or(|b| (q - b).norm() > 0.5 * r);
+                        if d > 0.5 * r && d < 2.0 * r && apart {
+                            return Some(q);
+                        }
+                    }
+                    None
+                };
+                let Some(b) = pick(None) else { continue };
+                let Some(c) = pick(Some(b)) else { continue };
+                for s in through(&a, &b, &c, r).into_iter().flatten() {
+                    let n = grid
+                        .near(v, &s, r + tol)
+                        .filter(|&i| ((v[i] - s).norm() - r).abs() < tol)
+                        .count();
+                    if best.is_none_or(|(m, _)| n > m) {
+                        best = Some((n, s));
+                    }
+                }
+            }
+            best
+        })
+        .collect()
+}
+
+/// The two centres of the spheres of radius `r` through three points
+/// (`None` where the points are nearly in a line or too far apart).
+fn through(
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    c: &Vector3<f64>,
+    r: f64,
+) -> [Option<Vector3<f64>>; 2] {
+    let (u, w) = (a - c, b - c);
+    let n = u.cross(&w);
+    let nn = n.norm_squared();
+    if nn < 1e-12 * u.norm_squared() * w.norm_squared() || nn == 0.0 {
+        return [None, None];
+    }
+    // Circumcentre of the triangle, and its radius.
+    let q = c + (w * u.norm_squared() - u * w.norm_squared()).cross(&n) / (2.0 * nn);
+    let rho2 = (q - c).norm_squared();
+    if rho2 > r * r {
+        return [None, None];
+    }
+    let h = (r * r - rho2).sqrt();
+    let nu = n / nn.sqrt();
+    [Some(q + nu * h), Some(q - nu * h)]
+}
+
+/// The hypotheses, strongest first, keeping one per place (centres at least
+/// a radius apart), at most `most`, each with `min` points or more.
+fn distinct(
+    mut hyps: Vec<(usize, Vector3<f64>)>,
+    r: f64,
+    most: usize,
+    min: usize,
+) -> Vec<Vector3<f64>> {
+    // Stable: equal scores keep the cells' key order.
+    hyps.sort_by(|a, b| b.0.cmp(&a.0));
+    let mut kept: Vec<Vector3<f64>> = Vec::new();
+    for (n, c) in hyps {
+        if n < min.max(4) || kept.len() >= most {
+            break;
+        }
+        if kept.iter().all(|k| (k - c).norm() > r) {
+            kept.push(c);
+        }
+    }
+    kept
+}
+
+/// Step 2: least squares with the radius known, on the points within a
+/// band of the surface that shrinks to three residual σ (not below 3 mm).
+fn refine(v: &[Vector3<f64>], grid: &Grid, c0: Vector3<f64>, r: f64, tol0: f64) -> Candidate {
+    let mut c = c0;
+    let mut tol = tol0;
+    let mut inliers: Vec<u32> = Vec::new();
+    let mut rms = f64::NAN;
+    for _ in 0..6 {
+        inliers = grid
+            .near(v, &c, r + tol)
+            .filter(|&i| ((v[i] - c).norm() - r).abs() < tol)
+            .map(|i| i as u32)
+            .collect();
+        inliers.sort_unstable();
+        if inliers.len() < 4 {
+            break;
+        }
+        let pts: Vec<Vector3<f64>> = inliers.iter().map(|&i| v[i as usize]).collect();
+        c = known_radius_fit(&pts, c, r, 3);
+        let sse: f64 = pts.iter().map(|q| ((q - c).norm() - r).powi(2)).sum();
+        rms = (sse / pts.len() as f64).sqrt();
+        let sigma = crate::locate::covariance::untruncate(rms * rms, tol).sqrt();
+        // The band follows the map's noise, up to 0.4 r: beyond, a sphere
+        // is a blob whose centre its points barely say.
+        tol = (3.0 * sigma).clamp(0.003, (0.4 * r).max(tol0));
+    }
+    Candidate {
+        centre: c,
+        inliers,
+        rms,
+        refusal: None,
+    }
+}
+
+/// Gauss–Newton on Σ (|q − c| − r)² for the centre, `iters` steps from `c`.
+fn known_radius_fit(
+    pts: &[Vector3<f64>],
+    mut c: Vector3<f64>,
+    r: f64,
+    iters: usize,
+) -> Vector3<f64> {
+    for _ in 0..iters {
+        let mut jtj = Matrix3::zeros();
+        let mut jtr = Vector3::zeros();
+        for q in pts {
+            let d = q - c;
+            let n = d.norm();
+            if n < 1e-12 {
+                continue;
+            }
+            let u = d / n;
+            jtj += u * u.transpose();
+            jtr += u * (n - r);
+        }
+        let Some(inv) = jtj.try_inverse() else { break };
+        let step = inv * jtr;
+        c += step;
+        if step.norm() < 1e-9 {
+            break;
+        }
+    }
+    c
+}
+
+/// A fit with the radius free, from `c` and `r`: its radius and the radius'
+/// 1-σ (NaN when the fit is degenerate).
+fn free_fit(pts: &[Vector3<f64>], mut c: Vector3<f64>, mut r: f64) -> (f64, f64) {
+    let mut cov_r = f64::NAN;
+    for _ in 0..20 {
+        let mut jtj = Matrix4::zeros();
+        let mut jtr = Vector4::zeros();
+        for q in pts {
+            let d = q - c;
+            let n = d.norm();
+            if n < 1e-12 {
+                continue;
+            }
+            let u = d / n;
+            let j = Vector4::new(u.x, u.y, u.z, 1.0);
+            jtj += j * j.transpose();
+            jtr += j * (n - r);
+        }
+        let Some(inv) = jtj.try_inverse() else {
+            return (f64::NAN, f64::NAN);
+        };
+        let step = inv * jtr;
+        c += step.xyz();
+        r += step.w;
+        let sse: f64 = pts.iter().map(|q| ((q - c).norm() - r).powi(2)).sum();
+        let s2 = sse / (pts.len().saturating_sub(4).max(1)) as f64;
+        cov_r = s2 * inv[(3, 3)];
+        if step.norm() < 1e-10 {
+            break;
+        }
+    }
+    (r, cov_r.max(0.0).sqrt())
+}
+
+/// Step 3: why candidate `c` is not a sphere of radius `r`, or `None`.
+fn judge(
+    v: &[Vector3<f64>],
+    grid: &Grid,
+    c: &Candidate,
+    r: f64,
+    up: &Vector3<f64>,
+    p: &SphereParams,
+) -> Option<String> {
+    let n = c.inliers.len();
+    if n < p.min_points {
+        return Some(format!(
+            "a round surface with {n} points, fewer than {}",
+            p.min_points
+        ));
+    }
+    if !(c.rms <= 0.25 * r) {
+        return Some(format!(
+            "a surface {:.1} mm from a sphere's on average",
+            c.rms * 1e3
+        ));
+    }
+    let up = up.normalize();
+    let surface: Vec<Vector3<f64>> = c.inliers.iter().map(|&i| v[i as usize]).collect();
+    // Round in every direction: a ring (a pole, a post) covers one.
+    let cap = cap_half_angle(&surface, &c.centre);
+    if cap < 18.0 {
+        return Some(format!(
+            "round one way only (its points cover {cap:.0}° of the surface across: a pole, post or edge)"
+        ));
+    }
+    // A surveyed sphere stands on a pole or a base, clear of the ground; a
+    // sphere the ground cuts is where a surface meets the ground.
+    if let Some(g) = ground_below(v, &c.centre, r, &up) {
+        let clear = c.centre.dot(&up) - r - g;
+        if clear < 0.2 * r {
+            return Some(format!(
+                "cut by the ground (its bottom {:.0} mm from the ground below it)",
+                clear * 1e3
+            ));
+        }
+    }
+    let band = (3.0 * c.rms).max(0.005);
+    // Nothing inside a sphere; a crown of leaves or a bush is full.
+    let inside = grid
+        .near(v, &c.centre, r - band)
+        .filter(|&i| (v[i] - c.centre).norm() < r - band)
+        .count();
+    if inside * 10 > n {
+        return Some(format!(
+            "full, not a shell ({inside} points inside against {n} on the surface: foliage?)"
+        ));
+    }
+    // A bollard's or a post's round top goes on below as a cylinder; the
+    // pole under a sphere is far thinner than the sphere.
+    let reach = 2.5 * r;
+    let post = grid
+        .near(v, &c.centre, reach + r)
+        .filter(|&i| {
+            let d = v[i] - c.centre;
+            let h = d.dot(&up);
+            let across = (d - up * h).norm();
+            h < -0.8 * r && h > -reach && across > 0.8 * r && across < r + 2.0 * band
+        })
+        .count();
+    if post * 10 > 3 * n {
+        return Some(format!(
+            "the top of a post or bollard ({post} points go on below it at its radius)"
+        ));
+    }
+    let (free, sigma) = free_fit(&surface, c.centre, r);
+    if !(free - r).abs().is_finite() || (free - r).abs() > (3.0 * sigma).max(0.1 * r) {
+        return Some(format!(
+            "a sphere of {:.0} mm, not the {:.0} mm surveyed",
+            2e3 * free,
+            2e3 * r
+        ));
+    }
+    None
+}
+
+/// The ground's height (along `up`) about a candidate: the 5th percentile
+/// of the points within 1 m across it and not on it; `None` with fewer than
+/// 20 such points (nothing to tell the ground by).
+fn ground_below(v: &[Vector3<f64>], c: &Vector3<f64>, r: f64, up: &Vector3<f64>) -> Option<f64> {
+    // One pass over the (bounded) crop: cheaper than the cells of a tall box.
+    let mut h: Vec<f64> = v
+        .iter()
+        .filter(|q| {
+            let d = *q - c;
+            let a = d.dot(up);
+            (d - up * a).norm_squared() < 1.0 && d.norm_squared() > 4.0 * r * r
+        })
+        .map(|q| q.dot(up))
+        .collect();
+    if h.len() < 20 {
+        return None;
+    }
+    h.sort_unstable_by(f64::total_cmp);
+    Some(h[h.len() / 20])
+}
+
+/// The half-angle (degrees) of the cap the points' directions from `c`
+/// cover, the narrower way: from the spread of the directions across their
+/// mean (a cap of half-angle θ seen evenly has a spread of θ/2 each way).
+fn cap_half_angle(pts: &[Vector3<f64>], c: &Vector3<f64>) -> f64 {
+    let dirs: Vec<Vector3<f64>> = pts
+        .iter()
+        .filter_map(|q| (q - c).try_normalize(1e-12))
+        .collect();
+    if dirs.len() < 3 {
+        return 0.0;
+    }
+    let m = dirs.iter().sum::<Vector3<f64>>() / dirs.len() as f64;
+    let mean = match m.try_normalize(1e-9) {
+        Some(m) => m,
+        // Directions all round: the whole sphere seen.
+        None => return 90.0,
+    };
+    let mut s = Matrix3::zeros();
+    for d in &dirs {
+        let t = d - mean * d.dot(&mean);
+        s += t * t.transpose();
+    }
+    s /= dirs.len() as f64;
+    let mut ev: Vec<f64> = s.symmetric_eigenvalues().iter().copied().collect();
+    ev.sort_unstable_by(f64::total_cmp);
+    // ev[0] is the mean direction's own (≈ 0); ev[1] the narrower spread.
+    (2.0 * ev[1].max(0.0).sqrt()).asin().to_degrees().min(90.0)
+}
+
+/// Step 4: of the accepted candidates with a quarter of the best's support
+/// or more, the one nearest the expected position (the origin), unless
+/// nearer another target's expected position.
+fn choose(cands: &[Candidate], others: &[Vector3<f64>]) -> Option<usize> {
+    let best = cands
+        .iter()
+        .filter(|c| c.refusal.is_none())
+        .map(|c| c.inliers.len())
+        .max()?;
+    cands
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.refusal.is_none() && 4 * c.inliers.len() >= best)
+        .filter(|(_, c)| {
+            let own = c.centre.xy().norm();
+            others.iter().all(|o| (c.centre - o).xy().norm() >= own)
+        })
+        .min_by(|a, b| a.1.centre.xy().norm().total_cmp(&b.1.centre.xy().norm()))
+        .map(|(i, _)| i)
+}
+
+/// Refits on the surface points resampled with replacement: how much the
+/// centre moves with which points happened to be seen.
+fn resampled(pts: &[Vector3<f64>], c: Vector3<f64>, r: f64, seed: u64) -> Vec<Vector3<f64>> {
+    const DRAWS: u64 = 32;
+    (0..DRAWS)
+        .map(|k| {
+            let draw: Vec<Vector3<f64>> = (0..pts.len() as u64)
+                .map(|i| pts[(unit(seed ^ (k << 32), i) * pts.len() as f64) as usize])
+                .collect();
+            known_radius_fit(&draw, c, r, 4)
+        })
+        .collect()
+}
+
+/// The centre's covariance (see the module's doc).
+fn covariance(
+    pts: &[Vector3<f64>],
+    c: &Candidate,
+    r: f64,
+    (free, free_sigma): (f64, f64),
+    samples: &[Vector3<f64>],
+    p: &SphereParams,
+) -> [[f64; 3]; 3] {
+    let mut jtj = Matrix3::zeros();
+    let mut sum_u = Vector3::zeros();
+    let mut sse = 0.0;
+    for q in pts {
+        let d = q - c.centre;
+        let n = d.norm();
+        let u = d / n;
+        jtj += u * u.transpose();
+        sum_u += u;
+        sse += (n - r).powi(2);
+    }
+    let Some(inv) = jtj.try_inverse() else {
+        return [[f64::INFINITY; 3]; 3];
+    };
+    let dof = pts.len().saturating_sub(3).max(1) as f64;
+    let band = (3.0 * c.rms).max(0.003);
+    let s2 = crate::locate::covariance::untruncate(sse / dof, band);
+    // The centre moves by g per metre of radius error.
+    let g = inv * sum_u;
+    let off = free - r;
+    let unexplained = if off.is_finite() && free_sigma.is_finite() {
+        (off * off - free_sigma * free_sigma).max(0.0)
+    } else {
+        0.0
+    };
+    let var_r = p.radius_sigma_m.powi(2) + unexplained;
+    // The noise's part: least squares', or the resampled centres' spread
+    // where that is larger.
+    let mut noise = inv * s2;
+    if samples.len() > 1 {
+        let mean = samples.iter().sum::<Vector3<f64>>() / samples.len() as f64;
+        let mut sc = Matrix3::zeros();
+        for s in samples {
+            sc += (s - mean) * (s - mean).transpose();
+        }
+        sc /= (samples.len() - 1) as f64;
+        if sc.trace() > noise.trace() {
+            noise = sc;
+        }
+    }
+    let cov = noise + g * g.transpose() * var_r;
+    let cov = (cov + cov.transpose()) / 2.0;
+    [0, 1, 2].map(|i| [0, 1, 2].map(|j| cov[(i, j)]))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,277 @@
+use super::*;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use rand_pcg::Pcg64;
+
+const R: f64 = 0.0725;
+
+/// Points on the cap of a sphere (centre `c`, radius `r`) seen from
+/// direction `view` (unit, from the centre towards the sensor), covering
+/// `share` of the surface, with radial noise `sigma`.
+fn cap(
+    rng: &mut Pcg64,
+    c: Vector3<f64>,
+    r: f64,
+    view: Vector3<f64>,
+    share: f64,
+    n: usize,
+    sigma: f64,
+) -> Vec<Point> {
+    let cos_max = 1.0 - 2.0 * share;
+    let a = view.normalize();
+    let b = a
+        .cross(&Vector3::z())
+        .try_normalize(1e-9)
+        .unwrap_or(Vector3::x());
+    let d = a.cross(&b);
+    let noise = Normal::new(0.0, sigma).unwrap();
+    (0..n)
+        .map(|_| {
+            let ct: f64 = rng.random_range(cos_max..1.0);
+            let st = (1.0 - ct * ct).sqrt();
+            let ph: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let u = a * ct + (b * ph.cos() + d * ph.sin()) * st;
+            Point::from(c + u * (r + noise.sample(rng)))
+        })
+        .collect()
+}
+
+/// A vertical cylinder's side seen from `view` (half of it), heights z0..z1.
+fn post(
+    rng: &mut Pcg64,
+    (x, y): (f64, f64),
+    rad: f64,
+    (z0, z1): (f64, f64),
+    view: Vector3<f64>,
+    n: usize,
+    sigma: f64,
+) -> Vec<Point> {
+    let noise = Normal::new(0.0, sigma).unwrap();
+    let h = view.y.atan2(view.x);
+    (0..n)
+        .map(|_| {
+            let a = h + rng.random_range(-1.4..1.4);
+            let z = rng.random_range(z0..z1);
+            let rr = rad + noise.sample(rng);
+            Point::new(x + rr * f64::cos(a), y + rr * f64::sin(a), z)
+        })
+        .collect()
+}
+
+/// A flat ground patch about the origin.
+fn ground(rng: &mut Pcg64, n: usize) -> Vec<Point> {
+    (0..n)
+        .map(|_| {
+            Point::new(
+                rng.random_range(-4.0..4.0),
+                rng.random_range(-4.0..4.0),
+                rng.random_range(-0.005..0.005),
+            )
+        })
+        .collect()
+}
+
+fn search<'a>(points: &'a [Point], expected: Point) -> Search<'a> {
+    Search {
+        points,
+        expected,
+        others: &[],
+        radius: R,
+        up: Vector3::z(),
+    }
+}
+
+/// A sphere on a thin pole among a pole of the sphere's own radius, a
+/// bollard with a round top, a bush and a plain sign is found, within 2 mm,
+/// seen on 15 % of its surface.
+#[test]
+fn a_sphere_among_round_clutter_is_found() {
+    let mut rng = Pcg64::seed_from_u64(7);
+    let view = Vector3::new(-1.0, -0.3, 0.1);
+    let c = Vector3::new(0.4, 0.3, 1.5);
+    let mut pts = ground(&mut rng, 20_000);
+    pts.extend(cap(&mut rng, c, R, view, 0.15, 150, 0.002));
+    // Its pole, 2 cm thick, below it.
+    pts.extend(post(
+        &mut rng,
+        (c.x, c.y),
+        0.02,
+        (0.0, c.z - R),
+        view,
+        300,
+        0.002,
+    ));
+    // A pole as thick as the sphere, a bollard with a domed top, a bush, a sign.
+    pts.extend(post(
+        &mut rng,
+        (-1.5, 1.0),
+        R,
+        (0.0, 3.0),
+        view,
+        3000,
+        0.002,
+    ));
+    pts.extend(post(
+        &mut rng,
+        (1.5, -1.5),
+        R,
+        (0.0, 0.9),
+        view,
+        1500,
+        0.002,
+    ));
+    pts.extend(cap(
+        &mut rng,
+        Vector3::new(1.5, -1.5, 0.9),
+        R,
+        Vector3::new(-1.0, -0.3, 1.2),
+        0.3,
+        300,
+        0.002,
+    ));
+    for _ in 0..1500 {
+        let d = Vector3::new(
+            rng.random_range(-0.4..0.4),
+            rng.random_range(-0.4..0.4),
+            rng.random_range(-0.4..0.4),
+        );
+        if d.norm() < 0.4 {
+            pts.push(Point::from(Vector3::new(-1.0, -1.5, 0.6) + d));
+        }
+    }
+    for _ in 0..3000 {
+        pts.push(Point::new(
+            -2.5,
+            rng.random_range(-0.4..0.4),
+            rng.random_range(1.0..1.8),
+        ));
+    }
+    let (fit, near) = locate(
+        &search(&pts, Point::new(0.0, 0.0, 1.4)),
+        &SphereParams::default(),
+    )
+    .unwrap();
+    let err = (fit.centre - Point::from(c)).norm();
+    assert!(
+        err < 0.002,
+        "centre {:?} is {:.2} mm off",
+        fit.centre,
+        err * 1e3
+    );
+    assert!(fit.inliers >= 120, "{}", fit.inliers);
+    assert!((fit.free_radius - R).abs() < 0.005, "{}", fit.free_radius);
+    assert!(fit.cap_deg > 25.0 && fit.cap_deg < 60.0, "{}", fit.cap_deg);
+    assert!(near.len() >= fit.inliers);
+    let sigma = [0, 1, 2].map(|i| fit.covariance[i][i].sqrt());
+    assert!(sigma.iter().all(|s| *s > 1e-4 && *s < 0.005), "{sigma:?}");
+}
+
+/// Alone, each of the clutter is refused, with what it looked like.
+#[test]
+fn poles_bollards_bushes_and_wrong_sizes_are_not_spheres() {
+    let mut rng = Pcg64::seed_from_u64(11);
+    let view = Vector3::new(-1.0, 0.2, 0.05);
+    let p = SphereParams::default();
+    let refused = |pts: Vec<Point>| -> String {
+        match locate(&search(&pts, Point::new(0.0, 0.0, 1.0)), &p) {
+            Err(SphereError::NoSphere { seen, .. }) => seen.unwrap_or_default(),
+            other => panic!("found {:?}", other.map(|f| f.0.centre)),
+        }
+    };
+    let mut pole = ground(&mut rng, 5000);
+    pole.extend(post(&mut rng, (0.2, 0.1), R, (0.0, 3.0), view, 4000, 0.002));
+    let why = refused(pole);
+    assert!(
+        why.contains("round one way only") || why.contains("post"),
+        "{why}"
+    );
+
+    let mut bollard = ground(&mut rng, 5000);
+    bollard.extend(post(&mut rng, (0.2, 0.1), R, (0.0, 1.0), view, 2000, 0.002));
+    bollard.extend(cap(
+        &mut rng,
+        Vector3::new(0.2, 0.1, 1.0),
+        R,
+        Vector3::new(-1.0, 0.2, 1.0),
+        0.3,
+        400,
+        0.002,
+    ));
+    let why = refused(bollard);
+    assert!(why.contains("post or bollard"), "{why}");
+
+    let mut bush = ground(&mut rng, 5000);
+    for _ in 0..4000 {
+        let d = Vector3::new(
+            rng.random_range(-0.5..0.5),
+            rng.random_range(-0.5..0.5),
+            rng.random_range(-0.5..0.5),
+        );
+        if d.norm() < 0.5 {
+            bush.push(Point::from(Vector3::new(0.3, 0.0, 0.8) + d));
+        }
+    }
+    let why = refused(bush);
+    assert!(
+        why.is_empty() || why.contains("full") || why.contains("surface"),
+        "{why}"
+    );
+
+    // A 200 mm sphere where 145 mm was surveyed.
+    let mut big = ground(&mut rng, 5000);
+    big.extend(cap(
+        &mut rng,
+        Vector3::new(0.2, 0.1, 1.2),
+        0.1,
+        view,
+        0.3,
+        600,
+        0.001,
+    ));
+    let why = refused(big);
+    assert!(why.contains("not the 145 mm surveyed"), "{why}");
+}
+
+/// The 95 % ellipsoid of the centre holds the truth 92–98 % of the time
+/// over caps of 15–50 % of the surface, 30–400 points, 1–5 mm noise.
+#[test]
+fn the_covariance_is_calibrated_on_independent_noise() {
+    let mut rng = Pcg64::seed_from_u64(3);
+    let p = SphereParams {
+        radius_sigma_m: 0.0,
+        ..SphereParams::default()
+    };
+    let (mut inside, mut total) = (0, 0);
+    for _ in 0..300 {
+        let c = Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            1.5,
+        );
+        let view = Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-0.2..0.4),
+        );
+        let share = rng.random_range(0.15..0.5);
+        let n = rng.random_range(30..400);
+        let sigma = rng.random_range(0.001..0.005);
+        let pts = cap(&mut rng, c, R, view, share, n, sigma);
+        let Ok((fit, _)) = locate(&search(&pts, Point::from(c)), &p) else {
+            continue;
+        };
+        let cov = Matrix3::from_fn(|i, j| fit.covariance[i][j]);
+        let e = fit.centre.coords - c;
+        let m2 = e.dot(&(cov.try_inverse().unwrap() * e));
+        total += 1;
+        if m2 <= 7.815 {
+            inside += 1;
+        }
+    }
+    let share = inside as f64 / total as f64;
+    assert!(total >= 280, "only {total} of 300 located");
+    assert!(
+        (0.92..=0.98).contains(&share),
+        "{inside} of {total} inside: {share:.3}"
+    );
+}
