@@ -220,7 +220,11 @@ class Target:
     """Error under an alignment fitted without this target."""
     detail: Optional[Dict[str, Any]]
     """The pipeline's record of the target (``eval.targets``: crops, samples,
-    spread, failed stage); ``None`` for :func:`errors`."""
+    spread, failed stage; for a sphere its fit under ``sphere``); ``None``
+    for :func:`errors`."""
+    model: str = "l"
+    """What the target is: ``l``, ``sphere`` or ``board`` (the survey's
+    ``model`` column; ``l`` for :func:`errors`, which locates nothing)."""
 
 
 class Accuracy:
@@ -305,6 +309,7 @@ class Accuracy:
                 abs_error=t.get("abs_error"),
                 loo_error=t.get("loo_error"),
                 detail=details.get(t["id"]),
+                model=(details.get(t["id"]) or {}).get("model", "l"),
             )
             for t in d["targets"]
         ]

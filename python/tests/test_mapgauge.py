@@ -668,3 +668,17 @@ def test_batch_on_a_dask_cluster(batch_runs, tmp_path):
     assert _statuses(s) == ["evaluated"] * 4 and s["exit_code"] == 0
     assert [l["method"] for l in s["leaderboard"]] == ["a", "b"]
     assert (tmp_path / "dask" / "index.html").is_file()
+
+
+def test_a_mixed_survey_names_each_target_model():
+    # Issue 33: spheres beside Ls, from the scene in memory to the results.
+    sc = mapgauge.synth(points=4_000_000, seed=1, models=["l", "sphere"],
+                        lidar={"range_noise_m": 0.01})
+    assert [t.get("model", "l") for t in sc.truth["targets"]] == ["l", "sphere", "l", "sphere", "l"]
+    ev = mapgauge.evaluate(sc.points, sc.survey)
+    assert [t.model for t in ev.targets] == ["l", "sphere", "l", "sphere", "l"]
+    assert all(t.status == "ok" for t in ev.targets), [t.reason for t in ev.targets]
+    s = ev.targets[1].detail["sphere"]
+    assert s["inliers"] >= 30 and abs(s["free_radius"] - 0.0725) < 0.006
+    truth = np.asarray(sc.truth["targets"][1]["map"])
+    assert np.linalg.norm(ev.targets[1].map - truth) < 0.01
