@@ -39,6 +39,15 @@ struct Located<'a> {
 }
 
 impl Located<'_> {
+    /// What the estimate is: an L's corner or a sphere's centre.
+    fn point(&self) -> &'static str {
+        if self.d.circle.is_some() {
+            "centre"
+        } else {
+            "corner"
+        }
+    }
+
     /// Point `i`'s role in the fit.
     fn label(&self, i: usize) -> Label {
         if self.labels_ok {
@@ -70,7 +79,7 @@ pub(super) fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: 
     let dirs = top_view(f, &l);
     side_view(f, rep, t, &l, &dirs);
     spread_view(f, t, &l);
-    legend(f);
+    legend(f, l.d.circle.is_some());
 }
 
 /// Top view, metres from the corner: the crop, each plate's trace, the
@@ -84,7 +93,13 @@ fn top_view(f: &mut Figure, l: &Located) -> Vec<Vector2<f64>> {
         by = (by.0.min(ds.1), by.1.max(ds.1));
     }
     let top = Panel::new(TOP, pad(bx, 0.08), pad(by, 0.08), true);
-    top.axes(f, "top view", "x − corner x (m)", "y − corner y (m)");
+    let w = l.point();
+    top.axes(
+        f,
+        "top view",
+        &format!("x − {w} x (m)"),
+        &format!("y − {w} y (m)"),
+    );
     cloud(
         f,
         &top,
@@ -181,12 +196,16 @@ fn side_view(f: &mut Figure, rep: &Report, t: &TargetOut, l: &Located, dirs: &[V
     let side_of = |p: &Point| (u.dot(&Vector2::new(p.x - c.x, p.y - c.y)), p.z - c.z);
     let (sx, sz) = bounds(l.tight.iter().map(side_of));
     let side = Panel::new(SIDE, pad(sx, 0.08), pad(sz, 0.08), true);
-    side.axes(
-        f,
-        "side view (into the corner)",
-        "across the L (m)",
-        "z − corner z (m)",
-    );
+    if l.d.circle.is_some() {
+        side.axes(f, "side view", "across (m)", "z − centre z (m)");
+    } else {
+        side.axes(
+            f,
+            "side view (into the corner)",
+            "across the L (m)",
+            "z − corner z (m)",
+        );
+    }
     cloud(
         f,
         &side,
@@ -233,7 +252,12 @@ fn side_survey(
         f.text(
             (SIDE.0, SIDE.1 + SIDE.3 + 44.0),
             &format!(
-                "survey: across-L position only ({} fits no height)",
+                "survey: {} position only ({} fits no height)",
+                if l.d.circle.is_some() {
+                    "across"
+                } else {
+                    "across-L"
+                },
                 rep.alignment.method
             ),
             10.0,
@@ -281,8 +305,8 @@ fn spread_view(f: &mut Figure, t: &TargetOut, l: &Located) {
     sp.axes(
         f,
         &format!("{} samples (mm)", dev.len()),
-        "x − corner (mm)",
-        "y − corner (mm)",
+        &format!("x − {} (mm)", l.point()),
+        &format!("y − {} (mm)", l.point()),
     );
     f.items.push(Item::Dots {
         xy: dev.iter().map(|p| sp.map(p.0, p.1)).collect(),
@@ -301,7 +325,11 @@ fn spread_view(f: &mut Figure, t: &TargetOut, l: &Located) {
     f.text(
         (THIRD.0, THIRD.1 + THIRD.3 + 44.0),
         if ellipse.is_some() {
-            "ellipse: 95 % of the corner's uncertainty"
+            if l.d.circle.is_some() {
+                "ellipse: 95 % of the centre's uncertainty"
+            } else {
+                "ellipse: 95 % of the corner's uncertainty"
+            }
         } else {
             "no uncertainty recorded"
         },
@@ -345,18 +373,29 @@ fn spread_survey(f: &mut Figure, sp: &Panel, smm: (f64, f64), m: f64) {
 }
 
 /// One legend line under the views.
-fn legend(f: &mut Figure) {
+fn legend(f: &mut Figure, sphere: bool) {
     let y = LEGEND_Y;
-    legend_dot(f, (60.0, y), palette::PLATE1, "plate 1");
-    legend_dot(f, (140.0, y), palette::PLATE2, "plate 2");
-    legend_dot(f, (220.0, y), palette::OUTLIER, "outlier");
-    legend_marker(
-        f,
-        (300.0, y),
-        MarkerKind::Plus,
-        palette::ESTIMATE,
-        "estimated corner",
-    );
+    if sphere {
+        legend_dot(f, (60.0, y), palette::OUTLIER, "point near the sphere");
+        legend_marker(
+            f,
+            (300.0, y),
+            MarkerKind::Plus,
+            palette::ESTIMATE,
+            "estimated centre",
+        );
+    } else {
+        legend_dot(f, (60.0, y), palette::PLATE1, "plate 1");
+        legend_dot(f, (140.0, y), palette::PLATE2, "plate 2");
+        legend_dot(f, (220.0, y), palette::OUTLIER, "outlier");
+        legend_marker(
+            f,
+            (300.0, y),
+            MarkerKind::Plus,
+            palette::ESTIMATE,
+            "estimated corner",
+        );
+    }
     legend_marker(
         f,
         (440.0, y),
