@@ -21,7 +21,7 @@ import numpy as np
 binary, seeds = sys.argv[1], int(sys.argv[2])
 points = sys.argv[3] if len(sys.argv) > 3 else "4000000"
 noise = sys.argv[4] if len(sys.argv) > 4 else "0.01"
-dist = sys.argv[5] if len(sys.argv) > 5 else "5,15"
+dist = sys.argv[5] if len(sys.argv) > 5 and sys.argv[5] != "-v" else "5,15"
 rows = []
 missed = []
 for seed in range(1, seeds + 1):
@@ -49,6 +49,11 @@ for seed in range(1, seeds + 1):
             m2 = float(err[:2] @ np.linalg.solve(cov[:2, :2], err[:2]))
             rows.append((seed, t["id"], np.linalg.norm(err[:2]), np.linalg.norm(err),
                          m2, m3, e["sphere"]["inliers"], tt["points"]))
+            if "-v" in sys.argv:
+                sg = np.sqrt(np.diag(cov))
+                print(f"  seed {seed} t{t['id']}: err mm {np.round(err * 1e3, 2)}, sigma mm {np.round(sg * 1e3, 2)}, "
+                      f"m2 {m2:.1f} m3 {m3:.1f}, inliers {e['sphere']['inliers']}, free r {e['sphere']['free_radius'] * 1e3:.1f} "
+                      f"± {e['sphere']['free_radius_sigma'] * 1e3:.1f} mm, rms {e['sphere']['rms'] * 1e3:.1f} mm")
 n = len(rows)
 h = np.array([r[2] for r in rows]) * 1e3
 e3 = np.array([r[3] for r in rows]) * 1e3

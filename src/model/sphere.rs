@@ -189,15 +189,16 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         });
     }
     thin(&mut local, p.max_points, p.seed);
+    let up = s.up.normalize();
     let tol0 = (0.15 * r).max(0.01);
     let grid = Grid::new(&local, r + tol0);
     let hyps = hypotheses(&local, &grid, r, tol0, p.seed);
     let mut cands: Vec<Candidate> = distinct(hyps, r, 16, p.min_points / 2)
         .into_iter()
-        .map(|c| refine(&local, &grid, c, r, tol0))
+        .map(|c| refine(&local, &grid, c, r, tol0, &up))
         .collect();
     for c in &mut cands {
-        c.refusal = judge(&local, &grid, c, r, &s.up, p);
+        c.refusal = judge(&local, &grid, c, r, &up, p);
     }
     let chosen = choose(&cands, &s.others.iter().map(|q| q - o).collect::<Vec<_>>());
     let Some(best) = chosen else {
@@ -440,7 +441,14 @@ fn distinct(
 
 /// Step 2: least squares with the radius known, on the points within a
 /// band of the surface that shrinks to three residual σ (not below 3 mm).
-fn refine(v: &[Vector3<f64>], grid: &Grid, c0: Vector3<f64>, r: f64, tol0: f64) -> Candidate {
+fn refine(
+    v: &[Vector3<f64>],
+    grid: &Grid,
+    c0: Vector3<f64>,
+    r: f64,
+    tol0: f64,
+    up: &Vector3<f64>,
+) -> Candidate {
     let mut c = c0;
     let mut tol = tol0;
     let mut inliers: Vec<u32> = Vec::new();
@@ -448,7 +456,7 @@ fn refine(v: &[Vector3<f64>], grid: &Grid, c0: Vector3<f64>, r: f64, tol0: f64) 
     for _ in 0..6 {
         inliers = grid
             .near(v, &c, r + tol)
-            .filter(|&i| ((v[i] - c).norm() - r).abs() < tol)
+            .filter(|&i| ((v[i] - c).norm() - r).abs() < tol && !on_mount(&(v[i] - c), r, up))
             .map(|i| i as u32)
             .collect();
         inliers.sort_unstable();
@@ -470,6 +478,16 @@ fn refine(v: &[Vector3<f64>], grid: &Grid, c0: Vector3<f64>, r: f64, tol0: f64) 
         rms,
         refusal: None,
     }
+}
+
+/// Whether `d` (a point less the centre) is where a sphere's mount meets
+/// it: below the centre, within 0.35 r of its vertical axis. The pole or
+/// stud a survey sphere stands on lies there, as far from the centre as the
+/// surface, and would pull the centre down; the sphere's own bottom there
+/// (6 % of its surface) is rarely seen from a sensor above it.
+fn on_mount(d: &Vector3<f64>, r: f64, up: &Vector3<f64>) -> bool {
+    let h = d.dot(up);
+    h < 0.0 && (d - up * h).norm_squared() < (0.35 * r).powi(2)
 }
 
 /// Gauss–Newton on Σ (|q − c| − r)² for the centre, `iters` steps from `c`.
