@@ -19,10 +19,11 @@
 //!    target's.
 //!
 //! The covariance is the least-squares one, s² (JᵀJ)⁻¹ with the residual
-//! variance corrected for the inlier band, plus what an error of the radius
-//! does to a centre seen from one side (the radius' tolerance, and the part
-//! of the free fit's disagreement its own σ does not explain), and at least
-//! the spread of refits on resampled inliers.
+//! variance corrected for the inlier band (or the spread of refits on
+//! resampled inliers where larger), plus what an error of the radius does
+//! to a centre seen from one side: the radius' tolerance, the part of the
+//! free fit's disagreement its own σ does not explain, and the pull towards
+//! the sensor that range noise along the rays gives a one-sided cap.
 
 use crate::Point;
 use crate::frame::grid::TileMap;
@@ -193,7 +194,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
     let tol0 = (0.15 * r).max(0.01);
     let grid = Grid::new(&local, r + tol0);
     let hyps = hypotheses(&local, &grid, r, tol0, p.seed);
-    let mut cands: Vec<Candidate> = distinct(hyps, r, 16, p.min_points / 2)
+    let mut cands: Vec<Candidate> = distinct(hyps, r, CANDIDATES, p.min_points / 2)
         .into_iter()
         .map(|c| refine(&local, &grid, c, r, tol0, &up))
         .collect();
@@ -320,8 +321,14 @@ struct Candidate {
     centre: Vector3<f64>,
     inliers: Vec<u32>,
     rms: f64,
+    /// The band the inliers were cut with (m).
+    band: f64,
     refusal: Option<String>,
 }
+
+/// Places judged: enough that round clutter (bins, bush tops, pole tops)
+/// cannot crowd the sphere out before it is judged.
+const CANDIDATES: usize = 48;
 
 /// Triples per occupied cell: enough that one of them lies on a sphere that
 /// fills a few cells, few enough to stay bounded on a dense wall.
@@ -453,7 +460,9 @@ fn refine(
     let mut tol = tol0;
     let mut inliers: Vec<u32> = Vec::new();
     let mut rms = f64::NAN;
+    let mut band = tol;
     for _ in 0..6 {
+        band = tol;
         inliers = grid
             .near(v, &c, r + tol)
             .filter(|&i| ((v[i] - c).norm() - r).abs() < tol && !on_mount(&(v[i] - c), r, up))
@@ -476,6 +485,7 @@ fn refine(
         centre: c,
         inliers,
         rms,
+        band,
         refusal: None,
     }
 }
@@ -625,6 +635,16 @@ fn judge(
         ));
     }
     let (free, sigma) = free_fit(&surface, c.centre, r);
+    // Its size must be told from what was seen: a cap too narrow or too
+    // noisy would pass a ball of another size, whose centre is then off by
+    // the difference along the view.
+    if !(3.0 * sigma <= 0.1 * r) {
+        return Some(format!(
+            "round, but too little of it seen to tell its size (free fit {:.0} ± {:.0} mm)",
+            2e3 * free,
+            2e3 * sigma
+        ));
+    }
     if !(free - r).abs().is_finite() || (free - r).abs() > (3.0 * sigma).max(0.1 * r) {
         return Some(format!(
             "a sphere of {:.0} mm, not the {:.0} mm surveyed",
@@ -744,8 +764,7 @@ fn covariance(
         return [[f64::INFINITY; 3]; 3];
     };
     let dof = pts.len().saturating_sub(3).max(1) as f64;
-    let band = (3.0 * c.rms).max(0.003);
-    let s2 = crate::locate::covariance::untruncate(sse / dof, band);
+    let s2 = crate::locate::covariance::untruncate(sse / dof, c.band);
     // The centre moves by g per metre of radius error.
     let g = inv * sum_u;
     let off = free - r;
@@ -754,7 +773,15 @@ fn covariance(
     } else {
         0.0
     };
-    let var_r = p.radius_sigma_m.powi(2) + unexplained;
+    // Range noise lies along the rays, not across the surface: a cap seen
+    // from one side then fits a centre nearer the sensor by about
+    // 1.8 s²/r (simulated: a 145 mm sphere passed at 6–12 m, 1–2 cm range
+    // noise, 70–300 points: 0.32–4.1 mm, not shrinking with the points). It
+    // acts as an apparent radius error, so it is carried as one: an
+    // uncertainty along the view, not a correction, as its size depends on
+    // the sensors' geometry.
+    let ray = 1.8 * s2 / r;
+    let var_r = p.radius_sigma_m.powi(2) + unexplained + ray * ray;
     // The noise's part: least squares', or the resampled centres' spread
     // where that is larger.
     let mut noise = inv * s2;

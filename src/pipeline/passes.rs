@@ -218,9 +218,10 @@ pub(super) fn common_vertical(found: &mut [TargetRun], cfg: &Config) {
     let redo: Vec<usize> = (0..found.len())
         .filter(|&i| {
             let used = found[i].outcome.as_ref().ok().map(|f| f.up);
-            // A sphere needs no vertical to be located; an L does.
-            let l = found[i].outcome.as_ref().map_or(true, |f| f.is_l());
-            l && !found[i].tight.is_empty()
+            // A sphere needs no vertical to be located; an L does (a
+            // sphere found and then refused is still a sphere).
+            found[i].model == crate::model::ModelKind::L
+                && !found[i].tight.is_empty()
                 && used.is_none_or(|u| u.angle(&axis).to_degrees() > cfg.frame.tilt_redo_deg)
         })
         .collect();

@@ -328,17 +328,25 @@ pub(crate) fn locate_target(
             &sized
         }
         (ModelKind::Sphere, size) => {
+            let mut centre = run.expected;
             if let Some(dir) = crops_dir {
-                // A hand-made crop is searched as the loose one would be.
-                match hand_crop(dir, id, tight.plate_width) {
-                    Ok(p) => run.loose = p,
+                // A hand-made crop is searched whole, about its own middle:
+                // the expected position may be a guess in another frame.
+                match hand_crop(dir, id, None) {
+                    Ok(p) if !p.is_empty() => {
+                        let n = p.len() as f64;
+                        let mid = p.iter().map(|q| q.coords).sum::<Vector3<f64>>() / n;
+                        centre = Point::new(mid.x, mid.y, centre.z);
+                        run.loose = p;
+                    }
+                    Ok(_) => return run,
                     Err(e) => {
                         run.outcome = Err(Failure::HandCrop(e));
                         return run;
                     }
                 }
             }
-            sphere_target(&mut run, others, size, tight, cfg);
+            sphere_target(&mut run, centre, others, size, tight, cfg);
             return run;
         }
         (m @ ModelKind::Board, _) => {
@@ -348,7 +356,7 @@ pub(crate) fn locate_target(
     };
     // Hand-made tight crops (the paper's workflow) or the automatic one.
     let ups: Vec<Vector3<f64>> = match crops_dir {
-        Some(dir) => match hand_crop(dir, id, tight.plate_width) {
+        Some(dir) => match hand_crop(dir, id, Some(tight.plate_width)) {
             Ok(p) => {
                 run.tight = p;
                 vec![Vector3::z()]
@@ -393,6 +401,7 @@ pub(crate) fn locate_target(
 /// prediction) narrows the sphere's too.
 fn sphere_target(
     run: &mut TargetRun,
+    centre: Point,
     others: &[Point],
     size: Option<f64>,
     tight: &crate::crop::TightParams,
@@ -407,7 +416,7 @@ fn sphere_target(
     }
     let search = crate::model::sphere::Search {
         points: &run.loose,
-        expected: run.expected,
+        expected: centre,
         others,
         radius: size.unwrap_or(p.diameter_m) / 2.0,
         up: Vector3::z(),
@@ -477,7 +486,9 @@ fn found(l: locate::Located, up: Vector3<f64>) -> Found {
 
 /// Finds `DIR/<stem>.<ext>` for any readable cloud extension and reads it,
 /// where the stem is the id made safe as a file name.
-fn hand_crop(dir: &Path, id: &str, plate_width: f64) -> Result<Vec<Point>> {
+/// `plate_width`: an L's, to refuse a loose crop given as a tight one
+/// (`None` for a sphere, searched in whatever crop it is given).
+fn hand_crop(dir: &Path, id: &str, plate_width: Option<f64>) -> Result<Vec<Point>> {
     let stem = crate::survey::file_stem(id);
     for ext in [
         "ply", "pcd", "las", "laz", "xyz", "txt", "csv", "e57", "pts",
@@ -485,7 +496,7 @@ fn hand_crop(dir: &Path, id: &str, plate_width: f64) -> Result<Vec<Point>> {
         let p = dir.join(format!("{stem}.{ext}"));
         if p.is_file() {
             let pts = crate::cloud::read_all(&p)?;
-            if let Some(span) = crop::looks_loose(&pts, plate_width) {
+            if let Some(span) = plate_width.and_then(|w| crop::looks_loose(&pts, w)) {
                 return Err(Error::format(&p, crop::loose_crop_message(span)));
             }
             return Ok(pts);

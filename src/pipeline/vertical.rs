@@ -258,11 +258,36 @@ pub(super) fn turn_targets(
                 f.iter_mut().for_each(turn);
             }
         }
-        if let Ok(f) = &r.outcome {
-            let ups = [Vector3::z(), rot * f.up];
-            r.outcome = target::locate_with(&r.tight, &ups, cfg).map_err(Failure::Locate);
+        if let Ok(f) = &mut r.outcome {
+            if f.sphere.is_some() {
+                // A sphere is round in every frame: its estimate turns with
+                // its points, nothing to locate again.
+                turn_found(f, &m);
+            } else {
+                let ups = [Vector3::z(), rot * f.up];
+                r.outcome = target::locate_with(&r.tight, &ups, cfg).map_err(Failure::Locate);
+            }
         }
     });
+}
+
+/// A sphere's estimate in the turned frame: its centre, samples and fit by
+/// the motion, its covariance as R C Rᵀ.
+fn turn_found(f: &mut target::Found, m: &RigidMotion) {
+    let r = m.rotation.matrix();
+    let l = &mut f.located;
+    l.corner = m.apply(&l.corner);
+    for p in l.samples.iter_mut() {
+        *p = m.apply(p);
+    }
+    let c = nalgebra::Matrix3::from_fn(|i, j| l.covariance[i][j]);
+    let c = r * c * r.transpose();
+    l.covariance = [0, 1, 2].map(|i| [0, 1, 2].map(|j| c[(i, j)]));
+    if let Some(s) = f.sphere.as_mut() {
+        s.centre = l.corner;
+        s.covariance = l.covariance;
+        s.samples = l.samples.clone();
+    }
 }
 
 /// The frame the map is first read in: levelled by its ground when that
