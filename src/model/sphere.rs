@@ -65,38 +65,6 @@ impl Default for SphereParams {
     }
 }
 
-impl SphereParams {
-    /// Range checks: a typo must not make a run loop or allocate unbounded.
-    pub fn check(&self) -> Result<(), String> {
-        super::ModelKind::Sphere.check_size(self.diameter_m)?;
-        if !(self.radius_sigma_m >= 0.0 && self.radius_sigma_m < 0.05) {
-            return Err(format!(
-                "sphere.radius_sigma_m = {} must be in 0..0.05 m",
-                self.radius_sigma_m
-            ));
-        }
-        if !(8..=100_000).contains(&self.min_points) {
-            return Err(format!(
-                "sphere.min_points = {} must be in 8..100000",
-                self.min_points
-            ));
-        }
-        if !(self.search_radius_m > 0.0 && self.search_radius_m <= 50.0) {
-            return Err(format!(
-                "sphere.search_radius_m = {} must be in (0, 50] m",
-                self.search_radius_m
-            ));
-        }
-        if !(1_000..=10_000_000).contains(&self.max_points) {
-            return Err(format!(
-                "sphere.max_points = {} must be in 1000..10000000",
-                self.max_points
-            ));
-        }
-        Ok(())
-    }
-}
-
 /// A located sphere.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SphereFit {

@@ -218,7 +218,7 @@ impl Config {
         validate_loose(&self.crop)?;
         validate_tight(&self.tight)?;
         validate_locate(&self.locate)?;
-        self.sphere.check().map_err(Error::Param)?;
+        validate_sphere(&self.sphere)?;
         self.metrics.validate()?;
         self.frame.validate()
     }
@@ -344,6 +344,16 @@ fn validate_tight(t: &TightParams) -> Result<()> {
     range("tight.keep_distance", t.keep_distance, 1e-4, 10.0)?;
     count("tight.min_plate_points", t.min_plate_points, 1, 1 << 24)?;
     range("tight.max_up_tilt_deg", t.max_up_tilt_deg, 0.0, 90.0)
+}
+
+fn validate_sphere(s: &crate::model::SphereParams) -> Result<()> {
+    crate::model::ModelKind::Sphere
+        .check_size(s.diameter_m)
+        .map_err(|e| Error::Param(format!("sphere.diameter_m: {e}")))?;
+    range("sphere.radius_sigma_m", s.radius_sigma_m, 0.0, 0.05)?;
+    count("sphere.min_points", s.min_points, 8, 100_000)?;
+    range("sphere.search_radius_m", s.search_radius_m, 0.01, 50.0)?;
+    count("sphere.max_points", s.max_points, 1_000, 10_000_000)
 }
 
 fn validate_locate(l: &LocateParams) -> Result<()> {
