@@ -336,6 +336,131 @@ pub(super) fn first_levelling(
     }
 }
 
+/// When fewer than three Ls were located, those whose plates failed the
+/// vertical gate (1°) because they lean (a map tilted a few degrees that its
+/// ground could not level: weak ground, or a lean below
+/// `frame.level_above_deg`) are fitted again with the gate opened to
+/// [`LEAN_SEARCH_DEG`], and their plumb lines join the located targets'.
+/// When three or more agree (each within [`LEAN_AGREE_DEG`] of their mean),
+/// the leaning ones are located at that common vertical with the usual
+/// gate; the plumb step then levels the map by them. A single leaning
+/// object is never taken on its own axis: the lean must be the map's,
+/// shared by the targets. Returns the targets located this way and the
+/// common vertical's tilt from +z (degrees).
+pub(super) fn lean_from_targets(
+    found: &mut [TargetRun],
+    cfg: &Config,
+) -> Option<(Vec<String>, f64)> {
+    let is_l = |r: &TargetRun| r.model == crate::model::ModelKind::L && !r.tight.is_empty();
+    let located = found
+        .iter()
+        .filter(|r| is_l(r) && r.outcome.as_ref().is_ok_and(|f| f.is_l()))
+        .count();
+    if located >= 3 {
+        return None;
+    }
+    let leaning: Vec<usize> = (0..found.len())
+        .filter(|&i| is_l(&found[i]) && failed_as_tilted(&found[i].outcome))
+        .collect();
+    if leaning.is_empty() {
+        return None;
+    }
+    let mut open = cfg.clone();
+    open.locate.angle_tolerance_deg = LEAN_SEARCH_DEG;
+    let loose: Vec<Option<(Vector3<f64>, f64)>> = leaning
+        .par_iter()
+        .map(|&i| {
+            let f = target::locate_with(&found[i].tight, &[Vector3::z()], &open).ok()?;
+            plain_axis(&found[i].tight, &f)
+                .filter(|(a, _)| a.angle(&Vector3::z()).to_degrees() <= LEAN_SEARCH_DEG)
+        })
+        .collect();
+    // (target index, axis, weight): the located Ls' and the leaning ones'.
+    let mut axes: Vec<(usize, Vector3<f64>, f64)> = found
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| is_l(r))
+        .filter_map(|(i, r)| {
+            let f = r.outcome.as_ref().ok().filter(|f| f.is_l())?;
+            plain_axis(&r.tight, f).map(|(a, w)| (i, a, w))
+        })
+        .chain(
+            leaning
+                .iter()
+                .zip(&loose)
+                .filter_map(|(&i, a)| a.map(|(a, w)| (i, a, w))),
+        )
+        .collect();
+    // The worst-agreeing axis goes until every one is within reach of the mean.
+    let mean = loop {
+        if axes.len() < 3 {
+            return None;
+        }
+        let mean = axes
+            .iter()
+            .fold(Vector3::zeros(), |s, (_, a, w)| s + a * *w)
+            .normalize();
+        let (k, worst) = axes
+            .iter()
+            .enumerate()
+            .map(|(k, (_, a, _))| (k, a.angle(&mean).to_degrees()))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("three or more");
+        if worst <= LEAN_AGREE_DEG {
+            break mean;
+        }
+        axes.remove(k);
+    };
+    let tilt = mean.angle(&Vector3::z()).to_degrees();
+    if tilt <= cfg.locate.angle_tolerance_deg / 2.0 {
+        // Not a lean: the gate failed them for another reason.
+        return None;
+    }
+    let agreeing: Vec<usize> = axes
+        .iter()
+        .map(|(i, _, _)| *i)
+        .filter(|i| leaning.contains(i))
+        .collect();
+    let again: Vec<(usize, target::Found)> = agreeing
+        .par_iter()
+        .filter_map(|&i| {
+            target::locate_with(&found[i].tight, &[mean], cfg)
+                .ok()
+                .map(|f| (i, f))
+        })
+        .collect();
+    if again.is_empty() {
+        return None;
+    }
+    let ids = again.iter().map(|(i, _)| found[*i].id.clone()).collect();
+    for (i, f) in again {
+        found[i].outcome = Ok(f);
+    }
+    Some((ids, tilt))
+}
+
+/// Whether localisation failed mostly on the vertical gate: perpendicular
+/// planes, leaning.
+fn failed_as_tilted(outcome: &Result<target::Found, Failure>) -> bool {
+    match outcome {
+        Err(Failure::Locate(crate::locate::LocateError::TooFewAccepted { rejects, .. })) => {
+            2 * rejects.tilted > rejects.total()
+        }
+        _ => false,
+    }
+}
+
+/// How far from the frame's +z a leaning target's plumb line is looked for
+/// (degrees): beyond the ground's levelling threshold (5°) and its error
+/// (the site's slope, 2°), a map would have been levelled by its ground.
+const LEAN_SEARCH_DEG: f64 = 8.0;
+
+/// How close to the targets' common vertical each plumb line must be to
+/// share it (degrees): a plumb line from a few hundred plate points scatters
+/// by a few tenths of a degree; a leaning object that is not the map's lean
+/// (a tipped board, a ramp's corner) stands apart by more.
+const LEAN_AGREE_DEG: f64 = 1.0;
+
 /// The targets' plumb lines (and surveyed heights) refine the vertical, once;
 /// when they turn the frame, the targets and their expected positions turn
 /// with it. Says what the levelling did and how well the vertical is known.
@@ -352,6 +477,9 @@ pub(super) fn refine_vertical(
     // more have them, refine the vertical, once: each line is a plain plane
     // fit of the target's own points and each height the located corner's,
     // which turn with the frame, so a second look would see the same.
+    if let Some((ids, tilt_deg)) = lean_from_targets(found, cfg) {
+        warnings.push(Warning::LeaningTargets { ids, tilt_deg });
+    }
     let turned = !motion.is_identity();
     let plumb = plumb(found, survey, turned)
         .filter(|_| !no_turn)
@@ -414,4 +542,92 @@ pub(super) fn more_ups(
         v.push(motion.rotation * g);
     }
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::locate::testgen;
+    use rand::SeedableRng;
+
+    /// A target's run as the first pass leaves it: its crop, located (or
+    /// not) with the frame's +z as the vertical.
+    fn run_of(k: usize, lean_deg: f64, azimuth: f64, cfg: &Config) -> TargetRun {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(k as u64);
+        let spec = testgen::Spec {
+            origin: Vector3::new(20.0 * k as f64, 7.0 * k as f64, 0.0),
+            heading: 0.9 * k as f64,
+            tilt: (lean_deg.to_radians(), azimuth),
+            noise: 0.01,
+            viewpoints: vec![testgen::viewpoint(&mut rng, true)],
+            points: 1200,
+            outlier_fraction: 0.03,
+            one_plate: false,
+        };
+        let t = testgen::generate(&mut rng, &spec);
+        let outcome = target::locate_with(&t.points, &[Vector3::z()], cfg).map_err(Failure::Locate);
+        TargetRun {
+            id: format!("t{k}"),
+            expected: t.corner,
+            pass: target::Pass::First,
+            loose: Vec::new(),
+            loose_thinned_from: None,
+            tight: t.points,
+            ground_normal: None,
+            outcome,
+            model: crate::model::ModelKind::L,
+        }
+    }
+
+    fn located(runs: &[TargetRun]) -> usize {
+        runs.iter().filter(|r| r.outcome.is_ok()).count()
+    }
+
+    /// A map leaning 3° that was not levelled: the gate fails the targets
+    /// (a few draws may pass it by chance), their shared plumb line locates
+    /// them all.
+    #[test]
+    fn targets_leaning_alike_are_located_at_their_common_vertical() {
+        let cfg = Config::default();
+        let mut runs: Vec<TargetRun> = (1..=4).map(|k| run_of(k, 3.0, 0.7, &cfg)).collect();
+        let before = located(&runs);
+        assert!(before < 3, "{before}");
+        let (ids, tilt) = lean_from_targets(&mut runs, &cfg).expect("a shared lean");
+        assert_eq!(ids.len(), 4 - before, "{ids:?}");
+        assert!((tilt - 3.0).abs() < 0.3, "{tilt}");
+        assert_eq!(located(&runs), 4);
+        for r in &runs {
+            let c = r.corner().unwrap();
+            assert!(
+                (c - r.expected).xy().norm() < 0.01,
+                "{} {c} {}",
+                r.id,
+                r.expected
+            );
+        }
+    }
+
+    /// Leaning objects that do not share a lean are no evidence of the
+    /// map's: a level map with upright targets and one leaning object, or
+    /// two objects leaning opposite ways, locate nothing more.
+    #[test]
+    fn leans_that_disagree_locate_nothing() {
+        let cfg = Config::default();
+        let mut runs = vec![
+            run_of(1, 0.0, 0.0, &cfg),
+            run_of(2, 0.0, 0.0, &cfg),
+            run_of(3, 3.0, 0.7, &cfg),
+        ];
+        assert_eq!(located(&runs), 2);
+        assert!(lean_from_targets(&mut runs, &cfg).is_none());
+        assert_eq!(located(&runs), 2);
+        let mut runs = vec![
+            run_of(1, 0.0, 0.0, &cfg),
+            run_of(2, 2.5, 0.7, &cfg),
+            run_of(3, 2.5, 0.7 + std::f64::consts::PI, &cfg),
+        ];
+        assert_eq!(located(&runs), 1);
+        assert!(lean_from_targets(&mut runs, &cfg).is_none());
+        assert_eq!(located(&runs), 1);
+    }
 }

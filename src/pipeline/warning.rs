@@ -75,6 +75,15 @@ pub enum Warning {
         /// may be smaller than configured.
         every: bool,
     },
+    /// These targets' plates leaned beyond the vertical gate in the frame
+    /// the map was read in, and with the others' they shared one plumb line:
+    /// they were located at that common vertical.
+    LeaningTargets {
+        /// The targets located at the common vertical.
+        ids: Vec<String>,
+        /// Its tilt from the frame's +z (degrees).
+        tilt_deg: f64,
+    },
     /// The ground leans, but too few of its flat blocks agree on the lean to
     /// level the map by: not levelled.
     GroundWeak {
@@ -117,6 +126,7 @@ impl Warning {
             | Warning::HeightsDisagree { .. }
             | Warning::Georeferenced { .. }
             | Warning::GroundWeak { .. }
+            | Warning::LeaningTargets { .. }
             | Warning::GivenFrameReplaced { .. }
             | Warning::DetectionFailed(_) => 1,
             Warning::SphereWithoutHeights => 2,
@@ -177,6 +187,11 @@ impl std::fmt::Display for Warning {
             Warning::Georeferenced { crs, tilt_deg } => write!(
                 f,
                 "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines still may, when they all lean beyond their scatter)"
+            ),
+            Warning::LeaningTargets { ids, tilt_deg } => write!(
+                f,
+                "target(s) {} leaned beyond the vertical gate (locate.angle_tolerance_deg) in the frame the map was read in; with the other targets they share a plumb line {tilt_deg:.2}° from its +z, the map's lean, and were located at that common vertical",
+                ids.join(", ")
             ),
             Warning::GroundWeak {
                 tilt_deg,

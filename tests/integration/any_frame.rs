@@ -822,3 +822,51 @@ fn a_tilted_400_m_site_is_levelled_by_its_surveyed_heights() {
     let want = truths[1]["expected"]["absolute"]["mean"].as_f64().unwrap();
     assert!((got - want).abs() < 0.003, "E_abs {got} against {want}");
 }
+
+/// A map leaning 2.5° whose ground could not level it (half its flat
+/// blocks agree, at the threshold): the 1° vertical gate failed three of
+/// five targets, too few left for plumb lines. Their shared lean is the
+/// map's: all five are located at the common vertical, the map is levelled
+/// by their plumb lines, and E_abs/E_rel come out as for the same scene
+/// mapped level.
+#[test]
+fn targets_leaning_alike_level_a_map_its_ground_could_not() {
+    let dir = tempdir();
+    let common = [
+        "--points",
+        "4000000",
+        "--seed",
+        "3",
+        "--range-noise-m",
+        "0.01",
+    ];
+    let tilted = dir.path().join("tilted");
+    let mut args = common.to_vec();
+    args.extend(["--tilt-deg", "2.5"]);
+    synth(&tilted, &args);
+    let level = synth(&dir.path().join("level"), &common);
+    let res = dir.path().join("res");
+    let out = eval(&tilted, &res, &["--no-report"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = result(&res);
+    let status: Vec<&str> = r["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["status"].as_str().unwrap())
+        .collect();
+    assert_eq!(status, ["ok"; 5], "{}", r["warnings"]);
+    assert!(
+        r["warnings"].to_string().contains("share a plumb line"),
+        "{}",
+        r["warnings"]
+    );
+    let l = &r["eval"]["frame"]["levelling"];
+    let tilt = l["tilt_deg"].as_f64().unwrap();
+    assert!((tilt - 2.5).abs() < 0.2, "{l}");
+    for which in ["absolute", "relative"] {
+        let got = r[which]["mean"].as_f64().unwrap();
+        let want = level["expected"][which]["mean"].as_f64().unwrap();
+        assert!((got - want).abs() < 0.003, "{which} {got} against {want}");
+    }
+}
