@@ -28,6 +28,11 @@ pub struct Args {
     /// The map is levelled when its ground leans more than this (degrees).
     #[arg(long, default_value_t = mapgauge::pipeline::FrameConfig::default().level_above_deg)]
     level_above: f64,
+    /// Also look for spheres of this diameter (m; 0.145 and 0.2 are the
+    /// common scanning spheres): listed with model `sphere`, their centre
+    /// as the position. Default: Ls only.
+    #[arg(long, value_name = "M")]
+    sphere_diameter: Option<f64>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -44,6 +49,12 @@ pub fn run(a: Args) -> Result<()> {
         tight.plate_width = w;
         tight.plate_height = h.unwrap_or(w);
     }
+    let sphere = mapgauge::model::SphereParams::default();
+    if let Some(d) = a.sphere_diameter {
+        mapgauge::model::ModelKind::Sphere
+            .check_size(d)
+            .map_err(|e| Error::Param(format!("--sphere-diameter: {e}")))?;
+    }
     let source = MapSource::File(&a.map);
     let ground = ground_level(source, None, None, |_| {})?;
     // A georeferenced map (its header declares a CRS) is vertical by
@@ -59,9 +70,13 @@ pub fn run(a: Args) -> Result<()> {
         &ground,
         &motion,
         &DetectParams::default(),
-        &tight,
+        mapgauge::detect::Models {
+            tight: &tight,
+            sphere: a.sphere_diameter.map(|d| (&sphere, d)),
+        },
         |_| {},
     )?;
+    let models = a.sphere_diameter.is_some();
     let mut s = String::new();
     let _ = writeln!(s, "map: {} ({} points)", a.map.display(), ground.points);
     match &ground.level {
@@ -100,14 +115,14 @@ pub fn run(a: Args) -> Result<()> {
         let _ = writeln!(s, "  rejected {n}: {why}");
     }
     if !found.detections.is_empty() {
-        s.push_str(&table(&found.detections));
+        s.push_str(&table(&found.detections, models));
     }
     out!("{s}");
     if let Some(out) = &a.out {
         std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
         write_atomic(
             &out.join("detections.csv"),
-            csv(&found.detections).as_bytes(),
+            csv(&found.detections, models).as_bytes(),
         )?;
         write_atomic(
             &out.join("detections.ply"),
@@ -122,16 +137,27 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-fn table(d: &[Detection]) -> String {
+/// The detections, one a line; with `models` (spheres were looked for),
+/// a last column says which model each is.
+fn table(d: &[Detection], models: bool) -> String {
     let mut s = format!(
-        "{:>4} {:>14} {:>14} {:>10} {:>8} {:>13} {:>7} {:>7} {:>6}\n",
-        "#", "x", "y", "z", "heading", "widths", "height", "support", "score"
+        "{:>4} {:>14} {:>14} {:>10} {:>8} {:>13} {:>7} {:>7} {:>6}{}\n",
+        "#",
+        "x",
+        "y",
+        "z",
+        "heading",
+        "widths",
+        "height",
+        "support",
+        "score",
+        if models { "  model" } else { "" }
     );
     for (i, d) in d.iter().enumerate() {
         let c = d.corner_map;
         let _ = writeln!(
             s,
-            "{:>4} {:>14.3} {:>14.3} {:>10.3} {:>7.1}° {:>6.2}×{:<6.2} {:>7.2} {:>7} {:>6.2}",
+            "{:>4} {:>14.3} {:>14.3} {:>10.3} {:>7.1}° {:>6.2}×{:<6.2} {:>7.2} {:>7} {:>6.2}{}",
             i + 1,
             c.x,
             c.y,
@@ -141,21 +167,32 @@ fn table(d: &[Detection]) -> String {
             d.plate_widths[1],
             d.plate_height,
             d.support,
-            d.score
+            d.score,
+            model_column(d, models, "  ")
         );
     }
     s
 }
 
-fn csv(d: &[Detection]) -> String {
-    let mut s = String::from(
-        "n,x,y,z,heading_deg,plate_width_a,plate_width_b,plate_height,support,score\n",
+/// `sep` and the detection's model, when models are listed.
+fn model_column(d: &Detection, models: bool, sep: &str) -> String {
+    if models {
+        format!("{sep}{}", d.model)
+    } else {
+        String::new()
+    }
+}
+
+fn csv(d: &[Detection], models: bool) -> String {
+    let mut s = format!(
+        "n,x,y,z,heading_deg,plate_width_a,plate_width_b,plate_height,support,score{}\n",
+        if models { ",model" } else { "" }
     );
     for (i, d) in d.iter().enumerate() {
         let c = d.corner_map;
         let _ = writeln!(
             s,
-            "{},{:.4},{:.4},{:.4},{:.2},{:.3},{:.3},{:.3},{},{:.3}",
+            "{},{:.4},{:.4},{:.4},{:.2},{:.3},{:.3},{:.3},{},{:.3}{}",
             i + 1,
             c.x,
             c.y,
@@ -165,17 +202,28 @@ fn csv(d: &[Detection]) -> String {
             d.plate_widths[1],
             d.plate_height,
             d.support,
-            d.score
+            d.score,
+            model_column(d, models, ",")
         );
     }
     s
 }
 
-/// Each detection as a red L: its two arms at mid-height, drawn in the
+/// Each detection as a red L (a sphere as its horizontal great circle): its two arms at mid-height, drawn in the
 /// levelled frame and moved back into the map's own.
 fn ply(d: &[Detection], t: &TightParams, motion: &mapgauge::cloud::RigidMotion) -> String {
     let mut v = Vec::new();
     for (i, d) in d.iter().enumerate() {
+        if d.model == mapgauge::model::ModelKind::Sphere {
+            let r = d.plate_widths[0] / 2.0;
+            for k in 0..48 {
+                let a = std::f64::consts::TAU * k as f64 / 48.0;
+                let c = d.corner;
+                let p = nalgebra::Point3::new(c.x + r * a.cos(), c.y + r * a.sin(), c.z);
+                v.push((motion.invert(&p), i + 1));
+            }
+            continue;
+        }
         let h = d.heading_deg.to_radians();
         let arms = [
             h - std::f64::consts::FRAC_PI_4,

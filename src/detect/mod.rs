@@ -13,6 +13,11 @@
 //!    plates meeting at a vertical edge, each as wide and as tall as a plate,
 //!    faces that stop where a plate stops.
 //!
+//! 3. **Spheres**, when asked for: a candidate with no L is given to the
+//!    sphere locator ([`crate::model::sphere::locate`]), with its checks: round
+//!    every way and of the surveyed diameter, not a pole, a post's top or a
+//!    bush.
+//!
 //! Memory follows the site's area (the two grids), not its number of points.
 
 use crate::cloud::{MapSource, PointReader, RigidMotion, fold_points};
@@ -84,6 +89,9 @@ impl DetectParams {
 /// One object shaped like a target.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Detection {
+    /// What it is: an L, or a sphere (then `corner` is its centre, the plate
+    /// sizes its diameter, `heading_deg` 0 and `support` its surface points).
+    pub model: crate::model::ModelKind,
     /// Corner (plates' intersection, z at the plates' mid-height), levelled frame.
     pub corner: Point,
     /// The same corner in the map's own frame.
@@ -133,6 +141,15 @@ struct Occ {
 /// the rest are located at their predicted places with the looser test.
 const DETECT_MIN_HEIGHT_SHARE: f64 = 0.7;
 
+/// What to detect: the L (always), and spheres of a diameter when given.
+#[derive(Debug, Clone, Copy)]
+pub struct Models<'a> {
+    /// The L's size.
+    pub tight: &'a TightParams,
+    /// Spheres: their parameters and diameter (m), when looked for.
+    pub sphere: Option<(&'a crate::model::SphereParams, f64)>,
+}
+
 /// Detects targets in `source`, read through `motion` (the levelling; the
 /// identity for a level map). `ground` is the ground pass of the same map.
 pub fn detect_map(
@@ -140,9 +157,10 @@ pub fn detect_map(
     ground: &MapGround,
     motion: &RigidMotion,
     params: &DetectParams,
-    tight: &TightParams,
+    models: Models,
     mut progress: impl FnMut(u64),
 ) -> Result<MapDetections> {
+    let tight = models.tight;
     params.validate()?;
     let floor = ground.floor(motion);
     let mut reader = source.open_moved(Some(motion))?;
@@ -164,7 +182,7 @@ pub fn detect_map(
         };
         let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
         reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));
-        for f in shapes(&crop.points, &centres, motion, params, tight) {
+        for f in shapes(&crop.points, &centres, motion, params, models) {
             match f {
                 Ok(d) => detections.push(d),
                 Err(why) => *rejected.entry(why).or_default() += 1,
@@ -251,8 +269,9 @@ fn shapes(
     centres: &[Point],
     motion: &RigidMotion,
     params: &DetectParams,
-    tight: &TightParams,
+    models: Models,
 ) -> Vec<std::result::Result<Detection, String>> {
+    let tight = models.tight;
     let tp = TightParams {
         search_radius: params.search_radius,
         ..tight.clone()
@@ -261,7 +280,16 @@ fn shapes(
         .par_iter()
         .zip(centres)
         .map(|(pts, c)| {
-            let t = tight_crop(pts, c, &tp).map_err(|e| short_reason(&e.to_string()))?;
+            let t = match tight_crop(pts, c, &tp) {
+                Ok(t) => t,
+                Err(e) => {
+                    let why = short_reason(&e.to_string());
+                    return match models.sphere {
+                        Some(sp) => sphere_at(pts, c, motion, params, sp).ok_or(why),
+                        None => Err(why),
+                    };
+                }
+            };
             if t.plate_height < DETECT_MIN_HEIGHT_SHARE * tight.plate_height {
                 return Err(format!(
                     "an L under {:.0} % of a plate's height",
@@ -276,6 +304,7 @@ fn shapes(
                 * fit(t.plate_height, tight.plate_height))
             .cbrt();
             Ok(Detection {
+                model: crate::model::ModelKind::L,
                 corner,
                 corner_map: motion.invert(&corner),
                 heading_deg: t.heading_deg,
@@ -286,6 +315,52 @@ fn shapes(
             })
         })
         .collect()
+}
+
+/// Most points a sphere detected map-wide may have in the shell around it
+/// (`model::sphere::surroundings`), or a tenth of its surface points where
+/// more. Measured: synthetic spheres on poles 0-2 (of 58-79 on the surface);
+/// the round patches real scans without spheres offered, 38-52 (of 41-48:
+/// PDAL's lone-star, airborne) and 1 525 (of 1 029: pye57's pump room).
+const SPHERE_SHELL_POINTS: usize = 3;
+
+/// A sphere of the surveyed diameter within the search radius of a
+/// candidate's centre `c`, when the sphere locator finds and keeps one.
+fn sphere_at(
+    pts: &[Point],
+    c: &Point,
+    motion: &RigidMotion,
+    params: &DetectParams,
+    (sp, diameter): (&crate::model::SphereParams, f64),
+) -> Option<Detection> {
+    let p = crate::model::SphereParams {
+        search_radius_m: params.search_radius,
+        ..sp.clone()
+    };
+    let search = crate::model::sphere::Search {
+        points: pts,
+        expected: *c,
+        others: &[],
+        radius: diameter / 2.0,
+        up: nalgebra::Vector3::z(),
+    };
+    let (fit, _) = crate::model::sphere::locate(&search, &p).ok()?;
+    // With no surveyed position to vouch for it, a sphere must stand alone.
+    let around = crate::model::sphere::surroundings(pts, &fit, &nalgebra::Vector3::z());
+    if around > SPHERE_SHELL_POINTS.max(fit.inliers / 10) {
+        return None;
+    }
+    let score = 1.0 - ((fit.free_radius - fit.radius).abs() / fit.radius).min(1.0);
+    Some(Detection {
+        model: crate::model::ModelKind::Sphere,
+        corner: fit.centre,
+        corner_map: motion.invert(&fit.centre),
+        heading_deg: 0.0,
+        plate_widths: [diameter; 2],
+        plate_height: diameter,
+        support: fit.inliers,
+        score,
+    })
 }
 
 /// One detection per object, strongest first: candidates close together

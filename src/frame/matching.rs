@@ -11,13 +11,27 @@
 //! would be reported as a very poor map, which is worse than no report.
 
 use crate::Point;
+use crate::model::ModelKind;
 use std::collections::HashMap;
 
-/// A detection to match: position in the (levelled) map frame.
+/// A detection to match: position in the (levelled) map frame, and what
+/// was detected there (it matches only a surveyed target of that model).
 #[derive(Debug, Clone, Copy)]
 pub struct Candidate {
-    /// Corner position, map frame.
+    /// Reference point (an L's corner, a sphere's centre), map frame.
     pub at: Point,
+    /// What it is.
+    pub model: ModelKind,
+}
+
+impl Candidate {
+    /// An L's corner at `at`.
+    pub fn l(at: Point) -> Self {
+        Candidate {
+            at,
+            model: ModelKind::L,
+        }
+    }
 }
 
 /// The map → survey transform found: survey = R(yaw)·map + t; z + dz.
@@ -98,13 +112,23 @@ struct Hyp {
 }
 
 /// Finds the transform from detections `dets` (map frame) to `survey`
-/// positions (survey frame).
+/// positions (survey frame) of the models `models` (one per position; empty:
+/// every one an L). A detection matches only a target of its own model.
 pub fn match_frame(
     dets: &[Candidate],
     survey: &[Point],
+    models: &[ModelKind],
     survey_has_z: bool,
     params: &MatchParams,
 ) -> Result<FrameMatch, MatchError> {
+    let all_l = vec![ModelKind::L; survey.len()];
+    let sm = if models.is_empty() {
+        &all_l[..]
+    } else {
+        models
+    };
+    let dm: Vec<ModelKind> = dets.iter().map(|d| d.model).collect();
+    let kinds = Kinds { s: sm, d: &dm };
     let tol = params.tol;
     let need = params.min_matches.max(2);
     let too_few = |best| MatchError::TooFew {
@@ -126,7 +150,7 @@ pub fn match_frame(
         .map(|p| [p.at.x - dc[0], p.at.y - dc[1]])
         .collect();
     let dpairs = pairs_by_length(&d);
-    let mut hyps = proposals(&s, &d, &dpairs, tol, need);
+    let mut hyps = proposals(&s, &d, &kinds, &dpairs, tol, need);
     if hyps.is_empty() {
         // The most any pair could give is 2 (the pair itself).
         return Err(too_few(if dpairs.is_empty() {
@@ -171,11 +195,19 @@ fn pairs_by_length(d: &[[f64; 2]]) -> Vec<(f64, u32, u32)> {
     dpairs
 }
 
+/// The models of the surveyed targets and of the detections, by index.
+struct Kinds<'a> {
+    s: &'a [ModelKind],
+    d: &'a [ModelKind],
+}
+
 /// The transforms that a surveyed pair and a detected pair of about its
-/// length propose (both ways round), each refined, that match `need` or more.
+/// length (and of the same models) propose (both ways round), each refined,
+/// that match `need` or more.
 fn proposals(
     s: &[[f64; 2]],
     d: &[[f64; 2]],
+    kinds: &Kinds,
     dpairs: &[(f64, u32, u32)],
     tol: f64,
     need: usize,
@@ -192,15 +224,18 @@ fn proposals(
             for &(_, a, b) in dpairs[lo..].iter().take_while(|p| p.0 <= l + tol) {
                 for (a, b) in [(a, b), (b, a)] {
                     let (a, b) = (a as usize, b as usize);
+                    if kinds.s[i] != kinds.d[a] || kinds.s[j] != kinds.d[b] {
+                        continue;
+                    }
                     let yaw = angle(&s[i], &s[j]) - angle(&d[a], &d[b]);
                     let (sn, cs) = yaw.sin_cos();
                     let t = [
                         s[i][0] - (cs * d[a][0] - sn * d[a][1]),
                         s[i][1] - (sn * d[a][0] + cs * d[a][1]),
                     ];
-                    let m = score(s, &index, d, yaw, t, tol);
+                    let m = score(s, &index, d, kinds, yaw, t, tol);
                     if m.len() >= need {
-                        hyps.push(refine(s, d, &index, m, tol));
+                        hyps.push(refine(s, d, kinds, &index, m, tol));
                     }
                 }
             }
@@ -282,8 +317,14 @@ impl Buckets {
         Buckets { cell: tol, map }
     }
 
-    /// Nearest detection to `p` within `tol`.
-    fn nearest(&self, d: &[[f64; 2]], p: [f64; 2], tol: f64) -> Option<(usize, f64)> {
+    /// Nearest detection to `p` within `tol` that `fits`.
+    fn nearest(
+        &self,
+        d: &[[f64; 2]],
+        p: [f64; 2],
+        tol: f64,
+        fits: impl Fn(usize) -> bool,
+    ) -> Option<(usize, f64)> {
         let (kx, ky) = (
             (p[0] / self.cell).floor() as i64,
             (p[1] / self.cell).floor() as i64,
@@ -293,7 +334,9 @@ impl Buckets {
             for dx in -1..=1 {
                 for &i in self.map.get(&(kx + dx, ky + dy)).map_or(&[][..], |v| v) {
                     let r = dist(&d[i as usize], &p);
-                    if r <= tol && best.is_none_or(|b| r < b.1 || (r == b.1 && (i as usize) < b.0))
+                    if r <= tol
+                        && fits(i as usize)
+                        && best.is_none_or(|b| r < b.1 || (r == b.1 && (i as usize) < b.0))
                     {
                         best = Some((i as usize, r));
                     }
@@ -304,11 +347,13 @@ impl Buckets {
     }
 }
 
-/// Survey targets with a detection within `tol` under (yaw, t), one detection each.
+/// Survey targets with a detection of their model within `tol` under
+/// (yaw, t), one detection each.
 fn score(
     s: &[[f64; 2]],
     index: &Buckets,
     d: &[[f64; 2]],
+    kinds: &Kinds,
     yaw: f64,
     t: [f64; 2],
     tol: f64,
@@ -320,7 +365,7 @@ fn score(
         // map = Rᵀ(survey − t)
         let (x, y) = (p[0] - t[0], p[1] - t[1]);
         let q = [cs * x + sn * y, -sn * x + cs * y];
-        if let Some((a, r)) = index.nearest(d, q, tol)
+        if let Some((a, r)) = index.nearest(d, q, tol, |a| kinds.d[a] == kinds.s[i])
             && !used.contains(&a)
         {
             used.push(a);
@@ -334,6 +379,7 @@ fn score(
 fn refine(
     s: &[[f64; 2]],
     d: &[[f64; 2]],
+    kinds: &Kinds,
     index: &Buckets,
     mut m: Vec<(usize, usize, f64)>,
     tol: f64,
@@ -343,7 +389,7 @@ fn refine(
     for _ in 0..2 {
         let pairs: Vec<([f64; 2], [f64; 2])> = m.iter().map(|&(i, j, _)| (d[j], s[i])).collect();
         (yaw, t) = super::rigid2d(&pairs);
-        let again = score(s, index, d, yaw, t, tol);
+        let again = score(s, index, d, kinds, yaw, t, tol);
         if again.len() < m.len() {
             break;
         }
@@ -410,17 +456,17 @@ mod tests {
             let init = [352_500.0, 4_025_100.0, yaw];
             let mut dets: Vec<Candidate> = s[1..]
                 .iter()
-                .map(|p| Candidate {
-                    at: to_map(init, p) + nalgebra::Vector3::new(0.03, -0.02, -69.0),
-                })
+                .map(|p| Candidate::l(to_map(init, p) + nalgebra::Vector3::new(0.03, -0.02, -69.0)))
                 .collect();
             for k in 0..15 {
                 let f = k as f64;
-                dets.push(Candidate {
-                    at: Point::new(-400.0 + 7.3 * f, 900.0 + (f * 1.7).sin() * 20.0, 1.0),
-                });
+                dets.push(Candidate::l(Point::new(
+                    -400.0 + 7.3 * f,
+                    900.0 + (f * 1.7).sin() * 20.0,
+                    1.0,
+                )));
             }
-            let m = match_frame(&dets, &s, true, &MatchParams::default()).unwrap();
+            let m = match_frame(&dets, &s, &[], true, &MatchParams::default()).unwrap();
             assert_eq!(m.matches.len(), 5, "yaw {yaw}");
             assert!(
                 (wrap((m.init.yaw_deg - yaw).to_radians()))
@@ -433,6 +479,36 @@ mod tests {
         }
     }
 
+    /// A square with Ls on one side and spheres on the other is no longer
+    /// symmetric (alternating, it still is under a half turn): the models
+    /// tell its corners apart, and a detection matches only its own model.
+    #[test]
+    fn models_tell_a_symmetric_layout_apart() {
+        let s: Vec<Point> = [(0.0, 0.0), (40.0, 0.0), (40.0, 40.0), (0.0, 40.0)]
+            .iter()
+            .map(|&(x, y)| Point::new(x, y, 0.0))
+            .collect();
+        use ModelKind::{L, Sphere};
+        let models = [L, L, Sphere, Sphere];
+        let init = [5.0, 3.0, 20.0];
+        let dets: Vec<Candidate> = s
+            .iter()
+            .zip(models)
+            .map(|(p, model)| Candidate {
+                at: to_map(init, p),
+                model,
+            })
+            .collect();
+        let m = match_frame(&dets, &s, &models, false, &MatchParams::default()).unwrap();
+        assert_eq!(m.matches.len(), 4);
+        assert!(m.matches.iter().all(|&(i, a, _)| i == a), "{:?}", m.matches);
+        assert!((m.init.yaw_deg - 20.0).abs() < 0.01, "{:?}", m.init);
+        // Every detection an L: the spheres' places have none of theirs.
+        let ls: Vec<Candidate> = dets.iter().map(|d| Candidate::l(d.at)).collect();
+        let e = match_frame(&ls, &s, &models, false, &MatchParams::default()).unwrap_err();
+        assert!(matches!(e, MatchError::TooFew { best: 2, .. }), "{e}");
+    }
+
     #[test]
     fn refuses_a_symmetric_square() {
         let s: Vec<Point> = [(0.0, 0.0), (40.0, 0.0), (40.0, 40.0), (0.0, 40.0)]
@@ -441,20 +517,18 @@ mod tests {
             .collect();
         let dets: Vec<Candidate> = s
             .iter()
-            .map(|p| Candidate {
-                at: to_map([5.0, 3.0, 20.0], p),
-            })
+            .map(|p| Candidate::l(to_map([5.0, 3.0, 20.0], p)))
             .collect();
-        let e = match_frame(&dets, &s, false, &MatchParams::default()).unwrap_err();
+        let e = match_frame(&dets, &s, &[], false, &MatchParams::default()).unwrap_err();
         assert!(matches!(e, MatchError::Ambiguous { a: 4, b: 4, .. }), "{e}");
     }
 
     #[test]
     fn too_few_detections_is_an_error() {
         let s = survey();
-        let dets: Vec<Candidate> = s[..2].iter().map(|p| Candidate { at: *p }).collect();
+        let dets: Vec<Candidate> = s[..2].iter().map(|p| Candidate::l(*p)).collect();
         assert!(matches!(
-            match_frame(&dets, &s, false, &MatchParams::default()),
+            match_frame(&dets, &s, &[], false, &MatchParams::default()),
             Err(MatchError::TooFew { .. })
         ));
     }

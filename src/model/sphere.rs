@@ -458,6 +458,29 @@ fn refine(
     }
 }
 
+/// Points of `points` in the shell just outside a fitted sphere, from three
+/// residual RMS (at least 2 cm) beyond its surface to 6 cm further, that are
+/// not its mount (below the centre, within half a radius of its axis). A
+/// survey sphere stands alone on its pole: its shell holds a few stray
+/// returns at most. A round patch of a larger object (a tank's or a
+/// machine's curved surface, a boulder's bump) has that object's surface
+/// going on through the shell.
+pub fn surroundings(points: &[Point], fit: &SphereFit, up: &Vector3<f64>) -> usize {
+    let r = fit.radius;
+    let lo = r + (3.0 * fit.rms).max(0.02);
+    let hi = lo + 0.06;
+    points
+        .iter()
+        .map(|p| p - fit.centre)
+        .filter(|d| {
+            let n2 = d.norm_squared();
+            let h = d.dot(up);
+            let mount = h < 0.0 && (d - up * h).norm_squared() < (0.5 * r).powi(2);
+            n2 > lo * lo && n2 < hi * hi && !mount
+        })
+        .count()
+}
+
 /// Whether `d` (a point less the centre) is where a sphere's mount meets
 /// it: below the centre, within 0.35 r of its vertical axis. The pole or
 /// stud a survey sphere stands on lies there, as far from the centre as the

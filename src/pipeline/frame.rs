@@ -16,6 +16,7 @@ use crate::frame::MapToSurvey;
 use crate::frame::hints::read_hints;
 use crate::frame::matching::{Candidate, FrameMatch, MatchError, MatchParams, match_frame};
 use crate::frame::{GroundLevel, MapGround};
+use crate::model::ModelKind;
 use crate::survey::Survey;
 use crate::{Error, Point, Result};
 
@@ -178,6 +179,28 @@ impl NoFrame {
     }
 }
 
+/// The spheres detection looks for: none unless the survey has spheres;
+/// their surveyed diameter when every sphere row gives the same, else the
+/// configured one (spheres of other sizes are then located once the frame
+/// is found from the others).
+fn spheres_to_detect<'a>(
+    survey: &Survey,
+    cfg: &'a Config,
+) -> Option<(&'a crate::model::SphereParams, f64)> {
+    let mut sizes = survey
+        .targets
+        .iter()
+        .filter(|t| t.model == ModelKind::Sphere)
+        .map(|t| t.size.unwrap_or(cfg.sphere.diameter_m));
+    let first = sizes.next()?;
+    let d = if sizes.all(|s| s == first) {
+        first
+    } else {
+        cfg.sphere.diameter_m
+    };
+    Some((&cfg.sphere, d))
+}
+
 /// Detects targets map-wide and matches them to the survey.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn detect_and_match(
@@ -202,29 +225,38 @@ pub(super) fn detect_and_match(
     } else {
         None
     };
+    let models = crate::detect::Models {
+        tight: &cfg.tight,
+        sphere: spheres_to_detect(survey, cfg),
+    };
     let found = detect_map(
         source,
         all.as_ref().unwrap_or(ground),
         motion,
         &DetectParams::default(),
-        &cfg.tight,
+        models,
         |b| progress(b, total),
     )?;
     reads.extend(found.reads.iter().cloned());
     let cands: Vec<Candidate> = found
         .detections
         .iter()
-        .map(|d| Candidate { at: d.corner })
+        .map(|d| Candidate {
+            at: d.corner,
+            model: d.model,
+        })
         .collect();
     let sur: Vec<Point> = survey.targets.iter().map(|t| t.reference()).collect();
+    let kinds: Vec<ModelKind> = survey.targets.iter().map(|t| t.model).collect();
     let params = MatchParams {
         tol: cfg.frame.match_tolerance,
         min_matches: 3,
     };
-    let m = match_frame(&cands, &sur, survey.has_z(), &params);
+    let m = match_frame(&cands, &sur, &kinds, survey.has_z(), &params);
     let survey_xy = SurveyXy {
         cands: &cands,
         sur: &sur,
+        kinds: &kinds,
         has_z: survey.has_z(),
         params: &params,
     };
@@ -261,6 +293,7 @@ pub(super) fn detect_and_match(
 struct SurveyXy<'a> {
     cands: &'a [Candidate],
     sur: &'a [Point],
+    kinds: &'a [ModelKind],
     has_z: bool,
     params: &'a MatchParams,
 }
@@ -274,7 +307,7 @@ impl SurveyXy<'_> {
         m: &std::result::Result<FrameMatch, MatchError>,
     ) -> std::result::Result<(), NoFrame> {
         let mirrored: Vec<Point> = self.sur.iter().map(|p| Point::new(p.y, p.x, p.z)).collect();
-        let Ok(mm) = match_frame(self.cands, &mirrored, self.has_z, self.params) else {
+        let Ok(mm) = match_frame(self.cands, &mirrored, self.kinds, self.has_z, self.params) else {
             return Ok(());
         };
         let given = matched_as_given(m);
@@ -312,7 +345,7 @@ impl SurveyXy<'_> {
                 .iter()
                 .map(|p| Point::from(c + (p.coords - c) * factor))
                 .collect();
-            if let Ok(sm) = match_frame(self.cands, &scaled, self.has_z, self.params)
+            if let Ok(sm) = match_frame(self.cands, &scaled, self.kinds, self.has_z, self.params)
                 && sm.matches.len() > given
             {
                 return Err(NoFrame::Failed(Error::Input(format!(

@@ -177,3 +177,89 @@ fn boards_are_reported_not_located_and_bad_models_refused() {
         );
     }
 }
+
+/// A survey of spheres only, its map yawed 237° and 500 m away: detection
+/// finds the spheres map-wide (each standing alone on its pole) and matches
+/// them to the survey; every sphere located is within 1 cm of its true
+/// centre. `detect --sphere-diameter` lists them with their model, and
+/// plain `detect` (Ls only) none.
+#[test]
+fn spheres_alone_give_the_maps_frame() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let out = bin()
+        .arg("synth")
+        .arg("--out")
+        .arg(&scene)
+        .args([
+            "--points",
+            "4000000",
+            "--seed",
+            "5",
+            "--range-noise-m",
+            "0.01",
+        ])
+        .args(["--models", "sphere", "--target-distance-m", "5,15"])
+        .args(["--yaw-deg", "237", "--offset-m", "500,-300,5"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "synth: {}", stderr(&out));
+    let truth = json(&scene.join("truth.json"));
+    let res = dir.path().join("res");
+    let out = eval(&scene, &scene.join("survey.csv"), &res);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = json(&res.join("result.json"));
+    assert_eq!(
+        r["eval"]["frame"]["how"], "detect",
+        "{}",
+        r["eval"]["frame"]
+    );
+    let mut ok = 0;
+    for (t, e) in r["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(r["eval"]["targets"].as_array().unwrap())
+    {
+        if t["status"] != "ok" {
+            continue;
+        }
+        ok += 1;
+        let tt = truth["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|x| x["id"] == t["id"])
+            .unwrap();
+        let err = v3(&e["corner_in_map"]) - v3(&tt["map"]);
+        assert!(err.norm() < 0.01, "{}: {err}", t["id"]);
+    }
+    assert!(ok >= 4, "{ok} of 5 located: {}", r["targets"]);
+    let detect = |extra: &[&str]| {
+        let out = bin()
+            .arg("detect")
+            .arg("--map")
+            .arg(scene.join("map.ply"))
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let listed = detect(&["--sphere-diameter", "0.145"]);
+    let spheres = listed.lines().filter(|l| l.ends_with(" sphere")).count();
+    assert!(spheres >= 4, "{listed}");
+    let ls_only = detect(&[]);
+    assert!(ls_only.contains("0 target-shaped object(s)"), "{ls_only}");
+    // A diameter no sphere has is refused before the map is read.
+    let out = bin()
+        .args(["detect", "--map", "nowhere.ply", "--sphere-diameter", "3"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("--sphere-diameter"),
+        "{}",
+        stderr(&out)
+    );
+}
