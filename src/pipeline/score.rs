@@ -14,7 +14,6 @@ pub(super) fn check_found(
     survey: &Survey,
     opts: &ScoreOptions,
     far: &[super::layout::Far],
-    cfg: &Config,
     warnings: &mut Vec<Warning>,
 ) -> Option<crate::locate::DoublingLimit> {
     // What is still far after the search is not the target.
@@ -36,14 +35,14 @@ pub(super) fn check_found(
             });
         }
     }
-    target::one_object_each(found, cfg.tight.plate_width);
+    target::one_object_each(found);
     // A target mapped twice is neither copy: it leaves the fit, named.
-    let (doubled, doubling) = target::check_doubled(found, cfg);
+    let (doubled, doubling) = target::check_doubled(found);
     if !doubled.is_empty() {
         warnings.push(Warning::Doubled(doubled));
     }
     // A height from plates seen in part is known only as well as the part.
-    let widened = target::widen_heights(found, cfg.tight.plate_height);
+    let widened = target::widen_heights(found);
     // Metres of disagreement with the survey's layout are no map's error,
     // however few targets were located.
     layout::off_layout(found, survey, opts);
@@ -73,7 +72,10 @@ pub(super) fn check_found(
                 .iter()
                 .map(|w| w.1.seen_m.min(w.1.plate_height_m))
                 .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
-            plate_height_m: cfg.tight.plate_height,
+            plate_height_m: widened
+                .iter()
+                .map(|w| w.1.plate_height_m)
+                .fold(0.0, f64::max),
             sigma_m: widened.iter().map(|w| w.2).fold(0.0, f64::max),
             every: located >= 3 && widened.len() == located,
         });

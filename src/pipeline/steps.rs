@@ -49,14 +49,7 @@ pub(super) fn evaluate(
     let plumb = run.level_by_plumb_lines(&mut targets, &mut motion);
     let opts = score_options(cfg, &motion, plumb.as_ref());
     let far = run.search_again(&mut targets, &opts, &motion, &ground)?;
-    let doubling = check_found(
-        &mut targets.found,
-        survey,
-        &opts,
-        &far,
-        cfg,
-        &mut run.warnings,
-    );
+    let doubling = check_found(&mut targets.found, survey, &opts, &far, &mut run.warnings);
     let frame = FrameFound {
         how: guess.how,
         init: guess.init,

@@ -264,6 +264,9 @@ pub struct TargetRun {
     pub outcome: std::result::Result<Found, Failure>,
     /// What the survey says the target is.
     pub model: ModelKind,
+    /// An L's plate width and height (m): the survey's `size` as the width
+    /// and the configured build's proportions, else the configured plates.
+    pub plates: (f64, f64),
 }
 
 impl TargetRun {
@@ -316,13 +319,15 @@ pub(crate) fn locate_target(
         ground_normal: None,
         outcome: Err(Failure::NoLoosePoints),
         model: model.0,
+        plates: l_plates(model.1, tight),
     };
     let sized;
     let tight = match model {
         (ModelKind::L, None) => tight,
-        (ModelKind::L, Some(w)) => {
+        (ModelKind::L, Some(_)) => {
             sized = crate::crop::TightParams {
-                plate_width: w,
+                plate_width: run.plates.0,
+                plate_height: run.plates.1,
                 ..tight.clone()
             };
             &sized
@@ -393,6 +398,16 @@ pub(crate) fn locate_target(
     };
     run.outcome = locate_with(&run.tight, &ups, cfg).map_err(Failure::Locate);
     run
+}
+
+/// An L's plates (width, height) for a surveyed size: a build like the
+/// configured one scaled to that width (square plates stay square), or the
+/// configured plates without one.
+pub(crate) fn l_plates(size: Option<f64>, tight: &crate::crop::TightParams) -> (f64, f64) {
+    match size {
+        Some(w) => (w, tight.plate_height * w / tight.plate_width),
+        None => (tight.plate_width, tight.plate_height),
+    }
 }
 
 /// A sphere target: found in the loose crop and fitted
@@ -514,13 +529,12 @@ fn hand_crop(dir: &Path, id: &str, plate_width: Option<f64>) -> Result<Vec<Point
 /// copies may be and still be seen (unknown with fewer than three targets).
 pub(super) fn check_doubled(
     found: &mut [TargetRun],
-    cfg: &Config,
 ) -> (Vec<String>, Option<crate::locate::DoublingLimit>) {
-    let (w, h) = (cfg.tight.plate_width, cfg.tight.plate_height);
     let layering: Vec<Option<crate::locate::Layering>> = found
         .iter()
         .map(|r| {
             let f = r.outcome.as_ref().ok().filter(|f| f.is_l())?;
+            let (w, h) = r.plates;
             crate::locate::layering(&r.loose, &f.located, &f.up, w, h)
         })
         .collect();
@@ -565,10 +579,10 @@ pub(super) fn check_doubled(
 /// was seen and their vertical σ after.
 pub(super) fn widen_heights(
     found: &mut [TargetRun],
-    plate_height: f64,
 ) -> Vec<(String, crate::locate::HeightSeen, f64)> {
     let mut widened = Vec::new();
     for r in found.iter_mut() {
+        let plate_height = r.plates.1;
         let Some(f) = r.outcome.as_mut().ok().filter(|f| f.is_l()) else {
             continue;
         };
@@ -586,14 +600,16 @@ pub(super) fn widen_heights(
 }
 
 /// No object serves two targets: when two located corners are closer than a
-/// plate's width, the target expected farther from the object loses it.
-pub(super) fn one_object_each(found: &mut [TargetRun], plate_width: f64) {
+/// plate's width (the narrower of the two targets'), the target expected
+/// farther from the object loses it.
+pub(super) fn one_object_each(found: &mut [TargetRun]) {
     let n = found.len();
     for i in 0..n {
         for j in 0..n {
             let (Some(a), Some(b)) = (found[i].corner(), found[j].corner()) else {
                 continue;
             };
+            let plate_width = found[i].plates.0.min(found[j].plates.0);
             if i == j || (a - b).xy().norm() >= plate_width {
                 continue;
             }

@@ -576,6 +576,7 @@ mod tests {
             ground_normal: None,
             outcome,
             model: crate::model::ModelKind::L,
+            plates: (0.6, 0.6),
         }
     }
 

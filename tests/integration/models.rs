@@ -263,3 +263,79 @@ fn spheres_alone_give_the_maps_frame() {
         stderr(&out)
     );
 }
+
+/// Ls of their own size (a survey `size` of 0.4 against the configured
+/// 0.6 m plates) are judged as 0.4 m plates throughout: found, their heights
+/// not widened as if two thirds of a 0.6 m plate were hidden (before: every
+/// σz ≈ 59 mm and a warning of plates seen in part), each corner within its
+/// 99.9 % ellipsoid.
+#[test]
+fn ls_of_a_surveyed_size_are_judged_at_that_size() {
+    let dir = tempdir();
+    let cfg = dir.path().join("small.toml");
+    std::fs::write(
+        &cfg,
+        "[target]\nplate_width_m = 0.4\nplate_height_m = 0.4\n",
+    )
+    .unwrap();
+    let scene = dir.path().join("scene");
+    let out = bin()
+        .arg("synth")
+        .arg("--out")
+        .arg(&scene)
+        .arg("--config")
+        .arg(&cfg)
+        .args([
+            "--points",
+            "4000000",
+            "--seed",
+            "1",
+            "--range-noise-m",
+            "0.01",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "synth: {}", stderr(&out));
+    let truth = json(&scene.join("truth.json"));
+    let text = std::fs::read_to_string(scene.join("survey.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut sized = format!("{},model,size\n", lines.next().unwrap());
+    for l in lines {
+        sized += &format!("{l},l,0.4\n");
+    }
+    let survey = dir.path().join("sized.csv");
+    std::fs::write(&survey, sized).unwrap();
+    let res = dir.path().join("res");
+    let out = eval(&scene, &survey, &res);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = json(&res.join("result.json"));
+    let warnings = r["warnings"].to_string();
+    assert!(
+        !warnings.contains("of the 0.60 m plate height"),
+        "{warnings}"
+    );
+    for (t, e) in r["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(r["eval"]["targets"].as_array().unwrap())
+    {
+        assert_eq!(t["status"], "ok", "{t}");
+        let tt = truth["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|x| x["id"] == t["id"])
+            .unwrap();
+        let err = v3(&e["corner_in_map"]) - v3(&tt["map"]);
+        let c = Matrix3::from_fn(|i, j| t["map_covariance"][i][j].as_f64().unwrap());
+        let m = (err.transpose() * c.try_inverse().unwrap() * err)[(0, 0)];
+        assert!(m < 16.27, "{}: {err} (m² {m:.1})", t["id"]);
+        assert!(
+            c[(2, 2)].sqrt() < 0.03,
+            "{}: σz {}",
+            t["id"],
+            c[(2, 2)].sqrt()
+        );
+    }
+}
