@@ -280,18 +280,17 @@ fn shapes(
         .par_iter()
         .zip(centres)
         .map(|(pts, c)| {
+            // No L there: a sphere, when they are looked for.
+            let or_sphere = |why: String| match models.sphere {
+                Some(sp) => sphere_at(pts, c, motion, params, sp).map_err(|s| s.unwrap_or(why)),
+                None => Err(why),
+            };
             let t = match tight_crop(pts, c, &tp) {
                 Ok(t) => t,
-                Err(e) => {
-                    let why = short_reason(&e.to_string());
-                    return match models.sphere {
-                        Some(sp) => sphere_at(pts, c, motion, params, sp).ok_or(why),
-                        None => Err(why),
-                    };
-                }
+                Err(e) => return or_sphere(short_reason(&e.to_string())),
             };
             if t.plate_height < DETECT_MIN_HEIGHT_SHARE * tight.plate_height {
-                return Err(format!(
+                return or_sphere(format!(
                     "an L under {:.0} % of a plate's height",
                     100.0 * DETECT_MIN_HEIGHT_SHARE
                 ));
@@ -325,14 +324,15 @@ fn shapes(
 const SPHERE_SHELL_POINTS: usize = 3;
 
 /// A sphere of the surveyed diameter within the search radius of a
-/// candidate's centre `c`, when the sphere locator finds and keeps one.
+/// candidate's centre `c`, when the sphere locator finds and keeps one;
+/// else why a sphere it found was refused (`None`: no sphere there).
 fn sphere_at(
     pts: &[Point],
     c: &Point,
     motion: &RigidMotion,
     params: &DetectParams,
     (sp, diameter): (&crate::model::SphereParams, f64),
-) -> Option<Detection> {
+) -> std::result::Result<Detection, Option<String>> {
     let p = crate::model::SphereParams {
         search_radius_m: params.search_radius,
         ..sp.clone()
@@ -344,14 +344,16 @@ fn sphere_at(
         radius: diameter / 2.0,
         up: nalgebra::Vector3::z(),
     };
-    let (fit, _) = crate::model::sphere::locate(&search, &p).ok()?;
+    let (fit, _) = crate::model::sphere::locate(&search, &p).map_err(|_| None)?;
     // With no surveyed position to vouch for it, a sphere must stand alone.
     let around = crate::model::sphere::surroundings(pts, &fit, &nalgebra::Vector3::z());
     if around > SPHERE_SHELL_POINTS.max(fit.inliers / 10) {
-        return None;
+        return Err(Some(
+            "a round surface not standing alone (part of a larger object)".into(),
+        ));
     }
     let score = 1.0 - ((fit.free_radius - fit.radius).abs() / fit.radius).min(1.0);
-    Some(Detection {
+    Ok(Detection {
         model: crate::model::ModelKind::Sphere,
         corner: fit.centre,
         corner_map: motion.invert(&fit.centre),
@@ -364,7 +366,7 @@ fn sphere_at(
 }
 
 /// One detection per object, strongest first: candidates close together
-/// may find the same L.
+/// may find the same L (or sphere; an L and a sphere are two objects).
 fn one_per_object(mut detections: Vec<Detection>, tight: &TightParams) -> Vec<Detection> {
     detections.sort_by(|a, b| {
         b.support
@@ -374,10 +376,9 @@ fn one_per_object(mut detections: Vec<Detection>, tight: &TightParams) -> Vec<De
     });
     let mut kept: Vec<Detection> = Vec::new();
     for d in detections {
-        if kept
-            .iter()
-            .all(|k| (k.corner - d.corner).xy().norm() > 0.3 * tight.plate_width / 0.6)
-        {
+        if kept.iter().all(|k| {
+            k.model != d.model || (k.corner - d.corner).xy().norm() > 0.3 * tight.plate_width / 0.6
+        }) {
             kept.push(d);
         }
     }

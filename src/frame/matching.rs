@@ -121,6 +121,10 @@ pub fn match_frame(
     survey_has_z: bool,
     params: &MatchParams,
 ) -> Result<FrameMatch, MatchError> {
+    assert!(
+        models.is_empty() || models.len() == survey.len(),
+        "match_frame: one model per surveyed position"
+    );
     let all_l = vec![ModelKind::L; survey.len()];
     let sm = if models.is_empty() {
         &all_l[..]
@@ -169,7 +173,7 @@ pub fn match_frame(
     let best = hyps[0].clone();
     let runner_up = runner_up(&hyps, &s, tol)?;
     let dz = if survey_has_z {
-        median_dz(&best.matches, survey, dets)
+        median_dz(&best.matches, survey, dets, sm)
     } else {
         0.0
     };
@@ -290,10 +294,27 @@ fn full_frame(best: &Hyp, sc: [f64; 2], dc: [f64; 2]) -> super::MapToSurvey {
 }
 
 /// Survey z minus map z over the matches: the median, so that a target
-/// whose corner height is off does not move the others.
-fn median_dz(matches: &[(usize, usize, f64)], survey: &[Point], dets: &[Candidate]) -> f64 {
+/// whose corner height is off does not move the others; over the model
+/// matched most (ties: the first in `ModelKind`'s order), since models
+/// differ in where their detected point sits against the surveyed one.
+fn median_dz(
+    matches: &[(usize, usize, f64)],
+    survey: &[Point],
+    dets: &[Candidate],
+    models: &[ModelKind],
+) -> f64 {
+    let mut count: Vec<(ModelKind, usize)> = Vec::new();
+    for &(i, _, _) in matches {
+        match count.iter_mut().find(|c| c.0 == models[i]) {
+            Some(c) => c.1 += 1,
+            None => count.push((models[i], 1)),
+        }
+    }
+    count.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let most = count[0].0;
     let mut dzs: Vec<f64> = matches
         .iter()
+        .filter(|&&(i, _, _)| models[i] == most)
         .map(|&(i, a, _)| survey[i].z - dets[a].at.z)
         .collect();
     dzs.sort_by(f64::total_cmp);

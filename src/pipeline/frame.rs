@@ -180,25 +180,26 @@ impl NoFrame {
 }
 
 /// The spheres detection looks for: none unless the survey has spheres;
-/// their surveyed diameter when every sphere row gives the same, else the
-/// configured one (spheres of other sizes are then located once the frame
-/// is found from the others).
+/// the diameter most of its sphere rows give (ties: the smaller; spheres of
+/// other sizes are located once the frame is found from the others).
 fn spheres_to_detect<'a>(
     survey: &Survey,
     cfg: &'a Config,
 ) -> Option<(&'a crate::model::SphereParams, f64)> {
-    let mut sizes = survey
+    let mut sizes: Vec<f64> = survey
         .targets
         .iter()
         .filter(|t| t.model == ModelKind::Sphere)
-        .map(|t| t.size.unwrap_or(cfg.sphere.diameter_m));
-    let first = sizes.next()?;
-    let d = if sizes.all(|s| s == first) {
-        first
-    } else {
-        cfg.sphere.diameter_m
-    };
-    Some((&cfg.sphere, d))
+        .map(|t| t.size.unwrap_or(cfg.sphere.diameter_m))
+        .collect();
+    sizes.sort_by(f64::total_cmp);
+    let mut best: Option<(f64, usize)> = None;
+    for run in sizes.chunk_by(|a, b| a == b) {
+        if best.is_none_or(|b| run.len() > b.1) {
+            best = Some((run[0], run.len()));
+        }
+    }
+    best.map(|(d, _)| (&cfg.sphere, d))
 }
 
 /// Detects targets map-wide and matches them to the survey.

@@ -76,8 +76,9 @@ pub enum Warning {
         every: bool,
     },
     /// These targets' plates leaned beyond the vertical gate in the frame
-    /// the map was read in, and with the others' they shared one plumb line:
-    /// they were located at that common vertical.
+    /// they were first located in; with the others' they shared one plumb
+    /// line, located them at that common vertical, and the targets' plumb
+    /// lines levelled the map.
     LeaningTargets {
         /// The targets located at the common vertical.
         ids: Vec<String>,
@@ -190,7 +191,7 @@ impl std::fmt::Display for Warning {
             ),
             Warning::LeaningTargets { ids, tilt_deg } => write!(
                 f,
-                "target(s) {} leaned beyond the vertical gate (locate.angle_tolerance_deg) in the frame the map was read in; with the other targets they share a plumb line {tilt_deg:.2}° from its +z, the map's lean, and were located at that common vertical",
+                "target(s) {} leaned beyond the vertical gate (locate.angle_tolerance_deg) in the frame they were first located in; with the other targets they share a plumb line {tilt_deg:.2}° from that frame's +z, and the map was levelled by the targets' plumb lines",
                 ids.join(", ")
             ),
             Warning::GroundWeak {
