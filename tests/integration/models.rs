@@ -44,6 +44,16 @@ fn json(p: &Path) -> Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
 
+/// truth.json's record of the target `id`.
+fn truth_of<'a>(truth: &'a Value, id: &Value) -> &'a Value {
+    truth["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|x| &x["id"] == id)
+        .unwrap()
+}
+
 fn v3(v: &Value) -> Vector3<f64> {
     Vector3::new(
         v[0].as_f64().unwrap(),
@@ -92,12 +102,7 @@ fn spheres_and_ls_in_one_survey() {
                 "seed {seed} target {}: {}",
                 t["id"], t["reason"]
             );
-            let tt = truth["targets"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .find(|x| x["id"] == t["id"])
-                .unwrap();
+            let tt = truth_of(&truth, &t["id"]);
             if tt["model"] != "sphere" {
                 assert!(d.get("model").is_none() && d.get("sphere").is_none(), "{d}");
                 continue;
@@ -225,12 +230,7 @@ fn spheres_alone_give_the_maps_frame() {
             continue;
         }
         ok += 1;
-        let tt = truth["targets"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|x| x["id"] == t["id"])
-            .unwrap();
+        let tt = truth_of(&truth, &t["id"]);
         let err = v3(&e["corner_in_map"]) - v3(&tt["map"]);
         assert!(err.norm() < 0.01, "{}: {err}", t["id"]);
     }
@@ -321,12 +321,7 @@ fn ls_of_a_surveyed_size_are_judged_at_that_size() {
         .zip(r["eval"]["targets"].as_array().unwrap())
     {
         assert_eq!(t["status"], "ok", "{t}");
-        let tt = truth["targets"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|x| x["id"] == t["id"])
-            .unwrap();
+        let tt = truth_of(&truth, &t["id"]);
         let err = v3(&e["corner_in_map"]) - v3(&tt["map"]);
         let c = Matrix3::from_fn(|i, j| t["map_covariance"][i][j].as_f64().unwrap());
         let m = (err.transpose() * c.try_inverse().unwrap() * err)[(0, 0)];
