@@ -316,13 +316,6 @@ fn shapes(
         .collect()
 }
 
-/// Most points a sphere detected map-wide may have in the shell around it
-/// (`model::sphere::surroundings`), or a tenth of its surface points where
-/// more. Measured: synthetic spheres on poles 0-2 (of 58-79 on the surface);
-/// the round patches real scans without spheres offered, 38-52 (of 41-48:
-/// PDAL's lone-star, airborne) and 1 525 (of 1 029: pye57's pump room).
-const SPHERE_SHELL_POINTS: usize = 3;
-
 /// A sphere of the surveyed diameter within the search radius of a
 /// candidate's centre `c`, when the sphere locator finds and keeps one;
 /// else why a sphere it found was refused (`None`: no sphere there).
@@ -344,14 +337,14 @@ fn sphere_at(
         radius: diameter / 2.0,
         up: nalgebra::Vector3::z(),
     };
-    let (fit, _) = crate::model::sphere::locate(&search, &p).map_err(|_| None)?;
-    // With no surveyed position to vouch for it, a sphere must stand alone.
-    let around = crate::model::sphere::surroundings(pts, &fit, &nalgebra::Vector3::z());
-    if around > SPHERE_SHELL_POINTS.max(fit.inliers / 10) {
-        return Err(Some(
-            "a round surface not standing alone (part of a larger object)".into(),
-        ));
-    }
+    let (fit, _) = crate::model::sphere::locate(&search, &p).map_err(|e| match e {
+        // Counted as one kind (the sphere locator's reasons carry numbers;
+        // `eval` at a surveyed place names them).
+        crate::model::SphereError::NoSphere { seen: Some(_), .. } => {
+            Some("a round object, not a sphere target".to_string())
+        }
+        _ => None,
+    })?;
     let score = 1.0 - ((fit.free_radius - fit.radius).abs() / fit.radius).min(1.0);
     Ok(Detection {
         model: crate::model::ModelKind::Sphere,

@@ -111,9 +111,16 @@ fn detect_finds_no_target_in_real_maps_without_any() {
 /// enough for a target to show (10 points a square metre over its extent:
 /// the Velodyne frames, not the airborne tiles), each the lowest point
 /// within 1 m of points spread through the file, surveyed as targets and
-/// evaluated in the survey's frame: every spot is `not_found`.
+/// evaluated in the survey's frame: every spot is `not_found`; as L targets
+/// (the corner at the spot) and as spheres (the centre 1.3 m above it).
 #[test]
 fn ground_spots_of_a_fake_survey_are_never_located() {
+    for model in ["l", "sphere"] {
+        ground_spots_as(model);
+    }
+}
+
+fn ground_spots_as(model: &str) {
     let (dir, manifest) = corpus();
     let tmp = tempdir();
     let mut tried = 0;
@@ -126,7 +133,8 @@ fn ground_spots_of_a_fake_survey_are_never_located() {
         }
         let name = e["file"].as_str().unwrap();
         let pts = mapgauge::cloud::read_all(&dir.join(name)).unwrap();
-        let mut survey = String::from("id,x,y,z\n");
+        let mut survey = String::from("id,x,y,z,antenna_height,model\n");
+        let above = if model == "sphere" { 1.3 } else { 0.0 };
         for i in 0..5 {
             let c = pts[(2 * i + 1) * pts.len() / 10];
             let low = pts
@@ -134,11 +142,16 @@ fn ground_spots_of_a_fake_survey_are_never_located() {
                 .filter(|p| (p.x - c.x).hypot(p.y - c.y) < 1.0)
                 .min_by(|a, b| a.z.total_cmp(&b.z))
                 .unwrap();
-            survey += &format!("s{i},{:.3},{:.3},{:.3}\n", low.x, low.y, low.z);
+            survey += &format!(
+                "s{i},{:.3},{:.3},{:.3},0,{model}\n",
+                low.x,
+                low.y,
+                low.z + above
+            );
         }
-        let s = tmp.path().join(format!("{name}.csv"));
+        let s = tmp.path().join(format!("{name}.{model}.csv"));
         std::fs::write(&s, survey).unwrap();
-        let out = tmp.path().join(format!("{name}.out"));
+        let out = tmp.path().join(format!("{name}.{model}.out"));
         let o = bin()
             .arg("eval")
             .arg("--map")
@@ -150,7 +163,10 @@ fn ground_spots_of_a_fake_survey_are_never_located() {
             .args(["--frame", "survey", "--no-report"])
             .output()
             .unwrap();
-        assert!(!o.status.success(), "{name}: scored ground spots");
+        assert!(
+            !o.status.success(),
+            "{name}: scored ground spots as {model}"
+        );
         // A run that cannot score lists every place with its status.
         let failed = std::fs::read_to_string(out.join("failed.csv"))
             .unwrap_or_else(|e| panic!("{name}: no failed.csv ({e}): {}", stderr(&o)));
@@ -159,7 +175,7 @@ fn ground_spots_of_a_fake_survey_are_never_located() {
         for r in rows {
             assert!(
                 r.split(',').nth(1) == Some("not_found"),
-                "{name}: a ground spot was not refused:\n{r}"
+                "{name}: a ground spot ({model}) was not refused:\n{r}"
             );
         }
         tried += 1;
