@@ -530,8 +530,9 @@ fn hand_crop(dir: &Path, id: &str, plate_width: Option<f64>) -> Result<Vec<Point
 pub(super) fn check_doubled(
     found: &mut [TargetRun],
 ) -> (Vec<String>, Option<crate::locate::DoublingLimit>) {
+    use rayon::prelude::*;
     let layering: Vec<Option<crate::locate::Layering>> = found
-        .iter()
+        .par_iter()
         .map(|r| {
             let f = r.outcome.as_ref().ok().filter(|f| f.is_l())?;
             let (w, h) = r.plates;
