@@ -158,8 +158,13 @@ pub struct DetectionInfo {
     pub rms: f64,
     /// Matches of the best different transform (0: none).
     pub runner_up: usize,
-    /// Detections matched to no surveyed target (map frame corners).
+    /// Detections matched to no surveyed target (map frame corners, or
+    /// centres for spheres).
     pub unmatched: Vec<[f64; 3]>,
+    /// Each unmatched detection's model (`l`, `sphere`), in the same order:
+    /// an unmatched sphere is a sphere the survey has no row for.
+    #[serde(default)]
+    pub unmatched_models: Vec<String>,
 }
 
 /// Provenance and per-target details of an `eval` run (the `eval` key of result.json).
@@ -243,6 +248,7 @@ fn frame_info(f: &FrameFound) -> FrameInfo {
                 .iter()
                 .map(|d| [d.corner_map.x, d.corner_map.y, d.corner_map.z])
                 .collect(),
+            unmatched_models: f.unmatched.iter().map(|d| d.model.name().into()).collect(),
         }),
         _ => None,
     };

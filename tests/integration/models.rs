@@ -235,6 +235,27 @@ fn spheres_alone_give_the_maps_frame() {
         assert!(err.norm() < 0.01, "{}: {err}", t["id"]);
     }
     assert!(ok >= 4, "{ok} of 5 located: {}", r["targets"]);
+    // A detected sphere the survey has no row for is left unmatched, named
+    // a sphere in result.json and the report.
+    let text = std::fs::read_to_string(scene.join("survey.csv")).unwrap();
+    let detected = r["eval"]["frame"]["detection"]["matched"][0]
+        .as_str()
+        .unwrap();
+    let short: String = text
+        .lines()
+        .filter(|l| !l.starts_with(&format!("{detected},")))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let survey = dir.path().join("short.csv");
+    std::fs::write(&survey, short).unwrap();
+    let res = dir.path().join("short");
+    let out = eval(&scene, &survey, &res);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let d = &json(&res.join("result.json"))["eval"]["frame"]["detection"];
+    assert_eq!(d["unmatched_models"], serde_json::json!(["sphere"]), "{d}");
+    assert_eq!(d["unmatched"].as_array().unwrap().len(), 1, "{d}");
+    let page = std::fs::read_to_string(res.join("report.html")).unwrap();
+    assert!(page.contains("left unmatched</th><td class=\"w\" style=\"text-align:left\">sphere ("));
     let detect = |extra: &[&str]| {
         let out = bin()
             .arg("detect")

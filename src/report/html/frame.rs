@@ -31,7 +31,17 @@ pub(super) fn frame_section(
             "detections left unmatched",
             d.unmatched
                 .iter()
-                .map(|c| format!("({:.2}, {:.2}, {:.2})", c[0], c[1], c[2]))
+                .enumerate()
+                .map(|(i, c)| {
+                    // An L's corner, a sphere's centre (older results name no model).
+                    let model = d.unmatched_models.get(i).map_or("", String::as_str);
+                    let named = if model.is_empty() || model == "l" {
+                        String::new()
+                    } else {
+                        format!("{model} ")
+                    };
+                    format!("{named}({:.2}, {:.2}, {:.2})", c[0], c[1], c[2])
+                })
                 .collect::<Vec<_>>()
                 .join(", "),
         ));
