@@ -134,10 +134,7 @@ fn plumb_lines(found: &[TargetRun]) -> Option<PlumbLines> {
     }
     let sw: f64 = axes.iter().map(|a| a.1).sum();
     let sw2: f64 = axes.iter().map(|a| a.1 * a.1).sum();
-    let mean = axes
-        .iter()
-        .fold(Vector3::zeros(), |s, (a, w)| s + a * *w)
-        .normalize();
+    let mean = weighted_axis(axes.iter().map(|(a, w)| (a, *w)));
     let tilt = mean.angle(&Vector3::z()).to_degrees();
     let var = axes
         .iter()
@@ -148,6 +145,13 @@ fn plumb_lines(found: &[TargetRun]) -> Option<PlumbLines> {
         / (n - 1) as f64;
     let se = (var * sw2 / (sw * sw)).sqrt().to_degrees();
     Some(PlumbLines { mean, tilt, se, n })
+}
+
+/// Plumb lines (unit axes, each with its weight) averaged: the direction
+/// of their weighted sum.
+fn weighted_axis<'a>(axes: impl Iterator<Item = (&'a Vector3<f64>, f64)>) -> Vector3<f64> {
+    axes.fold(Vector3::zeros(), |s, (a, w)| s + a * w)
+        .normalize()
 }
 
 /// The lean beyond which a map is turned (degrees). A map read as it is
@@ -349,11 +353,10 @@ pub(super) fn first_levelling(
 /// a located L that does not share it (an upright target) ends the step.
 pub(super) fn lean_from_targets(found: &mut [TargetRun], cfg: &Config) -> Option<Leaned> {
     let is_l = |r: &TargetRun| r.model == crate::model::ModelKind::L && !r.tight.is_empty();
-    let located = found
-        .iter()
-        .filter(|r| is_l(r) && r.outcome.as_ref().is_ok_and(|f| f.is_l()))
-        .count();
-    if located >= 3 {
+    let located: Vec<usize> = (0..found.len())
+        .filter(|&i| is_l(&found[i]) && found[i].outcome.as_ref().is_ok_and(|f| f.is_l()))
+        .collect();
+    if located.len() >= 3 {
         return None;
     }
     let leaning: Vec<usize> = (0..found.len())
@@ -368,9 +371,6 @@ pub(super) fn lean_from_targets(found: &mut [TargetRun], cfg: &Config) -> Option
     // a few lucky draws would show less lean than it has.
     let mut open = cfg.clone();
     open.locate.angle_tolerance_deg = LEAN_SEARCH_DEG;
-    let located: Vec<usize> = (0..found.len())
-        .filter(|&i| is_l(&found[i]) && found[i].outcome.as_ref().is_ok_and(|f| f.is_l()))
-        .collect();
     let tried: Vec<usize> = located.iter().chain(&leaning).copied().collect();
     let mut axes: Vec<(usize, Vector3<f64>, f64)> = tried
         .par_iter()
@@ -395,10 +395,7 @@ pub(super) fn lean_from_targets(found: &mut [TargetRun], cfg: &Config) -> Option
         if axes.len() < 3 {
             return None;
         }
-        let mean = axes
-            .iter()
-            .fold(Vector3::zeros(), |s, (_, a, w)| s + a * *w)
-            .normalize();
+        let mean = weighted_axis(axes.iter().map(|(_, a, w)| (a, *w)));
         let (k, worst) = axes
             .iter()
             .enumerate()
