@@ -240,6 +240,12 @@ pub struct SphereShape {
     pub centre_height_m: f64,
     /// Radius of the pole under it, metres.
     pub pole_radius_m: f64,
+    /// With a value, the sphere is held by a magnetic nest to a wall panel
+    /// (0.6 m square, 2 cm thick, on its own post) behind it, away from
+    /// the road, this far (m) from the sphere's surface, as spheres are
+    /// mounted on walls and steelwork; without, it stands on its pole.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_gap_m: Option<f64>,
 }
 
 impl Default for SphereShape {
@@ -248,6 +254,7 @@ impl Default for SphereShape {
             diameter_m: 0.145,
             centre_height_m: 1.3,
             pole_radius_m: 0.015,
+            wall_gap_m: None,
         }
     }
 }
@@ -324,6 +331,9 @@ impl SynthParams {
         }
         if !(sp.pole_radius_m > 0.0 && sp.pole_radius_m < 0.4 * sp.diameter_m) {
             return bad("sphere.pole_radius_m must be in (0, 0.4 diameter_m)");
+        }
+        if sp.wall_gap_m.is_some_and(|g| !(0.0..=0.2).contains(&g)) {
+            return bad("sphere.wall_gap_m must be in [0, 0.2]");
         }
         if !(self.spread_m >= 0.0 && self.spread_m <= 10_000.0) {
             return bad("spread_m must be in [0, 10000]");

@@ -168,11 +168,12 @@ pub(super) fn sphere_target(
     id: String,
     (x, y): (f64, f64),
     road_distance_m: f64,
+    away: f64,
 ) -> (Object, TargetTruth) {
     let gz = g.height(x, y);
     let r = shape.diameter_m / 2.0;
     let zc = gz + shape.centre_height_m;
-    let prims = vec![
+    let mut prims = vec![
         Prim::Sphere {
             c: Vector3::new(x, y, zc),
             r,
@@ -187,6 +188,23 @@ pub(super) fn sphere_target(
             z1: zc - 0.5 * r,
         },
     ];
+    if let Some(gap) = shape.wall_gap_m {
+        // The panel behind the sphere, away from the road (`away`: ±1 in y),
+        // its front face `gap` from the sphere's surface, on its own post.
+        let y_panel = y + away * (r + gap + 0.01);
+        prims.push(Prim::Box {
+            c: Vector3::new(x, y_panel, zc),
+            half: Vector3::new(0.3, 0.01, 0.3),
+            cs: (1.0, 0.0),
+        });
+        prims.push(Prim::VCyl {
+            x,
+            y: y_panel + away * 0.04,
+            r: 0.03,
+            z0: gz - 0.05,
+            z1: zc,
+        });
+    }
     let truth = TargetTruth {
         id,
         world: [x, y, zc],

@@ -174,7 +174,10 @@ fn place_targets(
             .unwrap_or_default();
         if model == crate::model::ModelKind::Sphere {
             let (obj, truth) =
-                sphere_target(ground, &p.sphere, (i + 1).to_string(), (cx, cy), dist);
+                sphere_target(ground, &p.sphere, (i + 1).to_string(), (cx, cy), dist, {
+                    // Away from the road: where a wall mount goes.
+                    if cy >= road.y(cx) { 1.0 } else { -1.0 }
+                });
             objects.push(obj);
             targets.push(truth);
             continue;
