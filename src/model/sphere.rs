@@ -171,7 +171,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         // surface's band (a nest holds it 1-2 cm off, within a SLAM map's
         // noise) would swell its size and pull its centre; the sphere's own
         // points that near the mount are on its far side, never seen.
-        if let (_, Some((m, t))) = surroundings(&local, &grid, c, r, &up) {
+        if let (_, Some((m, t))) = surroundings(&local, &grid, c, r, &up, p.seed) {
             let wall = crate::geom::plane::Plane {
                 normal: m.normal,
                 offset: m.offset + m.normal.dot(&c.centre),
@@ -601,7 +601,7 @@ fn judge(
             "full, not a shell ({inside} points inside against {n} on the surface: foliage?)"
         ));
     }
-    let (around, mount) = surroundings(v, grid, c, r, &up);
+    let (around, mount) = surroundings(v, grid, c, r, &up, p.seed);
     let (_, hi) = shell_of(r, c.rms);
     let most = shell_most(n);
     let on_mount = |d: &Vector3<f64>| mount.is_some_and(|(m, tol)| m.distance(d).abs() < tol);
@@ -679,6 +679,7 @@ fn surroundings(
     c: &Candidate,
     r: f64,
     up: &Vector3<f64>,
+    seed: u64,
 ) -> (Vec<Vector3<f64>>, Option<(crate::geom::plane::Plane, f64)>) {
     let (lo, hi) = shell_of(r, c.rms);
     let around: Vec<Vector3<f64>> = grid
@@ -693,10 +694,33 @@ fn surroundings(
         .collect();
     let most = shell_most(c.inliers.len());
     let mount = (around.len() > most)
-        .then(|| flat_mount(&around, &c.centre, r, c.rms, most))
-        .flatten();
+        .then(|| flat_mount(&around, &c.centre, r, c.rms, most, seed))
+        .flatten()
+        .filter(|&(m, tol)| {
+            // A wall or a panel goes on flat beyond the shell; a slab that
+            // happens to hold a curved surface's band there (a bollard's
+            // cylinder below its dome, within a noisy map's tolerance)
+            // does not: past the shell, the rest of the cylinder is off it.
+            let far = hi + MOUNT_REACH;
+            let (mut on, mut all) = (0usize, 0usize);
+            for i in grid.near(v, &c.centre, far) {
+                let d = v[i] - c.centre;
+                let h = d.dot(up);
+                let pole = h < 0.0 && (d - up * h).norm_squared() < (0.5 * r).powi(2);
+                if d.norm_squared() > hi * hi && !pole {
+                    all += 1;
+                    on += usize::from(m.distance(&d).abs() < tol);
+                }
+            }
+            let in_shell = around.len();
+            10 * on >= 8 * all && on >= in_shell
+        });
     (around, mount)
 }
+
+/// How far beyond the shell a flat mount must go on flat (m): a wall or a
+/// panel a nest is held to is far wider than the sphere.
+const MOUNT_REACH: f64 = 0.2;
 
 /// A flat mount around a sphere: a wall or a panel its magnetic nest holds
 /// it to, a plate it sits on. The points just outside its surface lie on one
@@ -717,15 +741,19 @@ fn flat_mount(
     r: f64,
     rms: f64,
     most: usize,
+    seed: u64,
 ) -> Option<(crate::geom::plane::Plane, f64)> {
     use crate::geom::plane::Plane;
     use crate::geom::ransac::{Draw, Ransac};
     use rand::SeedableRng;
     let q: Vec<Vector3<f64>> = around.iter().map(|p| p - centre).collect();
     let idx: Vec<u32> = (0..u32::try_from(q.len()).ok()?).collect();
-    let tol = (3.0 * rms).max(0.01);
+    // A wall's points lie as near their plane as the map's noise allows
+    // (the sphere's RMS says it); capped, so that a noisy map's slab does
+    // not hold a curved surface's band.
+    let tol = (3.0 * rms).clamp(0.01, 0.025);
     // Seeded by the count: the same points give the same answer.
-    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(0x5eed_f1a7 ^ q.len() as u64);
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed ^ q.len() as u64);
     let ransac = Ransac {
         iterations: 200,
         threshold: tol,

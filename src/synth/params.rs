@@ -243,7 +243,9 @@ pub struct SphereShape {
     /// With a value, the sphere is held by a magnetic nest to a wall panel
     /// (0.6 m square, 2 cm thick, on its own post) behind it, away from
     /// the road, this far (m) from the sphere's surface, as spheres are
-    /// mounted on walls and steelwork; without, it stands on its pole.
+    /// mounted on walls and steelwork; without, it stands on its pole. The
+    /// panel is part of the target's object: its returns count as the
+    /// target's in truth.json's `points` and in `--labels`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wall_gap_m: Option<f64>,
 }

@@ -294,6 +294,126 @@ fn a_sphere_held_to_a_wall_is_found_a_dome_on_one_is_not() {
     }
 }
 
+/// A cylinder's side seen from `view` (the half facing it): `len` along
+/// `axis` from `base`, radius `rad`, noisy by `sigma` along the view.
+#[allow(clippy::too_many_arguments)]
+fn cyl_side(
+    rng: &mut Pcg64,
+    base: Vector3<f64>,
+    axis: Vector3<f64>,
+    len: f64,
+    rad: f64,
+    view: Vector3<f64>,
+    n: usize,
+    sigma: f64,
+) -> Vec<Point> {
+    let a = axis.normalize();
+    let v = (view - a * a.dot(&view)).normalize();
+    let w = a.cross(&v);
+    let noise = Normal::new(0.0, sigma).unwrap();
+    let vv = view.normalize();
+    (0..n)
+        .map(|_| {
+            let s: f64 = rng.random_range(-0.98..0.98);
+            let t = rng.random_range(0.0..len);
+            let p = base + a * t + (v * (1.0 - s * s).sqrt() + w * s) * rad;
+            Point::from(p + vv * noise.sample(rng))
+        })
+        .collect()
+}
+
+/// A bollard of the sphere's radius with a domed top, and a pipe of it
+/// with a round cap on its end, are never taken for spheres, at any map
+/// noise: at 5-10 mm a tilted slab through the cylinder's band just past
+/// the dome held the shell's points, the flat-mount rule took it for a
+/// mount and 3 of 20 bollards were accepted (the review of 0df293e); the
+/// mount must go on flat beyond the shell, as a wall does.
+#[test]
+fn bollards_and_capped_pipes_are_no_mounted_spheres() {
+    let p = SphereParams::default();
+    for sigma in [0.002, 0.005, 0.01, 0.015] {
+        for seed in 0..20u64 {
+            let mut rng = Pcg64::seed_from_u64(100 + seed);
+            let view = Vector3::new(-1.0, 0.2, 0.15).normalize();
+            let top = Vector3::new(0.2, 0.1, 1.0);
+            let mut b = ground(&mut rng, 5000);
+            b.extend(cyl_side(
+                &mut rng,
+                top - Vector3::z(),
+                Vector3::z(),
+                1.0,
+                R,
+                view,
+                1500,
+                sigma,
+            ));
+            let dome = cap(
+                &mut rng,
+                top,
+                R,
+                Vector3::new(-1.0, 0.2, 1.0),
+                0.3,
+                250,
+                sigma,
+            );
+            b.extend(dome.into_iter().filter(|q| q.z >= top.z));
+            let found = locate(&search(&b, Point::new(0.0, 0.0, 1.0)), &p);
+            assert!(
+                found.is_err(),
+                "bollard, noise {sigma}, seed {seed}: {:?}",
+                found.map(|f| f.0.centre)
+            );
+            let c = Vector3::new(0.2, 0.1, 1.3);
+            let view2 = Vector3::new(-1.0, -0.6, 0.2).normalize();
+            let mut pipe = ground(&mut rng, 5000);
+            pipe.extend(cyl_side(
+                &mut rng,
+                c,
+                Vector3::x(),
+                1.5,
+                R,
+                view2,
+                2500,
+                sigma,
+            ));
+            let end = cap(&mut rng, c, R, view2, 0.3, 250, sigma);
+            pipe.extend(end.into_iter().filter(|q| q.x <= c.x));
+            let found = locate(&search(&pipe, Point::new(0.0, 0.0, 1.3)), &p);
+            assert!(
+                found.is_err(),
+                "capped pipe, noise {sigma}, seed {seed}: {:?}",
+                found.map(|f| f.0.centre)
+            );
+        }
+    }
+}
+
+/// A wall 0.9 r behind a ball's centre cuts it (a ball sunk a little into
+/// a wall, a knob): no mount, at any seed. (That the mount's points are
+/// left out of a held sphere's surface is tested end to end:
+/// `models::spheres_held_to_walls_are_located` locates 3 of 5, one 10 mm
+/// off, without it.)
+#[test]
+fn a_wall_cutting_the_sphere_is_no_mount() {
+    let p = SphereParams::default();
+    let view = Vector3::new(0.1, -1.0, 0.1);
+    let c = Vector3::new(0.2, 0.1, 1.3);
+    for seed in 0..10u64 {
+        let mut rng = Pcg64::seed_from_u64(400 + seed);
+        let mut cut = ground(&mut rng, 5000);
+        let f = 0.9 * R;
+        let ball = cap(&mut rng, c, R, view, 0.3, 300, 0.002);
+        cut.extend(ball.into_iter().filter(|q| q.y < c.y + f));
+        cut.extend(panel(&mut rng, c, c.y + f, (R * R - f * f).sqrt(), 0.002));
+        let found = locate(&search(&cut, Point::new(0.0, 0.0, 1.3)), &p);
+        assert!(
+            found.is_err(),
+            "seed {seed}: a wall 0.9 r behind: {:?}",
+            found.map(|f| f.0.centre)
+        );
+    }
+}
+
 /// The 95 % ellipsoid of the centre holds the truth 92–98 % of the time
 /// over caps of 15–50 % of the surface, 30–400 points, 1–5 mm noise.
 #[test]
