@@ -171,14 +171,16 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         // surface's band (a nest holds it 1-2 cm off, within a SLAM map's
         // noise) would swell its size and pull its centre; the sphere's own
         // points that near the mount are on its far side, never seen.
-        if let (_, Some((m, t))) = surroundings(&local, &grid, c, r, &up, p.seed) {
+        let mut around = surroundings(&local, &grid, c, r, &up, p.seed);
+        if let Some((m, t)) = around.1 {
             let wall = crate::geom::plane::Plane {
                 normal: m.normal,
                 offset: m.offset + m.normal.dot(&c.centre),
             };
             *c = refine(&local, &grid, c.centre, r, tol0, &up, Some((wall, t)));
+            around = surroundings(&local, &grid, c, r, &up, p.seed);
         }
-        c.refusal = judge(&local, &grid, c, r, &up, p);
+        c.refusal = judge(&local, &grid, c, r, &up, p, around);
     }
     let chosen = choose(&cands, &s.others.iter().map(|q| q - o).collect::<Vec<_>>());
     let Some(best) = chosen else {
@@ -556,6 +558,7 @@ fn judge(
     r: f64,
     up: &Vector3<f64>,
     p: &SphereParams,
+    (around, mount): Surroundings,
 ) -> Option<String> {
     let n = c.inliers.len();
     if n < p.min_points {
@@ -601,7 +604,6 @@ fn judge(
             "full, not a shell ({inside} points inside against {n} on the surface: foliage?)"
         ));
     }
-    let (around, mount) = surroundings(v, grid, c, r, &up, p.seed);
     let (_, hi) = shell_of(r, c.rms);
     let most = shell_most(n);
     let on_mount = |d: &Vector3<f64>| mount.is_some_and(|(m, tol)| m.distance(d).abs() < tol);
@@ -680,7 +682,7 @@ fn surroundings(
     r: f64,
     up: &Vector3<f64>,
     seed: u64,
-) -> (Vec<Vector3<f64>>, Option<(crate::geom::plane::Plane, f64)>) {
+) -> Surroundings {
     let (lo, hi) = shell_of(r, c.rms);
     let around: Vec<Vector3<f64>> = grid
         .near(v, &c.centre, hi)
@@ -718,13 +720,16 @@ fn surroundings(
     (around, mount)
 }
 
+/// A candidate's shell points and its flat mount ([`surroundings`]).
+type Surroundings = (Vec<Vector3<f64>>, Option<(crate::geom::plane::Plane, f64)>);
+
 /// How far beyond the shell a flat mount must go on flat (m): a wall or a
 /// panel a nest is held to is far wider than the sphere.
 const MOUNT_REACH: f64 = 0.2;
 
 /// A flat mount around a sphere: a wall or a panel its magnetic nest holds
 /// it to, a plate it sits on. The points just outside its surface lie on one
-/// plane (within `max(3 rms, 1 cm)`), all but `most` of them, and that plane
+/// plane (within 3 rms, clamped to 1-2.5 cm), all but `most` of them, and that plane
 /// does not cut the sphere. A round patch of a larger object has that
 /// object going on *through* the patch's sphere (a dome or a bump on a wall
 /// or a tank: the plane of its base cuts the sphere, most often near its

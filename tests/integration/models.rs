@@ -54,6 +54,28 @@ fn truth_of<'a>(truth: &'a Value, id: &Value) -> &'a Value {
         .unwrap()
 }
 
+/// Each `ok` target of an eval's result.json: its id, its error against
+/// the truth (map frame) and its map covariance.
+fn located(r: &Value, truth: &Value) -> Vec<(Value, Vector3<f64>, Matrix3<f64>)> {
+    r["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(r["eval"]["targets"].as_array().unwrap())
+        .filter(|(t, _)| t["status"] == "ok")
+        .map(|(t, e)| {
+            let err = v3(&e["corner_in_map"]) - v3(&truth_of(truth, &t["id"])["map"]);
+            let c = Matrix3::from_fn(|i, j| t["map_covariance"][i][j].as_f64().unwrap());
+            (t["id"].clone(), err, c)
+        })
+        .collect()
+}
+
+/// `err`'s squared Mahalanobis distance under `c`.
+fn m2(err: &Vector3<f64>, c: &Matrix3<f64>) -> f64 {
+    (err.transpose() * c.try_inverse().unwrap() * err)[(0, 0)]
+}
+
 fn v3(v: &Value) -> Vector3<f64> {
     Vector3::new(
         v[0].as_f64().unwrap(),
@@ -219,21 +241,11 @@ fn spheres_alone_give_the_maps_frame() {
         "{}",
         r["eval"]["frame"]
     );
-    let mut ok = 0;
-    for (t, e) in r["targets"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .zip(r["eval"]["targets"].as_array().unwrap())
-    {
-        if t["status"] != "ok" {
-            continue;
-        }
-        ok += 1;
-        let tt = truth_of(&truth, &t["id"]);
-        let err = v3(&e["corner_in_map"]) - v3(&tt["map"]);
-        assert!(err.norm() < 0.01, "{}: {err}", t["id"]);
+    let found = located(&r, &truth);
+    for (id, err, _) in &found {
+        assert!(err.norm() < 0.01, "{id}: {err}");
     }
+    let ok = found.len();
     assert!(ok >= 4, "{ok} of 5 located: {}", r["targets"]);
     // A detected sphere the survey has no row for is left unmatched, named
     // a sphere in result.json and the report.
@@ -335,24 +347,17 @@ fn ls_of_a_surveyed_size_are_judged_at_that_size() {
         !warnings.contains("of the 0.60 m plate height"),
         "{warnings}"
     );
-    for (t, e) in r["targets"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .zip(r["eval"]["targets"].as_array().unwrap())
-    {
-        assert_eq!(t["status"], "ok", "{t}");
-        let tt = truth_of(&truth, &t["id"]);
-        let err = v3(&e["corner_in_map"]) - v3(&tt["map"]);
-        let c = Matrix3::from_fn(|i, j| t["map_covariance"][i][j].as_f64().unwrap());
-        let m = (err.transpose() * c.try_inverse().unwrap() * err)[(0, 0)];
-        assert!(m < 16.27, "{}: {err} (m² {m:.1})", t["id"]);
-        assert!(
-            c[(2, 2)].sqrt() < 0.03,
-            "{}: σz {}",
-            t["id"],
-            c[(2, 2)].sqrt()
-        );
+    let found = located(&r, &truth);
+    assert_eq!(
+        found.len(),
+        r["targets"].as_array().unwrap().len(),
+        "{}",
+        r["targets"]
+    );
+    for (id, err, c) in &found {
+        let m = m2(err, c);
+        assert!(m < 16.27, "{id}: {err} (m² {m:.1})");
+        assert!(c[(2, 2)].sqrt() < 0.03, "{id}: σz {}", c[(2, 2)].sqrt());
     }
 }
 
@@ -401,24 +406,12 @@ fn spheres_held_to_walls_are_located() {
         let out = eval(&scene, &scene.join("survey.csv"), &res);
         assert!(out.status.success(), "{}", stderr(&out));
         let r = json(&res.join("result.json"));
-        for (t, e) in r["targets"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .zip(r["eval"]["targets"].as_array().unwrap())
-        {
-            if t["status"] != "ok" {
-                continue;
-            }
+        for (id, err, c) in located(&r, &truth) {
             ok += 1;
-            let tt = truth_of(&truth, &t["id"]);
-            let err = v3(&e["corner_in_map"]) - v3(&tt["map"]);
-            let c = Matrix3::from_fn(|i, j| t["map_covariance"][i][j].as_f64().unwrap());
-            let m = (err.transpose() * c.try_inverse().unwrap() * err)[(0, 0)];
+            let m = m2(&err, &c);
             assert!(
                 err.norm() < 0.01 && m < 25.0,
-                "seed {seed} {}: {err} (m² {m:.1})",
-                t["id"]
+                "seed {seed} {id}: {err} (m² {m:.1})"
             );
             outside += usize::from(m >= 16.27);
         }
