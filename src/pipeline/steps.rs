@@ -46,9 +46,21 @@ pub(super) fn evaluate(
     if run.falls_back_to_detection(&guess, &targets) {
         run.detect_instead(&first, &mut guess, &mut targets, &mut map)?;
     }
-    let plumb = run.level_by_plumb_lines(&mut targets, &mut motion);
-    let opts = score_options(cfg, &motion, plumb.as_ref());
+    let lines = vertical::plumb_line_count(&targets.found);
+    let mut plumb = run.level_by_plumb_lines(&mut targets, &mut motion);
+    let mut opts = score_options(cfg, &motion, plumb.as_ref());
     let far = run.search_again(&mut targets, &opts, &motion, &ground)?;
+    // The plumb lines again when the later passes located more targets and
+    // the first look did not turn the frame: a sparse map's first pass may
+    // find three targets, whose lines alone cannot show a lean that five
+    // lines and their surveyed heights do.
+    if plumb.as_ref().is_none_or(|p| !p.applied)
+        && vertical::plumb_line_count(&targets.found) > lines
+    {
+        run.warnings.retain(|w| !matches!(w, Warning::HeightsDisagree { .. } | Warning::LeanNotLevelled { .. }));
+        plumb = run.level_by_plumb_lines(&mut targets, &mut motion);
+        opts = score_options(cfg, &motion, plumb.as_ref());
+    }
     let doubling = check_found(&mut targets.found, survey, &opts, &far, &mut run.warnings);
     let frame = FrameFound {
         how: guess.how,

@@ -59,6 +59,19 @@ pub enum Warning {
         /// Angle between the two verticals (degrees).
         apart_deg: f64,
     },
+    /// The targets' plumb lines lean beyond twice their standard error,
+    /// but not as far as levelling by them asks: the map was not levelled,
+    /// and its heights may carry that lean.
+    LeanNotLevelled {
+        /// Their lean and its standard error (degrees).
+        tilt_deg: f64,
+        /// See `tilt_deg`.
+        se_deg: f64,
+        /// Targets that gave a plumb line.
+        targets: usize,
+        /// The lean levelling asks for (degrees).
+        bar_deg: f64,
+    },
     /// These targets' plates were seen over part of their height only, or
     /// their points crowd toward part of it: their heights' σ was raised to
     /// cover what that leaves open.
@@ -125,6 +138,7 @@ impl Warning {
             | Warning::OutliersExcluded(_) => 0,
             Warning::Levelled { .. }
             | Warning::HeightsDisagree { .. }
+            | Warning::LeanNotLevelled { .. }
             | Warning::Georeferenced { .. }
             | Warning::GroundWeak { .. }
             | Warning::LeaningTargets { .. }
@@ -214,6 +228,16 @@ impl std::fmt::Display for Warning {
             } => write!(
                 f,
                 "the surveyed heights say the map leans {heights_deg:.2}° ± {heights_se_deg:.2}° and its targets' plumb lines {plumb_deg:.2}° ± {plumb_se_deg:.2}° (1σ), verticals {apart_deg:.2}° apart: further apart than their uncertainties together allow, so the heights were not used for the vertical. The map's heights may drift (odometry's vertical drift bends a map without leaning it: evaluate heights with care), or the survey's heights are not the targets' corners' (check the antenna heights and the height datum)"
+            ),
+            Warning::LeanNotLevelled {
+                tilt_deg,
+                se_deg,
+                targets,
+                bar_deg,
+            } => write!(
+                f,
+                "the plumb lines of {targets} targets lean {tilt_deg:.2}° ± {se_deg:.2}° (1σ): beyond their scatter, but short of the {bar_deg:.2}° levelling by plumb lines alone asks (3σ, and at least 0.5°), so the map was not levelled. If it leans that much, heights 100 m apart differ by {:.2} m in it: evaluate heights with care (surveyed heights of five or more located targets would settle the lean)",
+                100.0 * tilt_deg.to_radians().tan()
             ),
             Warning::Levelled {
                 tilt_deg,
