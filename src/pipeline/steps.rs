@@ -57,9 +57,21 @@ pub(super) fn evaluate(
     if plumb.as_ref().is_none_or(|p| !p.applied)
         && vertical::plumb_line_count(&targets.found) > lines
     {
-        run.warnings.retain(|w| !matches!(w, Warning::HeightsDisagree { .. } | Warning::LeanNotLevelled { .. }));
+        // What the first look said is said again by the second.
+        run.warnings.retain(|w| {
+            !matches!(
+                w,
+                Warning::HeightsDisagree { .. }
+                    | Warning::LeanNotLevelled { .. }
+                    | Warning::Levelled { .. }
+            )
+        });
         plumb = run.level_by_plumb_lines(&mut targets, &mut motion);
         opts = score_options(cfg, &motion, plumb.as_ref());
+        if plumb.as_ref().is_some_and(|p| p.applied) {
+            // Ls that failed the vertical gate in the frame before the turn.
+            super::passes::common_vertical(&mut targets.found, cfg);
+        }
     }
     let doubling = check_found(&mut targets.found, survey, &opts, &far, &mut run.warnings);
     let frame = FrameFound {

@@ -16,7 +16,8 @@ pub struct Plumb {
     /// Angle of their mean from +z of the frame they were located in (the
     /// ground-levelled one, or the map's own) (degrees).
     pub tilt_deg: f64,
-    /// Its standard error, from their scatter (degrees).
+    /// Its standard error (degrees): their scatter, widened for its few
+    /// degrees of freedom, or their plane fits', whichever is larger.
     pub se_deg: f64,
     /// Targets that gave one.
     pub targets: usize,
@@ -556,9 +557,11 @@ const LEAN_SEARCH_DEG: f64 = 8.0;
 /// mean, and so does a tipped object among upright targets.
 const LEAN_AGREE_DEG: f64 = 1.5;
 
-/// The targets' plumb lines (and surveyed heights) refine the vertical, once;
+/// The targets' plumb lines (and surveyed heights) refine the vertical;
 /// when they turn the frame, the targets and their expected positions turn
 /// with it. Says what the levelling did and how well the vertical is known.
+/// Called once, and again only when that did not turn the frame and later
+/// passes located more targets (`steps::evaluate`).
 pub(super) fn refine_vertical(
     found: &mut [TargetRun],
     expected: &mut [Point],
@@ -569,9 +572,10 @@ pub(super) fn refine_vertical(
     warnings: &mut Vec<Warning>,
 ) -> Option<Plumb> {
     // The targets' plumb lines, and their surveyed heights when five or
-    // more have them, refine the vertical, once: each line is a plain plane
-    // fit of the target's own points and each height the located corner's,
-    // which turn with the frame, so a second look would see the same.
+    // more have them, refine the vertical: each line is a plain plane fit
+    // of the target's own points and each height the located corner's,
+    // which turn with the frame, so a second look at the same targets
+    // would see the same (only more targets are worth one).
     let leaned = if no_turn {
         None
     } else {
@@ -592,12 +596,16 @@ pub(super) fn refine_vertical(
                 }
                 *motion = motion.then(&rot);
             }
-            if !p.applied && p.tilt_deg > 2.0 * p.se_deg {
+            // Only where the plumb lines alone decide (a frame the ground
+            // turned is turned by them whatever their lean; the heights, when
+            // used, settle it; beyond 20° it is no lean but a mistake).
+            let alone = !turned && p.heights.as_ref().is_none_or(|h| !h.used);
+            if alone && !p.applied && p.tilt_deg <= 20.0 && p.tilt_deg > 2.0 * p.se_deg {
                 warnings.push(Warning::LeanNotLevelled {
                     tilt_deg: p.tilt_deg,
                     se_deg: p.se_deg,
                     targets: p.targets,
-                    bar_deg: turn_bar(turned, false, p.se_deg),
+                    bar_deg: turn_bar(false, false, p.turned_se_deg),
                 });
             }
             if let Some(h) = p.heights.as_ref().filter(|h| !h.agrees) {

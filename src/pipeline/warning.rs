@@ -236,7 +236,7 @@ impl std::fmt::Display for Warning {
                 bar_deg,
             } => write!(
                 f,
-                "the plumb lines of {targets} targets lean {tilt_deg:.2}° ± {se_deg:.2}° (1σ): beyond their scatter, but short of the {bar_deg:.2}° levelling by plumb lines alone asks (3σ, and at least 0.5°), so the map was not levelled. If it leans that much, heights 100 m apart differ by {:.2} m in it: evaluate heights with care (surveyed heights of five or more located targets would settle the lean)",
+                "the plumb lines of {targets} targets lean {tilt_deg:.2}° ± {se_deg:.2}° (1σ): beyond twice their standard error, but short of the {bar_deg:.2}° levelling by plumb lines alone asks (3σ, and at least 0.5°), so the map was not levelled. If it leans that much, heights 100 m apart differ by {:.2} m in it: evaluate heights with care (surveyed heights of five or more located targets would settle the lean)",
                 100.0 * tilt_deg.to_radians().tan()
             ),
             Warning::Levelled {
