@@ -781,8 +781,13 @@ mod tests {
             let n = rng.random_range(60..400);
             let q: Vec<Vector3<f64>> = (0..n)
                 .map(|_| {
-                    let e: f64 = rand_distr::Distribution::sample(&rand_distr::StandardNormal, &mut rng);
-                    Vector3::new(0.01 * e, rng.random_range(0.0..0.4), rng.random_range(0.0..0.4))
+                    let e: f64 =
+                        rand_distr::Distribution::sample(&rand_distr::StandardNormal, &mut rng);
+                    Vector3::new(
+                        0.01 * e,
+                        rng.random_range(0.0..0.4),
+                        rng.random_range(0.0..0.4),
+                    )
                 })
                 .collect();
             let idx: Vec<u32> = (0..n as u32).collect();
@@ -807,7 +812,9 @@ mod tests {
         let mut beyond = 0;
         let mut sets = 0;
         for three in runs.chunks(3) {
-            let Some(p) = plumb_lines(three) else { continue };
+            let Some(p) = plumb_lines(three) else {
+                continue;
+            };
             sets += 1;
             // χ² of two directions, each with half the angle's variance.
             if (p.tilt / p.se).powi(2) * 2.0 > 5.99 {

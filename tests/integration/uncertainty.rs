@@ -207,7 +207,10 @@ fn compare_cli_gives_a_verdict() {
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["targets"].as_array().unwrap().len(), 5);
     let ci = &v["e_abs"]["ci95"];
-    assert!(ci[0].as_f64().unwrap() < 0.0 && ci[1].as_f64().unwrap() > 0.0, "{ci}");
+    assert!(
+        ci[0].as_f64().unwrap() < 0.0 && ci[1].as_f64().unwrap() > 0.0,
+        "{ci}"
+    );
     let o = bin()
         .arg("compare")
         .arg(&a)
