@@ -18,17 +18,12 @@
 //!    support, the one nearest the expected position, unless nearer another
 //!    target's.
 //!
-//! 5. **The ray pull.** Range noise along the rays pulls a one-sided cap's
-//!    fitted centre towards the sensor; a parametric bootstrap (the cap put
-//!    back on the fitted sphere, noise of the map's size added along the
-//!    view, refitted) measures the pull, which is taken off the centre.
-//!
 //! The covariance is the least-squares one, s² (JᵀJ)⁻¹ with the residual
 //! variance corrected for the inlier band (or the spread of refits on
 //! resampled inliers where larger), plus what an error of the radius does
-//! to a centre seen from one side (the radius' tolerance, and the part of
-//! the free fit's disagreement its own σ does not explain), plus the ray
-//! pull's own size along it (it was estimated from one assumed view).
+//! to a centre seen from one side: the radius' tolerance, the part of the
+//! free fit's disagreement its own σ does not explain, and the pull towards
+//! the sensor that range noise along the rays gives a one-sided cap.
 
 use crate::Point;
 use crate::frame::grid::TileMap;
@@ -212,11 +207,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
     let surface: Vec<Vector3<f64>> = c.inliers.iter().map(|&i| local[i as usize]).collect();
     let (free, free_sigma) = free_fit(&surface, c.centre, r);
     let samples = resampled(&surface, c.centre, r, p.seed);
-    let pull = ray_pull(&surface, c, r, p.seed);
-    let covariance = covariance(&surface, c, r, (free, free_sigma), &samples, &pull, p);
-    // The pull is the fit's, not the sphere's: taken off the centre.
-    let mut c = c.clone();
-    c.centre -= pull;
+    let covariance = covariance(&surface, c, r, (free, free_sigma), &samples, p);
     let near: Vec<Point> = grid
         .near(&local, &c.centre, 2.0 * r)
         .map(|i| o + local[i])
@@ -230,7 +221,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         rms: c.rms,
         cap_deg: cap_half_angle(&surface, &c.centre),
         covariance,
-        samples: samples.iter().map(|v| o + v - pull).collect(),
+        samples: samples.iter().map(|v| o + v).collect(),
         candidates: cands.iter().filter(|c| c.refusal.is_none()).count(),
     };
     Ok((fit, near))
@@ -879,79 +870,6 @@ fn resampled(pts: &[Vector3<f64>], c: Vector3<f64>, r: f64, seed: u64) -> Vec<Ve
         .collect()
 }
 
-/// How far range noise along the rays pulls the fitted centre towards the
-/// sensor (local frame; to be taken off the centre), by a parametric
-/// bootstrap: the cap's points put back on the fitted sphere, noise of the
-/// map's size added along the view, and fitted again as `refine` fits,
-/// `PULL_DRAWS` times. The view is the cap's mean direction (a sensor sees
-/// the side facing it); the noise along it, the residuals' variance over
-/// the mean squared cosine between the view and the surface normals (a
-/// ray's noise shows on the residual by that cosine).
-///
-/// Why not a formula: the pull comes from the points near the cap's rim,
-/// moved along grazing rays, and from the band that keeps the inliers.
-/// 1.8 s²/r (simulated once, carried before as an uncertainty only) held
-/// at 1 cm of noise, but at 2 cm the synthetic spheres sat 6 mm towards
-/// the road on average, twice that. Measured with `bench/sphere_coverage.py`
-/// (40 seeds, 4 M points, 5-15 m), taking the pull off: horizontal median
-/// error 0.97 → 0.98 mm at 5 mm of noise, 2.18 → 2.03 mm at 1 cm, 6.22 →
-/// 4.73 mm at 2 cm (max 15.1 → 13.9 mm).
-fn ray_pull(pts: &[Vector3<f64>], c: &Candidate, r: f64, seed: u64) -> Vector3<f64> {
-    let none = Vector3::zeros();
-    let n = pts.len();
-    if n < 4 {
-        return none;
-    }
-    let u: Vec<Vector3<f64>> = pts.iter().map(|q| (q - c.centre).normalize()).collect();
-    let Some(view) = u.iter().sum::<Vector3<f64>>().try_normalize(1e-9) else {
-        return none;
-    };
-    let cos2 = u.iter().map(|v| v.dot(&view).powi(2)).sum::<f64>() / n as f64;
-    let sse: f64 = pts
-        .iter()
-        .map(|q| ((q - c.centre).norm() - r).powi(2))
-        .sum();
-    let dof = n.saturating_sub(3).max(1) as f64;
-    let s2 = crate::locate::covariance::untruncate(sse / dof, c.band);
-    let sigma = (s2 / cos2.max(0.1)).sqrt();
-    let normal = |k: u64, i: u64| {
-        let a = unit(seed ^ 0x7261_7970 ^ (k << 40), 2 * i).max(1e-300);
-        let b = unit(seed ^ 0x7261_7970 ^ (k << 40), 2 * i + 1);
-        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-    };
-    let mut fits = Vec::with_capacity(PULL_DRAWS as usize);
-    for k in 0..PULL_DRAWS {
-        let draw: Vec<Vector3<f64>> = u
-            .iter()
-            .enumerate()
-            .map(|(i, v)| c.centre + v * r + view * (sigma * normal(k, i as u64)))
-            .collect();
-        // As `refine` ends: the inliers within its last band, fitted.
-        let mut centre = c.centre;
-        for _ in 0..3 {
-            let kept: Vec<Vector3<f64>> = draw
-                .iter()
-                .filter(|q| ((*q - centre).norm() - r).abs() < c.band)
-                .copied()
-                .collect();
-            if kept.len() < 4 {
-                break;
-            }
-            centre = known_radius_fit(&kept, centre, r, 3);
-        }
-        if centre.iter().all(|x| x.is_finite()) {
-            fits.push(centre - c.centre);
-        }
-    }
-    if fits.is_empty() {
-        return none;
-    }
-    fits.iter().sum::<Vector3<f64>>() / fits.len() as f64
-}
-
-/// Draws of [`ray_pull`]'s bootstrap.
-const PULL_DRAWS: u64 = 64;
-
 /// The centre's covariance (see the module's doc).
 fn covariance(
     pts: &[Vector3<f64>],
@@ -959,7 +877,6 @@ fn covariance(
     r: f64,
     (free, free_sigma): (f64, f64),
     samples: &[Vector3<f64>],
-    pull: &Vector3<f64>,
     p: &SphereParams,
 ) -> [[f64; 3]; 3] {
     let mut jtj = Matrix3::zeros();
@@ -986,7 +903,15 @@ fn covariance(
     } else {
         0.0
     };
-    let var_r = p.radius_sigma_m.powi(2) + unexplained;
+    // Range noise lies along the rays, not across the surface: a cap seen
+    // from one side then fits a centre nearer the sensor by about
+    // 1.8 s²/r (simulated: a 145 mm sphere passed at 6–12 m, 1–2 cm range
+    // noise, 70–300 points: 0.32–4.1 mm, not shrinking with the points). It
+    // acts as an apparent radius error, so it is carried as one: an
+    // uncertainty along the view, not a correction, as its size depends on
+    // the sensors' geometry.
+    let ray = 1.8 * s2 / r;
+    let var_r = p.radius_sigma_m.powi(2) + unexplained + ray * ray;
     // The noise's part: least squares', or the resampled centres' spread
     // where that is larger.
     let mut noise = inv * s2;
@@ -1001,10 +926,7 @@ fn covariance(
             noise = sc;
         }
     }
-    // The ray pull taken off the centre is an estimate from one assumed
-    // view (a moving sensor sees from several, and a map's noise is not all
-    // along its rays): its own size stays as an uncertainty along it.
-    let cov = noise + g * g.transpose() * var_r + pull * pull.transpose();
+    let cov = noise + g * g.transpose() * var_r;
     let cov = (cov + cov.transpose()) / 2.0;
     [0, 1, 2].map(|i| [0, 1, 2].map(|j| cov[(i, j)]))
 }
