@@ -263,20 +263,28 @@ fn plain_axis(tight: &[Point], f: &target::Found) -> Option<PlumbAxis> {
     if a.norm() <= 0.5 {
         return None;
     }
-    let mut cov = Matrix2::zeros();
-    for k in 0..2 {
-        let h = Vector2::new(n[k].x, n[k].y);
-        let (Some(tilt), Some(h)) = (tilt_sd(&q, &idx[k], &n[k], off[k]), h.try_normalize(1e-9))
-        else {
-            return None;
-        };
-        cov += h * h.transpose() * (tilt * tilt);
-    }
+    let tilts = [
+        tilt_sd(&q, &idx[0], &n[0], off[0])?,
+        tilt_sd(&q, &idx[1], &n[1], off[1])?,
+    ];
     Some(PlumbAxis {
         axis: a.normalize(),
         weight: weak as f64,
-        cov,
+        cov: axis_cov(&n, tilts)?,
     })
+}
+
+/// The covariance of a plumb line's horizontal components from its plates'
+/// tilt σs about their horizontal edges: tilting plate k by δ about its edge
+/// adds δ·up to its normal, and moves the line n₀ × n₁ by δ along plate k's
+/// own horizontal normal (up × n₁ = ±n₀ for upright perpendicular plates).
+fn axis_cov(n: &[Vector3<f64>; 2], tilts: [f64; 2]) -> Option<Matrix2<f64>> {
+    let mut cov = Matrix2::zeros();
+    for k in 0..2 {
+        let h = Vector2::new(n[k].x, n[k].y).try_normalize(1e-9)?;
+        cov += h * h.transpose() * (tilts[k] * tilts[k]);
+    }
+    Some(cov)
 }
 
 /// How well a plate's fitted plane is known to tilt about its horizontal
@@ -797,6 +805,37 @@ mod tests {
         }
         let rms = (ratio2 / trials as f64).sqrt();
         assert!((0.9..1.1).contains(&rms), "{rms}");
+    }
+
+    /// A plate tilted about its horizontal edge leans the plumb line along
+    /// that plate's own horizontal normal, as `axis_cov` carries it: checked
+    /// against the cross product of the tilted normals, for plates at a
+    /// heading of 0.7 rad.
+    #[test]
+    fn a_plates_tilt_leans_the_plumb_line_along_its_normal() {
+        let (c, s) = (0.7f64.cos(), 0.7f64.sin());
+        let n = [Vector3::new(c, s, 0.0), Vector3::new(-s, c, 0.0)];
+        let cov = axis_cov(&n, [1e-3, 0.0]).unwrap();
+        let d = 1e-3;
+        for k in 0..2 {
+            let mut m = n;
+            m[k] = (m[k] + Vector3::z() * d).normalize();
+            let a = m[0].cross(&m[1]);
+            let a = if a.z < 0.0 { -a } else { a };
+            let lean = Vector2::new(a.x, a.y) / a.norm();
+            let along = Vector2::new(n[k].x, n[k].y);
+            // The lean is δ along plate k's normal, nothing across it.
+            assert!((lean.dot(&along).abs() - d).abs() < 1e-6, "{k}: {lean}");
+            assert!(lean.perp(&along).abs() < 1e-6, "{k}: {lean}");
+        }
+        // Only plate 0 tilts: the covariance lies along its normal alone.
+        let h0 = Vector2::new(c, s);
+        let h1 = Vector2::new(-s, c);
+        assert!(
+            ((h0.transpose() * cov * h0)[0] - 1e-6).abs() < 1e-12,
+            "{cov}"
+        );
+        assert!((h1.transpose() * cov * h1)[0].abs() < 1e-12, "{cov}");
     }
 
     /// Three level targets' plumb lines: their mean's stated uncertainty
