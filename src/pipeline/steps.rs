@@ -47,32 +47,25 @@ pub(super) fn evaluate(
         run.detect_instead(&first, &mut guess, &mut targets, &mut map)?;
     }
     let lines = vertical::plumb_line_count(&targets.found);
-    let mut plumb = run.level_by_plumb_lines(&mut targets, &mut motion);
+    let (mut plumb, mut said) = run.level_by_plumb_lines(&mut targets, &mut motion);
     let mut opts = score_options(cfg, &motion, plumb.as_ref());
     let far = run.search_again(&mut targets, &opts, &motion, &ground)?;
     // The plumb lines again when the later passes located more targets and
     // the first look did not turn the frame: a sparse map's first pass may
     // find three targets, whose lines alone cannot show a lean that five
-    // lines and their surveyed heights do.
+    // lines and their surveyed heights do. What the first look said is
+    // said again by the second.
     if plumb.as_ref().is_none_or(|p| !p.applied)
         && vertical::plumb_line_count(&targets.found) > lines
     {
-        // What the first look said is said again by the second.
-        run.warnings.retain(|w| {
-            !matches!(
-                w,
-                Warning::HeightsDisagree { .. }
-                    | Warning::LeanNotLevelled { .. }
-                    | Warning::Levelled { .. }
-            )
-        });
-        plumb = run.level_by_plumb_lines(&mut targets, &mut motion);
+        (plumb, said) = run.level_by_plumb_lines(&mut targets, &mut motion);
         opts = score_options(cfg, &motion, plumb.as_ref());
         if plumb.as_ref().is_some_and(|p| p.applied) {
             // Ls that failed the vertical gate in the frame before the turn.
             super::passes::common_vertical(&mut targets.found, cfg);
         }
     }
+    run.warnings.extend(said);
     let doubling = check_found(&mut targets.found, survey, &opts, &far, &mut run.warnings);
     let frame = FrameFound {
         how: guess.how,
@@ -320,21 +313,24 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
         Ok(())
     }
 
-    /// The targets' plumb lines (and surveyed heights) refine the vertical.
+    /// The targets' plumb lines (and surveyed heights) refine the vertical;
+    /// with what the look has to say (kept apart: a second look replaces it).
     fn level_by_plumb_lines(
         &mut self,
         targets: &mut Targets,
         motion: &mut RigidMotion,
-    ) -> Option<vertical::Plumb> {
-        refine_vertical(
+    ) -> (Option<vertical::Plumb>, Vec<Warning>) {
+        let mut said = Vec::new();
+        let plumb = refine_vertical(
             &mut targets.found,
             &mut targets.expected,
             motion,
             self.survey,
             self.no_turn,
             self.cfg,
-            &mut self.warnings,
-        )
+            &mut said,
+        );
+        (plumb, said)
     }
 
     /// Objects far from where the others put them are looked for again

@@ -7,11 +7,16 @@ use serde_json::Value;
 use std::path::Path;
 
 fn synth(scene: &Path, args: &[&str]) -> Value {
+    synth_as(scene, "pcd", args)
+}
+
+/// `synth` writing its map in `format`.
+fn synth_as(scene: &Path, format: &str, args: &[&str]) -> Value {
     let out = bin()
         .arg("synth")
         .arg("--out")
         .arg(scene)
-        .args(["--format", "pcd"])
+        .args(["--format", format])
         .args(args)
         .output()
         .unwrap();
@@ -25,10 +30,15 @@ fn eval(scene: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
 
 /// `eval` of the scene's map against another survey.
 fn eval_against(scene: &Path, survey: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    eval_map(&scene.join("map.pcd"), survey, out, extra)
+}
+
+/// `eval` of a map file against a survey.
+fn eval_map(map: &Path, survey: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     bin()
         .arg("eval")
         .arg("--map")
-        .arg(scene.join("map.pcd"))
+        .arg(map)
         .arg("--survey")
         .arg(survey)
         .arg("--out")
@@ -837,47 +847,16 @@ fn a_second_look_levels_a_map_its_first_three_targets_could_not() {
     let scene = dir.path().join("scene");
     // As LAS, as the golden writes it (its PCD's float32 rounding has the
     // first pass locate more, and the first look turn it: 1.83° ± 0.53°).
-    let out = bin()
-        .arg("synth")
-        .arg("--out")
-        .arg(&scene)
-        .args([
-            "--format",
-            "las",
-            "--seed",
-            "11",
-            "--targets",
-            "6",
-            "--points",
-            "600000",
-            "--tilt-deg",
-            "1.5",
-            "--yaw-deg",
-            "2",
-            "--offset-m",
-            "2,-1.5,0.4",
-            "--slope-deg",
-            "3",
-            "--survey-noise-m",
-            "0.01",
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "synth: {}", stderr(&out));
-    let truth: Value =
-        serde_json::from_slice(&std::fs::read(scene.join("truth.json")).unwrap()).unwrap();
+    let args = "--seed 11 --targets 6 --points 600000 --tilt-deg 1.5 --yaw-deg 2 \
+                --offset-m 2,-1.5,0.4 --slope-deg 3 --survey-noise-m 0.01";
+    let truth = synth_as(&scene, "las", &args.split_whitespace().collect::<Vec<_>>());
     let res = dir.path().join("res");
-    let out = bin()
-        .arg("eval")
-        .arg("--map")
-        .arg(scene.join("map.las"))
-        .arg("--survey")
-        .arg(scene.join("survey.csv"))
-        .arg("--out")
-        .arg(&res)
-        .args(["--no-report", "--align", "rigid2d+z", "--dim", "3d"])
-        .output()
-        .unwrap();
+    let out = eval_map(
+        &scene.join("map.las"),
+        &scene.join("survey.csv"),
+        &res,
+        &["--no-report", "--align", "rigid2d+z", "--dim", "3d"],
+    );
     assert!(out.status.success(), "{}", stderr(&out));
     let r = result(&res);
     let l = &r["eval"]["frame"]["levelling"];
