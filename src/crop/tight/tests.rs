@@ -328,3 +328,46 @@ fn a_dense_crop_finds_the_same_l_on_a_sample() {
     let moved = (r.corner_guess - t.corner_guess).xy().norm();
     assert!(moved < 0.005, "reversed order moved the L by {moved:.4} m");
 }
+
+/// Issue 29: windows denser than `WINDOW_POINTS` are judged first on a
+/// sample, and only what it accepts is judged on every point, so the L
+/// found is the one judging every window whole finds, to the last bit.
+#[test]
+fn a_dense_window_judged_on_a_sample_gives_the_same_l() {
+    let sc = scene(2, 1.0, 0.7, &["wall", "box"]);
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(30);
+    let jitter = Normal::new(0.0, 0.002).unwrap();
+    let expected = sc.corner + Vector3::new(0.6, -0.4, 0.0);
+    let p = TightParams::default();
+    let q: Vec<Vector3<f64>> = sc
+        .pts
+        .iter()
+        .flat_map(|v| [0; 6].map(|_| v - expected))
+        .map(|v| v + Vector3::from_fn(|_, _| jitter.sample(&mut rng)))
+        .collect();
+    let ground = Ground::fit(&q, &p);
+    let ap: Vec<Vector3<f64>> = q
+        .into_iter()
+        .filter(|v| {
+            let h = ground.height(v);
+            h > p.min_height && h < p.max_height && v.xy().norm() < p.search_radius
+        })
+        .collect();
+    let up = Vector3::z();
+    let judged = finder::find_l_judging(&ap, &up, &p, &[], finder::WINDOW_POINTS);
+    let whole = finder::find_l_judging(&ap, &up, &p, &[], usize::MAX);
+    let l = judged.0.as_ref().expect("an L");
+    assert!((expected + l.corner - sc.corner).xy().norm() < 0.06);
+    assert_eq!(format!("{:?}", judged.0), format!("{:?}", whole.0));
+    assert_eq!((judged.1, judged.2), (whole.1, whole.2));
+    // ... and the sample was used: the windows about the L hold twice
+    // what one is judged on at first.
+    let near = ap
+        .iter()
+        .filter(|v| (*v - l.corner).xy().norm() < 0.6)
+        .count();
+    assert!(
+        near > 2 * finder::WINDOW_POINTS,
+        "{near} points about the L"
+    );
+}
