@@ -141,3 +141,31 @@ fn two_layers_stand_apart_one_does_not() {
         assert!((m.counts[1] as f64 - 150.0).abs() < 30.0, "{:?}", m.counts);
     }
 }
+
+/// A sparse single layer that the mixture splits past 2.5 of its halves'
+/// σ (about 1 % of 132-point layers seen face on, 17 mm thick) is a chance
+/// split, and is taken for two layers at most about once in a thousand;
+/// two real layers of as few points still are.
+#[test]
+fn a_sparse_layer_split_by_chance_is_one_layer() {
+    let (mut splits, mut kept) = (0, 0);
+    for seed in 0..1500 {
+        let one = values(&[(0.0, 132)], 0.017, seed);
+        let Some(m) = two_layers(&one) else { continue };
+        if stands_apart(&m, one.len()) {
+            splits += 1;
+            kept += usize::from(beyond_chance(&m, &one));
+        }
+    }
+    assert!(splits >= 8, "only {splits} chance splits of 1500 layers");
+    assert!(
+        kept <= 3,
+        "{kept} of {splits} chance splits taken for two layers"
+    );
+    for seed in 0..10 {
+        let two = values(&[(-0.025, 80), (0.025, 52)], 0.01, seed);
+        let m = two_layers(&two).unwrap();
+        assert!(stands_apart(&m, two.len()), "seed {seed}: {:?}", m.means);
+        assert!(beyond_chance(&m, &two), "seed {seed}: 5 cm apart at 1 cm");
+    }
+}
