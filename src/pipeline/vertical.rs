@@ -688,15 +688,31 @@ mod tests {
     /// A target's run as the first pass leaves it: its crop, located (or
     /// not) with the frame's +z as the vertical.
     fn run_of(k: usize, lean_deg: f64, azimuth: f64, cfg: &Config) -> TargetRun {
+        run_seen(k, lean_deg, azimuth, cfg, 1, 1200, 0.03)
+    }
+
+    /// [`run_of`], the target seen from `views` places with `points` hits
+    /// and that share of outliers.
+    fn run_seen(
+        k: usize,
+        lean_deg: f64,
+        azimuth: f64,
+        cfg: &Config,
+        views: usize,
+        points: usize,
+        outliers: f64,
+    ) -> TargetRun {
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(k as u64);
         let spec = testgen::Spec {
             origin: Vector3::new(20.0 * k as f64, 7.0 * k as f64, 0.0),
             heading: 0.9 * k as f64,
             tilt: (lean_deg.to_radians(), azimuth),
             noise: 0.01,
-            viewpoints: vec![testgen::viewpoint(&mut rng, true)],
-            points: 1200,
-            outlier_fraction: 0.03,
+            viewpoints: (0..views)
+                .map(|i| testgen::viewpoint(&mut rng, i == 0))
+                .collect(),
+            points,
+            outlier_fraction: outliers,
             one_plate: false,
         };
         let t = testgen::generate(&mut rng, &spec);
@@ -743,6 +759,61 @@ mod tests {
                 r.expected
             );
         }
+    }
+
+    /// Where the plumb lines alone decide (no surveyed heights, the map
+    /// read as it is) and lean beyond two standard errors but under the
+    /// half degree that turns a map, the map is not levelled and the run
+    /// says so (`LeanNotLevelled`); a level map's lines say nothing, and a
+    /// lean past the bar turns the map instead.
+    #[test]
+    fn a_lean_under_the_bar_is_said_not_turned() {
+        let cfg = Config::default();
+        let look = |deg: f64| {
+            // As the tight crop leaves a target: its plates' band only
+            // (the post below and the antenna above stand off the planes).
+            let mut runs: Vec<TargetRun> = (1..=4)
+                .map(|k| {
+                    let mut r = run_seen(k, deg, 0.7, &cfg, 4, 6000, 0.0);
+                    let z = r.expected.z;
+                    r.tight.retain(|p| (p.z - z).abs() < 0.27);
+                    r
+                })
+                .collect();
+            let mut expected: Vec<Point> = runs.iter().map(|r| r.expected).collect();
+            let at: Vec<(f64, f64, f64)> = expected.iter().map(|p| (p.x, p.y, p.z)).collect();
+            let survey = Survey::local(&at, false);
+            let mut motion = RigidMotion::identity_at(Point::origin());
+            let mut said = Vec::new();
+            let p = refine_vertical(
+                &mut runs,
+                &mut expected,
+                &mut motion,
+                &survey,
+                false,
+                &cfg,
+                &mut said,
+            )
+            .expect("four plumb lines");
+            let warned = said
+                .iter()
+                .any(|w| matches!(w, Warning::LeanNotLevelled { .. }));
+            (p, warned)
+        };
+        let (p, warned) = look(0.35);
+        assert!(
+            !p.applied && p.tilt_deg > 2.0 * p.se_deg && (p.tilt_deg - 0.35).abs() < 0.15,
+            "{p:?}"
+        );
+        assert!(
+            warned,
+            "a {:.2}° lean (se {:.2}°) not said",
+            p.tilt_deg, p.se_deg
+        );
+        let (p, warned) = look(0.0);
+        assert!(!p.applied && !warned, "a level map: {p:?}");
+        let (p, warned) = look(1.2);
+        assert!(p.applied && !warned, "a 1.2° lean: {p:?}");
     }
 
     /// Leaning objects that do not share a lean are no evidence of the
