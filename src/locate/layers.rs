@@ -283,7 +283,7 @@ fn plate_layers(
     let Some(mix) = two_layers(&d) else {
         return one_layer(&d);
     };
-    if !stands_apart(&mix, d.len()) || !beyond_chance(&mix, &d) {
+    if !stands_apart(&mix, d.len()) {
         return one_layer(&d);
     }
     let band = 2.0 * mix.sigma;
@@ -325,61 +325,31 @@ fn one_layer(d: &[f64]) -> PlateLayers {
 fn stands_apart(mix: &Mixture, points: usize) -> bool {
     let apart = mix.means[1] - mix.means[0];
     let small = mix.counts[0].min(mix.counts[1]);
+    let sigmas = if points < SPARSE_PLATE_POINTS {
+        SPARSE_SEPARATION_SIGMAS
+    } else {
+        MIN_SEPARATION_SIGMAS
+    };
     small >= MIN_LAYER_POINTS
         && small as f64 >= MIN_SHARE * points as f64
         && apart >= MIN_SEPARATION
-        && apart >= MIN_SEPARATION_SIGMAS * mix.sigma
+        && apart >= sigmas * mix.sigma
 }
 
-/// Whether two layers this far apart (in their shared σ) are more than
-/// one layer split by chance. A single layer's points, split in two where
-/// the sum of squares is least, give halves 1.6 of its σ apart and 0.6 of
-/// it thick: 2.65 of their own σ, past `MIN_SEPARATION_SIGMAS`. The
-/// mixture's fit usually merges them again, but on a sparse plate seen face
-/// on (thicker than the map's typical plate, so `MIN_SEPARATION` and
-/// `MIN_APART_PLATES` hold too) not always: 1 % of 132-point Gaussian
-/// layers, which on a map of dozens of plates is a false doubling every few
-/// maps (issue 30: a single-pass rosette scan, seed 2, target 5, two layers
-/// 27 mm apart of 80 and 52 points). So the separation seen is checked
-/// against `CHANCE_DRAWS` single layers of the plate's own σ and point count
-/// (a parametric bootstrap, seeded by the count: deterministic): two layers
-/// when at most one in a thousand splits as far. Plates of
-/// `CHANCE_POINTS` or more middle points are not checked (none of 300
-/// simulated 400-point layers split, and the draws would cost seconds).
-fn beyond_chance(mix: &Mixture, d: &[f64]) -> bool {
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
-    let n = d.len();
-    if n >= CHANCE_POINTS {
-        return true;
-    }
-    let single = one_layer(d).single;
-    let Ok(layer) = Normal::new(0.0, single) else {
-        return true;
-    };
-    let apart = |m: &Mixture| (m.means[1] - m.means[0]) / m.sigma;
-    let seen = apart(mix);
-    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(0x6c61_7965_7273 ^ n as u64);
-    let mut x = vec![0.0; n];
-    let mut as_far = 0;
-    for _ in 0..CHANCE_DRAWS {
-        x.iter_mut().for_each(|v| *v = layer.sample(&mut rng));
-        x.sort_unstable_by(f64::total_cmp);
-        if two_layers(&x).is_some_and(|m| stands_apart(&m, n) && apart(&m) >= seen) {
-            as_far += 1;
-            if as_far > CHANCE_DRAWS / 1000 {
-                return false;
-            }
-        }
-    }
-    true
-}
-
-/// Single layers drawn by [`beyond_chance`].
-const CHANCE_DRAWS: usize = 1000;
-/// Plates of this many middle points or more are not checked by
-/// [`beyond_chance`].
-const CHANCE_POINTS: usize = 400;
+/// A plate's middle of fewer points than this must show its two layers
+/// `SPARSE_SEPARATION_SIGMAS` apart. One layer cut in two gives halves 1.6
+/// of its σ apart and 0.6 of it thick, 2.65 of their own σ: the mixture
+/// usually merges them again, but on 132–150 points it left 0.8–0.9 % of
+/// simulated Gaussian layers (17 mm, as a plate seen face on) split past
+/// 2.5 σ and 25 mm, 0.05 % past 2.8 σ; at 200 points 0.05 % and none
+/// (2000 layers each, the same fit in numpy). A single-pass rosette scan's
+/// face-on plate (132 points) was split 27 mm apart and its target
+/// reported mapped twice (issue 30). The cost: copies 3 σ of their own
+/// apart on such a plate are seen about four times in five, not nine in
+/// ten.
+const SPARSE_PLATE_POINTS: usize = 200;
+/// Separation, in the layers' σ, of two layers on a sparse plate.
+const SPARSE_SEPARATION_SIGMAS: f64 = 2.8;
 
 /// One plate as seen from the corner (points as offsets from it): its
 /// normal `n`, the direction `u` along it, and its plane's `tilt` (from

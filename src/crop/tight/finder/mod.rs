@@ -100,21 +100,10 @@ pub(super) fn find_l(
     params: &TightParams,
     others: &[Vector3<f64>],
 ) -> (Option<LShape>, usize, usize, Option<Rejected>) {
-    find_l_judging(ap, up, params, others, WINDOW_POINTS)
-}
-
-/// [`find_l`], denser windows than `window_points` judged first on a sample.
-pub(super) fn find_l_judging(
-    ap: &[Vector3<f64>],
-    up: &Vector3<f64>,
-    params: &TightParams,
-    others: &[Vector3<f64>],
-    window_points: usize,
-) -> (Option<LShape>, usize, usize, Option<Rejected>) {
     let w = params.plate_width;
     let step = 0.25_f64.min(w / 2.0);
     let cells = cells_of(ap, step);
-    let fits = fit_windows(ap, up, params, &cells, step, window_points);
+    let fits = fit_windows(ap, up, params, &cells, step);
     let (found, best_score, seen) = tally(fits, params.min_plate_points);
     choose(found, others, w, best_score, seen)
 }
@@ -141,7 +130,6 @@ fn fit_windows(
     params: &TightParams,
     cells: &TileMap<(i64, i64), Vec<u32>>,
     step: f64,
-    window_points: usize,
 ) -> Vec<Option<Result<LShape, Rejected>>> {
     let w = params.plate_width;
     let rw = 0.47 * w / 0.6 * 1.0 + step * 0.75;
@@ -152,10 +140,6 @@ fn fit_windows(
     // then uses the cores its neighbours' targets left idle), consumed in
     // key order, so the choice is the same for any thread count.
     let flat = Flat::new(ap, up);
-    let hashes: Vec<u64> = ap
-        .iter()
-        .map(|v| crate::crop::loose::Thinned::hash(&(*v).into()))
-        .collect();
     keys.par_iter()
         .map_init(Vec::new, |window: &mut Vec<u32>, &(kx, ky)| {
             let centre = Vector3::new((kx as f64 + 0.5) * step, (ky as f64 + 0.5) * step, 0.0);
@@ -176,40 +160,10 @@ fn fit_windows(
                 return None;
             }
             let bounded = |l: &LShape| is_bounded(l, cells, ap, step, up, params);
-            // A window denser than `WINDOW_POINTS` (a wall, a structure, a
-            // TLS scan) is judged first on a hash sample of it, halved until
-            // it fits: what the sample refuses is refused (its support
-            // counted back up by the halvings), and what it accepts is
-            // judged again on every point, so an L that passes is the one
-            // the whole window gives.
-            let mut level = 0u32;
-            while window.len() >> level > window_points {
-                level += 1;
-            }
-            if level > 0 {
-                let sample: Vec<u32> = window
-                    .iter()
-                    .copied()
-                    .filter(|&i| hashes[i as usize] >> (64 - level) == 0)
-                    .collect();
-                if let Err(r) = fit_l(&flat, &sample, up, params, bounded) {
-                    return Some(Err(Rejected {
-                        score: r.score << level,
-                        ..r
-                    }));
-                }
-            }
             Some(fit_l(&flat, window, up, params, bounded))
         })
         .collect()
 }
-
-/// Most points a window is judged on first: a denser window is halved by
-/// a coordinate hash until it fits, and judged on every point only when
-/// that sample passes (docs/algorithm.md, issue 29: at 2000 the clutter
-/// table's 176 corners and the goldens are unchanged; at 1500 one corner
-/// moved 0.23 mm).
-pub(super) const WINDOW_POINTS: usize = 2000;
 
 /// The windows' Ls strong enough to compete (at least `min` on the weaker
 /// plate), the best score of any, and the best-supported named refusal, to
