@@ -152,11 +152,7 @@ fn a_sparse_layer_split_by_chance_is_one_layer() {
     for seed in 0..1500 {
         let one = values(&[(0.0, 132)], 0.017, seed);
         let Some(m) = two_layers(&one) else { continue };
-        let apart = m.means[1] - m.means[0];
-        let split = m.counts[0].min(m.counts[1]) >= MIN_LAYER_POINTS
-            && m.counts[0].min(m.counts[1]) as f64 >= MIN_SHARE * 132.0
-            && apart >= MIN_SEPARATION;
-        past_dense += usize::from(split && apart >= MIN_SEPARATION_SIGMAS * m.sigma);
+        past_dense += usize::from(stands_apart_by(&m, one.len(), MIN_SEPARATION_SIGMAS));
         past_sparse += usize::from(stands_apart(&m, one.len()));
     }
     assert!(
