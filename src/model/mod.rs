@@ -21,6 +21,7 @@
 //! assert!(m.check_size(14.5).is_err()); // centimetres written as metres
 //! ```
 
+pub mod board;
 pub mod sphere;
 
 pub use sphere::{SphereError, SphereFit, SphereParams};

@@ -229,7 +229,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
 
 /// Keeps at most `max` of `v`, chosen by a hash of each index (uniform,
 /// deterministic, and free of the scan lines' order that a stride aliases).
-fn thin(v: &mut Vec<Vector3<f64>>, max: usize, seed: u64) {
+pub(super) fn thin(v: &mut Vec<Vector3<f64>>, max: usize, seed: u64) {
     if v.len() <= max {
         return;
     }
@@ -242,7 +242,7 @@ fn thin(v: &mut Vec<Vector3<f64>>, max: usize, seed: u64) {
 }
 
 /// A uniform number in [0, 1) from a key: SplitMix64's finaliser.
-fn unit(seed: u64, key: u64) -> f64 {
+pub(super) fn unit(seed: u64, key: u64) -> f64 {
     let mut z = seed
         .wrapping_add(key.wrapping_mul(0x9e37_79b9_7f4a_7c15))
         .wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -253,13 +253,13 @@ fn unit(seed: u64, key: u64) -> f64 {
 }
 
 /// The points by cubic cell of `size`.
-struct Grid {
-    size: f64,
-    cells: TileMap<(i64, i64, i64), Vec<u32>>,
+pub(super) struct Grid {
+    pub(super) size: f64,
+    pub(super) cells: TileMap<(i64, i64, i64), Vec<u32>>,
 }
 
 impl Grid {
-    fn new(v: &[Vector3<f64>], size: f64) -> Grid {
+    pub(super) fn new(v: &[Vector3<f64>], size: f64) -> Grid {
         let mut cells: TileMap<(i64, i64, i64), Vec<u32>> = TileMap::default();
         for (i, q) in v.iter().enumerate() {
             cells
@@ -277,7 +277,7 @@ impl Grid {
         )
     }
     /// Indices of the points within `d` of `c` (any order the cells give).
-    fn near<'a>(
+    pub(super) fn near<'a>(
         &'a self,
         v: &'a [Vector3<f64>],
         c: &Vector3<f64>,

@@ -1,0 +1,869 @@
+//! The checkerboard board: a flat square of four squares, two bright and two
+//! dark, found near its expected position and located by the point where
+//! the four squares meet.
+//!
+//! 1. **Planes.** Above the local ground, the crop is binned in cells half a
+//!    board wide; in each occupied cell, triples of its points give planes
+//!    scored by the points within 2 cm of them nearby.
+//! 2. **What a board is, by shape.** The best planes, one per place, are
+//!    refitted (SVD) on their points within a board's reach and measured in
+//!    the plane: a face wider than the board (a wall, a van's side) or much
+//!    smaller (a post, a leg) is refused.
+//! 3. **What a board is, by pattern.** On the board's points, the intensity
+//!    must show the checkerboard: a coarse search over the two boundary
+//!    lines' angle and crossing (counts of bright and dark points per
+//!    quadrant, from prefix sums), refined by a least-squares fit of a
+//!    blurred checkerboard, `lo + (hi − lo)·P`, where `P` is the chance a
+//!    footprint at that point lands on a bright square (logistic edges of a
+//!    fitted width `w`: mixed pixels at the square edges are what the blur
+//!    models, and `lo`, `hi` are fitted, so any sensor's intensity scale
+//!    does). A flat sign of one colour (no contrast over the intensity
+//!    noise), a sign with another print (the pattern explains too little of
+//!    the intensity) or a board seen too little to place both lines (a
+//!    quadrant nearly empty) is refused.
+//! 4. **Choice.** Of the boards with a quarter of the best's support or
+//!    more, the one nearest the expected position, unless nearer another
+//!    target's.
+//!
+//! The covariance in the plane is the least-squares one of the crossing,
+//! s² (JᵀWJ)⁻¹ (Huber weights), or the spread of refits on resampled points
+//! where larger; across the plane, the plane's offset error, from its
+//! residual and point count.
+
+use super::sphere::{Grid, unit};
+use crate::Point;
+use crate::geom::plane::{Plane, fit as plane_fit};
+use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Board parameters; the default size is a common 0.6 m ground-control board.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BoardParams {
+    /// Side (m) of boards the survey gives no `size` for.
+    pub side_m: f64,
+    /// Fewest points on the board for a board.
+    pub min_points: usize,
+    /// Horizontal search radius around the expected position (m).
+    pub search_radius_m: f64,
+    /// Most points of a crop looked at (a uniform, deterministic sample
+    /// beyond), so the cost stays bounded however dense the map.
+    pub max_points: usize,
+    /// Seed of the plane hypotheses' and the resampling's draws.
+    pub seed: u64,
+}
+
+impl Default for BoardParams {
+    fn default() -> Self {
+        BoardParams {
+            side_m: 0.6,
+            min_points: 40,
+            search_radius_m: 4.5,
+            max_points: 60_000,
+            seed: 0,
+        }
+    }
+}
+
+/// A located board.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BoardFit {
+    /// Where the four squares meet, on the board's face (the points' frame).
+    #[serde(serialize_with = "ser_point")]
+    pub centre: Point,
+    /// The face's unit normal (towards the side the points were seen from
+    /// is not known: its sign is the fit's).
+    pub normal: [f64; 3],
+    /// The two boundary lines' directions in the face (unit vectors).
+    pub lines: [[f64; 3]; 2],
+    /// Points on the board the pattern was fitted to.
+    pub points: usize,
+    /// The face's extent seen, along its two in-plane axes (horizontal
+    /// first), m.
+    pub extent_m: [f64; 2],
+    /// The fitted intensity of the dark and the bright squares.
+    pub levels: [f64; 2],
+    /// Their difference over the intensity noise (residual σ).
+    pub contrast: f64,
+    /// The edges' fitted blur (logistic scale, m).
+    pub blur_m: f64,
+    /// Share of the intensity's variance the pattern explains.
+    pub explained: f64,
+    /// Share of the points away from the edges whose colour the pattern
+    /// predicts.
+    pub agreement: f64,
+    /// RMS distance of the board's points from its plane, m.
+    pub plane_rms: f64,
+    /// Covariance of the centre (m², row-major).
+    pub covariance: [[f64; 3]; 3],
+    /// Centres refitted on resampled points (their spread is in the
+    /// covariance too).
+    #[serde(skip)]
+    pub samples: Vec<Point>,
+    /// Boards seen in the search.
+    pub candidates: usize,
+}
+
+fn ser_point<S: serde::Serializer>(p: &Point, s: S) -> Result<S::Ok, S::Error> {
+    [p.x, p.y, p.z].serialize(s)
+}
+
+/// Why no board was located.
+#[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum BoardError {
+    /// Nothing within the search radius.
+    #[error("no map points within {radius} m of the expected position")]
+    NoPoints {
+        /// Search radius (m).
+        radius: f64,
+    },
+    /// The map carries no intensity mapgauge reads, and a board is told
+    /// only by its pattern.
+    #[error("a checkerboard is told by its intensity pattern, and {why}")]
+    NoIntensity {
+        /// What the map lacks.
+        why: String,
+    },
+    /// Nothing flat, of the surveyed size and with the pattern, stood there.
+    #[error(
+        "no checkerboard board of {side_mm:.0} mm within {radius} m ({points} points looked at){}",
+        seen.as_ref().map_or(String::new(), |s| format!("; closest thing seen: {s}"))
+    )]
+    NoBoard {
+        /// Search radius (m).
+        radius: f64,
+        /// The surveyed side (mm).
+        side_mm: f64,
+        /// Points looked at.
+        points: usize,
+        /// The best-supported candidate refused, and why.
+        seen: Option<String>,
+    },
+}
+
+/// What a board needs to be found.
+pub struct Search<'a> {
+    /// The loose crop.
+    pub points: &'a [Point],
+    /// One intensity per point, in the sensor's own scale.
+    pub intensity: &'a [f32],
+    /// Where the survey places the centre (the points' frame).
+    pub expected: Point,
+    /// The other targets' expected positions: objects nearer them are theirs.
+    pub others: &'a [Point],
+    /// The board's side (m).
+    pub side: f64,
+    /// The vertical: the face's first axis is horizontal.
+    pub up: Vector3<f64>,
+}
+
+/// Finds and locates the board; returns it with its points (the tight crop).
+pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), BoardError> {
+    let side = s.side;
+    let o = s.expected;
+    let reach = p.search_radius_m + side;
+    let n_all = s.points.len().min(s.intensity.len());
+    let mut idx: Vec<usize> = (0..n_all)
+        .filter(|&i| (s.points[i] - o).xy().norm() <= reach)
+        .collect();
+    if idx.is_empty() {
+        return Err(BoardError::NoPoints {
+            radius: p.search_radius_m,
+        });
+    }
+    if idx.len() > p.max_points {
+        let keep = p.max_points as f64 / idx.len() as f64;
+        idx.retain(|&i| unit(p.seed ^ 0x6b0a_7d31, i as u64) < keep);
+    }
+    let up = s.up.normalize();
+    let all: Vec<Vector3<f64>> = idx.iter().map(|&i| s.points[i] - o).collect();
+    let above = above_ground(&all, &up);
+    let v: Vec<Vector3<f64>> = above.iter().map(|&k| all[k]).collect();
+    let inten: Vec<f64> = above
+        .iter()
+        .map(|&k| f64::from(s.intensity[idx[k]]))
+        .collect();
+    let grid = Grid::new(&v, side / 2.0);
+    let mut cands: Vec<Candidate> = Vec::new();
+    let mut refused: Vec<(usize, String, f64)> = Vec::new();
+    for seed_plane in plane_seeds(&v, &grid, side, p.seed) {
+        if cands.len() + refused.len() >= CANDIDATES {
+            break;
+        }
+        let near_done = cands.iter().any(|c| {
+            (c.centre - seed_plane.at).norm() < 0.5 * side
+                && c.normal.dot(&seed_plane.plane.normal).abs() > 0.9
+        });
+        if near_done {
+            continue;
+        }
+        match judge(&v, &inten, &grid, &seed_plane, side, &up, p) {
+            Ok(c) => cands.push(c),
+            Err((n, why, at)) => refused.push((n, why, at)),
+        }
+    }
+    let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
+    let Some(best) = choose(&cands, &others) else {
+        let seen = refused
+            .iter()
+            .filter(|r| r.0 >= p.min_points / 2)
+            .max_by_key(|r| r.0)
+            .map(|(n, why, at)| {
+                format!("{why} ({n} points, {at:.2} m from the expected position)")
+            });
+        return Err(BoardError::NoBoard {
+            radius: p.search_radius_m,
+            side_mm: side * 1e3,
+            points: v.len(),
+            seen,
+        });
+    };
+    let c = &cands[best];
+    let samples = resampled(c, p.seed);
+    let covariance = covariance(c, &samples);
+    let fit = BoardFit {
+        centre: o + c.centre,
+        normal: c.normal.into(),
+        lines: [c.line(0).into(), c.line(1).into()],
+        points: c.pts.len(),
+        extent_m: c.extent,
+        levels: [c.x[3].min(c.x[4]), c.x[3].max(c.x[4])],
+        contrast: (c.x[4] - c.x[3]).abs() / c.sigma,
+        blur_m: c.x[5].exp(),
+        explained: c.explained,
+        agreement: c.agreement,
+        plane_rms: c.plane_rms,
+        covariance,
+        samples: samples.iter().map(|v| o + v).collect(),
+        candidates: cands.len(),
+    };
+    let near = c.pts3.iter().map(|v| o + v).collect();
+    Ok((fit, near))
+}
+
+/// Places judged: enough that other flat things (signs, walls' patches, the
+/// ground's bumps) cannot crowd the board out before it is judged.
+const CANDIDATES: usize = 24;
+
+/// Points above the local ground: more than 12 cm over the lowest point of
+/// the 0.5 m cells about them (a board stands on legs; its pattern is told
+/// from the ground's, which has none, by its plane's extent anyway).
+fn above_ground(v: &[Vector3<f64>], up: &Vector3<f64>) -> Vec<usize> {
+    use crate::frame::grid::TileMap;
+    let cell = 0.5;
+    let e1 = (Vector3::x() - up * up.x).normalize();
+    let e2 = up.cross(&e1);
+    let key = |q: &Vector3<f64>| {
+        (
+            (e1.dot(q) / cell).floor() as i64,
+            (e2.dot(q) / cell).floor() as i64,
+        )
+    };
+    let mut low: TileMap<(i64, i64), f64> = TileMap::default();
+    for q in v {
+        let h = up.dot(q);
+        low.entry(key(q)).and_modify(|m| *m = m.min(h)).or_insert(h);
+    }
+    (0..v.len())
+        .filter(|&i| {
+            let (kx, ky) = key(&v[i]);
+            let mut floor = f64::INFINITY;
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    if let Some(&h) = low.get(&(kx + dx, ky + dy)) {
+                        floor = floor.min(h);
+                    }
+                }
+            }
+            up.dot(&v[i]) - floor > 0.12
+        })
+        .collect()
+}
+
+/// A plane hypothesis: the plane, where it was drawn, its support.
+struct Seed {
+    plane: Plane,
+    at: Vector3<f64>,
+    support: usize,
+}
+
+/// Triples drawn per occupied cell.
+const TRIPLES: u64 = 16;
+
+/// Step 1: the best plane of each occupied cell, best supported first.
+fn plane_seeds(v: &[Vector3<f64>], grid: &Grid, side: f64, seed: u64) -> Vec<Seed> {
+    let mut keys: Vec<(i64, i64, i64)> = grid
+        .cells
+        .iter()
+        .filter(|(_, ids)| ids.len() >= 6)
+        .map(|(k, _)| *k)
+        .collect();
+    keys.sort_unstable();
+    let tol = 0.02;
+    let mut seeds: Vec<Seed> = keys
+        .iter()
+        .filter_map(|k| {
+            let ids = &grid.cells[k];
+            let centre =
+                ids.iter().map(|&i| v[i as usize]).sum::<Vector3<f64>>() / ids.len() as f64;
+            let near: Vec<usize> = grid.near(v, &centre, 0.7 * side).collect();
+            let key = (k.0 as u64) ^ ((k.1 as u64) << 21) ^ ((k.2 as u64) << 42);
+            let mut best: Option<Seed> = None;
+            for t in 0..TRIPLES {
+                let pick = |j: u64| {
+                    let r = unit(seed ^ key.rotate_left(7), t * 3 + j);
+                    v[ids[(r * ids.len() as f64) as usize] as usize]
+                };
+                let Some(plane) = Plane::through(&pick(0), &pick(1), &pick(2)) else {
+                    continue;
+                };
+                let support = near
+                    .iter()
+                    .filter(|&&i| (plane.normal.dot(&v[i]) - plane.offset).abs() < tol)
+                    .count();
+                if best.as_ref().is_none_or(|b| support > b.support) {
+                    best = Some(Seed {
+                        plane,
+                        at: centre,
+                        support,
+                    });
+                }
+            }
+            best
+        })
+        .collect();
+    seeds.sort_by(|a, b| b.support.cmp(&a.support));
+    seeds
+}
+
+/// A board accepted: its face, its points in the face's axes, the fitted
+/// pattern `x = [cu, cv, θ, lo, hi, ln w]`, and what judged it.
+#[derive(Debug, Clone)]
+struct Candidate {
+    /// The crossing (local frame).
+    centre: Vector3<f64>,
+    normal: Vector3<f64>,
+    /// The face's axes: `e[0]` horizontal, `e[1] = normal × e[0]`.
+    e: [Vector3<f64>; 2],
+    /// The face's origin (the points' centroid); `u, v` are from it.
+    origin: Vector3<f64>,
+    /// (u, v, intensity) of the board's points.
+    pts: Vec<[f64; 3]>,
+    /// The same points in 3D (local frame).
+    pts3: Vec<Vector3<f64>>,
+    x: [f64; 6],
+    /// Robust σ of the intensity residuals.
+    sigma: f64,
+    explained: f64,
+    agreement: f64,
+    extent: [f64; 2],
+    plane_rms: f64,
+}
+
+impl Candidate {
+    /// Boundary line `k`'s direction in 3D.
+    fn line(&self, k: usize) -> Vector3<f64> {
+        let (s, c) = self.x[2].sin_cos();
+        let d = if k == 0 { [c, s] } else { [-s, c] };
+        self.e[0] * d[0] + self.e[1] * d[1]
+    }
+}
+
+/// The face's in-plane axes: the first horizontal (along the face), unless
+/// the face lies flat, when it is the map's x projected.
+fn face_axes(n: &Vector3<f64>, up: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let h = up.cross(n);
+    let a = if h.norm() > 0.3 {
+        h.normalize()
+    } else {
+        (Vector3::x() - n * n.x).normalize()
+    };
+    [a, n.cross(&a)]
+}
+
+/// Percentile `q` (0..=1) of `x` (sorted in place).
+fn pct(x: &mut [f64], q: f64) -> f64 {
+    x.sort_unstable_by(f64::total_cmp);
+    x[((x.len() - 1) as f64 * q).round() as usize]
+}
+
+/// Steps 2–3 for one plane: the board, or (points, why not, distance from
+/// the expected position).
+fn judge(
+    v: &[Vector3<f64>],
+    inten: &[f64],
+    grid: &Grid,
+    seed: &Seed,
+    side: f64,
+    up: &Vector3<f64>,
+    p: &BoardParams,
+) -> Result<Candidate, (usize, String, f64)> {
+    let refuse = |n: usize, why: String, at: &Vector3<f64>| Err((n, why, at.xy().norm()));
+    // The face: points near the plane within a board's reach, refitted twice
+    // about their centroid.
+    let mut plane = seed.plane;
+    let mut at = seed.at;
+    let mut tol = 0.03;
+    let mut ids: Vec<u32> = Vec::new();
+    for _ in 0..3 {
+        ids = grid
+            .near(v, &at, 0.75 * side)
+            .filter(|&i| (plane.normal.dot(&v[i]) - plane.offset).abs() < tol)
+            .map(|i| i as u32)
+            .collect();
+        ids.sort_unstable();
+        let Some(f) = plane_fit(v, &ids) else {
+            return refuse(ids.len(), "too few points for a plane".into(), &at);
+        };
+        plane = f;
+        at = ids.iter().map(|&i| v[i as usize]).sum::<Vector3<f64>>() / ids.len() as f64;
+        let rms = (ids
+            .iter()
+            .map(|&i| (plane.normal.dot(&v[i as usize]) - plane.offset).powi(2))
+            .sum::<f64>()
+            / ids.len() as f64)
+            .sqrt();
+        tol = (3.0 * rms).clamp(0.01, 0.03);
+    }
+    let n = plane.normal;
+    let e = face_axes(&n, up);
+    let uv = |q: &Vector3<f64>| [e[0].dot(&(q - at)), e[1].dot(&(q - at))];
+    let mut us: Vec<f64> = ids.iter().map(|&i| uv(&v[i as usize])[0]).collect();
+    let mut vs: Vec<f64> = ids.iter().map(|&i| uv(&v[i as usize])[1]).collect();
+    if ids.len() < p.min_points {
+        return refuse(
+            ids.len(),
+            format!(
+                "{} points on a flat face, fewer than {}",
+                ids.len(),
+                p.min_points
+            ),
+            &at,
+        );
+    }
+    let (u0, u1) = (pct(&mut us, 0.02), pct(&mut us, 0.98));
+    let (v0, v1) = (pct(&mut vs, 0.02), pct(&mut vs, 0.98));
+    let extent = [u1 - u0, v1 - v0];
+    if extent[0] > 1.2 * side || extent[1] > 1.2 * side {
+        return refuse(
+            ids.len(),
+            format!(
+                "a flat face wider than a board ({:.2} × {:.2} m seen of a {:.2} m board's reach)",
+                extent[0],
+                extent[1],
+                1.5 * side
+            ),
+            &at,
+        );
+    }
+    if extent[0] < 0.45 * side || extent[1] < 0.45 * side {
+        return refuse(
+            ids.len(),
+            format!(
+                "a flat face of {:.2} × {:.2} m, smaller than a {:.2} m board",
+                extent[0], extent[1], side
+            ),
+            &at,
+        );
+    }
+    // The board's own points: within its size of the face's middle.
+    let mid = [(u0 + u1) / 2.0, (v0 + v1) / 2.0];
+    let half = 0.6 * side;
+    let mut pts = Vec::new();
+    let mut pts3 = Vec::new();
+    for &i in &ids {
+        let q = uv(&v[i as usize]);
+        if (q[0] - mid[0]).abs() <= half && (q[1] - mid[1]).abs() <= half {
+            pts.push([q[0], q[1], inten[i as usize]]);
+            pts3.push(v[i as usize]);
+        }
+    }
+    let plane_rms = (pts3
+        .iter()
+        .map(|q| (n.dot(q) - plane.offset).powi(2))
+        .sum::<f64>()
+        / pts3.len().max(1) as f64)
+        .sqrt();
+    let np = pts.len();
+    let mut iv: Vec<f64> = pts.iter().map(|q| q[2]).collect();
+    let (lo, hi) = (pct(&mut iv, 0.1), pct(&mut iv, 0.9));
+    if !(hi > lo) {
+        return refuse(
+            np,
+            "a flat face of one intensity: a plain sign, not a checkerboard".into(),
+            &at,
+        );
+    }
+    let coarse = coarse_pattern(&pts, (lo + hi) / 2.0, side, mid);
+    let x0 = if coarse.phase {
+        [
+            coarse.c[0],
+            coarse.c[1],
+            coarse.theta,
+            lo,
+            hi,
+            (0.005f64).ln(),
+        ]
+    } else {
+        [
+            coarse.c[0],
+            coarse.c[1],
+            coarse.theta,
+            hi,
+            lo,
+            (0.005f64).ln(),
+        ]
+    };
+    let fit = refine(&pts, x0, 40);
+    let x = fit.x;
+    let contrast = (x[4] - x[3]).abs() / fit.sigma;
+    let w = x[5].exp();
+    // Points away from both edges: their colour is the pattern's.
+    let (s, c) = x[2].sin_cos();
+    let thr = (x[3] + x[4]) / 2.0;
+    let mut quad = [0usize; 4];
+    let (mut agree, mut away) = (0usize, 0usize);
+    for q in &pts {
+        let (du, dv) = (q[0] - x[0], q[1] - x[1]);
+        let (d1, d2) = (du * c + dv * s, -du * s + dv * c);
+        quad[usize::from(d1 > 0.0) * 2 + usize::from(d2 > 0.0)] += 1;
+        if d1.abs() > 3.0 * w && d2.abs() > 3.0 * w {
+            away += 1;
+            let same = (d1 > 0.0) == (d2 > 0.0);
+            let bright_side = (q[2] > thr) == (x[4] > x[3]);
+            if same == bright_side {
+                agree += 1;
+            }
+        }
+    }
+    let agreement = agree as f64 / away.max(1) as f64;
+    let least = *quad.iter().min().unwrap_or(&0);
+    let centre = at + e[0] * x[0] + e[1] * x[1];
+    let why = if contrast < 5.0 {
+        Some(format!(
+            "no checkerboard in its intensity (contrast {contrast:.1} σ of the intensity noise)"
+        ))
+    } else if fit.explained < 0.5 || agreement < 0.85 {
+        Some(format!(
+            "a print that is not a checkerboard (the pattern explains {:.0} % of the intensity, \
+             {:.0} % of the points have its colours)",
+            100.0 * fit.explained,
+            100.0 * agreement
+        ))
+    } else if least < (np / 20).max(3) {
+        Some(format!(
+            "a checkerboard seen too little to place both lines ({least} points in a quarter)"
+        ))
+    } else if w > 0.1 * side {
+        Some(format!(
+            "edges {:.0} mm wide, not a board's sharp squares",
+            w * 1e3
+        ))
+    } else if !(u0 + 0.05 * side..=u1 - 0.05 * side).contains(&x[0])
+        || !(v0 + 0.05 * side..=v1 - 0.05 * side).contains(&x[1])
+        || (extent[0] > 0.9 * side && (x[0] - mid[0]).abs() > 0.15 * side)
+        || (extent[1] > 0.9 * side && (x[1] - mid[1]).abs() > 0.15 * side)
+    {
+        Some("a pattern whose crossing is not the board's middle".into())
+    } else {
+        None
+    };
+    if let Some(why) = why {
+        return refuse(np, why, &centre);
+    }
+    Ok(Candidate {
+        centre,
+        normal: n,
+        e,
+        origin: at,
+        pts,
+        pts3,
+        x,
+        sigma: fit.sigma,
+        explained: fit.explained,
+        agreement,
+        extent,
+        plane_rms,
+    })
+}
+
+/// The coarse pattern: lines' angle θ (from the face's first axis), their
+/// crossing `c` in the face, and which diagonal is bright (`phase`: the
+/// quarters where both offsets have the same sign).
+struct Coarse {
+    theta: f64,
+    c: [f64; 2],
+    phase: bool,
+}
+
+/// Step 3's coarse search: for each angle (2° steps over the quarter turn
+/// a checkerboard repeats in), the points' bright and dark counts on a 1 cm
+/// grid of the two offsets; every crossing within a third of a side of the
+/// face's middle is scored from prefix sums, in constant time each.
+fn coarse_pattern(pts: &[[f64; 3]], thr: f64, side: f64, mid: [f64; 2]) -> Coarse {
+    let bin = 0.01;
+    let half = ((side / 3.0) / bin).ceil() as i64;
+    let nb = (2 * half + 2) as usize;
+    let mut best = (
+        0i64,
+        Coarse {
+            theta: 0.0,
+            c: mid,
+            phase: true,
+        },
+    );
+    let mut cnt = vec![[0i64; 2]; nb * nb];
+    let mut pre = vec![[0i64; 2]; (nb + 1) * (nb + 1)];
+    for step in 0..45 {
+        let th = (2.0 * step as f64).to_radians();
+        let (s, c) = th.sin_cos();
+        let m1 = mid[0] * c + mid[1] * s;
+        let m2 = -mid[0] * s + mid[1] * c;
+        cnt.iter_mut().for_each(|x| *x = [0, 0]);
+        for q in pts {
+            let a = q[0] * c + q[1] * s - m1;
+            let b = -q[0] * s + q[1] * c - m2;
+            let ia = ((a / bin).floor() as i64 + half + 1).clamp(0, nb as i64 - 1) as usize;
+            let ib = ((b / bin).floor() as i64 + half + 1).clamp(0, nb as i64 - 1) as usize;
+            cnt[ia * nb + ib][usize::from(q[2] > thr)] += 1;
+        }
+        for i in 0..nb {
+            for j in 0..nb {
+                for k in 0..2 {
+                    pre[(i + 1) * (nb + 1) + j + 1][k] = cnt[i * nb + j][k]
+                        + pre[i * (nb + 1) + j + 1][k]
+                        + pre[(i + 1) * (nb + 1) + j][k]
+                        - pre[i * (nb + 1) + j][k];
+                }
+            }
+        }
+        let n = nb + 1;
+        let total = pre[nb * n + nb];
+        // Counts with a < split i (bins 0..i) and b < split j.
+        for i in 1..nb {
+            for j in 1..nb {
+                let ll = pre[i * n + j];
+                let l_all = pre[i * n + nb];
+                let b_all = pre[nb * n + j];
+                let lh = [l_all[0] - ll[0], l_all[1] - ll[1]];
+                let hl = [b_all[0] - ll[0], b_all[1] - ll[1]];
+                let hh = [
+                    total[0] - ll[0] - lh[0] - hl[0],
+                    total[1] - ll[1] - lh[1] - hl[1],
+                ];
+                // Same-sign quarters bright, the others dark; or the reverse.
+                let same = ll[1] + hh[1] + lh[0] + hl[0];
+                let other = ll[0] + hh[0] + lh[1] + hl[1];
+                let (score, phase) = if same >= other {
+                    (same, true)
+                } else {
+                    (other, false)
+                };
+                if score > best.0 {
+                    let ca = (i as i64 - half - 1) as f64 * bin;
+                    let cb = (j as i64 - half - 1) as f64 * bin;
+                    best = (
+                        score,
+                        Coarse {
+                            theta: th,
+                            c: [mid[0] + ca * c - cb * s, mid[1] + ca * s + cb * c],
+                            phase,
+                        },
+                    );
+                }
+            }
+        }
+    }
+    best.1
+}
+
+/// The blurred checkerboard at face point (u, v): `lo + (hi − lo)·P`.
+fn model(x: &[f64; 6], u: f64, v: f64) -> f64 {
+    let (s, c) = x[2].sin_cos();
+    let (du, dv) = (u - x[0], v - x[1]);
+    let w = x[5].exp();
+    // Logistic edges at 1.702/w: close to a Gaussian footprint's erf.
+    let s1 = 1.0 / (1.0 + (-1.702 * (du * c + dv * s) / w).exp());
+    let s2 = 1.0 / (1.0 + (-1.702 * (-du * s + dv * c) / w).exp());
+    let p = s1 * s2 + (1.0 - s1) * (1.0 - s2);
+    x[3] + (x[4] - x[3]) * p
+}
+
+/// A pattern fit: the parameters, the robust σ of the residuals, the share
+/// of the variance explained, and (JᵀWJ)⁻¹ s².
+struct Fit {
+    x: [f64; 6],
+    sigma: f64,
+    explained: f64,
+    cov: SMatrix<f64, 6, 6>,
+}
+
+/// Levenberg–Marquardt on the pattern with Huber weights (1.5 robust σ),
+/// from `x0`, at most `iters` steps.
+fn refine(pts: &[[f64; 3]], x0: [f64; 6], iters: usize) -> Fit {
+    let resid =
+        |x: &[f64; 6]| -> Vec<f64> { pts.iter().map(|q| q[2] - model(x, q[0], q[1])).collect() };
+    let scale = |r: &[f64]| {
+        let mut a: Vec<f64> = r.iter().map(|v| v.abs()).collect();
+        (1.4826 * pct(&mut a, 0.5)).max(1e-9)
+    };
+    let weights = |r: &[f64], s: f64| -> Vec<f64> {
+        r.iter()
+            .map(|v| {
+                let a = v.abs();
+                if a <= 1.5 * s { 1.0 } else { 1.5 * s / a }
+            })
+            .collect()
+    };
+    let cost = |r: &[f64], w: &[f64]| r.iter().zip(w).map(|(r, w)| w * r * r).sum::<f64>();
+    let jac = |x: &[f64; 6]| -> Vec<[f64; 6]> {
+        let steps = [
+            1e-5,
+            1e-5,
+            1e-5,
+            1e-4 * (1.0 + x[3].abs()),
+            1e-4 * (1.0 + x[4].abs()),
+            1e-5,
+        ];
+        pts.iter()
+            .map(|q| {
+                let mut j = [0.0; 6];
+                for k in 0..6 {
+                    let mut a = *x;
+                    let mut b = *x;
+                    a[k] += steps[k];
+                    b[k] -= steps[k];
+                    j[k] = (model(&a, q[0], q[1]) - model(&b, q[0], q[1])) / (2.0 * steps[k]);
+                }
+                j
+            })
+            .collect()
+    };
+    let normal = |x: &[f64; 6], w: &[f64], r: &[f64]| {
+        let j = jac(x);
+        let mut a = SMatrix::<f64, 6, 6>::zeros();
+        let mut g = SVector::<f64, 6>::zeros();
+        for ((ji, wi), ri) in j.iter().zip(w).zip(r) {
+            let jv = SVector::<f64, 6>::from_row_slice(ji);
+            a += jv * jv.transpose() * *wi;
+            g += jv * (*wi * *ri);
+        }
+        (a, g)
+    };
+    let mut x = x0;
+    let mut r = resid(&x);
+    let mut lambda = 1e-3;
+    for _ in 0..iters {
+        let s = scale(&r);
+        let w = weights(&r, s);
+        let c0 = cost(&r, &w);
+        let (a, g) = normal(&x, &w, &r);
+        let mut stepped = false;
+        for _ in 0..8 {
+            let mut m = a;
+            for k in 0..6 {
+                m[(k, k)] += lambda * a[(k, k)].max(1e-12);
+            }
+            let Some(d) = m.lu().solve(&g) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut xn = x;
+            for k in 0..6 {
+                xn[k] += d[k];
+            }
+            xn[5] = xn[5].clamp((1e-4f64).ln(), (0.2f64).ln());
+            let rn = resid(&xn);
+            if cost(&rn, &w) < c0 {
+                let small = d[0].abs() < 1e-7 && d[1].abs() < 1e-7 && d[2].abs() < 1e-6;
+                x = xn;
+                r = rn;
+                lambda = (lambda / 3.0).max(1e-9);
+                stepped = !small;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !stepped {
+            break;
+        }
+    }
+    let s = scale(&r);
+    let w = weights(&r, s);
+    let (a, _) = normal(&x, &w, &r);
+    let wsum: f64 = w.iter().sum();
+    let s2 = cost(&r, &w) / (wsum - 6.0).max(1.0);
+    let cov = a
+        .try_inverse()
+        .map_or(SMatrix::repeat(f64::INFINITY), |m| m * s2);
+    let mean = pts.iter().map(|q| q[2]).sum::<f64>() / pts.len().max(1) as f64;
+    let var = pts.iter().map(|q| (q[2] - mean).powi(2)).sum::<f64>();
+    let sse = r.iter().map(|v| v * v).sum::<f64>();
+    Fit {
+        x,
+        sigma: s2.sqrt(),
+        explained: if var > 0.0 { 1.0 - sse / var } else { 0.0 },
+        cov,
+    }
+}
+
+/// Step 4: of the boards with a quarter of the best's support or more, the
+/// one nearest the expected position (the origin), unless nearer another
+/// target's.
+fn choose(cands: &[Candidate], others: &[Vector3<f64>]) -> Option<usize> {
+    let best = cands.iter().map(|c| c.pts.len()).max()?;
+    cands
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| 4 * c.pts.len() >= best)
+        .filter(|(_, c)| {
+            let own = c.centre.xy().norm();
+            others.iter().all(|o| (c.centre - o).xy().norm() >= own)
+        })
+        .min_by(|a, b| a.1.centre.xy().norm().total_cmp(&b.1.centre.xy().norm()))
+        .map(|(i, _)| i)
+}
+
+/// Refits on the board's points resampled with replacement: how much the
+/// crossing moves with which points happened to be seen.
+fn resampled(c: &Candidate, seed: u64) -> Vec<Vector3<f64>> {
+    const DRAWS: u64 = 24;
+    let n = c.pts.len();
+    (0..DRAWS)
+        .map(|k| {
+            let draw: Vec<[f64; 3]> = (0..n as u64)
+                .map(|i| c.pts[(unit(seed ^ (k << 32) ^ 0xb0a4d, i) * n as f64) as usize])
+                .collect();
+            let f = refine(&draw, c.x, 8);
+            c.origin + c.e[0] * f.x[0] + c.e[1] * f.x[1]
+        })
+        .collect()
+}
+
+/// The crossing's covariance (see the module's doc).
+fn covariance(c: &Candidate, samples: &[Vector3<f64>]) -> [[f64; 3]; 3] {
+    let f = refine(&c.pts, c.x, 1);
+    let mut c2 = Matrix2::new(f.cov[(0, 0)], f.cov[(0, 1)], f.cov[(1, 0)], f.cov[(1, 1)]);
+    if samples.len() > 1 {
+        let m = samples.iter().sum::<Vector3<f64>>() / samples.len() as f64;
+        let mut sc = Matrix2::zeros();
+        for s in samples {
+            let d = Vector2::new(c.e[0].dot(&(s - m)), c.e[1].dot(&(s - m)));
+            sc += d * d.transpose();
+        }
+        sc /= (samples.len() - 1) as f64;
+        if sc.trace() > c2.trace() {
+            c2 = sc;
+        }
+    }
+    let var_n = c.plane_rms.powi(2) / c.pts.len().max(1) as f64;
+    let b = nalgebra::Matrix3x2::from_columns(&[c.e[0], c.e[1]]);
+    let cov = b * c2 * b.transpose() + c.normal * c.normal.transpose() * var_n;
+    let cov = (cov + cov.transpose()) / 2.0;
+    [0, 1, 2].map(|i| [0, 1, 2].map(|j| cov[(i, j)]))
+}
+
+#[cfg(test)]
+#[path = "board/tests.rs"]
+mod tests;

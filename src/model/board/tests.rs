@@ -1,0 +1,283 @@
+use super::*;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+/// A scene of ground, a board on two legs and what is asked: the points,
+/// their intensities and the true crossing.
+struct Scene {
+    pts: Vec<Point>,
+    inten: Vec<f32>,
+    truth: Point,
+}
+
+/// How a test board is printed and seen.
+#[derive(Clone, Copy)]
+struct Look {
+    /// Pattern's turn in the face (rad); 0: squares upright.
+    turn: f64,
+    /// Point spacing on the face (m).
+    spacing: f64,
+    /// Range noise along the face's normal (m).
+    noise: f64,
+    /// Footprint blur (m, 1 σ).
+    blur: f64,
+    /// Intensity levels (dark, bright); equal for a plain sign.
+    levels: (f64, f64),
+}
+
+const BOARD: Look = Look {
+    turn: 0.0,
+    spacing: 0.012,
+    noise: 0.004,
+    blur: 0.004,
+    levels: (20.0, 180.0),
+};
+
+fn erf_ish(x: f64) -> f64 {
+    1.0 / (1.0 + (-1.702 * x).exp())
+}
+
+/// Adds a vertical board of `side` facing heading `h` (rad), its crossing at
+/// `c`, printed and seen as `look`.
+fn add_board(
+    pts: &mut Vec<Point>,
+    inten: &mut Vec<f32>,
+    rng: &mut rand_pcg::Pcg64Mcg,
+    c: Point,
+    h: f64,
+    side: f64,
+    look: Look,
+) {
+    let n = Vector3::new(h.cos(), h.sin(), 0.0);
+    let e0 = Vector3::z().cross(&n).normalize();
+    let e1 = n.cross(&e0);
+    let noise = Normal::new(0.0, look.noise).unwrap();
+    let k = (side / look.spacing) as i64;
+    let (ts, tc) = look.turn.sin_cos();
+    for i in 0..=k {
+        for j in 0..=k {
+            let u = -side / 2.0 + (i as f64 + rng.random::<f64>() - 0.5) * look.spacing;
+            let v = -side / 2.0 + (j as f64 + rng.random::<f64>() - 0.5) * look.spacing;
+            if u.abs() > side / 2.0 || v.abs() > side / 2.0 {
+                continue;
+            }
+            let (d1, d2) = (u * tc + v * ts, -u * ts + v * tc);
+            let (s1, s2) = (erf_ish(d1 / look.blur), erf_ish(d2 / look.blur));
+            let p = s1 * s2 + (1.0 - s1) * (1.0 - s2);
+            let lvl = look.levels.0 + (look.levels.1 - look.levels.0) * p;
+            let q = c + e0 * u + e1 * v + n * noise.sample(rng);
+            pts.push(q);
+            inten.push(
+                (lvl * (1.0 + 0.05 * rng.sample::<f64, _>(rand_distr::StandardNormal))) as f32,
+            );
+        }
+    }
+    // Two legs below it.
+    for s in [-0.25, 0.25] {
+        let mut z = 0.0;
+        while z < c.z - side / 2.0 {
+            pts.push(c + e0 * (s * side) - n * 0.02 + Vector3::new(0.0, 0.0, z - c.z));
+            inten.push(90.0);
+            z += 0.02;
+        }
+    }
+}
+
+fn ground(pts: &mut Vec<Point>, inten: &mut Vec<f32>, rng: &mut rand_pcg::Pcg64Mcg) {
+    let mut x = -5.0;
+    while x < 5.0 {
+        let mut y = -5.0;
+        while y < 5.0 {
+            pts.push(Point::new(x, y, 0.005 * rng.random::<f64>()));
+            inten.push(40.0 + 20.0 * rng.random::<f32>());
+            y += 0.06;
+        }
+        x += 0.06;
+    }
+}
+
+fn scene(
+    seed: u64,
+    look: Look,
+    extra: impl Fn(&mut Vec<Point>, &mut Vec<f32>, &mut rand_pcg::Pcg64Mcg),
+) -> Scene {
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let (mut pts, mut inten) = (Vec::new(), Vec::new());
+    ground(&mut pts, &mut inten, &mut rng);
+    let truth = Point::new(
+        0.3 * rng.random::<f64>(),
+        0.3 * rng.random::<f64>(),
+        1.0 + 0.2 * rng.random::<f64>(),
+    );
+    let h = rng.random::<f64>() * std::f64::consts::TAU;
+    add_board(&mut pts, &mut inten, &mut rng, truth, h, 0.6, look);
+    extra(&mut pts, &mut inten, &mut rng);
+    Scene { pts, inten, truth }
+}
+
+fn search<'a>(s: &'a Scene, expected: Point) -> Search<'a> {
+    Search {
+        points: &s.pts,
+        intensity: &s.inten,
+        expected,
+        others: &[],
+        side: 0.6,
+        up: Vector3::z(),
+    }
+}
+
+#[test]
+fn a_board_is_located_where_its_squares_meet() {
+    let sc = scene(1, BOARD, |_, _, _| {});
+    let (fit, near) = locate(
+        &search(&sc, Point::new(1.0, -1.0, 0.5)),
+        &BoardParams::default(),
+    )
+    .expect("a board");
+    let err = (fit.centre - sc.truth).norm();
+    assert!(err < 0.002, "{err} m off: {fit:?}");
+    assert!(fit.contrast > 10.0 && fit.explained > 0.8, "{fit:?}");
+    assert!(near.len() > 1000 && fit.points == near.len());
+    assert!(
+        fit.extent_m.iter().all(|e| (0.5..0.62).contains(e)),
+        "{:?}",
+        fit.extent_m
+    );
+}
+
+#[test]
+fn a_turned_pattern_and_any_intensity_scale_are_located() {
+    let look = Look {
+        turn: 0.6,
+        levels: (1200.0, 300.0),
+        ..BOARD
+    };
+    let sc = scene(2, look, |_, _, _| {});
+    let (fit, _) = locate(&search(&sc, sc.truth), &BoardParams::default()).expect("a board");
+    assert!((fit.centre - sc.truth).norm() < 0.002, "{fit:?}");
+    assert!(
+        fit.levels[0] < 400.0 && fit.levels[1] > 1000.0,
+        "{:?}",
+        fit.levels
+    );
+}
+
+/// A plain sign of the board's size, or one printed half and half, is not
+/// a board; beside a board, the board is chosen.
+#[test]
+fn a_plain_or_half_printed_sign_is_not_a_board() {
+    for levels in [(100.0, 100.0), (0.0, 0.0)] {
+        let sc = scene(3, Look { levels, ..BOARD }, |_, _, _| {});
+        let e = locate(&search(&sc, sc.truth), &BoardParams::default()).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("plain sign") || msg.contains("no checkerboard in its intensity"),
+            "{msg}"
+        );
+    }
+    // Half dark, half bright: one edge, not two.
+    let sc = scene(4, BOARD, |_, _, _| {});
+    let mut half = Scene {
+        pts: Vec::new(),
+        inten: Vec::new(),
+        truth: sc.truth,
+    };
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+    ground(&mut half.pts, &mut half.inten, &mut rng);
+    let start = half.pts.len();
+    add_board(
+        &mut half.pts,
+        &mut half.inten,
+        &mut rng,
+        sc.truth,
+        0.4,
+        0.6,
+        BOARD,
+    );
+    let n = Vector3::new(0.4f64.cos(), 0.4f64.sin(), 0.0);
+    let e0 = Vector3::z().cross(&n).normalize();
+    for i in start..half.pts.len() {
+        let u = e0.dot(&(half.pts[i] - sc.truth));
+        half.inten[i] = if u > 0.0 { 180.0 } else { 20.0 };
+    }
+    let e = locate(&search(&half, sc.truth), &BoardParams::default()).unwrap_err();
+    assert!(e.to_string().contains("closest thing seen"), "{e}");
+    // A plain sign 1.5 m from a board: the board.
+    let sc = scene(6, BOARD, |p, i, r| {
+        let at = Point::new(-1.2, 0.9, 1.1);
+        add_board(
+            p,
+            i,
+            r,
+            at,
+            0.3,
+            0.6,
+            Look {
+                levels: (150.0, 150.0),
+                ..BOARD
+            },
+        );
+    });
+    let (fit, _) = locate(
+        &search(&sc, Point::new(-0.5, 0.5, 1.0)),
+        &BoardParams::default(),
+    )
+    .expect("the board");
+    assert!((fit.centre - sc.truth).norm() < 0.003, "{fit:?}");
+}
+
+/// A wall is wider than a board, a leg smaller: neither is one.
+#[test]
+fn a_patterned_wall_is_not_a_board() {
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+    let (mut pts, mut inten) = (Vec::new(), Vec::new());
+    ground(&mut pts, &mut inten, &mut rng);
+    let c = Point::new(0.0, 0.0, 1.2);
+    add_board(&mut pts, &mut inten, &mut rng, c, 0.0, 2.0, BOARD);
+    let sc = Scene {
+        pts,
+        inten,
+        truth: c,
+    };
+    let e = locate(&search(&sc, c), &BoardParams::default()).unwrap_err();
+    assert!(e.to_string().contains("wider than a board"), "{e}");
+}
+
+/// The stated covariance holds: over scenes of several seeds, the crossing
+/// falls in its 95 % ellipse (in the face) about 95 % of the time.
+#[test]
+fn the_covariance_covers_the_error() {
+    let mut inside = 0;
+    let runs = 40;
+    for seed in 0..runs {
+        let look = Look {
+            spacing: 0.01 + 0.01 * (seed % 3) as f64,
+            noise: 0.003 + 0.002 * (seed % 4) as f64,
+            turn: 0.1 * (seed % 5) as f64,
+            ..BOARD
+        };
+        let sc = scene(100 + seed, look, |_, _, _| {});
+        let (fit, _) = locate(&search(&sc, sc.truth), &BoardParams::default()).expect("a board");
+        let c = nalgebra::Matrix3::from_fn(|i, j| fit.covariance[i][j]);
+        let n = Vector3::from(fit.normal);
+        let b = nalgebra::Matrix3x2::from_columns(&[
+            Vector3::from(fit.lines[0]),
+            Vector3::from(fit.lines[1]),
+        ]);
+        let c2 = b.transpose() * c * b;
+        let d = b.transpose() * (fit.centre - sc.truth);
+        let chi2 = (d.transpose() * c2.try_inverse().unwrap() * d)[0];
+        if chi2 < 5.99 {
+            inside += 1;
+        }
+        assert!((fit.centre - sc.truth).dot(&n).abs() < 0.003);
+        assert!(
+            (fit.centre - sc.truth).norm() < 0.005,
+            "seed {seed}: {fit:?}"
+        );
+    }
+    assert!(
+        (34..=40).contains(&inside),
+        "{inside} of {runs} inside the 95 % ellipse"
+    );
+}
