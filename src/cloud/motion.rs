@@ -138,6 +138,20 @@ impl PointReader for Moved<'_> {
     fn bytes_read(&self) -> u64 {
         self.inner.bytes_read()
     }
+    fn has_intensity(&self) -> bool {
+        self.inner.has_intensity()
+    }
+    fn next_chunk_intensity(
+        &mut self,
+        buf: &mut Vec<Point>,
+        intensity: &mut Vec<f32>,
+    ) -> Result<bool> {
+        let more = self.inner.next_chunk_intensity(buf, intensity)?;
+        for p in buf.iter_mut() {
+            *p = self.motion.apply(p);
+        }
+        Ok(more)
+    }
     /// The hint is in the moved frame; a tilted map's points move sideways
     /// with their height, which no tile or COPC node tells before it is read.
     /// With the map's z range the discs are turned back and widened by the

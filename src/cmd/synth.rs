@@ -87,8 +87,10 @@ pub struct Args {
     #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
     survey_false_origin_m: Option<[f64; 3]>,
     /// The targets' models in turn, comma-separated: target i is the
-    /// (i mod count)-th (l, sphere; a sphere stands on a pole, 145 mm, its
-    /// centre 1.3 m up) [default: l].
+    /// (i mod count)-th (l, sphere, board; a sphere stands on a pole, 145 mm,
+    /// its centre 1.3 m up; a board is a 0.6 m checkerboard on two legs, its
+    /// centre 1.2 m up, printed in the intensity of the formats that have
+    /// one: pcd-xyzi, pcd-fastlio, ply-f32) [default: l].
     #[arg(long, value_delimiter = ',')]
     models: Option<Vec<mapgauge::model::ModelKind>>,
 }

@@ -97,7 +97,7 @@ impl Thinned {
         }
     }
 
-    fn hash(p: &Point) -> u64 {
+    pub(crate) fn hash(p: &Point) -> u64 {
         // splitmix64 over the coordinates' bit patterns.
         let mut z = p.x.to_bits() ^ p.y.to_bits().rotate_left(21) ^ p.z.to_bits().rotate_left(42);
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

@@ -6,6 +6,10 @@ mod loose;
 mod tight;
 
 pub use loose::{LooseCrop, LooseParams, Shape, loose_crop, loose_crop_by_level, loose_crop_each};
+/// The coordinate hash crops thin by (deterministic, order-free).
+pub(crate) fn point_hash(p: &crate::Point) -> u64 {
+    loose::Thinned::hash(p)
+}
 pub use tight::{Seen, TightCrop, TightError, TightParams, tight_crop, tight_crop_among};
 
 /// Horizontal span (x, y) of a crop that is too wide to be a tight crop of a

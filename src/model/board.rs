@@ -187,20 +187,37 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     let grid = Grid::new(&v, side / 2.0);
     let mut cands: Vec<Candidate> = Vec::new();
     let mut refused: Vec<(usize, String, f64)> = Vec::new();
+    // Faces refused as wider than a board: a wall or a van's side seeds a
+    // plane in every cell it crosses, each judged the same.
+    let mut wide: Vec<Plane> = Vec::new();
+    // Where the faces refused were seeded, and their normals.
+    let mut seen: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
     for seed_plane in plane_seeds(&v, &grid, side, p.seed) {
         if cands.len() + refused.len() >= CANDIDATES {
             break;
         }
-        let near_done = cands.iter().any(|c| {
-            (c.centre - seed_plane.at).norm() < 0.5 * side
-                && c.normal.dot(&seed_plane.plane.normal).abs() > 0.9
-        });
-        if near_done {
+        let sp = &seed_plane.plane;
+        let judged = cands
+            .iter()
+            .map(|c| (c.centre, c.normal))
+            .chain(seen.iter().copied())
+            .any(|(at, n)| {
+                (at - seed_plane.at).norm() < 0.5 * side && n.dot(&sp.normal).abs() > 0.9
+            })
+            || wide.iter().any(|w| {
+                w.normal.dot(&sp.normal).abs() > 0.98
+                    && (w.normal.dot(&seed_plane.at) - w.offset).abs() < 0.03
+            });
+        if judged {
             continue;
         }
         match judge(&v, &inten, &grid, &seed_plane, side, &up, p) {
             Ok(c) => cands.push(c),
-            Err((n, why, at)) => refused.push((n, why, at)),
+            Err(r) => {
+                wide.extend(r.wider);
+                seen.push((seed_plane.at, sp.normal));
+                refused.push((r.points, r.why, r.from))
+            }
         }
     }
     let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
@@ -244,7 +261,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
 
 /// Places judged: enough that other flat things (signs, walls' patches, the
 /// ground's bumps) cannot crowd the board out before it is judged.
-const CANDIDATES: usize = 24;
+const CANDIDATES: usize = 96;
 
 /// Points above the local ground: more than 12 cm over the lowest point of
 /// the 0.5 m cells about them (a board stands on legs; its pattern is told
@@ -359,6 +376,8 @@ struct Candidate {
     agreement: f64,
     extent: [f64; 2],
     plane_rms: f64,
+    /// Points the face's offset was measured on.
+    face_points: usize,
 }
 
 impl Candidate {
@@ -388,8 +407,18 @@ fn pct(x: &mut [f64], q: f64) -> f64 {
     x[((x.len() - 1) as f64 * q).round() as usize]
 }
 
-/// Steps 2–3 for one plane: the board, or (points, why not, distance from
-/// the expected position).
+/// A face judged not to be a board.
+struct Refusal {
+    /// Its points.
+    points: usize,
+    why: String,
+    /// Its horizontal distance from the expected position (m).
+    from: f64,
+    /// Its plane, when refused as wider than a board.
+    wider: Option<Plane>,
+}
+
+/// Steps 2–3 for one plane: the board, or why not.
 fn judge(
     v: &[Vector3<f64>],
     inten: &[f64],
@@ -398,8 +427,15 @@ fn judge(
     side: f64,
     up: &Vector3<f64>,
     p: &BoardParams,
-) -> Result<Candidate, (usize, String, f64)> {
-    let refuse = |n: usize, why: String, at: &Vector3<f64>| Err((n, why, at.xy().norm()));
+) -> Result<Candidate, Refusal> {
+    let refuse = |n: usize, why: String, at: &Vector3<f64>| {
+        Err(Refusal {
+            points: n,
+            why,
+            from: at.xy().norm(),
+            wider: None,
+        })
+    };
     // The face: points near the plane within a board's reach, refitted twice
     // about their centroid.
     let mut plane = seed.plane;
@@ -446,16 +482,20 @@ fn judge(
     let (v0, v1) = (pct(&mut vs, 0.02), pct(&mut vs, 0.98));
     let extent = [u1 - u0, v1 - v0];
     if extent[0] > 1.2 * side || extent[1] > 1.2 * side {
-        return refuse(
-            ids.len(),
-            format!(
+        return Err(Refusal {
+            points: ids.len(),
+            why: format!(
                 "a flat face wider than a board ({:.2} × {:.2} m seen of a {:.2} m board's reach)",
                 extent[0],
                 extent[1],
                 1.5 * side
             ),
-            &at,
-        );
+            from: at.xy().norm(),
+            wider: Some(Plane {
+                normal: n,
+                offset: n.dot(&at),
+            }),
+        });
     }
     if extent[0] < 0.45 * side || extent[1] < 0.45 * side {
         return refuse(
@@ -515,7 +555,7 @@ fn judge(
             (0.005f64).ln(),
         ]
     };
-    let fit = refine(&pts, x0, 40);
+    let fit = settle(&pts, refine(&pts, x0, 40), 0.25 * extent[0].min(extent[1]));
     let x = fit.x;
     let contrast = (x[4] - x[3]).abs() / fit.sigma;
     let w = x[5].exp();
@@ -539,7 +579,42 @@ fn judge(
     }
     let agreement = agree as f64 / away.max(1) as f64;
     let least = *quad.iter().min().unwrap_or(&0);
+    // The face's offset from its inside only (at its rims the rays graze
+    // the board's edges and catch the legs behind it), from a band wide
+    // enough for the range noise: the median, then the mean within three
+    // robust σ of it. The band the pattern's points were cut with is
+    // narrower than a noisy map's range noise, and would keep the offset
+    // where the first plane put it.
+    let cross = at + e[0] * x[0] + e[1] * x[1];
+    let mut across: Vec<f64> = grid
+        .near(v, &cross, 0.6 * side)
+        .map(|i| v[i])
+        .filter(|q| {
+            let d = q - cross;
+            e[0].dot(&d).abs() <= 0.4 * side
+                && e[1].dot(&d).abs() <= 0.4 * side
+                && (n.dot(q) - plane.offset).abs() < 0.08
+        })
+        .map(|q| n.dot(&q))
+        .collect();
+    let (off, plane_rms, n_face) = if across.len() >= 10 {
+        let m = pct(&mut across, 0.5);
+        let mut dev: Vec<f64> = across.iter().map(|a| (a - m).abs()).collect();
+        let sr = (1.4826 * pct(&mut dev, 0.5)).max(1e-4);
+        let kept: Vec<f64> = across
+            .iter()
+            .copied()
+            .filter(|a| (a - m).abs() < 3.0 * sr)
+            .collect();
+        let k = kept.len() as f64;
+        let mean = kept.iter().sum::<f64>() / k;
+        let rms = (kept.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / k).sqrt();
+        (mean, rms, kept.len())
+    } else {
+        (plane.offset, plane_rms, pts.len().max(1))
+    };
     let centre = at + e[0] * x[0] + e[1] * x[1];
+    let centre = centre - n * (n.dot(&centre) - off);
     let why = if contrast < 5.0 {
         Some(format!(
             "no checkerboard in its intensity (contrast {contrast:.1} σ of the intensity noise)"
@@ -585,6 +660,7 @@ fn judge(
         agreement,
         extent,
         plane_rms,
+        face_points: n_face,
     })
 }
 
@@ -836,7 +912,9 @@ fn resampled(c: &Candidate, seed: u64) -> Vec<Vector3<f64>> {
                 .map(|i| c.pts[(unit(seed ^ (k << 32) ^ 0xb0a4d, i) * n as f64) as usize])
                 .collect();
             let f = refine(&draw, c.x, 8);
-            c.origin + c.e[0] * f.x[0] + c.e[1] * f.x[1]
+            // In the face: the crossing's offset across it is not resampled.
+            let q = c.origin + c.e[0] * f.x[0] + c.e[1] * f.x[1];
+            q + c.normal * c.normal.dot(&(c.centre - q))
         })
         .collect()
 }
@@ -857,11 +935,143 @@ fn covariance(c: &Candidate, samples: &[Vector3<f64>]) -> [[f64; 3]; 3] {
             c2 = sc;
         }
     }
-    let var_n = c.plane_rms.powi(2) / c.pts.len().max(1) as f64;
+    // Across each line, at least what the data leave open: a scanner's rows
+    // or columns may cross an edge with no return on it, and the line can
+    // then lie anywhere in the gap at almost the same cost, which the
+    // curvature at the fit does not see (simulated: a 5 cm gap between a
+    // multi-beam scanner's rows left one line 4 cm off with a 0.3 mm σ).
+    let (sn, cs) = c.x[2].sin_cos();
+    let rot = Matrix2::new(cs, sn, -sn, cs);
+    let mut across = rot * c2 * rot.transpose();
+    for k in 0..2 {
+        let open = 0.8 * open_half_width(c, k);
+        let var = across[(k, k)];
+        if open * open > var {
+            let scale = open / var.sqrt().max(1e-12);
+            // Keep the correlation: scale the row and column.
+            for j in 0..2 {
+                if j != k {
+                    across[(k, j)] *= scale;
+                    across[(j, k)] *= scale;
+                }
+            }
+            across[(k, k)] = open * open;
+        }
+    }
+    let c2 = rot.transpose() * across * rot;
+    let var_n = c.plane_rms.powi(2) / c.face_points as f64;
     let b = nalgebra::Matrix3x2::from_columns(&[c.e[0], c.e[1]]);
     let cov = b * c2 * b.transpose() + c.normal * c.normal.transpose() * var_n;
     let cov = (cov + cov.transpose()) / 2.0;
     [0, 1, 2].map(|i| [0, 1, 2].map(|j| cov[(i, j)]))
+}
+
+/// The fit's weighted cost with line `k` (0: where the first offset
+/// changes sign) moved by each of `-reach..=reach` in 0.5 mm steps, the
+/// rest held, and the residual variance s² it is judged by (weights fixed
+/// at the fit's).
+fn profile(pts: &[[f64; 3]], x: &[f64; 6], k: usize, reach: f64) -> (Vec<(f64, f64)>, f64) {
+    let (sn, cs) = x[2].sin_cos();
+    let dir = if k == 0 { [cs, sn] } else { [-sn, cs] };
+    let r0: Vec<f64> = pts.iter().map(|q| q[2] - model(x, q[0], q[1])).collect();
+    let mut a: Vec<f64> = r0.iter().map(|v| v.abs()).collect();
+    let s = (1.4826 * pct(&mut a, 0.5)).max(1e-9);
+    let w: Vec<f64> = r0
+        .iter()
+        .map(|v| {
+            if v.abs() <= 1.5 * s {
+                1.0
+            } else {
+                1.5 * s / v.abs()
+            }
+        })
+        .collect();
+    let cost = |d: f64| {
+        let mut y = *x;
+        y[0] += d * dir[0];
+        y[1] += d * dir[1];
+        pts.iter()
+            .zip(&w)
+            .map(|(q, wi)| wi * (q[2] - model(&y, q[0], q[1])).powi(2))
+            .sum::<f64>()
+    };
+    let step = 5e-4;
+    let n = (reach / step).ceil() as i64;
+    let curve: Vec<(f64, f64)> = (-n..=n)
+        .map(|i| {
+            let d = step * i as f64;
+            (d, cost(d))
+        })
+        .collect();
+    let c0 = cost(0.0);
+    let wsum: f64 = w.iter().sum();
+    (curve, c0 / (wsum - 6.0).max(1.0))
+}
+
+/// Moves each line to its profile's lowest cost when that is lower than
+/// the fit's by more than s², and refits: the edges' blur is a few
+/// millimetres, so between a scanner's rows the cost is flat and the
+/// steepest descent stops wherever the coarse search left a line.
+fn settle(pts: &[[f64; 3]], mut fit: Fit, reach: f64) -> Fit {
+    for _ in 0..3 {
+        let mut moved = false;
+        for k in 0..2 {
+            let (curve, s2) = profile(pts, &fit.x, k, reach);
+            let c0 = curve[curve.len() / 2].1;
+            let Some(&(d, c)) = curve.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
+                continue;
+            };
+            if c < c0 - s2 {
+                let (sn, cs) = fit.x[2].sin_cos();
+                let dir = if k == 0 { [cs, sn] } else { [-sn, cs] };
+                let mut x = fit.x;
+                x[0] += d * dir[0];
+                x[1] += d * dir[1];
+                fit = refine(pts, x, 40);
+                moved = true;
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    // A line free to lie anywhere in a gap is put in its middle: the error
+    // is then at most half the gap.
+    for k in 0..2 {
+        let (curve, s2) = profile(pts, &fit.x, k, reach);
+        let low = curve.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        let within = curve.iter().filter(|p| p.1 <= low + s2).map(|p| p.0);
+        let (lo, hi) = within.fold((0.0f64, 0.0f64), |(a, b), d| (a.min(d), b.max(d)));
+        let mid = (lo + hi) / 2.0;
+        if mid.abs() > 1e-3 {
+            let (sn, cs) = fit.x[2].sin_cos();
+            let dir = if k == 0 { [cs, sn] } else { [-sn, cs] };
+            fit.x[0] += mid * dir[0];
+            fit.x[1] += mid * dir[1];
+        }
+    }
+    fit
+}
+
+/// How far line `k` can lie from the fit at a cost within s² of the
+/// profile's lowest (one σ for a well-curved minimum): half the span of
+/// those offsets, a gap between a scanner's rows or a second minimum
+/// included.
+fn open_half_width(c: &Candidate, k: usize) -> f64 {
+    let reach = 0.25 * c.extent[0].min(c.extent[1]);
+    let (curve, s2) = profile(&c.pts, &c.x, k, reach);
+    let low = curve.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+    let within: Vec<f64> = curve
+        .iter()
+        .filter(|p| p.1 <= low + s2)
+        .map(|p| p.0)
+        .collect();
+    let (lo, hi) = (
+        within.iter().copied().fold(0.0, f64::min),
+        within.iter().copied().fold(0.0, f64::max),
+    );
+    // A minimum sharper than the grid: half a step either way.
+    ((hi - lo) / 2.0).max(2.5e-4)
 }
 
 #[cfg(test)]

@@ -8,10 +8,11 @@
 //! | `board`  | side                | the centre where the four squares meet   |
 //!
 //! The L is the paper's target (`crop::tight` finds it, `locate` locates it);
-//! a sphere is found and fitted by [`sphere`]. Every model ends in the same
-//! estimate, a point with its covariance, so alignment, errors and reports
-//! take them alike. Checkerboard boards are read from surveys but not yet
-//! located: their targets are reported `not_found` with that reason.
+//! a sphere is found and fitted by [`sphere`], a checkerboard board by
+//! [`board`] from its plane and its intensity print (read in a pass of its
+//! own: the map's format must carry intensity, else the board is
+//! `not_found` and says so). Every model ends in the same estimate, a point
+//! with its covariance, so alignment, errors and reports take them alike.
 //!
 //! ```
 //! use mapgauge::model::ModelKind;
@@ -24,6 +25,7 @@
 pub mod board;
 pub mod sphere;
 
+pub use board::{BoardError, BoardFit, BoardParams};
 pub use sphere::{SphereError, SphereFit, SphereParams};
 
 use serde::{Deserialize, Serialize};
@@ -39,7 +41,8 @@ pub enum ModelKind {
     L,
     /// A sphere, located by its centre (geometry only).
     Sphere,
-    /// A planar checkerboard board (needs intensity; not located yet).
+    /// A planar checkerboard board, located where its four squares meet
+    /// (needs the map's intensity).
     Board,
 }
 

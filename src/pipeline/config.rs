@@ -22,6 +22,8 @@ pub struct Config {
     pub locate: LocateParams,
     /// Sphere targets (survey rows with `model = sphere`).
     pub sphere: crate::model::SphereParams,
+    /// Checkerboard boards (survey rows with `model = board`).
+    pub board: crate::model::BoardParams,
     /// Alignment and metrics.
     pub metrics: MetricsConfig,
     /// Frames: where to look for the targets in the map.
@@ -39,6 +41,7 @@ impl Default for Config {
             tight: TightParams::default(),
             locate: LocateParams::default(),
             sphere: crate::model::SphereParams::default(),
+            board: crate::model::BoardParams::default(),
             metrics: MetricsConfig::default(),
             frame: FrameConfig::default(),
             gates: crate::gate::GateConfig::default(),
@@ -219,6 +222,7 @@ impl Config {
         validate_tight(&self.tight)?;
         validate_locate(&self.locate)?;
         validate_sphere(&self.sphere)?;
+        validate_board(&self.board)?;
         self.metrics.validate()?;
         self.frame.validate()
     }
@@ -354,6 +358,15 @@ fn validate_sphere(s: &crate::model::SphereParams) -> Result<()> {
     count("sphere.min_points", s.min_points, 8, 100_000)?;
     range("sphere.search_radius_m", s.search_radius_m, 0.01, 50.0)?;
     count("sphere.max_points", s.max_points, 1_000, 10_000_000)
+}
+
+fn validate_board(b: &crate::model::BoardParams) -> Result<()> {
+    crate::model::ModelKind::Board
+        .check_size(b.side_m)
+        .map_err(|e| Error::Param(format!("board.side_m: {e}")))?;
+    count("board.min_points", b.min_points, 12, 1_000_000)?;
+    range("board.search_radius_m", b.search_radius_m, 0.01, 50.0)?;
+    count("board.max_points", b.max_points, 1_000, 10_000_000)
 }
 
 fn validate_locate(l: &LocateParams) -> Result<()> {

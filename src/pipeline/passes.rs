@@ -78,12 +78,27 @@ impl Search<'_> {
         }
         let centres: Vec<Point> = redo.iter().map(|r| r.1).collect();
         let again = self.read_again(&centres, progress, reads)?;
+        let which: Vec<usize> = redo.iter().map(|r| r.0).collect();
+        let (boards, board_read) = super::crops::board_crops_of(
+            self.source,
+            self.survey,
+            &centres,
+            &which,
+            true,
+            self.cfg,
+            self.motion,
+            self.ground.z_range,
+        )?;
+        reads.extend(board_read.map(|r| crate::cloud::PassRead {
+            pass: "second-pass-boards".into(),
+            ..r
+        }));
         let ups = super::more_ups(self.motion, self.ground.level.as_ref().map(|l| l.up));
         // The other targets: where they were found, else where they were expected.
         let placed: Vec<Point> = (0..found.len())
             .map(|j| found[j].corner().unwrap_or(self.expected[j]))
             .collect();
-        for ((i, c), (pts, offered)) in redo.into_iter().zip(again) {
+        for (((i, c), (pts, offered)), board) in redo.into_iter().zip(again).zip(boards) {
             let thinned = (offered > pts.len() as u64).then_some(offered);
             let narrowed = narrow.iter().find(|n| n.0 == i).copied();
             let tight = self.tight_for(narrowed);
@@ -97,6 +112,7 @@ impl Search<'_> {
                     let t = &self.survey.targets[i];
                     (t.model, t.size)
                 },
+                board,
             };
             let mut r = target::locate_target(place, pts, None, &tight, self.cfg, Pass::Second);
             r.loose_thinned_from = thinned;

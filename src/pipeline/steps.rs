@@ -521,6 +521,17 @@ impl FirstPass<'_> {
         )?;
         reads.push(read);
         reads.extend(again);
+        let (boards, board_read) = super::crops::board_crops_of(
+            self.source,
+            self.survey,
+            &expected,
+            (0..expected.len()).collect::<Vec<_>>().as_slice(),
+            self.crops_dir.is_none(),
+            cfg,
+            self.motion,
+            self.ground.z_range,
+        )?;
+        reads.extend(board_read);
         let ups = more_ups(self.motion, self.ground_up);
         let found: Vec<TargetRun> = self
             .survey
@@ -528,8 +539,9 @@ impl FirstPass<'_> {
             .par_iter()
             .zip(&expected)
             .zip(crops)
+            .zip(boards)
             .enumerate()
-            .map(|(i, ((t, e), (pts, offered)))| {
+            .map(|(i, (((t, e), (pts, offered)), board))| {
                 let thinned = (offered > pts.len() as u64).then_some(offered);
                 let others = others_than(&expected, i);
                 let place = target::Place {
@@ -538,6 +550,7 @@ impl FirstPass<'_> {
                     others: &others,
                     more_ups: &ups,
                     model: (t.model, t.size),
+                    board,
                 };
                 let mut r =
                     target::locate_target(place, pts, self.crops_dir, &cfg.tight, cfg, Pass::First);

@@ -30,19 +30,22 @@ pub struct Found {
     pub axis: Vector3<f64>,
     /// The sphere fitted, for a sphere target (`None`: an L).
     pub sphere: Option<crate::model::SphereFit>,
+    /// The board fitted, for a checkerboard target.
+    pub board: Option<crate::model::BoardFit>,
 }
 
 impl Found {
     /// What was located.
     pub fn model(&self) -> crate::model::ModelKind {
-        match self.sphere {
-            Some(_) => crate::model::ModelKind::Sphere,
-            None => crate::model::ModelKind::L,
+        match (&self.sphere, &self.board) {
+            (Some(_), _) => crate::model::ModelKind::Sphere,
+            (_, Some(_)) => crate::model::ModelKind::Board,
+            _ => crate::model::ModelKind::L,
         }
     }
     /// Whether it is an L: only an L has plates, a plumb line, layers.
     pub fn is_l(&self) -> bool {
-        self.sphere.is_none()
+        self.sphere.is_none() && self.board.is_none()
     }
 }
 
@@ -74,6 +77,9 @@ pub enum Failure {
     },
     /// No sphere of the surveyed size stood near the expected position.
     Sphere(crate::model::SphereError),
+    /// No checkerboard board stood near the expected position (or the map
+    /// has no intensity to tell one).
+    Board(crate::model::BoardError),
     /// The survey names a model mapgauge does not locate yet.
     Unsupported(crate::model::ModelKind),
     /// The target is mapped twice (a loop closed badly): a plate shows two
@@ -107,7 +113,9 @@ impl Failure {
     pub fn stage(&self) -> &'static str {
         match self {
             Failure::NoLoosePoints => "loose",
-            Failure::HandCrop(_) | Failure::Tight(_) | Failure::Sphere(_) => "tight",
+            Failure::HandCrop(_) | Failure::Tight(_) | Failure::Sphere(_) | Failure::Board(_) => {
+                "tight"
+            }
             Failure::Unsupported(_) => "model",
             Failure::Locate(_) => "locate",
             Failure::FarFromOthers { .. }
@@ -138,6 +146,7 @@ impl std::fmt::Display for Failure {
             Failure::HandCrop(e) => write!(f, "{e}"),
             Failure::Tight(e) => write!(f, "{e}"),
             Failure::Sphere(e) => write!(f, "{e}"),
+            Failure::Board(e) => write!(f, "{e}"),
             Failure::Unsupported(m) => write!(
                 f,
                 "a {m} target: mapgauge does not locate {m} targets yet (give its map position in an estimates file to `mapgauge errors`)"
@@ -286,6 +295,9 @@ pub(crate) struct Place<'a> {
     pub(crate) more_ups: &'a [Vector3<f64>],
     /// What the target is, and its surveyed size (m) when given.
     pub(crate) model: (crate::model::ModelKind, Option<f64>),
+    /// A board's crop with intensities (`crops::board_crops`), read apart
+    /// from the loose crops, which carry coordinates only.
+    pub(crate) board: Option<super::crops::BoardCrop>,
 }
 
 /// Steps 4–5 for one target: tight crop (hand-made from `crops_dir`, else
@@ -308,6 +320,7 @@ pub(crate) fn locate_target(
         others,
         more_ups,
         model,
+        board,
     } = place;
     let mut run = TargetRun {
         id: id.to_string(),
@@ -354,8 +367,13 @@ pub(crate) fn locate_target(
             sphere_target(&mut run, centre, others, size, tight, cfg);
             return run;
         }
-        (m @ ModelKind::Board, _) => {
-            run.outcome = Err(Failure::Unsupported(m));
+        (m @ ModelKind::Board, size) => {
+            if crops_dir.is_some() {
+                // A hand-made crop is read without intensity.
+                run.outcome = Err(Failure::Unsupported(m));
+                return run;
+            }
+            board_target(&mut run, board, others, size, tight, cfg);
             return run;
         }
     };
@@ -448,9 +466,71 @@ fn sphere_target(
                 up: Vector3::z(),
                 axis: Vector3::z(),
                 sphere: Some(fit),
+                board: None,
             });
         }
         Err(e) => run.outcome = Err(Failure::Sphere(e)),
+    }
+}
+
+/// A checkerboard target: found and located in its crop with intensities
+/// (`model::board`); its points on the board are the tight crop.
+fn board_target(
+    run: &mut TargetRun,
+    crop: Option<super::crops::BoardCrop>,
+    others: &[Point],
+    size: Option<f64>,
+    tight: &crate::crop::TightParams,
+    cfg: &Config,
+) {
+    let (pts, inten) = match crop {
+        Some(Ok(c)) => c,
+        Some(Err(why)) => {
+            run.outcome = Err(Failure::Board(crate::model::BoardError::NoIntensity {
+                why,
+            }));
+            return;
+        }
+        None => {
+            run.outcome = Err(Failure::Board(crate::model::BoardError::NoIntensity {
+                why: "this search read none".into(),
+            }));
+            return;
+        }
+    };
+    run.loose = pts;
+    if run.loose.is_empty() {
+        run.outcome = Err(Failure::NoLoosePoints);
+        return;
+    }
+    let mut p = cfg.board.clone();
+    if tight.search_radius < cfg.tight.search_radius {
+        p.search_radius_m = p.search_radius_m.min(tight.search_radius);
+    }
+    let search = crate::model::board::Search {
+        points: &run.loose,
+        intensity: &inten,
+        expected: run.expected,
+        others,
+        side: size.unwrap_or(p.side_m),
+        up: Vector3::z(),
+    };
+    match crate::model::board::locate(&search, &p) {
+        Ok((fit, near)) => {
+            run.tight = near;
+            run.outcome = Ok(Found {
+                located: locate::Located::without_plates(
+                    fit.centre,
+                    fit.covariance,
+                    fit.samples.clone(),
+                ),
+                up: Vector3::z(),
+                axis: Vector3::z(),
+                sphere: None,
+                board: Some(fit),
+            });
+        }
+        Err(e) => run.outcome = Err(Failure::Board(e)),
     }
 }
 
@@ -496,6 +576,7 @@ fn found(l: locate::Located, up: Vector3<f64>) -> Found {
         up,
         axis: axis.normalize(),
         sphere: None,
+        board: None,
     }
 }
 

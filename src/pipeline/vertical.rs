@@ -351,8 +351,9 @@ pub(super) fn turn_targets(
             }
         }
         if let Ok(f) = &mut r.outcome {
-            if f.sphere.is_some() {
-                // A sphere is round in every frame: its estimate turns with
+            if !f.is_l() {
+                // A sphere is round in every frame, a board's crossing is on
+                // its face whatever the vertical: the estimate turns with
                 // its points, nothing to locate again.
                 turn_found(f, &m);
             } else {
@@ -363,7 +364,7 @@ pub(super) fn turn_targets(
     });
 }
 
-/// A sphere's estimate in the turned frame: its centre, samples and fit by
+/// A sphere's or a board's estimate in the turned frame: its centre, samples and fit by
 /// the motion, its covariance as R C Rᵀ.
 fn turn_found(f: &mut target::Found, m: &RigidMotion) {
     let r = m.rotation.matrix();
@@ -379,6 +380,14 @@ fn turn_found(f: &mut target::Found, m: &RigidMotion) {
         s.centre = l.corner;
         s.covariance = l.covariance;
         s.samples = l.samples.clone();
+    }
+    if let Some(b) = f.board.as_mut() {
+        b.centre = l.corner;
+        b.covariance = l.covariance;
+        b.samples = l.samples.clone();
+        let turn = |v: [f64; 3]| -> [f64; 3] { (r * Vector3::from(v)).into() };
+        b.normal = turn(b.normal);
+        b.lines = b.lines.map(turn);
     }
 }
 

@@ -54,10 +54,43 @@ pub struct TargetDetail {
     /// The sphere fitted, for a sphere target located.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sphere: Option<SphereDetail>,
+    /// The board fitted, for a checkerboard target located.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub board: Option<BoardDetail>,
 }
 
 fn is_l(m: &crate::model::ModelKind) -> bool {
     *m == crate::model::ModelKind::L
+}
+
+/// A located checkerboard board as `result.json` keeps it (see
+/// [`crate::model::BoardFit`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct BoardDetail {
+    /// Where the four squares meet (evaluation frame).
+    pub centre: [f64; 3],
+    /// The face's unit normal.
+    pub normal: [f64; 3],
+    /// The two boundary lines' directions.
+    pub lines: [[f64; 3]; 2],
+    /// Points on the board.
+    pub points: usize,
+    /// The face's extent seen (horizontal first), m.
+    pub extent_m: [f64; 2],
+    /// Fitted intensity of the dark and the bright squares.
+    pub levels: [f64; 2],
+    /// Their difference over the intensity noise.
+    pub contrast: f64,
+    /// The edges' fitted blur, m.
+    pub blur_m: f64,
+    /// Share of the intensity's variance the pattern explains.
+    pub explained: f64,
+    /// Share of the points away from the edges with the pattern's colours.
+    pub agreement: f64,
+    /// RMS distance of the points from the face, m.
+    pub plane_rms: f64,
+    /// Boards seen in the search.
+    pub candidates: usize,
 }
 
 /// A located sphere as `result.json` keeps it (see [`crate::model::SphereFit`]).
@@ -321,6 +354,20 @@ fn detail(t: &TargetRun) -> TargetDetail {
                 rms: s.rms,
                 cap_deg: s.cap_deg,
                 candidates: s.candidates,
+            });
+            d.board = f.board.as_ref().map(|b| BoardDetail {
+                centre: [b.centre.x, b.centre.y, b.centre.z],
+                normal: b.normal,
+                lines: b.lines,
+                points: b.points,
+                extent_m: b.extent_m,
+                levels: b.levels,
+                contrast: b.contrast,
+                blur_m: b.blur_m,
+                explained: b.explained,
+                agreement: b.agreement,
+                plane_rms: b.plane_rms,
+                candidates: b.candidates,
             });
         }
         Err(e) => {

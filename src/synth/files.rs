@@ -174,10 +174,18 @@ fn write_map(
     let with = format.holds_intensity();
     let mut writer = CloudWriter::create_with(path, format, with)?;
     let mut inten = Vec::new();
+    // Boards print their squares in the intensity; the rest is a stand-in.
+    let faces = super::print::board_faces(params);
     let mut put = |pts: &[Point]| {
         if with {
             inten.clear();
-            inten.extend(pts.iter().map(synthetic_intensity));
+            inten.extend(pts.iter().map(|p| {
+                let i = synthetic_intensity(p);
+                if faces.is_empty() {
+                    return i;
+                }
+                super::print::board_intensity(&faces, p, coordinate_hash(p)).unwrap_or(i)
+            }));
             writer.write_intensity(pts, &inten)
         } else {
             writer.write(pts)
@@ -267,11 +275,18 @@ impl LabelWriter {
 /// A stand-in for a return's intensity: an integer in 0..=255 (the range
 /// LIO-SAM and FAST-LIO2 maps hold) from a hash of the point's coordinates,
 /// so the same seed gives the same bytes in any thread count. Nothing reads
-/// it back; it is there so the files have the real layouts' bytes.
+/// it back (but on boards, whose print `print::board_intensity` writes);
+/// it is there so the files have the real layouts' bytes.
 fn synthetic_intensity(p: &Point) -> f32 {
     let h = (p.x.to_bits() ^ p.y.to_bits().rotate_left(21) ^ p.z.to_bits().rotate_left(42))
         .wrapping_mul(0x9E37_79B9_7F4A_7C15);
     (h >> 56) as f32
+}
+
+/// A well-mixed hash of a point's coordinates (for a board's intensity
+/// noise; [`synthetic_intensity`]'s is one multiply, kept for its bytes).
+fn coordinate_hash(p: &Point) -> u64 {
+    crate::crop::point_hash(p)
 }
 
 impl Truth {

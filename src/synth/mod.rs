@@ -34,8 +34,8 @@ use parts::stream;
 use rand::Rng;
 use scene::{Scene, build_scene};
 
+pub use params::{BoardShape, SecondPass, SphereShape, TargetShape};
 pub use params::{ClutterParams, Layout, SynthParams};
-pub use params::{SecondPass, SphereShape, TargetShape};
 pub use truth::SurveyPoint;
 pub use truth::Truth;
 pub use truth::{ClutterInfo, TargetTruth};
@@ -184,7 +184,7 @@ fn run(params: &SynthParams, sink: &mut LabelledSink, labelled: bool) -> Result<
 
 /// The SLAM distortion of `params` about the middle of the spread, its
 /// drift along the road.
-fn distortion_of(params: &SynthParams, world: &World, road: &Road) -> Distortion {
+pub(super) fn distortion_of(params: &SynthParams, world: &World, road: &Road) -> Distortion {
     Distortion {
         params: params.distortion.clone(),
         centre: [
@@ -274,5 +274,6 @@ fn add_false_origin(
 mod tests;
 
 mod files;
+pub(crate) mod print;
 pub use files::SceneFiles;
 pub use files::{write_scene, write_scene_labelled};

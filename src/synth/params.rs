@@ -207,7 +207,7 @@ pub struct SynthParams {
     #[serde(skip_serializing_if = "SecondPass::is_off")]
     pub second_pass: SecondPass,
     /// The targets' models in turn: target i is `models[i % len]` (`l`,
-    /// `sphere`). The L alone by default, and then absent from the printed
+    /// `sphere`, `board`). The L alone by default, and then absent from the printed
     /// config and truth.json.
     ///
     /// ```toml
@@ -220,6 +220,45 @@ pub struct SynthParams {
     /// How sphere targets are built.
     #[serde(skip_serializing_if = "no_spheres_default")]
     pub sphere: SphereShape,
+    /// How checkerboard boards are built and print in the map's intensity.
+    #[serde(skip_serializing_if = "no_boards_default")]
+    pub board: BoardShape,
+}
+
+fn no_boards_default(b: &BoardShape) -> bool {
+    *b == BoardShape::default()
+}
+
+/// A checkerboard board: a square of four squares (two bright, two dark)
+/// standing upright on two legs, its face towards the road. Its returns'
+/// intensity is the print's, blurred by the beam's footprint; the survey
+/// gives the point where the squares meet, on the face.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BoardShape {
+    /// Side, metres.
+    pub side_m: f64,
+    /// Height of the centre above the ground, metres.
+    pub centre_height_m: f64,
+    /// Turn of the print in the face (degrees; 0: the squares upright).
+    pub print_turn_deg: f64,
+    /// Intensity of the dark and of the bright squares (the map's scale).
+    pub levels: [f64; 2],
+    /// 1-σ of the beam's footprint on the face (m): it mixes the squares'
+    /// intensities at their edges.
+    pub footprint_m: f64,
+}
+
+impl Default for BoardShape {
+    fn default() -> Self {
+        BoardShape {
+            side_m: 0.6,
+            centre_height_m: 1.2,
+            print_turn_deg: 0.0,
+            levels: [15.0, 200.0],
+            footprint_m: 0.004,
+        }
+    }
 }
 
 fn only_l(m: &[crate::model::ModelKind]) -> bool {
@@ -291,6 +330,7 @@ impl Default for SynthParams {
             target: TargetShape::default(),
             models: vec![crate::model::ModelKind::L],
             sphere: SphereShape::default(),
+            board: BoardShape::default(),
             slope_deg: 1.5,
             slope_dir_deg: 30.0,
             undulation_m: 0.08,
@@ -319,10 +359,27 @@ impl SynthParams {
             return bad("targets must be in 1..=1000");
         }
         if self.models.is_empty() {
-            return bad("models must name at least one model (l, sphere)");
+            return bad("models must name at least one model (l, sphere, board)");
         }
-        if self.models.contains(&crate::model::ModelKind::Board) {
-            return bad("models: synth builds no checkerboard boards yet (l, sphere)");
+        let b = &self.board;
+        if let Err(e) = crate::model::ModelKind::Board.check_size(b.side_m) {
+            return Err(Error::Param(format!("board.side_m: {e}")));
+        }
+        if !(b.centre_height_m >= 0.6 * b.side_m && b.centre_height_m <= 5.0) {
+            return bad("board.centre_height_m must be in [0.6 side_m, 5]");
+        }
+        if !(b
+            .levels
+            .iter()
+            .all(|l| l.is_finite() && (0.0..=65535.0).contains(l)))
+        {
+            return bad("board.levels must be in [0, 65535]");
+        }
+        if !(0.0..=0.05).contains(&b.footprint_m) {
+            return bad("board.footprint_m must be in [0, 0.05]");
+        }
+        if !b.print_turn_deg.is_finite() {
+            return bad("board.print_turn_deg must be finite");
         }
         let sp = &self.sphere;
         if let Err(e) = crate::model::ModelKind::Sphere.check_size(sp.diameter_m) {

@@ -229,3 +229,61 @@ pub(super) fn sphere_target(
     };
     (Object::new(prims), truth)
 }
+
+/// A checkerboard board at (x, y) on two legs, its face towards the road
+/// (`towards`: the face's unit normal, horizontal). Returns the object and
+/// its truth (the survey gives the crossing, on the face).
+pub(super) fn board_target(
+    g: &Ground,
+    shape: &super::BoardShape,
+    id: String,
+    (x, y): (f64, f64),
+    road_distance_m: f64,
+    towards: (f64, f64),
+) -> (Object, TargetTruth) {
+    let gz = g.height(x, y);
+    let half = shape.side_m / 2.0;
+    let zc = gz + shape.centre_height_m;
+    let t = 0.01;
+    // The box's own x along the face, y through it (towards the road is -y).
+    let (nx, ny) = towards;
+    let cs = (-ny, nx);
+    let mid = Vector3::new(x - nx * t, y - ny * t, zc);
+    let mut prims = vec![Prim::Box {
+        c: mid,
+        half: Vector3::new(half, t, half),
+        cs,
+    }];
+    for s in [-0.7, 0.7] {
+        prims.push(Prim::VCyl {
+            x: mid.x + cs.0 * s * half - nx * 0.03,
+            y: mid.y + cs.1 * s * half - ny * 0.03,
+            r: 0.015,
+            z0: gz - 0.05,
+            z1: zc - 0.05,
+        });
+    }
+    let truth = TargetTruth {
+        id,
+        world: [x, y, zc],
+        survey: SurveyPoint {
+            x,
+            y,
+            z: zc,
+            antenna_height: 0.0,
+        },
+        map: [0.0; 3],
+        heading_deg: ny.atan2(nx).to_degrees(),
+        ground_z: gz,
+        plate_bottom_z: zc - half,
+        plate_top_z: zc + half,
+        antenna_top_z: zc + half,
+        road_distance_m,
+        points: 0,
+        ghost: None,
+        ghost_points: 0,
+        model: crate::model::ModelKind::Board,
+        size: Some(shape.side_m),
+    };
+    (Object::new(prims), truth)
+}

@@ -3,7 +3,7 @@
 
 use super::geometry::{Ground, Object, Prim, Wave, World};
 use super::lidar::Road;
-use super::parts::{build_target, sphere_target, stream, target_truth, yaw_box};
+use super::parts::{board_target, build_target, sphere_target, stream, target_truth, yaw_box};
 use super::{ClutterInfo, DecoyTruth, Layout, SynthParams, TargetTruth};
 use nalgebra::Vector3;
 use rand::Rng;
@@ -178,6 +178,21 @@ fn place_targets(
                     // Away from the road: where a wall mount goes.
                     if cy >= road.y(cx) { 1.0 } else { -1.0 }
                 });
+            objects.push(obj);
+            targets.push(truth);
+            continue;
+        }
+        if model == crate::model::ModelKind::Board {
+            // Facing the road: the normal from the board to the road's line.
+            let ny = if road.y(cx) >= cy { 1.0 } else { -1.0 };
+            let (obj, truth) = board_target(
+                ground,
+                &p.board,
+                (i + 1).to_string(),
+                (cx, cy),
+                dist,
+                (0.0, ny),
+            );
             objects.push(obj);
             targets.push(truth);
             continue;

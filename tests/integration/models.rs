@@ -1,8 +1,9 @@
 //! Issue 33: target models beside the L. A survey mixing Ls and spheres
-//! (synth's spheres on poles) is evaluated end to end: every sphere found
-//! near its true centre with a covariance that covers the error, the Ls as
-//! before; a survey naming a model mapgauge cannot locate says so per
-//! target; a bad model or size is refused with its line.
+//! (synth's spheres on poles) or checkerboard boards (on legs, printed in
+//! the intensity) is evaluated end to end: every sphere and board found
+//! near its truth with a covariance that covers the error, the Ls as
+//! before; a board in a map without intensity says so per target; a bad
+//! model or size is refused with its line.
 
 use crate::util::{bin, stderr, tempdir};
 use nalgebra::{Matrix3, Vector3};
@@ -165,13 +166,83 @@ fn spheres_and_ls_in_one_survey() {
     }
 }
 
+/// Issue 33: checkerboard boards on legs (synth prints their squares in
+/// the map's intensity) and Ls in one survey: every board located within
+/// 3 mm horizontally of where its squares meet, inside its 99.9 % ellipsoid;
+/// an L surveyed as a board is not one (its plates show no checkerboard).
 #[test]
-fn boards_are_reported_not_located_and_bad_models_refused() {
+fn boards_are_located_by_their_print() {
+    let dir = tempdir();
+    let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
+    let o = bin()
+        .arg("synth")
+        .arg("--out")
+        .arg(&scene)
+        .args(["--points", "3000000", "--seed", "3", "--models", "l,board"])
+        .args(["--format", "pcd-xyzi"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "synth: {}", stderr(&o));
+    let truth = json(&scene.join("truth.json"));
+    let run = |survey: &Path, out: &Path| {
+        let o = bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(scene.join("map.pcd"))
+            .arg("--survey")
+            .arg(survey)
+            .arg("--out")
+            .arg(out)
+            .arg("--no-report")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "eval: {}", stderr(&o));
+        json(&out.join("result.json"))
+    };
+    let r = run(&scene.join("survey.csv"), &out);
+    let found = located(&r, &truth);
+    assert_eq!(found.len(), 5, "{}", r["targets"]);
+    let mut boards = 0;
+    for ((id, err, c), e) in found.iter().zip(r["eval"]["targets"].as_array().unwrap()) {
+        if e["model"] != "board" {
+            continue;
+        }
+        boards += 1;
+        let b = &e["board"];
+        assert!(err.xy().norm() < 0.003, "board {id}: {err:?} {b}");
+        assert!(
+            m2(err, c) < 16.27,
+            "board {id}: {err:?} outside its ellipsoid {c:?}"
+        );
+        assert!(b["contrast"].as_f64().unwrap() > 10.0, "{b}");
+    }
+    assert_eq!(boards, 2);
+    // Target 1, an L, surveyed as a board.
+    let text = std::fs::read_to_string(scene.join("survey.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    lines[1] = lines[1].replace(",l,", ",board,0.6");
+    let f = dir.path().join("l-as-board.csv");
+    std::fs::write(&f, lines.join("\n") + "\n").unwrap();
+    let r = run(&f, &dir.path().join("out2"));
+    let t1 = &r["targets"][0];
+    assert_eq!(t1["status"], "not_found", "{t1}");
+    assert!(
+        t1["reason"]
+            .as_str()
+            .unwrap()
+            .contains("no checkerboard board"),
+        "{t1}"
+    );
+}
+
+#[test]
+fn boards_in_a_map_without_intensity_say_so_and_bad_models_are_refused() {
     let dir = tempdir();
     let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
     synth(&scene, "2");
     let text = std::fs::read_to_string(scene.join("survey.csv")).unwrap();
-    // Target 2, a sphere, surveyed as a board instead.
+    // Target 2, a sphere, surveyed as a board instead (the map, a PLY of
+    // doubles, has no intensity).
     let board = dir.path().join("board.csv");
     std::fs::write(&board, text.replacen(",sphere,0.145\n", ",board,0.6\n", 1)).unwrap();
     let o = eval(&scene, &board, &out);
@@ -183,7 +254,8 @@ fn boards_are_reported_not_located_and_bad_models_refused() {
         t2["reason"]
             .as_str()
             .unwrap()
-            .contains("does not locate board targets yet"),
+            .contains("told by its intensity pattern, and")
+            && t2["reason"].as_str().unwrap().contains("has no intensity"),
         "{t2}"
     );
     assert_eq!(r["eval"]["targets"][1]["model"], "board");
