@@ -29,9 +29,11 @@ pub struct Args {
     /// Number of targets.
     #[arg(long, default_value_t = 5)]
     targets: usize,
-    /// The targets' models in turn, comma-separated (l, sphere). With
-    /// spheres the scene's sensor has 1 cm range noise, not 2 cm: a 145 mm
-    /// sphere needs noise well below its radius [default: l].
+    /// The targets' models in turn, comma-separated (l, sphere, board).
+    /// With spheres the scene's sensor has 1 cm range noise, not 2 cm: a
+    /// 145 mm sphere needs noise well below its radius. With boards the map
+    /// is a float32 PCD with intensity (a board is told by its print)
+    /// [default: l].
     #[arg(long, value_delimiter = ',', default_value = "l")]
     models: Vec<mapgauge::model::ModelKind>,
 }
@@ -58,7 +60,13 @@ pub fn run(a: Args) -> Result<()> {
         "demo: synthesising a {}-target scene of about {} points...",
         a.targets, params.points
     );
-    let (files, truth, expected) = write_scene(&a.out.join("scene"), &params, OutFormat::Pcd)?;
+    // A board is told by its print: the map must carry intensity.
+    let format = if a.models.contains(&mapgauge::model::ModelKind::Board) {
+        OutFormat::PcdXyzi
+    } else {
+        OutFormat::Pcd
+    };
+    let (files, truth, expected) = write_scene(&a.out.join("scene"), &params, format)?;
     let t1 = std::time::Instant::now();
     eprintln!(
         "demo: {} points in {:.1} s; evaluating...",

@@ -247,6 +247,12 @@ pub struct BoardShape {
     /// 1-σ of the beam's footprint on the face (m): it mixes the squares'
     /// intensities at their edges.
     pub footprint_m: f64,
+    /// With a value, a plain sign of the board's size and height (one
+    /// intensity, the levels' mean) stands beside each board on legs of its
+    /// own, in the board's plane, this far (m) from its edge: the hard case
+    /// of a flat thing of the right size. Part of the target's object.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sign_gap_m: Option<f64>,
 }
 
 impl Default for BoardShape {
@@ -257,6 +263,7 @@ impl Default for BoardShape {
             print_turn_deg: 0.0,
             levels: [15.0, 200.0],
             footprint_m: 0.004,
+            sign_gap_m: None,
         }
     }
 }
@@ -377,6 +384,9 @@ impl SynthParams {
         }
         if !(0.0..=0.05).contains(&b.footprint_m) {
             return bad("board.footprint_m must be in [0, 0.05]");
+        }
+        if b.sign_gap_m.is_some_and(|g| !(0.05..=5.0).contains(&g)) {
+            return bad("board.sign_gap_m must be in [0.05, 5]");
         }
         if !b.print_turn_deg.is_finite() {
             return bad("board.print_turn_deg must be finite");

@@ -254,14 +254,27 @@ pub(super) fn board_target(
         half: Vector3::new(half, t, half),
         cs,
     }];
-    for s in [-0.7, 0.7] {
-        prims.push(Prim::VCyl {
-            x: mid.x + cs.0 * s * half - nx * 0.03,
-            y: mid.y + cs.1 * s * half - ny * 0.03,
-            r: 0.015,
-            z0: gz - 0.05,
-            z1: zc - 0.05,
+    let mut boards = vec![mid];
+    if let Some(gap) = shape.sign_gap_m {
+        let along = 2.0 * half + gap;
+        let sign = mid + Vector3::new(cs.0, cs.1, 0.0) * along;
+        prims.push(Prim::Box {
+            c: sign,
+            half: Vector3::new(half, t, half),
+            cs,
         });
+        boards.push(sign);
+    }
+    for b in boards {
+        for s in [-0.7, 0.7] {
+            prims.push(Prim::VCyl {
+                x: b.x + cs.0 * s * half - nx * 0.03,
+                y: b.y + cs.1 * s * half - ny * 0.03,
+                r: 0.015,
+                z0: gz - 0.05,
+                z1: zc - 0.05,
+            });
+        }
     }
     let truth = TargetTruth {
         id,

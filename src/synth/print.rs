@@ -29,28 +29,37 @@ pub(crate) fn board_faces(params: &SynthParams) -> Vec<BoardFace> {
     let warp = distortion.local_applier();
     let b = &params.board;
     let turn = b.print_turn_deg.to_radians();
+    let plain = (b.levels[0] + b.levels[1]) / 2.0;
     scene
         .targets
         .iter()
         .filter(|t| t.model == crate::model::ModelKind::Board)
-        .map(|t| {
+        .flat_map(|t| {
             let h = t.heading_deg.to_radians();
             let n = Vector3::new(h.cos(), h.sin(), 0.0);
             let e0 = Vector3::z().cross(&n);
+            let face = |c: Point, levels: [f64; 2]| {
+                let cm = warp(&c);
+                let step = 0.1;
+                let a = (warp(&(c + e0 * step)) - cm).normalize();
+                let up = (warp(&(c + Vector3::z() * step)) - cm).normalize();
+                BoardFace {
+                    centre: cm,
+                    normal: a.cross(&up),
+                    e: [a, up],
+                    half: b.side_m / 2.0,
+                    turn: (turn.cos(), turn.sin()),
+                    levels,
+                    footprint: b.footprint_m,
+                }
+            };
             let c = Point::from(t.world);
-            let cm = warp(&c);
-            let step = 0.1;
-            let a = (warp(&(c + e0 * step)) - cm).normalize();
-            let up = (warp(&(c + Vector3::z() * step)) - cm).normalize();
-            BoardFace {
-                centre: cm,
-                normal: a.cross(&up),
-                e: [a, up],
-                half: b.side_m / 2.0,
-                turn: (turn.cos(), turn.sin()),
-                levels: b.levels,
-                footprint: b.footprint_m,
-            }
+            // The sign beside it (`parts::board_target`): the same face, one
+            // intensity.
+            let sign = b
+                .sign_gap_m
+                .map(|g| face(c + e0 * (b.side_m + g), [plain, plain]));
+            std::iter::once(face(c, b.levels)).chain(sign)
         })
         .collect()
 }

@@ -235,6 +235,102 @@ fn boards_are_located_by_their_print() {
     );
 }
 
+/// Issue 33: a flat thing of a board's size is not a board. A plain sign
+/// stands 0.4 m beside each board and the survey places the boards nearer
+/// the signs than the boards: the boards are located all the same. With the
+/// print removed (both levels alike), every board is a plain sign and is
+/// `not_found`, saying why, while the Ls stay located.
+#[test]
+fn a_plain_sign_is_never_taken_for_a_board() {
+    let dir = tempdir();
+    let synth_boards = |name: &str, toml: &str| {
+        let scene = dir.path().join(name);
+        let cfg = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&cfg, toml).unwrap();
+        let o = bin()
+            .arg("synth")
+            .arg("--out")
+            .arg(&scene)
+            .args(["--points", "3000000", "--seed", "3", "--models", "l,board"])
+            .args(["--format", "pcd-xyzi", "--config"])
+            .arg(&cfg)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "synth: {}", stderr(&o));
+        (json(&scene.join("truth.json")), scene)
+    };
+    let eval_at = |scene: &Path, survey: &Path, out: &Path| {
+        let o = bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(scene.join("map.pcd"))
+            .arg("--survey")
+            .arg(survey)
+            .arg("--out")
+            .arg(out)
+            .arg("--no-report")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "eval: {}", stderr(&o));
+        json(&out.join("result.json"))
+    };
+    let (truth, scene) = synth_boards("signs", "[board]\nsign_gap_m = 0.4\n");
+    // Each board surveyed 0.7 m towards its sign (whose middle is 1.0 m
+    // along the face from the board's).
+    let text = std::fs::read_to_string(scene.join("survey.csv")).unwrap();
+    let moved: Vec<String> = text
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            if f.get(5) != Some(&"board") {
+                return l.to_string();
+            }
+            let t = truth_of(&truth, &Value::from(f[0]));
+            let h = t["heading_deg"].as_f64().unwrap().to_radians();
+            let (x, y) = (f[1].parse::<f64>().unwrap(), f[2].parse::<f64>().unwrap());
+            // Along the face: up × normal.
+            let (ex, ey) = (-h.sin(), h.cos());
+            let mut g: Vec<String> = f.iter().map(|s| s.to_string()).collect();
+            g[1] = format!("{:.4}", x + 0.7 * ex);
+            g[2] = format!("{:.4}", y + 0.7 * ey);
+            g.join(",")
+        })
+        .collect();
+    let survey = dir.path().join("towards-signs.csv");
+    std::fs::write(&survey, moved.join("\n") + "\n").unwrap();
+    let r = eval_at(&scene, &survey, &dir.path().join("out"));
+    let found = located(&r, &truth);
+    let boards: Vec<_> = found
+        .iter()
+        .zip(r["eval"]["targets"].as_array().unwrap())
+        .filter(|(_, e)| e["model"] == "board")
+        .collect();
+    assert_eq!(boards.len(), 2, "{}", r["targets"]);
+    for ((id, err, _), _) in boards {
+        assert!(err.xy().norm() < 0.003, "board {id}: the sign? {err:?}");
+    }
+
+    let (_, scene) = synth_boards("plain", "[board]\nlevels = [100.0, 100.0]\n");
+    let r = eval_at(&scene, &scene.join("survey.csv"), &dir.path().join("out2"));
+    for (t, e) in r["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(r["eval"]["targets"].as_array().unwrap())
+    {
+        if e["model"] == "board" {
+            assert_eq!(t["status"], "not_found", "{t}");
+            let why = t["reason"].as_str().unwrap();
+            assert!(
+                why.contains("plain sign") || why.contains("no checkerboard in its intensity"),
+                "{why}"
+            );
+        } else {
+            assert_eq!(t["status"], "ok", "{t}");
+        }
+    }
+}
+
 #[test]
 fn boards_in_a_map_without_intensity_say_so_and_bad_models_are_refused() {
     let dir = tempdir();
