@@ -100,6 +100,10 @@ pub struct BoardFit {
     /// covariance too).
     #[serde(skip)]
     pub samples: Vec<Point>,
+    /// Whether each of the board's points (as returned with the fit) reads
+    /// as a bright square: the report draws the print with it.
+    #[serde(skip)]
+    pub bright: Vec<bool>,
     /// Boards seen in the search.
     pub candidates: usize,
 }
@@ -253,6 +257,10 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
         plane_rms: c.plane_rms,
         covariance,
         samples: samples.iter().map(|v| o + v).collect(),
+        bright: {
+            let mid = (c.x[3] + c.x[4]) / 2.0;
+            c.pts.iter().map(|q| q[2] > mid).collect()
+        },
         candidates: cands.len(),
     };
     let near = c.pts3.iter().map(|v| o + v).collect();

@@ -188,6 +188,20 @@ pub struct Diagnostics<'a> {
     pub samples: &'a [Point],
     /// A sphere's radius (m): its outline is drawn about `corner`, its centre.
     pub circle: Option<f64>,
+    /// A board's face and print: drawn face on, its squares' colours and
+    /// lines about `corner`, the crossing.
+    pub board: Option<BoardView<'a>>,
+}
+
+/// What a board's face view draws.
+#[derive(Debug, Clone, Copy)]
+pub struct BoardView<'a> {
+    /// The face's unit normal (map frame).
+    pub normal: [f64; 3],
+    /// The two boundary lines' directions (map frame).
+    pub lines: [[f64; 3]; 2],
+    /// Whether each tight-crop point reads as a bright square.
+    pub bright: &'a [bool],
 }
 
 /// The crops and fits of one target, borrowed from an [`Evaluation`].
@@ -241,6 +255,11 @@ impl<'a> Report<'a> {
                     corner: Some(f.located.corner),
                     samples: &f.located.samples,
                     circle: f.sphere.as_ref().map(|s| s.radius),
+                    board: f.board.as_ref().map(|b| BoardView {
+                        normal: b.normal,
+                        lines: b.lines,
+                        bright: &b.bright,
+                    }),
                 }),
             })
             .collect();

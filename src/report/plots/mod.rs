@@ -159,6 +159,7 @@ mod tests {
             corner: Some(c),
             samples: &samples,
             circle: None,
+            board: None,
         };
         let mut views = vec![TargetView::default(); 4];
         views[0] = TargetView {

@@ -39,10 +39,13 @@ struct Located<'a> {
 }
 
 impl Located<'_> {
-    /// What the estimate is: an L's corner or a sphere's centre.
+    /// What the estimate is: an L's corner, a sphere's centre or a
+    /// board's crossing.
     fn point(&self) -> &'static str {
         if self.d.circle.is_some() {
             "centre"
+        } else if self.d.board.is_some() {
+            "crossing"
         } else {
             "corner"
         }
@@ -77,9 +80,80 @@ pub(super) fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: 
         labels_ok: d.labels.len() == tight.len(),
     };
     let dirs = top_view(f, &l);
-    side_view(f, rep, t, &l, &dirs);
+    match l.d.board {
+        Some(b) => face_view(f, &l, &b),
+        None => side_view(f, rep, t, &l, &dirs),
+    }
     spread_view(f, t, &l);
-    legend(f, l.d.circle.is_some());
+    if l.d.board.is_some() {
+        board_legend(f);
+    } else {
+        legend(f, l.d.circle.is_some());
+    }
+}
+
+/// A bright square's points and a dark one's, in the face view.
+const BRIGHT: Color = Color(0xd9, 0xa4, 0x0b);
+const DARK: Color = Color(0x33, 0x33, 0x33);
+
+/// A board's face, face on, metres from the crossing: its points coloured by
+/// the square their intensity reads as, and the two fitted lines.
+fn face_view(f: &mut Figure, l: &Located, b: &crate::report::BoardView) {
+    let c = l.c;
+    let n = Vector3::from(b.normal);
+    let h = Vector3::z().cross(&n);
+    let e0 = if h.norm() > 0.3 {
+        h.normalize()
+    } else {
+        (Vector3::x() - n * n.x).normalize()
+    };
+    let e1 = n.cross(&e0);
+    let e1 = if e1.z < 0.0 { -e1 } else { e1 };
+    let face_of = |p: &Point| (e0.dot(&(p - c)), e1.dot(&(p - c)));
+    let (sx, sz) = bounds(l.tight.iter().map(face_of));
+    let side = Panel::new(SIDE, pad(sx, 0.08), pad(sz, 0.08), true);
+    side.axes(f, "face view (the print)", "along the face (m)", "up the face (m)");
+    let ok = b.bright.len() == l.tight.len();
+    cloud(
+        f,
+        &side,
+        l.tight,
+        face_of,
+        |i| if ok && b.bright[i] { BRIGHT } else { DARK },
+        &[DARK, BRIGHT],
+        MAX_POINTS_PER_VIEW,
+    );
+    let reach = 2.0 * ((side.x.1 - side.x.0).abs() + (side.y.1 - side.y.0).abs());
+    for d in b.lines {
+        let d = Vector3::from(d);
+        let (du, dv) = (e0.dot(&d) * reach, e1.dot(&d) * reach);
+        if let Some((p, q)) = side.clip((-du, -dv), (du, dv)) {
+            f.line(p, q, palette::ESTIMATE, 1.0, true);
+        }
+    }
+    f.marker(side.map(0.0, 0.0), MarkerKind::Plus, 8.0, palette::ESTIMATE);
+}
+
+/// The legend line of a board's views.
+fn board_legend(f: &mut Figure) {
+    let y = LEGEND_Y;
+    legend_dot(f, (60.0, y), BRIGHT, "bright square");
+    legend_dot(f, (170.0, y), DARK, "dark square");
+    legend_marker(
+        f,
+        (280.0, y),
+        MarkerKind::Plus,
+        palette::ESTIMATE,
+        "estimated crossing",
+    );
+    legend_marker(
+        f,
+        (440.0, y),
+        MarkerKind::Diamond,
+        palette::SURVEY,
+        "survey (aligned into the map)",
+    );
+    legend_dot(f, (660.0, y), palette::SAMPLE, "accepted sample");
 }
 
 /// Top view, metres from the corner: the crop, each plate's trace, the
