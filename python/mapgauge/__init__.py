@@ -220,7 +220,8 @@ class Target:
     """Error under an alignment fitted without this target."""
     detail: Optional[Dict[str, Any]]
     """The pipeline's record of the target (``eval.targets``: crops, samples,
-    spread, failed stage; for a sphere its fit under ``sphere``); ``None``
+    spread, failed stage; for a sphere its fit under ``sphere``, for a board
+    under ``board``); ``None``
     for :func:`errors`."""
     model: str = "l"
     """What the target is: ``l``, ``sphere`` or ``board`` (the survey's

@@ -682,3 +682,24 @@ def test_a_mixed_survey_names_each_target_model():
     assert s["inliers"] >= 30 and abs(s["free_radius"] - 0.0725) < 0.006
     truth = np.asarray(sc.truth["targets"][1]["map"])
     assert np.linalg.norm(ev.targets[1].map - truth) < 0.01
+
+
+def test_boards_are_located_from_a_map_with_intensity(cli, tmp_path):
+    # Issue 33: a checkerboard is told by its print, so it is located from a
+    # map file with intensity; in memory (coordinates only) it says why not.
+    d = tmp_path / "boards"
+    run_cli(cli, "synth", "--out", str(d), "--points", "2000000", "--seed", "3",
+            "--models", "l,board", "--format", "pcd-xyzi")
+    truth = json.loads((d / "truth.json").read_text())
+    ev = mapgauge.evaluate(d / "map.pcd", d / "survey.csv")
+    assert [t.model for t in ev.targets] == ["l", "board", "l", "board", "l"]
+    for t, tt in zip(ev.targets, truth["targets"]):
+        assert t.status == "ok", t.reason
+        if t.model == "board":
+            b = t.detail["board"]
+            assert b["contrast"] > 10 and b["points"] >= 40
+            assert np.linalg.norm((t.map - np.asarray(tt["map"]))[:2]) < 0.003
+    sc = mapgauge.synth(points=2_000_000, seed=3, models=["l", "board"])
+    ev = mapgauge.evaluate(sc.points, sc.survey)
+    boards = [t for t in ev.targets if t.model == "board"]
+    assert boards and all(t.status == "not_found" and "no intensity" in t.reason for t in boards)
