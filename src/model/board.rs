@@ -42,7 +42,9 @@ use serde::{Deserialize, Serialize};
 pub struct BoardParams {
     /// Side (m) of boards the survey gives no `size` for.
     pub side_m: f64,
-    /// Fewest points on the board for a board.
+    /// Fewest points on the board for a board: fewer leave its lines to a
+    /// few rows (synth boards 15–30 m off with 60–99 points: 2 of 9 outside
+    /// their 99.9 % ellipsoid).
     pub min_points: usize,
     /// Horizontal search radius around the expected position (m).
     pub search_radius_m: f64,
@@ -57,7 +59,7 @@ impl Default for BoardParams {
     fn default() -> Self {
         BoardParams {
             side_m: 0.6,
-            min_points: 40,
+            min_points: 100,
             search_radius_m: 4.5,
             max_points: 60_000,
             seed: 0,
@@ -517,12 +519,18 @@ fn judge(
     }
     // The board's own points: within its size of the face's middle.
     let mid = [(u0 + u1) / 2.0, (v0 + v1) / 2.0];
+    // Less its rim: a footprint on the board's edge is part background, and
+    // its mixed intensity pulled a sharp line onto it (a far board: 39 mm).
     let half = 0.6 * side;
+    let rim = (0.06 * side).max(0.02);
+    let inside = |a: f64, lo: f64, hi: f64, m: f64| {
+        (a - m).abs() <= half && a >= lo - 0.02 + rim && a <= hi + 0.02 - rim
+    };
     let mut pts = Vec::new();
     let mut pts3 = Vec::new();
     for &i in &ids {
         let q = uv(&v[i as usize]);
-        if (q[0] - mid[0]).abs() <= half && (q[1] - mid[1]).abs() <= half {
+        if inside(q[0], u0, u1, mid[0]) && inside(q[1], v0, v1, mid[1]) {
             pts.push([q[0], q[1], inten[i as usize]]);
             pts3.push(v[i as usize]);
         }
@@ -534,6 +542,16 @@ fn judge(
         / pts3.len().max(1) as f64)
         .sqrt();
     let np = pts.len();
+    if np < p.min_points {
+        return refuse(
+            np,
+            format!(
+                "{np} points inside a board-sized face, fewer than {} to place its lines",
+                p.min_points
+            ),
+            &at,
+        );
+    }
     let mut iv: Vec<f64> = pts.iter().map(|q| q[2]).collect();
     let (lo, hi) = (pct(&mut iv, 0.1), pct(&mut iv, 0.9));
     if !(hi > lo) {
@@ -637,6 +655,14 @@ fn judge(
     } else if least < (np / 20).max(3) {
         Some(format!(
             "a checkerboard seen too little to place both lines ({least} points in a quarter)"
+        ))
+    } else if let Some(free) = (0..2)
+        .map(|k| free_half_width(&pts, &x, k, 0.25 * extent[0].min(extent[1])))
+        .find(|h| *h > 0.1 * side)
+    {
+        Some(format!(
+            "a print whose lines its points do not pin (one is free over ±{:.0} mm)",
+            free * 1e3
         ))
     } else if w > 0.1 * side {
         Some(format!(
@@ -857,7 +883,9 @@ fn refine(pts: &[[f64; 3]], x0: [f64; 6], iters: usize) -> Fit {
             for k in 0..6 {
                 xn[k] += d[k];
             }
-            xn[5] = xn[5].clamp((1e-4f64).ln(), (0.2f64).ln());
+            // A footprint is never sharper than 2 mm (0.3 mrad at 7 m), and a
+            // sharper edge lets single points pin a line.
+            xn[5] = xn[5].clamp((2e-3f64).ln(), (0.2f64).ln());
             let rn = resid(&xn);
             if cost(&rn, &w) < c0 {
                 let small = d[0].abs() < 1e-7 && d[1].abs() < 1e-7 && d[2].abs() < 1e-6;
@@ -931,6 +959,14 @@ fn resampled(c: &Candidate, seed: u64) -> Vec<Vector3<f64>> {
 fn covariance(c: &Candidate, samples: &[Vector3<f64>]) -> [[f64; 3]; 3] {
     let f = refine(&c.pts, c.x, 1);
     let mut c2 = Matrix2::new(f.cov[(0, 0)], f.cov[(0, 1)], f.cov[(1, 0)], f.cov[(1, 1)]);
+    // With no return near an edge the fit sharpens the blur to its floor and
+    // the curvature vanishes (JᵀWJ singular: σ of 10⁹ m on a far board of
+    // 188 points): the profiles below and the refits then say how far the
+    // lines are free.
+    let size = c.extent[0].min(c.extent[1]);
+    if !(c2.iter().all(|v| v.is_finite()) && c2.trace() < (0.25 * size).powi(2)) {
+        c2 = Matrix2::zeros();
+    }
     if samples.len() > 1 {
         let m = samples.iter().sum::<Vector3<f64>>() / samples.len() as f64;
         let mut sc = Matrix2::zeros();
@@ -952,7 +988,9 @@ fn covariance(c: &Candidate, samples: &[Vector3<f64>]) -> [[f64; 3]; 3] {
     let rot = Matrix2::new(cs, sn, -sn, cs);
     let mut across = rot * c2 * rot.transpose();
     for k in 0..2 {
-        let open = 0.8 * open_half_width(c, k);
+        // At least a uniform error over the gap in the points that the line
+        // lies in (a spinning scanner's rows far off: 10 cm apart).
+        let open = (0.8 * open_half_width(c, k)).max(straddled_gap(c, k) / 12f64.sqrt());
         let var = across[(k, k)];
         if open * open > var {
             let scale = open / var.sqrt().max(1e-12);
@@ -1066,8 +1104,33 @@ fn settle(pts: &[[f64; 3]], mut fit: Fit, reach: f64) -> Fit {
 /// those offsets, a gap between a scanner's rows or a second minimum
 /// included.
 fn open_half_width(c: &Candidate, k: usize) -> f64 {
-    let reach = 0.25 * c.extent[0].min(c.extent[1]);
-    let (curve, s2) = profile(&c.pts, &c.x, k, reach);
+    free_half_width(&c.pts, &c.x, k, 0.25 * c.extent[0].min(c.extent[1]))
+}
+
+/// The gap in the points' offsets across line `k` that the line lies in:
+/// from the nearest point on one side to the nearest on the other.
+fn straddled_gap(c: &Candidate, k: usize) -> f64 {
+    let (sn, cs) = c.x[2].sin_cos();
+    let dir = if k == 0 { [cs, sn] } else { [-sn, cs] };
+    let (mut below, mut above) = (f64::INFINITY, f64::INFINITY);
+    for q in &c.pts {
+        let d = (q[0] - c.x[0]) * dir[0] + (q[1] - c.x[1]) * dir[1];
+        if d < 0.0 {
+            below = below.min(-d);
+        } else {
+            above = above.min(d);
+        }
+    }
+    if below.is_finite() && above.is_finite() {
+        below + above
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// [`open_half_width`] of a fit `x` to `pts`, the profile out to `reach`.
+fn free_half_width(pts: &[[f64; 3]], x: &[f64; 6], k: usize, reach: f64) -> f64 {
+    let (curve, s2) = profile(pts, x, k, reach);
     let low = curve.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
     let within: Vec<f64> = curve
         .iter()

@@ -112,7 +112,12 @@ fn face_view(f: &mut Figure, l: &Located, b: &crate::report::BoardView) {
     let face_of = |p: &Point| (e0.dot(&(p - c)), e1.dot(&(p - c)));
     let (sx, sz) = bounds(l.tight.iter().map(face_of));
     let side = Panel::new(SIDE, pad(sx, 0.08), pad(sz, 0.08), true);
-    side.axes(f, "face view (the print)", "along the face (m)", "up the face (m)");
+    side.axes(
+        f,
+        "face view (the print)",
+        "along the face (m)",
+        "up the face (m)",
+    );
     let ok = b.bright.len() == l.tight.len();
     cloud(
         f,
