@@ -80,8 +80,6 @@ pub enum Failure {
     /// No checkerboard board stood near the expected position (or the map
     /// has no intensity to tell one).
     Board(crate::model::BoardError),
-    /// The survey names a model mapgauge does not locate yet.
-    Unsupported(crate::model::ModelKind),
     /// The target is mapped twice (a loop closed badly): a plate shows two
     /// layers, and the located corner is a blend of the copies.
     Doubled(crate::locate::Doubled),
@@ -116,7 +114,6 @@ impl Failure {
             Failure::HandCrop(_) | Failure::Tight(_) | Failure::Sphere(_) | Failure::Board(_) => {
                 "tight"
             }
-            Failure::Unsupported(_) => "model",
             Failure::Locate(_) => "locate",
             Failure::FarFromOthers { .. }
             | Failure::OffLayout { .. }
@@ -147,10 +144,6 @@ impl std::fmt::Display for Failure {
             Failure::Tight(e) => write!(f, "{e}"),
             Failure::Sphere(e) => write!(f, "{e}"),
             Failure::Board(e) => write!(f, "{e}"),
-            Failure::Unsupported(m) => write!(
-                f,
-                "a {m} target: mapgauge does not locate {m} targets yet (give its map position in an estimates file to `mapgauge errors`)"
-            ),
             Failure::Locate(e) => write!(f, "localisation failed: {e}"),
             Failure::FarFromOthers {
                 at,
@@ -367,12 +360,28 @@ pub(crate) fn locate_target(
             sphere_target(&mut run, centre, others, size, tight, cfg);
             return run;
         }
-        (m @ ModelKind::Board, size) => {
-            if crops_dir.is_some() {
-                // A hand-made crop is read without intensity.
-                run.outcome = Err(Failure::Unsupported(m));
-                return run;
-            }
+        (ModelKind::Board, size) => {
+            let board = match crops_dir {
+                // A hand-made crop is searched whole, about its own middle,
+                // with the intensity its file carries.
+                Some(dir) => match hand_board_crop(dir, id) {
+                    Ok(c) => {
+                        if let Ok((p, _)) = &c
+                            && !p.is_empty()
+                        {
+                            let n = p.len() as f64;
+                            let mid = p.iter().map(|q| q.coords).sum::<Vector3<f64>>() / n;
+                            run.expected = Point::new(mid.x, mid.y, run.expected.z);
+                        }
+                        Some(c)
+                    }
+                    Err(e) => {
+                        run.outcome = Err(Failure::HandCrop(e));
+                        return run;
+                    }
+                },
+                None => board,
+            };
             board_target(&mut run, board, others, size, tight, cfg);
             return run;
         }
@@ -580,6 +589,39 @@ fn found(l: locate::Located, up: Vector3<f64>) -> Found {
     }
 }
 
+/// A board's hand-made crop (`DIR/<stem>.<ext>`, as [`hand_crop`] finds it)
+/// with its intensities, or why its file has none.
+fn hand_board_crop(dir: &Path, id: &str) -> Result<super::crops::BoardCrop> {
+    let stem = crate::survey::file_stem(id);
+    for ext in [
+        "ply", "pcd", "las", "laz", "xyz", "txt", "csv", "e57", "pts",
+    ] {
+        let p = dir.join(format!("{stem}.{ext}"));
+        if !p.is_file() {
+            continue;
+        }
+        let mut r = crate::cloud::open(&p)?;
+        if !r.has_intensity() {
+            return Ok(Err(format!(
+                "{} has no intensity mapgauge reads (binary PCD, fixed-size binary PLY, \
+                 uncompressed LAS)",
+                p.display()
+            )));
+        }
+        let (mut pts, mut inten) = (Vec::new(), Vec::new());
+        let (mut b, mut i) = (Vec::new(), Vec::new());
+        while r.next_chunk_intensity(&mut b, &mut i)? {
+            pts.extend_from_slice(&b);
+            inten.extend_from_slice(&i);
+        }
+        return Ok(Ok((pts, inten)));
+    }
+    Err(Error::Input(format!(
+        "no tight crop {}/{stem}.ply|pcd|las|laz|xyz|e57",
+        dir.display()
+    )))
+}
+
 /// Finds `DIR/<stem>.<ext>` for any readable cloud extension and reads it,
 /// where the stem is the id made safe as a file name.
 /// `plate_width`: an L's, to refuse a loose crop given as a tight one
@@ -737,5 +779,87 @@ mod tests {
             no.starts_with("the object located at (1.00, 2.00) is 1.50 m off in its distances"),
             "{no}"
         );
+    }
+
+    /// A board's hand-made crop is read with the intensity its file carries
+    /// and located about its own middle; a crop file without intensity says
+    /// so.
+    #[test]
+    fn a_boards_hand_crop_is_located_with_its_intensity() {
+        let dir = tempfile::tempdir().unwrap();
+        // A 0.6 m board facing +y, its crossing at (10, 20, 1.2), 1 cm apart,
+        // and a patch of ground.
+        let (mut pts, mut inten) = (Vec::new(), Vec::new());
+        for i in 0..60 {
+            for j in 0..60 {
+                let (u, v) = (-0.295 + 0.01 * i as f64, -0.295 + 0.01 * j as f64);
+                pts.push(Point::new(
+                    10.0 + u,
+                    20.0 + 0.002 * ((i * 7 + j * 3) % 5) as f64,
+                    1.2 + v,
+                ));
+                inten.push(if (u > 0.0) == (v > 0.0) {
+                    200.0f32
+                } else {
+                    20.0
+                });
+            }
+        }
+        for i in 0..40 {
+            for j in 0..40 {
+                pts.push(Point::new(
+                    9.0 + 0.05 * i as f64,
+                    19.0 + 0.05 * j as f64,
+                    0.0,
+                ));
+                inten.push(60.0);
+            }
+        }
+        let path = dir.path().join("b7.pcd");
+        let mut w =
+            crate::cloud::CloudWriter::create_with(&path, crate::cloud::OutFormat::PcdXyzi, true)
+                .unwrap();
+        w.write_intensity(&pts, &inten).unwrap();
+        w.finish().unwrap();
+        let place = |id: &'static str| Place {
+            id,
+            // The survey's place, in another frame: the crop is searched
+            // about its own middle.
+            expected: Point::new(500.0, -3.0, 1.0),
+            others: &[],
+            more_ups: &[],
+            model: (ModelKind::Board, Some(0.6)),
+            board: None,
+        };
+        let cfg = Config::default();
+        let r = locate_target(
+            place("b7"),
+            Vec::new(),
+            Some(dir.path()),
+            &cfg.tight,
+            &cfg,
+            Pass::First,
+        );
+        let f = r.outcome.as_ref().expect("a board");
+        assert!(f.board.is_some() && f.model() == ModelKind::Board);
+        let c = f.located.corner;
+        assert!((c - Point::new(10.0, 20.0, 1.2)).norm() < 0.004, "{c:?}");
+        // The same points as a PLY of doubles: no intensity.
+        let ply = dir.path().join("b8.ply");
+        let mut w =
+            crate::cloud::CloudWriter::create_with(&ply, crate::cloud::OutFormat::Ply, false)
+                .unwrap();
+        w.write(&pts).unwrap();
+        w.finish().unwrap();
+        let r = locate_target(
+            place("b8"),
+            Vec::new(),
+            Some(dir.path()),
+            &cfg.tight,
+            &cfg,
+            Pass::First,
+        );
+        let e = r.outcome.err().expect("no intensity").to_string();
+        assert!(e.contains("has no intensity"), "{e}");
     }
 }
