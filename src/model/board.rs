@@ -193,23 +193,36 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     let grid = Grid::new(&v, side / 2.0);
     let mut cands: Vec<Candidate> = Vec::new();
     let mut refused: Vec<(usize, String, f64)> = Vec::new();
-    // Faces refused as wider than a board: a wall or a van's side seeds a
-    // plane in every cell it crosses, each judged the same.
+    // Planes of faces refused as walls (flat well beyond twice a board): a
+    // wall or a van's side seeds a plane in every cell it crosses, each
+    // judged the same. A face refused as wider only because its reach took
+    // in a sign or a panel beside the board is not one: the board's own
+    // seeds are still judged.
     let mut wide: Vec<Plane> = Vec::new();
-    // Where the faces refused were seeded, and their normals.
-    let mut seen: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
+    // The faces refused: where they were seeded, and their planes.
+    let mut seen: Vec<(Vector3<f64>, Plane)> = Vec::new();
     for seed_plane in plane_seeds(&v, &grid, side, p.seed) {
         if cands.len() + refused.len() >= CANDIDATES {
             break;
         }
         let sp = &seed_plane.plane;
+        let on = |w: &Plane| {
+            w.normal.dot(&sp.normal).abs() > 0.9
+                && (w.normal.dot(&seed_plane.at) - w.offset).abs() < 0.03
+        };
         let judged = cands
             .iter()
-            .map(|c| (c.centre, c.normal))
-            .chain(seen.iter().copied())
-            .any(|(at, n)| {
-                (at - seed_plane.at).norm() < 0.5 * side && n.dot(&sp.normal).abs() > 0.9
+            .map(|c| {
+                (
+                    c.centre,
+                    Plane {
+                        normal: c.normal,
+                        offset: c.normal.dot(&c.centre),
+                    },
+                )
             })
+            .chain(seen.iter().copied())
+            .any(|(at, w)| (at - seed_plane.at).norm() < 0.5 * side && on(&w))
             || wide.iter().any(|w| {
                 w.normal.dot(&sp.normal).abs() > 0.98
                     && (w.normal.dot(&seed_plane.at) - w.offset).abs() < 0.03
@@ -221,7 +234,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             Ok(c) => cands.push(c),
             Err(r) => {
                 wide.extend(r.wider);
-                seen.push((seed_plane.at, sp.normal));
+                seen.push((seed_plane.at, *sp));
                 refused.push((r.points, r.why, r.from))
             }
         }
@@ -411,6 +424,55 @@ fn face_axes(n: &Vector3<f64>, up: &Vector3<f64>) -> [Vector3<f64>; 2] {
     [a, n.cross(&a)]
 }
 
+/// Keeps of a face's points `ids` those on the seed's side of any gap
+/// along the face's horizontal axis (at least 4 cm and 4 times the points'
+/// median spacing there): a sign or a panel standing beside a board in its
+/// plane is another object, and taking both in made the face "wider than a
+/// board" (a sign 5 cm off lost 5 boards of 15). Only along the horizontal:
+/// a spinning scanner's rows leave gaps up the face that are not edges.
+fn own_side(
+    v: &[Vector3<f64>],
+    ids: &mut Vec<u32>,
+    n: &Vector3<f64>,
+    up: &Vector3<f64>,
+    at: &Vector3<f64>,
+) {
+    if ids.len() < 3 {
+        return;
+    }
+    let e0 = face_axes(n, up)[0];
+    let mut u: Vec<(f64, u32)> = ids
+        .iter()
+        .map(|&i| (e0.dot(&(v[i as usize] - at)), i))
+        .collect();
+    u.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut steps: Vec<f64> = u.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    let gap = (4.0 * pct(&mut steps, 0.5)).max(0.04);
+    // The run of points, split at the gaps, that holds the seed (u = 0), or
+    // the one nearest it.
+    let (mut best, mut best_d) = ((0, u.len()), f64::INFINITY);
+    let mut start = 0;
+    for k in 0..u.len() {
+        let end = k + 1 == u.len() || u[k + 1].0 - u[k].0 > gap;
+        if end {
+            let (lo, hi) = (u[start].0, u[k].0);
+            let d = if lo <= 0.0 && 0.0 <= hi {
+                0.0
+            } else {
+                lo.abs().min(hi.abs())
+            };
+            if d < best_d {
+                best = (start, k + 1);
+                best_d = d;
+            }
+            start = k + 1;
+        }
+    }
+    let mut kept: Vec<u32> = u[best.0..best.1].iter().map(|q| q.1).collect();
+    kept.sort_unstable();
+    *ids = kept;
+}
+
 /// Percentile `q` (0..=1) of `x` (sorted in place).
 fn pct(x: &mut [f64], q: f64) -> f64 {
     x.sort_unstable_by(f64::total_cmp);
@@ -459,6 +521,7 @@ fn judge(
             .map(|i| i as u32)
             .collect();
         ids.sort_unstable();
+        own_side(v, &mut ids, &plane.normal, up, &seed.at);
         let Some(f) = plane_fit(v, &ids) else {
             return refuse(ids.len(), "too few points for a plane".into(), &at);
         };
@@ -492,6 +555,18 @@ fn judge(
     let (v0, v1) = (pct(&mut vs, 0.02), pct(&mut vs, 0.98));
     let extent = [u1 - u0, v1 - v0];
     if extent[0] > 1.2 * side || extent[1] > 1.2 * side {
+        // A wall, when the plane goes on flat beyond twice a board.
+        let mut far: Vec<[f64; 2]> = grid
+            .near(v, &at, 1.5 * side)
+            .filter(|&i| (plane.normal.dot(&v[i]) - plane.offset).abs() < tol)
+            .map(|i| uv(&v[i]))
+            .collect();
+        let span = |k: usize, far: &mut Vec<[f64; 2]>| {
+            let mut a: Vec<f64> = far.iter().map(|q| q[k]).collect();
+            pct(&mut a, 0.98) - pct(&mut a, 0.02)
+        };
+        let wall =
+            far.len() >= 10 && (span(0, &mut far) > 2.0 * side || span(1, &mut far) > 2.0 * side);
         return Err(Refusal {
             points: ids.len(),
             why: format!(
@@ -501,7 +576,7 @@ fn judge(
                 1.5 * side
             ),
             from: at.xy().norm(),
-            wider: Some(Plane {
+            wider: wall.then_some(Plane {
                 normal: n,
                 offset: n.dot(&at),
             }),
@@ -800,8 +875,9 @@ fn model(x: &[f64; 6], u: f64, v: f64) -> f64 {
     x[3] + (x[4] - x[3]) * p
 }
 
-/// A pattern fit: the parameters, the robust σ of the residuals, the share
-/// of the variance explained, and (JᵀWJ)⁻¹ s².
+/// A pattern fit: the parameters, the robust σ of the residuals (from
+/// their median absolute value), the share of the variance explained, and
+/// (JᵀWJ)⁻¹ s².
 struct Fit {
     x: [f64; 6],
     sigma: f64,
@@ -909,12 +985,24 @@ fn refine(pts: &[[f64; 3]], x0: [f64; 6], iters: usize) -> Fit {
     let cov = a
         .try_inverse()
         .map_or(SMatrix::repeat(f64::INFINITY), |m| m * s2);
-    let mean = pts.iter().map(|q| q[2]).sum::<f64>() / pts.len().max(1) as f64;
-    let var = pts.iter().map(|q| (q[2] - mean).powi(2)).sum::<f64>();
-    let sse = r.iter().map(|v| v * v).sum::<f64>();
+    // The share explained and the noise, robustly: a few returns of a
+    // saturated or broken intensity (65535) must not decide them (three
+    // such among 2000 read as "explains 0 %"). Residuals are clipped at 3
+    // robust σ, deviations from the median at the middle 90 %'s span.
+    let mut iv: Vec<f64> = pts.iter().map(|q| q[2]).collect();
+    let (p5, med, p95) = (pct(&mut iv, 0.05), pct(&mut iv, 0.5), pct(&mut iv, 0.95));
+    let span = (p95 - p5).max(1e-12);
+    let var = iv
+        .iter()
+        .map(|v| (v - med).clamp(-span, span).powi(2))
+        .sum::<f64>();
+    let sse = r
+        .iter()
+        .map(|v| v.clamp(-3.0 * s, 3.0 * s).powi(2))
+        .sum::<f64>();
     Fit {
         x,
-        sigma: s2.sqrt(),
+        sigma: s,
         explained: if var > 0.0 { 1.0 - sse / var } else { 0.0 },
         cov,
     }
@@ -1085,10 +1173,19 @@ fn settle(pts: &[[f64; 3]], mut fit: Fit, reach: f64) -> Fit {
     // is then at most half the gap.
     for k in 0..2 {
         let (curve, s2) = profile(pts, &fit.x, k, reach);
-        let low = curve.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
-        let within = curve.iter().filter(|p| p.1 <= low + s2).map(|p| p.0);
-        let (lo, hi) = within.fold((0.0f64, 0.0f64), |(a, b), d| (a.min(d), b.max(d)));
-        let mid = (lo + hi) / 2.0;
+        // The run of offsets within s² of the lowest cost, about it.
+        let Some(m) = (0..curve.len()).min_by(|&a, &b| curve[a].1.total_cmp(&curve[b].1)) else {
+            continue;
+        };
+        let low = curve[m].1;
+        let (mut a, mut b) = (m, m);
+        while a > 0 && curve[a - 1].1 <= low + s2 {
+            a -= 1;
+        }
+        while b + 1 < curve.len() && curve[b + 1].1 <= low + s2 {
+            b += 1;
+        }
+        let mid = (curve[a].0 + curve[b].0) / 2.0;
         if mid.abs() > 1e-3 {
             let (sn, cs) = fit.x[2].sin_cos();
             let dir = if k == 0 { [cs, sn] } else { [-sn, cs] };

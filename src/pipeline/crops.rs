@@ -190,6 +190,10 @@ pub(super) fn board_crops(
     let hash = |p: &Point| crate::crop::point_hash(p);
     while reader.next_chunk_intensity(&mut buf, &mut inten)? {
         for (p, &v) in buf.iter().zip(&inten) {
+            // A broken intensity (NaN, infinite) says nothing of the print.
+            if !v.is_finite() {
+                continue;
+            }
             for (k, (_, c)) in at.iter().enumerate() {
                 let (dx, dy) = (p.x - c.x, p.y - c.y);
                 if dx * dx + dy * dy >= r2 {

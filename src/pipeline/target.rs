@@ -611,8 +611,12 @@ fn hand_board_crop(dir: &Path, id: &str) -> Result<super::crops::BoardCrop> {
         let (mut pts, mut inten) = (Vec::new(), Vec::new());
         let (mut b, mut i) = (Vec::new(), Vec::new());
         while r.next_chunk_intensity(&mut b, &mut i)? {
-            pts.extend_from_slice(&b);
-            inten.extend_from_slice(&i);
+            for (p, v) in b.iter().zip(&i) {
+                if v.is_finite() {
+                    pts.push(*p);
+                    inten.push(*v);
+                }
+            }
         }
         return Ok(Ok((pts, inten)));
     }

@@ -281,3 +281,21 @@ fn the_covariance_covers_the_error() {
         "{inside} of {runs} inside the 95 % ellipse"
     );
 }
+
+/// A few returns of a saturated intensity do not unmake a board.
+#[test]
+fn a_few_saturated_returns_leave_the_board_a_board() {
+    let mut sc = scene(8, BOARD, |_, _, _| {});
+    // Three returns on the face read 65535.
+    let on: Vec<usize> = (0..sc.pts.len())
+        .filter(|&i| (sc.pts[i] - sc.truth).norm() < 0.2)
+        .take(3)
+        .collect();
+    assert_eq!(on.len(), 3);
+    for i in on {
+        sc.inten[i] = 65535.0;
+    }
+    let (fit, _) = locate(&search(&sc, sc.truth), &BoardParams::default()).expect("a board");
+    assert!((fit.centre - sc.truth).norm() < 0.002, "{fit:?}");
+    assert!(fit.explained > 0.8 && fit.contrast > 10.0, "{fit:?}");
+}
