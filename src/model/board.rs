@@ -76,7 +76,9 @@ pub struct BoardFit {
     /// The face's unit normal (towards the side the points were seen from
     /// is not known: its sign is the fit's).
     pub normal: [f64; 3],
-    /// The two boundary lines' directions in the face (unit vectors).
+    /// The two boundary lines' directions in the face (unit vectors; the
+    /// first is the direction of the line where the fit's second offset
+    /// changes sign, so the order says nothing more than which is which).
     pub lines: [[f64; 3]; 2],
     /// Points on the board the pattern was fitted to.
     pub points: usize,
