@@ -466,19 +466,25 @@ fn sphere_target(
     match crate::model::sphere::locate(&search, &p) {
         Ok((fit, near)) => {
             run.tight = near;
+            let located = point_estimate(fit.centre, fit.covariance, &fit.samples);
             run.outcome = Ok(Found {
-                located: locate::Located::without_plates(
-                    fit.centre,
-                    fit.covariance,
-                    fit.samples.clone(),
-                ),
-                up: Vector3::z(),
-                axis: Vector3::z(),
                 sphere: Some(fit),
-                board: None,
+                ..located
             });
         }
         Err(e) => run.outcome = Err(Failure::Sphere(e)),
+    }
+}
+
+/// A model located as a point (a sphere's centre, a board's crossing), its
+/// fit to be added: no plates, "up" and the axis the map's +z.
+fn point_estimate(centre: Point, covariance: [[f64; 3]; 3], samples: &[Point]) -> Found {
+    Found {
+        located: locate::Located::without_plates(centre, covariance, samples.to_vec()),
+        up: Vector3::z(),
+        axis: Vector3::z(),
+        sphere: None,
+        board: None,
     }
 }
 
@@ -527,16 +533,10 @@ fn board_target(
     match crate::model::board::locate(&search, &p) {
         Ok((fit, near)) => {
             run.tight = near;
+            let located = point_estimate(fit.centre, fit.covariance, &fit.samples);
             run.outcome = Ok(Found {
-                located: locate::Located::without_plates(
-                    fit.centre,
-                    fit.covariance,
-                    fit.samples.clone(),
-                ),
-                up: Vector3::z(),
-                axis: Vector3::z(),
-                sphere: None,
                 board: Some(fit),
+                ..located
             });
         }
         Err(e) => run.outcome = Err(Failure::Board(e)),

@@ -41,6 +41,24 @@ fn eval(scene: &Path, survey: &Path, out: &Path) -> std::process::Output {
         .unwrap()
 }
 
+/// `eval --no-report` of a scene's `map.pcd` against `survey`: its
+/// result.json.
+fn eval_pcd(scene: &Path, survey: &Path, out: &Path) -> Value {
+    let o = bin()
+        .arg("eval")
+        .arg("--map")
+        .arg(scene.join("map.pcd"))
+        .arg("--survey")
+        .arg(survey)
+        .arg("--out")
+        .arg(out)
+        .arg("--no-report")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "eval: {}", stderr(&o));
+    json(&out.join("result.json"))
+}
+
 fn json(p: &Path) -> Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
@@ -184,21 +202,7 @@ fn boards_are_located_by_their_print() {
         .unwrap();
     assert!(o.status.success(), "synth: {}", stderr(&o));
     let truth = json(&scene.join("truth.json"));
-    let run = |survey: &Path, out: &Path| {
-        let o = bin()
-            .arg("eval")
-            .arg("--map")
-            .arg(scene.join("map.pcd"))
-            .arg("--survey")
-            .arg(survey)
-            .arg("--out")
-            .arg(out)
-            .arg("--no-report")
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "eval: {}", stderr(&o));
-        json(&out.join("result.json"))
-    };
+    let run = |survey: &Path, out: &Path| eval_pcd(&scene, survey, out);
     let r = run(&scene.join("survey.csv"), &out);
     let found = located(&r, &truth);
     assert_eq!(found.len(), 5, "{}", r["targets"]);
@@ -259,21 +263,7 @@ fn a_plain_sign_is_never_taken_for_a_board() {
         assert!(o.status.success(), "synth: {}", stderr(&o));
         (json(&scene.join("truth.json")), scene)
     };
-    let eval_at = |scene: &Path, survey: &Path, out: &Path| {
-        let o = bin()
-            .arg("eval")
-            .arg("--map")
-            .arg(scene.join("map.pcd"))
-            .arg("--survey")
-            .arg(survey)
-            .arg("--out")
-            .arg(out)
-            .arg("--no-report")
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "eval: {}", stderr(&o));
-        json(&out.join("result.json"))
-    };
+    let eval_at = eval_pcd;
     let (truth, scene) = synth_boards("signs", "[board]\nsign_gap_m = 0.4\n");
     // Each board surveyed 0.7 m towards its sign (whose middle is 1.0 m
     // along the face from the board's).
