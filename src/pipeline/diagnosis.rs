@@ -87,11 +87,24 @@ pub(super) fn not_there(
     let places = places_seen(found);
     let n = found.len();
     if detections == 0 {
+        use crate::model::ModelKind;
+        // The remedies that fit the survey's models: a plate size only for
+        // Ls; boards are never detected map-wide, so none found there says
+        // nothing of them.
+        let mut hint = String::new();
+        if found.iter().any(|r| r.model == ModelKind::L) {
+            hint += &format!(
+                " (For plates of another size than {:.2} × {:.2} m, give --plate-size W,H)",
+                cfg.tight.plate_width, cfg.tight.plate_height
+            );
+        }
+        if found.iter().any(|r| r.model == ModelKind::Board) {
+            hint += " Checkerboard boards are looked for only where the survey places them (map-wide detection finds Ls and spheres); failed.csv (with --out) gives each place's reason.";
+        }
         return Error::FrameNotFound {
             detections,
             msg: format!(
-                "{map}: no target where the survey places them (of its {n} places: {places}), and none anywhere else: detection map-wide found no target-shaped object. The map holds none of the surveyed targets: is it the map of this survey's site, made while the targets stood? (For plates of another size than {:.2} × {:.2} m, give --plate-size W,H)",
-                cfg.tight.plate_width, cfg.tight.plate_height
+                "{map}: no target where the survey places them (of its {n} places: {places}), and none anywhere else: detection map-wide found no target-shaped object. The map holds none of the surveyed targets: is it the map of this survey's site, made while the targets stood?{hint}"
             ),
         };
     }

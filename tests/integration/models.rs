@@ -321,6 +321,32 @@ fn a_plain_sign_is_never_taken_for_a_board() {
     }
 }
 
+/// A survey of boards alone in a map without intensity: every board is
+/// `not_found`, map-wide detection (Ls and spheres) finds nothing, and the
+/// run's error says boards are looked for only at their places, with no
+/// plate-size remedy (the survey has no L).
+#[test]
+fn a_survey_of_boards_alone_that_finds_none_says_why() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let o = bin()
+        .arg("synth")
+        .arg("--out")
+        .arg(&scene)
+        .args(["--points", "1000000", "--seed", "4", "--models", "board"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "synth: {}", stderr(&o));
+    let o = eval(&scene, &scene.join("survey.csv"), &dir.path().join("out"));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("looked for only where the survey places them"),
+        "{e}"
+    );
+    assert!(!e.contains("--plate-size"), "{e}");
+}
+
 #[test]
 fn boards_in_a_map_without_intensity_say_so_and_bad_models_are_refused() {
     let dir = tempdir();
