@@ -43,7 +43,7 @@ pub struct BoardParams {
     /// Side (m) of boards the survey gives no `size` for.
     pub side_m: f64,
     /// Fewest points on the board for a board: fewer leave its lines to a
-    /// few rows (synth boards 15–30 m off with 60–99 points: 2 of 9 outside
+    /// few rows (synth boards 15–30 m off with 60–99 points: 2 of 13 outside
     /// their 99.9 % ellipsoid).
     pub min_points: usize,
     /// Horizontal search radius around the expected position (m).

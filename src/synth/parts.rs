@@ -205,28 +205,14 @@ pub(super) fn sphere_target(
             z1: zc,
         });
     }
-    let truth = TargetTruth {
+    let truth = point_truth(
         id,
-        world: [x, y, zc],
-        survey: SurveyPoint {
-            x,
-            y,
-            z: zc,
-            antenna_height: 0.0,
-        },
-        map: [0.0; 3],
-        heading_deg: 0.0,
-        ground_z: gz,
-        plate_bottom_z: zc - r,
-        plate_top_z: zc + r,
-        antenna_top_z: zc + r,
+        [x, y, zc],
+        (gz, r),
+        0.0,
         road_distance_m,
-        points: 0,
-        ghost: None,
-        ghost_points: 0,
-        model: crate::model::ModelKind::Sphere,
-        size: Some(shape.diameter_m),
-    };
+        (crate::model::ModelKind::Sphere, shape.diameter_m),
+    );
     (Object::new(prims), truth)
 }
 
@@ -276,27 +262,49 @@ pub(super) fn board_target(
             });
         }
     }
-    let truth = TargetTruth {
+    let truth = point_truth(
         id,
-        world: [x, y, zc],
+        [x, y, zc],
+        (gz, half),
+        ny.atan2(nx).to_degrees(),
+        road_distance_m,
+        (crate::model::ModelKind::Board, shape.side_m),
+    );
+    (Object::new(prims), truth)
+}
+
+/// The truth of a target surveyed at one point (a sphere's centre, a
+/// board's crossing), `world`: its top and bottom `half` above and below,
+/// on ground at `gz`; `heading_deg` its facing; its model and size.
+fn point_truth(
+    id: String,
+    world: [f64; 3],
+    (gz, half): (f64, f64),
+    heading_deg: f64,
+    road_distance_m: f64,
+    (model, size): (crate::model::ModelKind, f64),
+) -> TargetTruth {
+    let [x, y, z] = world;
+    TargetTruth {
+        id,
+        world,
         survey: SurveyPoint {
             x,
             y,
-            z: zc,
+            z,
             antenna_height: 0.0,
         },
         map: [0.0; 3],
-        heading_deg: ny.atan2(nx).to_degrees(),
+        heading_deg,
         ground_z: gz,
-        plate_bottom_z: zc - half,
-        plate_top_z: zc + half,
-        antenna_top_z: zc + half,
+        plate_bottom_z: z - half,
+        plate_top_z: z + half,
+        antenna_top_z: z + half,
         road_distance_m,
         points: 0,
         ghost: None,
         ghost_points: 0,
-        model: crate::model::ModelKind::Board,
-        size: Some(shape.side_m),
-    };
-    (Object::new(prims), truth)
+        model,
+        size: Some(size),
+    }
 }

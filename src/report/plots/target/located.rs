@@ -5,6 +5,7 @@
 use super::{LEGEND_Y, SIDE, THIRD, TOP, bounds, cloud, pad};
 use crate::Point;
 use crate::locate::Label;
+use crate::model::ModelKind;
 use crate::record::TargetOut;
 use crate::report::figure::{Anchor, Color, Figure, Item, MarkerKind, Panel, palette};
 use crate::report::plots::{MAX_POINTS_PER_VIEW, legend_dot, legend_marker, survey_in_map};
@@ -85,11 +86,14 @@ pub(super) fn located_panels(f: &mut Figure, rep: &Report, t: &TargetOut, view: 
         None => side_view(f, rep, t, &l, &dirs),
     }
     spread_view(f, t, &l);
-    if l.d.board.is_some() {
-        board_legend(f);
-    } else {
-        legend(f, l.d.circle.is_some());
-    }
+    legend(
+        f,
+        match (l.d.circle, l.d.board) {
+            (Some(_), _) => ModelKind::Sphere,
+            (_, Some(_)) => ModelKind::Board,
+            _ => ModelKind::L,
+        },
+    );
 }
 
 /// A bright square's points and a dark one's, in the face view.
@@ -137,28 +141,6 @@ fn face_view(f: &mut Figure, l: &Located, b: &crate::report::BoardView) {
         }
     }
     f.marker(side.map(0.0, 0.0), MarkerKind::Plus, 8.0, palette::ESTIMATE);
-}
-
-/// The legend line of a board's views.
-fn board_legend(f: &mut Figure) {
-    let y = LEGEND_Y;
-    legend_dot(f, (60.0, y), BRIGHT, "bright square");
-    legend_dot(f, (170.0, y), DARK, "dark square");
-    legend_marker(
-        f,
-        (280.0, y),
-        MarkerKind::Plus,
-        palette::ESTIMATE,
-        "estimated crossing",
-    );
-    legend_marker(
-        f,
-        (440.0, y),
-        MarkerKind::Diamond,
-        palette::SURVEY,
-        "survey (aligned into the map)",
-    );
-    legend_dot(f, (660.0, y), palette::SAMPLE, "accepted sample");
 }
 
 /// Top view, metres from the corner: the crop, each plate's trace, the
@@ -451,30 +433,27 @@ fn spread_survey(f: &mut Figure, sp: &Panel, smm: (f64, f64), m: f64) {
     }
 }
 
-/// One legend line under the views.
-fn legend(f: &mut Figure, sphere: bool) {
+/// One legend line under the views of a target of model `kind`.
+fn legend(f: &mut Figure, kind: ModelKind) {
     let y = LEGEND_Y;
-    if sphere {
-        legend_dot(f, (60.0, y), palette::OUTLIER, "point near the sphere");
-        legend_marker(
-            f,
-            (300.0, y),
-            MarkerKind::Plus,
-            palette::ESTIMATE,
-            "estimated centre",
-        );
-    } else {
-        legend_dot(f, (60.0, y), palette::PLATE1, "plate 1");
-        legend_dot(f, (140.0, y), palette::PLATE2, "plate 2");
-        legend_dot(f, (220.0, y), palette::OUTLIER, "outlier");
-        legend_marker(
-            f,
-            (300.0, y),
-            MarkerKind::Plus,
-            palette::ESTIMATE,
-            "estimated corner",
-        );
-    }
+    let (x, what) = match kind {
+        ModelKind::Sphere => {
+            legend_dot(f, (60.0, y), palette::OUTLIER, "point near the sphere");
+            (300.0, "estimated centre")
+        }
+        ModelKind::Board => {
+            legend_dot(f, (60.0, y), BRIGHT, "bright square");
+            legend_dot(f, (170.0, y), DARK, "dark square");
+            (280.0, "estimated crossing")
+        }
+        ModelKind::L => {
+            legend_dot(f, (60.0, y), palette::PLATE1, "plate 1");
+            legend_dot(f, (140.0, y), palette::PLATE2, "plate 2");
+            legend_dot(f, (220.0, y), palette::OUTLIER, "outlier");
+            (300.0, "estimated corner")
+        }
+    };
+    legend_marker(f, (x, y), MarkerKind::Plus, palette::ESTIMATE, what);
     legend_marker(
         f,
         (440.0, y),
