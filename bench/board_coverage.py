@@ -10,8 +10,11 @@ Each seed: `synth --models board --format pcd-xyzi` (5 boards), `eval
 --no-report`, then each board's located crossing (eval.targets[].corner_in_map,
 the map's own frame) against truth.json's map position, with result.json's
 map_covariance. Scenes go to /tmp/board-coverage/SEED. Needs numpy.
+FORMAT=laz (or las, ply-f32, pcd-fastlio) writes the map in that format
+instead: the intensity read from it.
 """
 import json
+import os
 import subprocess
 import sys
 
@@ -21,14 +24,16 @@ B = sys.argv[1]
 seeds = range(int(sys.argv[2]), int(sys.argv[3]))
 points = sys.argv[4]
 extra = sys.argv[5:]
+fmt = os.environ.get("FORMAT", "pcd-xyzi")
+ext = {"laz": "laz", "las": "las", "ply-f32": "ply"}.get(fmt, "pcd")
 rows = []
 for s in seeds:
     d = f"/tmp/board-coverage/{s}"
     subprocess.run(["rm", "-rf", d])
     subprocess.run([B, "synth", "--out", d, "--points", points, "--models", "board",
-                    "--format", "pcd-xyzi", "--seed", str(s)] + extra,
+                    "--format", fmt, "--seed", str(s)] + extra,
                    check=True, capture_output=True)
-    subprocess.run([B, "eval", "--map", d + "/map.pcd", "--survey", d + "/survey.csv",
+    subprocess.run([B, "eval", "--map", f"{d}/map.{ext}", "--survey", d + "/survey.csv",
                     "--out", d + "/out", "--no-report"], capture_output=True)
     r = json.load(open(d + "/out/result.json"))
     t = json.load(open(d + "/truth.json"))

@@ -32,11 +32,17 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         };
         let clouds = reader.pointclouds();
         let total: u64 = clouds.iter().map(|c| c.records).sum();
-        if !tx.send(Msg::Info(CloudInfo {
-            format: Format::E57,
-            declared_points: Some(total),
-            file_bytes,
-        })) {
+        // Intensity when every scan has it (raw values: each scan's own
+        // scale, as its sensor gave it).
+        let intensity = !clouds.is_empty() && clouds.iter().all(|c| c.has_intensity());
+        if !tx.send(Msg::Info(
+            CloudInfo {
+                format: Format::E57,
+                declared_points: Some(total),
+                file_bytes,
+            },
+            intensity,
+        )) {
             return;
         }
         let mut done = 0u64;
@@ -55,6 +61,7 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
             it.normalize_color(false);
             it.normalize_intensity(false);
             let mut out = tx.buffer();
+            let mut inten = Vec::new();
             for q in it.by_ref() {
                 let q = match q {
                     Ok(q) => q,
@@ -68,13 +75,18 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
                     e57::CartesianCoordinate::Valid { x, y, z }
                         if x.is_finite() && y.is_finite() && z.is_finite() =>
                     {
-                        out.push(Point::new(x, y, z))
+                        out.push(Point::new(x, y, z));
+                        if intensity {
+                            // A point without one says nothing of a print.
+                            inten.push(q.intensity.unwrap_or(f32::NAN));
+                        }
                     }
                     _ => skipped += 1,
                 }
                 if out.len() == CHUNK {
                     let bytes = file_bytes.saturating_mul(done) / total.max(1);
-                    if !tx.send(Msg::Chunk(std::mem::take(&mut out), skipped, bytes)) {
+                    let iv = std::mem::take(&mut inten);
+                    if !tx.send(Msg::Chunk(std::mem::take(&mut out), iv, skipped, bytes)) {
                         return;
                     }
                     skipped = 0;
@@ -83,7 +95,7 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
             }
             if !out.is_empty() {
                 let bytes = file_bytes.saturating_mul(done) / total.max(1);
-                if !tx.send(Msg::Chunk(out, skipped, bytes)) {
+                if !tx.send(Msg::Chunk(out, inten, skipped, bytes)) {
                     return;
                 }
                 skipped = 0;

@@ -123,7 +123,8 @@ pub trait PointReader: Send {
     fn bytes_read(&self) -> u64;
     /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
     /// cloud has an `intensity` field and the reader reads it (binary PCD,
-    /// fixed-size binary PLY, uncompressed LAS).
+    /// fixed-size binary PLY, LAS, LAZ and COPC, E57 whose every scan has
+    /// one).
     fn has_intensity(&self) -> bool {
         false
     }
@@ -484,11 +485,18 @@ pub enum OutFormat {
 }
 
 impl OutFormat {
-    /// Whether the format has an intensity field.
+    /// Whether the format has an intensity field (LAS and LAZ store it as a
+    /// whole number 0–65535: values are rounded and clamped, so intensities
+    /// scaled to 0–1 do not survive).
     pub fn holds_intensity(self) -> bool {
         matches!(
             self,
-            OutFormat::PcdXyzi | OutFormat::PcdFastlio | OutFormat::PlyF32 | OutFormat::Xyz
+            OutFormat::PcdXyzi
+                | OutFormat::PcdFastlio
+                | OutFormat::PlyF32
+                | OutFormat::Xyz
+                | OutFormat::Las
+                | OutFormat::Laz
         )
     }
 

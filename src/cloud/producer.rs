@@ -12,11 +12,12 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 /// A message from a reader thread.
 pub(super) enum Msg {
-    /// Header facts, sent first.
-    Info(CloudInfo),
-    /// A block of finite points, the non-finite/invalid points skipped while
-    /// producing it, and the bytes of the file consumed so far.
-    Chunk(Vec<Point>, u64, u64),
+    /// Header facts, sent first, and whether the chunks carry intensities.
+    Info(CloudInfo, bool),
+    /// A block of finite points, their intensities (empty when the cloud has
+    /// none), the non-finite/invalid points skipped while producing it, and
+    /// the bytes of the file consumed so far.
+    Chunk(Vec<Point>, Vec<f32>, u64, u64),
     /// The cloud is exhausted; skipped points since the last chunk.
     Done(u64),
     /// Reading failed.
@@ -52,6 +53,8 @@ pub(super) struct Producer {
     stats: ReadStats,
     bytes: u64,
     done: bool,
+    /// The chunks carry intensities.
+    intensity: bool,
 }
 
 /// Name of the threads that run third-party decoders.
@@ -162,9 +165,10 @@ impl Producer {
             stats: ReadStats::default(),
             bytes: 0,
             done: false,
+            intensity: false,
         };
         match p.rx.recv() {
-            Ok(Msg::Info(info)) => p.info = info,
+            Ok(Msg::Info(info, intensity)) => (p.info, p.intensity) = (info, intensity),
             Ok(Msg::Err(e)) => return Err(e),
             _ => return Err(p.died()),
         }
@@ -185,12 +189,42 @@ impl PointReader for Producer {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+        self.receive(buf, None)
+    }
+
+    fn has_intensity(&self) -> bool {
+        self.intensity
+    }
+
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        self.receive(buf, Some(inten))
+    }
+
+    fn stats(&self) -> ReadStats {
+        self.stats
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.bytes
+    }
+}
+
+impl Producer {
+    /// The next block, and its intensities into `inten` (cleared first;
+    /// left empty without them) when given.
+    fn receive(&mut self, buf: &mut Vec<Point>, inten: Option<&mut Vec<f32>>) -> Result<bool> {
         buf.clear();
         if self.done {
             return Ok(false);
         }
         match self.rx.recv() {
-            Ok(Msg::Chunk(mut v, skipped, bytes)) => {
+            Ok(Msg::Chunk(mut v, mut iv, skipped, bytes)) => {
+                if let Some(inten) = inten {
+                    std::mem::swap(inten, &mut iv);
+                    if !self.intensity {
+                        inten.clear();
+                    }
+                }
                 std::mem::swap(buf, &mut v);
                 let _ = self.recycle.try_send(v);
                 self.stats.points += buf.len() as u64;
@@ -208,18 +242,10 @@ impl PointReader for Producer {
                 self.done = true;
                 Err(e)
             }
-            Ok(Msg::Info(_)) | Err(_) => {
+            Ok(Msg::Info(..)) | Err(_) => {
                 self.done = true;
                 Err(self.died())
             }
         }
-    }
-
-    fn stats(&self) -> ReadStats {
-        self.stats
-    }
-
-    fn bytes_read(&self) -> u64 {
-        self.bytes
     }
 }

@@ -171,11 +171,14 @@ fn write_map(
     params: &SynthParams,
     format: OutFormat,
 ) -> Result<Truth> {
-    let with = format.holds_intensity();
-    let mut writer = CloudWriter::create_with(path, format, with)?;
-    let mut inten = Vec::new();
     // Boards print their squares in the intensity; the rest is a stand-in.
     let faces = super::print::board_faces(params);
+    // LAS and LAZ carry it only when boards print in it: without, they hold
+    // 0, as SLAM software's LAS exports do (and as synth's always did).
+    let las = matches!(format, OutFormat::Las | OutFormat::Laz);
+    let with = format.holds_intensity() && !(las && faces.is_empty());
+    let mut writer = CloudWriter::create_with(path, format, with)?;
+    let mut inten = Vec::new();
     let mut put = |pts: &[Point]| {
         if with {
             inten.clear();

@@ -44,10 +44,14 @@ fn eval(scene: &Path, survey: &Path, out: &Path) -> std::process::Output {
 /// `eval --no-report` of a scene's `map.pcd` against `survey`: its
 /// result.json.
 fn eval_pcd(scene: &Path, survey: &Path, out: &Path) -> Value {
+    eval_map(&scene.join("map.pcd"), survey, out)
+}
+
+fn eval_map(map: &Path, survey: &Path, out: &Path) -> Value {
     let o = bin()
         .arg("eval")
         .arg("--map")
-        .arg(scene.join("map.pcd"))
+        .arg(map)
         .arg("--survey")
         .arg(survey)
         .arg("--out")
@@ -237,6 +241,35 @@ fn boards_are_located_by_their_print() {
             .contains("no checkerboard board"),
         "{t1}"
     );
+}
+
+/// Issue 33: boards in a LAZ map (LAS point format 0, compressed point by
+/// point: the `las` crate's path) are told by the intensity it stores, as
+/// in a PCD: located within 3 mm horizontally, inside their 99.9 %
+/// ellipsoid. (Formats 6-10 and COPC decode the intensity layer: unit
+/// tests compare it with the crate's.)
+#[test]
+fn boards_are_located_in_a_laz_map() {
+    let dir = tempdir();
+    let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
+    let o = bin()
+        .arg("synth")
+        .arg("--out")
+        .arg(&scene)
+        .args(["--points", "2000000", "--seed", "6", "--models", "board"])
+        .args(["--targets", "4", "--format", "laz"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "synth: {}", stderr(&o));
+    let truth = json(&scene.join("truth.json"));
+    let r = eval_map(&scene.join("map.laz"), &scene.join("survey.csv"), &out);
+    let found = located(&r, &truth);
+    assert_eq!(found.len(), 4, "{}", r["targets"]);
+    for ((id, err, c), e) in found.iter().zip(r["eval"]["targets"].as_array().unwrap()) {
+        assert_eq!(e["model"], "board");
+        assert!(err.xy().norm() < 0.003, "board {id}: {err:?}");
+        assert!(m2(err, c) < 16.27, "board {id}: {err:?} outside {c:?}");
+    }
 }
 
 /// Issue 33: a flat thing of a board's size is not a board. A plain sign

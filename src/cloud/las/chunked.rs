@@ -1,9 +1,10 @@
-//! LAZ of LAS 1.4 point formats 6-10 decoded chunk by chunk, coordinates only.
+//! LAZ of LAS 1.4 point formats 6-10 decoded chunk by chunk, coordinates only
+//! (and intensity, for the passes that read it).
 //!
 //! Why: these formats compress each field in its own layer, so a reader that
 //! wants X, Y and Z can skip the layers of intensity, GPS time, colour,
 //! classification and the rest unread (`laz::DecompressionSelection`), and
-//! mapgauge needs nothing else. The LASzip chunks (from the chunk table of a
+//! mapgauge needs nothing else but, for checkerboard boards, the intensity. The LASzip chunks (from the chunk table of a
 //! plain LAZ file, or the octree nodes of a COPC file) are read with `pread`
 //! and decoded in parallel on the reader pool, in file order, one block of
 //! chunks at a time, so memory stays at a few blocks. Point formats 0-5 are
@@ -68,12 +69,24 @@ pub(super) struct ChunkedLaz {
     /// A [`PointReader::hint_sample`] left chunks unread.
     sampled: bool,
     pool: Option<rayon::ThreadPool>,
+    /// The intensity layer is decoded too ([`PointReader::next_chunk_intensity`]).
+    intensity: bool,
 }
 
-/// The layers read: X, Y (with returns and channel, which predict them) and Z.
-fn selection() -> laz::DecompressionSelection {
-    laz::DecompressionSelection::xy_returns_channel().decompress_z()
+/// The layers read: X, Y (with returns and channel, which predict them) and Z,
+/// and the intensity when asked for.
+fn selection(intensity: bool) -> laz::DecompressionSelection {
+    let s = laz::DecompressionSelection::xy_returns_channel().decompress_z();
+    if intensity {
+        s.decompress_intensity()
+    } else {
+        s
+    }
 }
+
+/// A chunk decoded: its finite points, their intensities (when read), and
+/// the count of non-finite points skipped.
+type Decoded = (Vec<Point>, Vec<f32>, u64);
 
 /// Whether the `laz` items are layered (item versions 3 and 4: the crate
 /// picks its layered decompressor by the first item's version) with X, Y, Z
@@ -126,11 +139,13 @@ impl ChunkedLaz {
             started: false,
             sampled: false,
             pool: reader_pool(),
+            intensity: false,
         }))
     }
 
-    /// Decodes chunk `i`: its finite points and the count of non-finite ones.
-    fn decode(&self, i: usize) -> std::result::Result<(Vec<Point>, u64), String> {
+    /// Decodes chunk `i`: its finite points (with their intensities when
+    /// reading them) and the count of non-finite ones.
+    fn decode(&self, i: usize) -> std::result::Result<Decoded, String> {
         let c = &self.chunks[i];
         let mut raw = vec![0u8; c.bytes as usize];
         self.file
@@ -153,26 +168,29 @@ impl ChunkedLaz {
         }
         let mut d = LayeredPointRecordDecompressor::new(std::io::Cursor::new(&raw[..]));
         d.set_fields_from(&self.items).map_err(|e| e.to_string())?;
-        d.set_selection(selection());
+        d.set_selection(selection(self.intensity));
         // One record at a time: the skipped fields are never copied out, and
         // a header claiming huge records costs one record, not a block of them.
         let mut rec = vec![0u8; self.first];
         let t = &self.transforms;
         let mut pts = Vec::with_capacity(c.points.min(1 << 16) as usize);
+        let mut inten = Vec::new();
         let mut skipped = 0;
         for _ in 0..c.points {
             d.decompress_next(&mut rec).map_err(|e| e.to_string())?;
             if !super::push_record(&rec, t, &mut pts) {
                 skipped += 1;
+            } else if self.intensity {
+                inten.push(super::record_intensity(&rec));
             }
         }
-        Ok((pts, skipped))
+        Ok((pts, inten, skipped))
     }
 
     /// Decodes `batch` (chunk indices) on the reader pool, in order. Of
     /// several bad chunks the first in file order names the error, whichever
     /// thread failed first: the message is part of the output.
-    fn decode_all(&self, batch: &[usize]) -> Result<Vec<(Vec<Point>, u64)>> {
+    fn decode_all(&self, batch: &[usize]) -> Result<Vec<Decoded>> {
         // A panic in the laz crate on malformed data becomes that chunk's
         // error (on reader-named threads, no panic hook reports it).
         let one = |i: usize| {
@@ -200,6 +218,51 @@ impl ChunkedLaz {
             (Err(panic), None) => format!("the decoder failed on malformed data ({panic})"),
         };
         Err(Error::format(&self.path, msg))
+    }
+
+    /// The next block of chunks' points, and their intensities into `inten`
+    /// (cleared first) when given.
+    fn fill(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<bool> {
+        self.started = true;
+        buf.clear();
+        if let Some(v) = inten.as_deref_mut() {
+            v.clear();
+        }
+        while self.next < self.order.len() {
+            let mut end = self.next;
+            let mut pts = 0;
+            while end < self.order.len()
+                && (end == self.next || pts + self.chunks[self.order[end]].points <= BLOCK_POINTS)
+            {
+                pts += self.chunks[self.order[end]].points;
+                end += 1;
+            }
+            let batch = self.order[self.next..end].to_vec();
+            let decoded = self.decode_all(&batch)?;
+            for (&i, (pts, chunk_inten, skipped)) in batch.iter().zip(decoded) {
+                self.check_cube(i, &pts)?;
+                self.stats.points += pts.len() as u64;
+                self.stats.skipped_nonfinite += skipped;
+                self.bytes += self.chunks[i].bytes;
+                if let Some(o) = &mut self.octree {
+                    o.counts.opened += 1;
+                    o.counts.bytes_opened += self.chunks[i].bytes;
+                }
+                buf.extend_from_slice(&pts);
+                if let Some(inten) = inten.as_deref_mut() {
+                    inten.extend_from_slice(&chunk_inten);
+                }
+            }
+            self.next = end;
+            if !buf.is_empty() {
+                return Ok(true);
+            }
+        }
+        // A plain file has been read to its end (the chunk table after the chunks).
+        if self.octree.is_none() && !self.sampled {
+            self.bytes = self.info.file_bytes;
+        }
+        Ok(false)
     }
 
     /// Some nodes were left unread: every point read must lie in its cube.
@@ -250,40 +313,17 @@ impl PointReader for ChunkedLaz {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
-        self.started = true;
-        buf.clear();
-        while self.next < self.order.len() {
-            let mut end = self.next;
-            let mut pts = 0;
-            while end < self.order.len()
-                && (end == self.next || pts + self.chunks[self.order[end]].points <= BLOCK_POINTS)
-            {
-                pts += self.chunks[self.order[end]].points;
-                end += 1;
-            }
-            let batch = self.order[self.next..end].to_vec();
-            let decoded = self.decode_all(&batch)?;
-            for (&i, (pts, skipped)) in batch.iter().zip(decoded) {
-                self.check_cube(i, &pts)?;
-                self.stats.points += pts.len() as u64;
-                self.stats.skipped_nonfinite += skipped;
-                self.bytes += self.chunks[i].bytes;
-                if let Some(o) = &mut self.octree {
-                    o.counts.opened += 1;
-                    o.counts.bytes_opened += self.chunks[i].bytes;
-                }
-                buf.extend_from_slice(&pts);
-            }
-            self.next = end;
-            if !buf.is_empty() {
-                return Ok(true);
-            }
-        }
-        // A plain file has been read to its end (the chunk table after the chunks).
-        if self.octree.is_none() && !self.sampled {
-            self.bytes = self.info.file_bytes;
-        }
-        Ok(false)
+        self.fill(buf, None)
+    }
+
+    /// Every point format stores an intensity (0 where the writer had none).
+    fn has_intensity(&self) -> bool {
+        true
+    }
+
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        self.intensity = true;
+        self.fill(buf, Some(inten))
     }
 
     fn stats(&self) -> ReadStats {

@@ -62,6 +62,13 @@ fn push_record(r: &[u8], t: &las::Vector<las::Transform>, out: &mut Vec<Point>) 
     finite
 }
 
+/// A LAS record's intensity (every point format stores it as a
+/// little-endian u16 after X, Y, Z).
+#[inline]
+fn record_intensity(r: &[u8]) -> f32 {
+    f32::from(u16::from_le_bytes([r[12], r[13]]))
+}
+
 /// The projected or geographic coordinate reference system a LAS/LAZ/COPC
 /// header declares (a `LASF_Projection` record: OGC WKT or GeoTIFF keys),
 /// named for a user (`EPSG:32633`, or the WKT's first name); `None` when it
@@ -105,8 +112,6 @@ pub(super) fn declared_crs(path: &Path) -> Option<String> {
     }
 }
 
-/// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
-
 /// A WKT's name: its first quoted string (`PROJCS["WGS 84 / UTM zone 33N", …`).
 fn wkt_name(wkt: &str) -> String {
     let mut parts = wkt.split('"');
@@ -116,6 +121,7 @@ fn wkt_name(wkt: &str) -> String {
     }
 }
 
+/// Opens a LAS file for streaming (a COPC file reads its octree's nodes).
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let chunked = std::env::var_os(chunked::CRATE_PATH_ENV).is_none();
     open_with(path, true, chunked)
@@ -231,11 +237,15 @@ fn read_laz(tx: Tx, file: File, file_bytes: u64, p: std::path::PathBuf) {
         }
     }
     let format = if compressed { Format::Laz } else { Format::Las };
-    if !tx.send(Msg::Info(CloudInfo {
-        format,
-        declared_points: Some(total),
-        file_bytes,
-    })) {
+    // Every point format stores an intensity.
+    if !tx.send(Msg::Info(
+        CloudInfo {
+            format,
+            declared_points: Some(total),
+            file_bytes,
+        },
+        true,
+    )) {
         return;
     }
     let mut pd = las::PointDataBuilder::new()
@@ -266,9 +276,12 @@ fn read_laz(tx: Tx, file: File, file_bytes: u64, p: std::path::PathBuf) {
         done += n;
         let mut out = tx.buffer();
         out.reserve(n as usize);
+        let mut inten = Vec::with_capacity(n as usize);
         let mut skipped = 0;
         for r in pd.raw_bytes().chunks_exact(pd.record_len()) {
-            if !push_record(r, &t, &mut out) {
+            if push_record(r, &t, &mut out) {
+                inten.push(record_intensity(r));
+            } else {
                 skipped += 1;
             }
         }
@@ -277,7 +290,7 @@ fn read_laz(tx: Tx, file: File, file_bytes: u64, p: std::path::PathBuf) {
         } else {
             file_bytes
         };
-        if !tx.send(Msg::Chunk(out, skipped, bytes)) {
+        if !tx.send(Msg::Chunk(out, inten, skipped, bytes)) {
             return;
         }
     }

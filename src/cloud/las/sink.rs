@@ -126,7 +126,7 @@ impl LasSink {
 }
 
 impl Sink for LasSink {
-    fn write(&mut self, points: &[Point], _intensity: Option<&[f32]>) -> Result<()> {
+    fn write(&mut self, points: &[Point], intensity: Option<&[f32]>) -> Result<()> {
         if points.is_empty() {
             return Ok(());
         }
@@ -162,7 +162,15 @@ impl Sink for LasSink {
             rec[0..4].copy_from_slice(&q[0].to_le_bytes());
             rec[4..8].copy_from_slice(&q[1].to_le_bytes());
             rec[8..12].copy_from_slice(&q[2].to_le_bytes());
-            rec[12..14].copy_from_slice(&0u16.to_le_bytes()); // intensity
+            // LAS stores intensity as a whole number: rounded, and clamped
+            // to its 16 bits (a missing or broken value is 0).
+            let i = intensity.and_then(|v| v.get(k)).copied().unwrap_or(0.0);
+            let i = if i.is_finite() {
+                i.round().clamp(0.0, 65535.0) as u16
+            } else {
+                0
+            };
+            rec[12..14].copy_from_slice(&i.to_le_bytes());
             rec[14] = 0b0000_1001; // return 1 of 1
             rec[15] = 1; // classification: unclassified
             rec[16] = 0; // scan angle

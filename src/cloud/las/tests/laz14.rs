@@ -6,7 +6,7 @@ use super::*;
 /// Writes a LAS 1.4 LAZ file of point format `fmt` (with `extra` extra
 /// bytes) of `n` points whose every field varies: returns, scanner channels,
 /// classification and flags, intensity, scan angle, GPS time, colour, NIR.
-fn write_rich_laz(path: &Path, fmt: u8, extra: u16, n: usize, seed: u64) {
+pub(super) fn write_rich_laz(path: &Path, fmt: u8, extra: u16, n: usize, seed: u64) {
     use rand::{Rng, SeedableRng};
     let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
     let mut b = las::Builder::from((1, 4));

@@ -8,6 +8,7 @@ use crate::cloud::ReadStats;
 
 mod copc;
 mod hostile;
+mod intensity;
 mod laz14;
 
 fn read(path: &Path) -> Result<(Vec<Point>, ReadStats, CloudInfo)> {
