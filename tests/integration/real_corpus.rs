@@ -75,6 +75,47 @@ fn every_real_file_reads_as_an_independent_reader_reads_it() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
+/// Checkerboard boards are told by intensity (issue 33): where the
+/// independent reader reads it (laspy for LAS/LAZ, plyfile for PLY), every
+/// file's intensities read as it reads them: their sum, least, greatest and
+/// first, over the finite points.
+#[test]
+fn intensities_read_as_an_independent_reader_reads_them() {
+    let (dir, manifest) = corpus();
+    let mut bad = Vec::new();
+    let mut checked = 0;
+    for e in &manifest {
+        let Some(want) = e.get("intensity") else {
+            continue;
+        };
+        let name = e["file"].as_str().unwrap();
+        let mut r = mapgauge::cloud::open(&dir.join(name)).unwrap();
+        if !r.has_intensity() {
+            bad.push(format!("{name}: no intensity read"));
+            continue;
+        }
+        let (mut all, mut buf, mut inten) = (Vec::new(), Vec::new(), Vec::new());
+        while r.next_chunk_intensity(&mut buf, &mut inten).unwrap() {
+            all.extend(inten.iter().map(|&v| f64::from(v)));
+        }
+        let got = [
+            all.iter().sum::<f64>(),
+            all.iter().copied().fold(f64::INFINITY, f64::min),
+            all.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            all.first().copied().unwrap_or(f64::NAN),
+        ];
+        let want = ["sum", "min", "max", "first"].map(|k| want[k].as_f64().unwrap());
+        if got != want {
+            bad.push(format!(
+                "{name}: intensity (sum, min, max, first) {got:?}, {want:?} expected"
+            ));
+        }
+        checked += 1;
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    assert!(checked >= 5, "{checked} files with intensity");
+}
+
 #[test]
 fn detect_finds_no_target_in_real_maps_without_any() {
     let (dir, manifest) = corpus();

@@ -202,17 +202,22 @@ fn fixed_layout(
     be: bool,
 ) -> records::Layout {
     let offs = xyz.idx.map(|i| prop_offset(vertex, i));
-    // A scalar `intensity` (any case), for `convert`.
-    let intensity = vertex
-        .props
-        .iter()
-        .position(|(n, _)| n == "intensity")
-        .or_else(|| {
-            vertex
-                .props
-                .iter()
-                .position(|(n, _)| n.eq_ignore_ascii_case("intensity"))
-        })
+    // A scalar `intensity` (any case), or CloudCompare's
+    // `scalar_intensity`, for boards and `convert`.
+    let named = |want: &str| {
+        vertex
+            .props
+            .iter()
+            .position(|(n, _)| n == want)
+            .or_else(|| {
+                vertex
+                    .props
+                    .iter()
+                    .position(|(n, _)| n.eq_ignore_ascii_case(want))
+            })
+    };
+    let intensity = named("intensity")
+        .or_else(|| named("scalar_intensity"))
         .and_then(|i| match vertex.props[i].1 {
             Prop::Scalar(t) => Some(records::Coord {
                 kind: t,

@@ -102,6 +102,10 @@ def read_ply(path):
     from plyfile import PlyData
     p = PlyData.read(str(path))
     v = p["vertex"]
+    for name in ("intensity", "scalar_intensity"):
+        if name in v.data.dtype.names:
+            INTENSITY[str(path)] = np.asarray(v[name], dtype=np.float64)
+            break
     xyz = np.stack([np.asarray(v[a], dtype=np.float64) for a in ("x", "y", "z")], axis=1)
     return xyz, f"ply-{'ascii' if p.text else ('binary_big_endian' if p.byte_order == '>' else 'binary_little_endian')}"
 
@@ -113,6 +117,7 @@ def read_las(path):
                     np.asarray(las.z, dtype=np.float64)], axis=1)
     h = las.header
     kind = "laz" if str(path).lower().endswith(".laz") else "las"
+    INTENSITY[str(path)] = np.asarray(las.intensity, dtype=np.float64)
     return xyz, f"{kind} {h.version.major}.{h.version.minor} pf{h.point_format.id}"
 
 
@@ -144,6 +149,10 @@ def read_csv(path):
     return np.array([[float(r[i]) for i in ix] for r in rows], dtype=np.float64), "xyz text (CSV with quoted header)"
 
 
+# Intensities of the files whose readers here read them (LAS/LAZ by laspy,
+# PLY by plyfile), by path.
+INTENSITY = {}
+
 READERS = {".pcd": read_pcd, ".ply": read_ply, ".las": read_las, ".laz": read_las, ".e57": read_e57,
            ".pts": read_pts, ".txt": read_csv, ".xyz": read_csv}
 
@@ -152,9 +161,15 @@ def stats(path):
     xyz, fmt = READERS[Path(path).suffix.lower()](path)
     nan = ~np.isfinite(xyz).all(axis=1)
     good = xyz[~nan]
-    return {"format": fmt, "points": int(len(xyz)), "nan_points": int(nan.sum()),
-            "min": good.min(axis=0).tolist(), "max": good.max(axis=0).tolist(),
-            "first": good[0].tolist()}
+    out = {"format": fmt, "points": int(len(xyz)), "nan_points": int(nan.sum()),
+           "min": good.min(axis=0).tolist(), "max": good.max(axis=0).tolist(),
+           "first": good[0].tolist()}
+    i = INTENSITY.get(str(path))
+    if i is not None:
+        i = i[~nan]
+        out["intensity"] = {"sum": float(i.sum()), "min": float(i.min()), "max": float(i.max()),
+                            "first": float(i[0])}
+    return out
 
 
 if __name__ == "__main__":
