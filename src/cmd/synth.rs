@@ -90,7 +90,7 @@ pub struct Args {
     /// (i mod count)-th (l, sphere, board; a sphere stands on a pole, 145 mm,
     /// its centre 1.3 m up; a board is a 0.6 m checkerboard on two legs, its
     /// centre 1.2 m up, printed in the intensity of the formats that have
-    /// one: pcd-xyzi, pcd-fastlio, ply-f32) [default: l].
+    /// one: pcd-xyzi, pcd-fastlio, ply-f32, las, laz) [default: l].
     #[arg(long, value_delimiter = ',')]
     models: Option<Vec<mapgauge::model::ModelKind>>,
 }
