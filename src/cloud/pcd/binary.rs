@@ -78,9 +78,9 @@ pub(super) fn open(
     Ok(Box::new(records::Records::new(file, path, info, lay)?))
 }
 
-/// The `intensity` field (exact name first, then any case), when it holds
-/// one value.
-fn intensity_field(header: &Header) -> Option<records::Coord> {
+/// The `intensity` field (exact name first, then any case, then the short
+/// `i` some writers use), when it holds one value.
+pub(super) fn intensity_field(header: &Header) -> Option<records::Coord> {
     let f = header
         .fields
         .iter()
@@ -90,6 +90,12 @@ fn intensity_field(header: &Header) -> Option<records::Coord> {
                 .fields
                 .iter()
                 .find(|f| f.name.eq_ignore_ascii_case("intensity"))
+        })
+        .or_else(|| {
+            header
+                .fields
+                .iter()
+                .find(|f| f.name.eq_ignore_ascii_case("i"))
         })?;
     (f.count == 1).then_some(records::Coord {
         kind: f.kind,

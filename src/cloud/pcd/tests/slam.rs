@@ -342,6 +342,18 @@ fn intensity_is_read_beside_its_point_and_written_where_it_fits() {
     let (got, got_i) = read_intensity(&src);
     assert_eq!(got, want);
     assert_eq!(got_i, want_i);
+    // The short name `i` some writers use: the same intensities.
+    let short = &bytes;
+    let at = short
+        .windows(9)
+        .position(|w| w == b"Intensity")
+        .expect("the header names it");
+    let mut renamed = short[..at].to_vec();
+    renamed.push(b'i');
+    renamed.extend_from_slice(&short[at + 9..]);
+    let (got_s, got_si) = read_intensity(&file(&dir, "short.pcd", &renamed));
+    assert_eq!(got_s, want);
+    assert_eq!(got_si, want_i);
     // Written by the formats with an intensity field, read back the same.
     for format in [OutFormat::PcdXyzi, OutFormat::PcdFastlio, OutFormat::PlyF32] {
         let p = dir
