@@ -206,6 +206,56 @@ mod tests {
         );
     }
 
+    /// A scan's intensities come with its points, as stored (not
+    /// normalised); a file with a scan without them has none to give.
+    #[test]
+    fn intensity_is_read_when_every_scan_has_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, with: bool| {
+            let path = dir.path().join(name);
+            let mut w = e57::E57Writer::from_file(&path, "guid-file").unwrap();
+            let mut proto = vec![
+                Record::CARTESIAN_X_F64,
+                Record::CARTESIAN_Y_F64,
+                Record::CARTESIAN_Z_F64,
+            ];
+            if with {
+                proto.push(Record::INTENSITY_U16);
+            }
+            let mut pc = w.add_pointcloud("guid-1", proto).unwrap();
+            for i in 0..40 {
+                let mut v = vec![
+                    RecordValue::Double(i as f64),
+                    RecordValue::Double(2.0 * i as f64),
+                    RecordValue::Double(1.0),
+                ];
+                if with {
+                    v.push(RecordValue::Integer(1000 + 37 * i));
+                }
+                pc.add_point(v).unwrap();
+            }
+            pc.finalize().unwrap();
+            w.finalize().unwrap();
+            path
+        };
+        let read_i = |path: &Path| {
+            let mut r = super::super::open(path).unwrap();
+            let has = r.has_intensity();
+            let (mut b, mut i, mut all) = (Vec::new(), Vec::new(), Vec::new());
+            while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
+                assert!(i.is_empty() || i.len() == b.len());
+                all.extend_from_slice(&i);
+            }
+            (has, all)
+        };
+        let (has, inten) = read_i(&write("i.e57", true));
+        assert!(has);
+        let want: Vec<f32> = (0..40).map(|i| (1000 + 37 * i) as f32).collect();
+        assert_eq!(inten, want);
+        let (has, inten) = read_i(&write("plain.e57", false));
+        assert!(!has && inten.is_empty());
+    }
+
     #[test]
     fn corrupt_file_is_an_error() {
         let dir = tempfile::tempdir().unwrap();
