@@ -76,7 +76,8 @@ fn every_real_file_reads_as_an_independent_reader_reads_it() {
 }
 
 /// Checkerboard boards are told by intensity (issue 33): where the
-/// independent reader reads it (laspy for LAS/LAZ, plyfile for PLY), every
+/// independent reader reads it (laspy for LAS/LAZ, plyfile for PLY, pye57
+/// for E57 in the local run's larger files), every
 /// file's intensities read as it reads them: their sum, least, greatest and
 /// first, over the finite points.
 #[test]
@@ -105,7 +106,10 @@ fn intensities_read_as_an_independent_reader_reads_them() {
             all.first().copied().unwrap_or(f64::NAN),
         ];
         let want = ["sum", "min", "max", "first"].map(|k| want[k].as_f64().unwrap());
-        if got != want {
+        // Whole-number intensities (LAS, most PLY) agree exactly; float ones
+        // (an E57 scan's) to f32's precision and the summation's order.
+        let near = |a: f64, b: f64| (a - b).abs() <= 1e-7 * b.abs().max(1.0);
+        if !(0..4).all(|k| near(got[k], want[k])) {
             bad.push(format!(
                 "{name}: intensity (sum, min, max, first) {got:?}, {want:?} expected"
             ));
@@ -113,7 +117,12 @@ fn intensities_read_as_an_independent_reader_reads_them() {
         checked += 1;
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
-    assert!(checked >= 5, "{checked} files with intensity");
+    // The committed corpus holds five such files; a local one may hold fewer.
+    let committed = std::env::var_os("MAPGAUGE_CORPUS").is_none();
+    assert!(
+        checked >= if committed { 5 } else { 1 },
+        "{checked} files with intensity"
+    );
 }
 
 #[test]

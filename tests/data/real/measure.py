@@ -124,11 +124,16 @@ def read_las(path):
 def read_e57(path):
     import pye57
     e = pye57.E57(str(path))
-    parts = []
+    parts, inten = [], []
     for i in range(e.scan_count):
-        d = e.read_scan(i, ignore_missing_fields=True, transform=True)
+        d = e.read_scan(i, intensity=True, ignore_missing_fields=True, transform=True)
         parts.append(np.stack([np.asarray(d[k], dtype=np.float64)
                                for k in ("cartesianX", "cartesianY", "cartesianZ")], axis=1))
+        if "intensity" in d:
+            inten.append(np.asarray(d["intensity"], dtype=np.float64))
+    # Intensities when every scan has them (mapgauge reads them so).
+    if inten and len(inten) == e.scan_count:
+        INTENSITY[str(path)] = np.concatenate(inten)
     return np.concatenate(parts), f"e57 ({e.scan_count} scan(s), pose applied)"
 
 
@@ -150,7 +155,7 @@ def read_csv(path):
 
 
 # Intensities of the files whose readers here read them (LAS/LAZ by laspy,
-# PLY by plyfile), by path.
+# PLY by plyfile, E57 by pye57), by path.
 INTENSITY = {}
 
 READERS = {".pcd": read_pcd, ".ply": read_ply, ".las": read_las, ".laz": read_las, ".e57": read_e57,
