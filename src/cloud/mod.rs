@@ -124,7 +124,7 @@ pub trait PointReader: Send {
     /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
     /// cloud has an `intensity` field and the reader reads it (binary PCD,
     /// fixed-size binary PLY, LAS, LAZ and COPC, E57 whose every scan has
-    /// one).
+    /// one, PTS whose first point line has one).
     fn has_intensity(&self) -> bool {
         false
     }

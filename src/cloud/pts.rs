@@ -29,6 +29,8 @@ enum State {
 
 struct PtsReader {
     info: CloudInfo,
+    /// The first point line holds an intensity (4 or 7 values).
+    intensity: bool,
     lines: LineBlocks,
     /// Lines of the last block not parsed yet (a chunk filled up).
     pending: Vec<u8>,
@@ -51,7 +53,9 @@ struct Cursor {
 pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let file_bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let intensity = first_has_intensity(&file);
     Ok(Box::new(PtsReader {
+        intensity,
         info: CloudInfo {
             format: Format::Pts,
             // Unknown until every section is read.
@@ -92,6 +96,22 @@ pub(super) fn sniff(head: &[u8], whole: bool, ext_pts: bool) -> bool {
     }
 }
 
+/// Whether the file's first point line (in its first 64 KiB) holds an
+/// intensity: 4 values (`x y z i`) or 7 (`x y z i r g b`); 3 or 6 (`x y z
+/// r g b`, CloudCompare's) hold none.
+fn first_has_intensity(file: &File) -> bool {
+    use std::os::unix::fs::FileExt;
+    let mut head = vec![0u8; 64 << 10];
+    let n = file.read_at(&mut head, 0).unwrap_or(0);
+    head.truncate(n);
+    head.split(|&b| b == b'\n')
+        .map(|l| l.trim_ascii())
+        .filter(|l| !l.is_empty() && count_of(l).is_none())
+        .map(|l| point_of(l).is_ok_and(|(_, i)| i.is_some()))
+        .next()
+        .unwrap_or(false)
+}
+
 /// The count of a count line: one non-negative integer.
 fn count_of(line: &[u8]) -> Option<u64> {
     let mut toks = line
@@ -104,9 +124,11 @@ fn count_of(line: &[u8]) -> Option<u64> {
     std::str::from_utf8(tok).ok()?.parse().ok()
 }
 
-/// x, y, z of a point line, or what is wrong with it.
-fn point_of(line: &[u8]) -> std::result::Result<[f64; 3], String> {
+/// x, y, z of a point line and its intensity (4 or 7 values; NaN when not
+/// a number), or what is wrong with it.
+fn point_of(line: &[u8]) -> std::result::Result<([f64; 3], Option<f64>), String> {
     let mut v = [0.0; 3];
+    let mut i = f64::NAN;
     let mut n = 0usize;
     for tok in line
         .split(|b| b.is_ascii_whitespace())
@@ -120,11 +142,13 @@ fn point_of(line: &[u8]) -> std::result::Result<[f64; 3], String> {
                     String::from_utf8_lossy(&tok[..tok.len().min(40)])
                 )
             })?;
+        } else if n == 3 {
+            i = parse_f64(tok).unwrap_or(f64::NAN);
         }
         n += 1;
     }
     if matches!(n, 3 | 4 | 6 | 7) {
-        Ok(v)
+        Ok((v, matches!(n, 4 | 7).then_some(i)))
     } else {
         Err(format!(
             "expected x y z [intensity [r g b]] (3, 4, 6 or 7 values), found {n}"
@@ -133,9 +157,15 @@ fn point_of(line: &[u8]) -> std::result::Result<[f64; 3], String> {
 }
 
 impl Cursor {
-    /// Parses whole lines of `text` into `buf` until it holds `CHUNK` points;
-    /// returns the bytes consumed.
-    fn parse(&mut self, text: &[u8], buf: &mut Vec<Point>) -> Result<usize> {
+    /// Parses whole lines of `text` into `buf` (and each point's intensity
+    /// into `inten` when given: NaN on a line without one) until it holds
+    /// `CHUNK` points; returns the bytes consumed.
+    fn parse(
+        &mut self,
+        text: &[u8],
+        buf: &mut Vec<Point>,
+        mut inten: Option<&mut Vec<f32>>,
+    ) -> Result<usize> {
         let mut pos = 0;
         while pos < text.len() && buf.len() < CHUNK {
             let end = text[pos..]
@@ -184,9 +214,13 @@ impl Cursor {
                             ),
                         ));
                     }
-                    let v = point_of(text_line).map_err(|m| Error::table(&self.path, ln, m))?;
+                    let (v, i) =
+                        point_of(text_line).map_err(|m| Error::table(&self.path, ln, m))?;
                     if v.iter().all(|c| c.is_finite()) {
                         buf.push(Point::new(v[0], v[1], v[2]));
+                        if let Some(out) = inten.as_deref_mut() {
+                            out.push(i.unwrap_or(f64::NAN) as f32);
+                        }
                     } else {
                         self.stats.skipped_nonfinite += 1;
                     }
@@ -212,11 +246,38 @@ impl PointReader for PtsReader {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+        self.fill(buf, None)
+    }
+
+    fn has_intensity(&self) -> bool {
+        self.intensity
+    }
+
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        inten.clear();
+        if !self.intensity {
+            return self.next_chunk(buf);
+        }
+        self.fill(buf, Some(inten))
+    }
+
+    fn stats(&self) -> ReadStats {
+        self.cur.stats
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.lines.bytes
+    }
+}
+
+impl PtsReader {
+    /// The next points, with their intensities into `inten` when given.
+    fn fill(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<bool> {
         buf.clear();
         while !self.done && buf.len() < CHUNK {
             if !self.pending.is_empty() {
                 let text = std::mem::take(&mut self.pending);
-                let used = self.cur.parse(&text, buf)?;
+                let used = self.cur.parse(&text, buf, inten.as_deref_mut())?;
                 self.pending = text[used..].to_vec();
                 continue;
             }
@@ -243,21 +304,13 @@ impl PointReader for PtsReader {
                     (State::Count, Some(_)) => break,
                 }
             };
-            let used = self.cur.parse(block, buf)?;
+            let used = self.cur.parse(block, buf, inten.as_deref_mut())?;
             if used < block.len() {
                 self.pending = block[used..].to_vec();
             }
         }
         self.cur.stats.points += buf.len() as u64;
         Ok(!buf.is_empty())
-    }
-
-    fn stats(&self) -> ReadStats {
-        self.cur.stats
-    }
-
-    fn bytes_read(&self) -> u64 {
-        self.lines.bytes
     }
 }
 
@@ -331,6 +384,38 @@ mod tests {
         let p = file(&dir, "empty.pts", "0\n");
         assert_eq!(cloud::detect(&p).unwrap(), cloud::Format::Pts);
         assert_eq!(read(&p).unwrap().0, Vec::<[f64; 3]>::new());
+    }
+
+    /// Leica's `x y z i [r g b]` lines give their intensities with their
+    /// points (a point line without one gives NaN; a non-finite point
+    /// drops its intensity with it); CloudCompare's `x y z r g b` has none.
+    #[test]
+    fn intensity_of_leica_lines() {
+        let dir = tempfile::tempdir().unwrap();
+        let with_i = |p: &Path| {
+            let mut r = cloud::open(p).unwrap();
+            let has = r.has_intensity();
+            let (mut b, mut i, mut all) = (Vec::new(), Vec::new(), Vec::new());
+            while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
+                assert!(i.is_empty() || i.len() == b.len());
+                all.extend_from_slice(&i);
+            }
+            (has, all)
+        };
+        let p = file(
+            &dir,
+            "leica.pts",
+            "4\n1 2 3\t-1024\t10\t20\t30\n4 5 6 2047 0 0 0\nnan 1 1 5\n7 8 9\n1\n0 0 0 12\n",
+        );
+        let (has, i) = with_i(&p);
+        assert!(has);
+        assert_eq!(i.len(), 4);
+        assert_eq!(&i[..2], &[-1024.0, 2047.0]);
+        assert!(i[2].is_nan());
+        assert_eq!(i[3], 12.0);
+        let p = file(&dir, "cc.pts", "2\n1 2 3 10 20 30\n4 5 6 1 2 3\n");
+        let (has, i) = with_i(&p);
+        assert!(!has && i.is_empty());
     }
 
     #[test]

@@ -143,6 +143,8 @@ def read_pts(path):
     rows = [l.split() for l in lines[1:] if l.strip()]
     if len(rows) != n:
         raise ValueError(f"pts: {len(rows)} rows, header says {n}")
+    if rows and all(len(r) in (4, 7) for r in rows):
+        INTENSITY[str(path)] = np.array([float(r[3]) for r in rows], dtype=np.float64)
     return np.array([[float(v) for v in r[:3]] for r in rows], dtype=np.float64), "pts (Leica text, count line + x y z i r g b)"
 
 
@@ -155,7 +157,7 @@ def read_csv(path):
 
 
 # Intensities of the files whose readers here read them (LAS/LAZ by laspy,
-# PLY by plyfile, E57 by pye57), by path.
+# PLY by plyfile, E57 by pye57, PTS's fourth value), by path.
 INTENSITY = {}
 
 READERS = {".pcd": read_pcd, ".ply": read_ply, ".las": read_las, ".laz": read_las, ".e57": read_e57,
