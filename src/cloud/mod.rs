@@ -122,9 +122,9 @@ pub trait PointReader: Send {
     /// Bytes of the file consumed so far (for progress bars).
     fn bytes_read(&self) -> u64;
     /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
-    /// cloud has an `intensity` field and the reader reads it (binary PCD,
-    /// fixed-size binary PLY, LAS, LAZ and COPC, E57 whose every scan has
-    /// one, PTS whose first point line has one).
+    /// cloud has an `intensity` field and the reader reads it (binary and
+    /// ASCII PCD, fixed-size binary PLY, LAS, LAZ and COPC, E57 whose every
+    /// scan has one, PTS whose first point line has one).
     fn has_intensity(&self) -> bool {
         false
     }

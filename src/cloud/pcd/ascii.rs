@@ -25,6 +25,8 @@ pub(super) struct AsciiReader {
     cols: [usize; 3],
     /// x, y, z declared `TYPE F` `SIZE 4`: read as PCL does, to the nearest f32.
     f32s: [bool; 3],
+    /// Token index of the intensity, when the cloud has one.
+    icol: Option<usize>,
     st: TextState,
     /// Index of the next point to decode.
     next: u64,
@@ -47,6 +49,7 @@ impl AsciiReader {
             .map_err(|e| Error::io(path, e))?;
         let cols = header.xyz.map(|i| header.fields[i].token);
         let f32s = header.xyz.map(|i| header.fields[i].kind == Scalar::F32);
+        let icol = header.intensity_field().map(|i| header.fields[i].token);
         let st = TextState {
             file,
             block: Vec::new(),
@@ -61,14 +64,16 @@ impl AsciiReader {
             header,
             cols,
             f32s,
+            icol,
             st,
             next: 0,
         })
     }
 
     /// Reads the next block of ascii lines, parses it in parallel pieces and
-    /// appends the finite points (at most the declared count) to `buf`.
-    fn next_text(&mut self, buf: &mut Vec<Point>) -> Result<()> {
+    /// appends the finite points (at most the declared count) to `buf`, and
+    /// their intensities to `inten` when given.
+    fn next_text(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<()> {
         let st = &mut self.st;
         let path = &self.path;
         // Read on until the block holds at least one whole line (the carried
@@ -123,14 +128,16 @@ impl AsciiReader {
             cuts.push(next);
         }
         let (cols, f32s) = (self.cols, self.f32s);
+        // The intensity is parsed only by the passes that read it.
+        let icol = self.icol.filter(|_| inten.is_some());
         let pieces: Vec<Piece> = cuts
             .par_windows(2)
-            .map(|w| parse_piece(&text[w[0]..w[1]], cols, f32s))
+            .map(|w| parse_piece(&text[w[0]..w[1]], cols, f32s, icol))
             .collect();
         let ntok = self.header.tokens_per_line;
         let mut remaining = self.header.points - self.next;
         for piece in &pieces {
-            for p in &piece.points {
+            for (k, p) in piece.points.iter().enumerate() {
                 if remaining == 0 {
                     return Err(more_points_than_declared(path, self.header.points));
                 }
@@ -138,6 +145,9 @@ impl AsciiReader {
                 self.next += 1;
                 if p.iter().all(|v| v.is_finite()) {
                     buf.push(Point::new(p[0], p[1], p[2]));
+                    if let Some(out) = inten.as_deref_mut() {
+                        out.push(piece.inten.get(k).copied().unwrap_or(f32::NAN));
+                    }
                 } else {
                     self.stats.skipped_nonfinite += 1;
                 }
@@ -217,6 +227,9 @@ enum LineError {
 struct Piece {
     /// x, y, z of every data line, non-finite ones included (in order).
     points: Vec<[f64; 3]>,
+    /// Each line's intensity when asked for (NaN where missing or not a
+    /// number), else empty.
+    inten: Vec<f32>,
     /// Physical lines in the piece.
     lines: u64,
     /// First bad line (1-based within the piece), after which parsing stopped.
@@ -224,23 +237,29 @@ struct Piece {
 }
 
 /// Parses the lines of `text`: x, y, z are tokens `cols`, rounded to f32
-/// where `f32s` says so.
-fn parse_piece(text: &[u8], cols: [usize; 3], f32s: [bool; 3]) -> Piece {
+/// where `f32s` says so, and the intensity token `icol` when given.
+fn parse_piece(text: &[u8], cols: [usize; 3], f32s: [bool; 3], icol: Option<usize>) -> Piece {
     let last = cols.iter().copied().max().unwrap_or(0);
+    let reach = last.max(icol.unwrap_or(0));
     let mut piece = Piece {
         points: Vec::with_capacity(text.len() / 24),
+        inten: Vec::new(),
         lines: 0,
         error: None,
     };
     for line in text.split(|&b| b == b'\n') {
         piece.lines += 1;
         let mut vals = [0f64; 3];
+        let mut i = f32::NAN;
         let mut toks = line
             .split(|b| matches!(b, b' ' | b'\t' | b'\r' | b','))
             .filter(|t| !t.is_empty());
         let mut t = 0usize;
-        while t <= last {
+        while t <= reach {
             let Some(tok) = toks.next() else { break };
+            if icol == Some(t) {
+                i = parse_f64(tok).map_or(f32::NAN, |v| v as f32);
+            }
             for c in 0..3 {
                 if cols[c] == t {
                     match parse_f64(tok) {
@@ -265,6 +284,9 @@ fn parse_piece(text: &[u8], cols: [usize; 3], f32s: [bool; 3]) -> Piece {
             return piece;
         }
         piece.points.push(vals);
+        if icol.is_some() {
+            piece.inten.push(i);
+        }
     }
     // `split` yields an empty tail after a final newline: it is not a line.
     if text.last() == Some(&b'\n') {
@@ -279,18 +301,19 @@ impl PointReader for AsciiReader {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
-        loop {
-            buf.clear();
-            if self.next >= self.header.points {
-                ascii_tail_is_blank(&self.path, &mut self.st, self.header.points)?;
-                return Ok(false);
-            }
-            self.next_text(buf)?;
-            if !buf.is_empty() {
-                self.stats.points += buf.len() as u64;
-                return Ok(true);
-            }
+        self.fill(buf, None)
+    }
+
+    fn has_intensity(&self) -> bool {
+        self.icol.is_some()
+    }
+
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        inten.clear();
+        if self.icol.is_none() {
+            return self.next_chunk(buf);
         }
+        self.fill(buf, Some(inten))
     }
 
     fn stats(&self) -> ReadStats {
@@ -299,5 +322,26 @@ impl PointReader for AsciiReader {
 
     fn bytes_read(&self) -> u64 {
         self.header.data_offset as u64 + self.st.consumed
+    }
+}
+
+impl AsciiReader {
+    /// The next points, with their intensities into `inten` when given.
+    fn fill(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<bool> {
+        loop {
+            buf.clear();
+            if let Some(v) = inten.as_deref_mut() {
+                v.clear();
+            }
+            if self.next >= self.header.points {
+                ascii_tail_is_blank(&self.path, &mut self.st, self.header.points)?;
+                return Ok(false);
+            }
+            self.next_text(buf, inten.as_deref_mut())?;
+            if !buf.is_empty() {
+                self.stats.points += buf.len() as u64;
+                return Ok(true);
+            }
+        }
     }
 }

@@ -80,24 +80,9 @@ pub(super) fn open(
 
 /// The `intensity` field (exact name first, then any case, then the short
 /// `i` some writers use), when it holds one value.
-pub(super) fn intensity_field(header: &Header) -> Option<records::Coord> {
-    let f = header
-        .fields
-        .iter()
-        .find(|f| f.name == "intensity")
-        .or_else(|| {
-            header
-                .fields
-                .iter()
-                .find(|f| f.name.eq_ignore_ascii_case("intensity"))
-        })
-        .or_else(|| {
-            header
-                .fields
-                .iter()
-                .find(|f| f.name.eq_ignore_ascii_case("i"))
-        })?;
-    (f.count == 1).then_some(records::Coord {
+fn intensity_field(header: &Header) -> Option<records::Coord> {
+    let f = &header.fields[header.intensity_field()?];
+    Some(records::Coord {
         kind: f.kind,
         offset: f.offset,
     })

@@ -64,6 +64,26 @@ pub(super) struct Header {
     pub(super) xyz: [usize; 3],
 }
 
+impl Header {
+    /// The index of the `intensity` field (exact name first, then any case,
+    /// then the short `i` some writers use), when it holds one value.
+    pub(super) fn intensity_field(&self) -> Option<usize> {
+        let named = |want: &str, exact: bool| {
+            self.fields.iter().position(|f| {
+                if exact {
+                    f.name == want
+                } else {
+                    f.name.eq_ignore_ascii_case(want)
+                }
+            })
+        };
+        let i = named("intensity", true)
+            .or_else(|| named("intensity", false))
+            .or_else(|| named("i", false))?;
+        (self.fields[i].count == 1).then_some(i)
+    }
+}
+
 fn parse_usize_list(
     path: &Path,
     key: &str,

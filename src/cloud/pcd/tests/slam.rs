@@ -386,3 +386,43 @@ fn intensity_is_read_beside_its_point_and_written_where_it_fits() {
     assert_eq!(buf.len(), 10);
     assert!(inten.is_empty());
 }
+
+/// ASCII PCD: the intensity column comes with its point (also after x, y,
+/// z and before other fields, and NaN where a line's value is not a
+/// number); a cloud without one has none.
+#[test]
+fn ascii_intensity_is_read_beside_its_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 2000;
+    let mut text = format!(
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity ring\nSIZE 4 4 4 4 2\nTYPE F F F F U\n\
+         COUNT 1 1 1 1 1\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA ascii\n"
+    );
+    let mut want = Vec::new();
+    for k in 0..n {
+        let (x, y, z) = (k as f32 * 0.5, 2.0_f32, -1.25_f32);
+        match k % 500 {
+            7 => text.push_str(&format!("nan {y} {z} 5 1\n")),
+            9 => {
+                text.push_str(&format!("{x} {y} {z} nan 1\n"));
+                want.push(f32::NAN);
+            }
+            _ => {
+                text.push_str(&format!("{x} {y} {z} {} 1\n", k % 256));
+                want.push((k % 256) as f32);
+            }
+        }
+    }
+    let p = file(&dir, "a.pcd", text.as_bytes());
+    let (pts, inten) = read_intensity(&p);
+    assert_eq!(pts.len(), want.len());
+    assert_eq!(inten.len(), want.len());
+    for (a, b) in inten.iter().zip(&want) {
+        assert!(a == b || (a.is_nan() && b.is_nan()), "{a} {b}");
+    }
+    // Coordinates as the coordinates-only read gives them.
+    assert_eq!(pts, cloud::read_all(&p).unwrap());
+    let plain = text.replace("FIELDS x y z intensity ring", "FIELDS x y z power ring");
+    let mut r = cloud::open(&file(&dir, "b.pcd", plain.as_bytes())).unwrap();
+    assert!(!r.has_intensity());
+}
