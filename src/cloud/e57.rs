@@ -239,14 +239,8 @@ mod tests {
             path
         };
         let read_i = |path: &Path| {
-            let mut r = super::super::open(path).unwrap();
-            let has = r.has_intensity();
-            let (mut b, mut i, mut all) = (Vec::new(), Vec::new(), Vec::new());
-            while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
-                assert!(i.is_empty() || i.len() == b.len());
-                all.extend_from_slice(&i);
-            }
-            (has, all)
+            let (_, inten, has) = crate::cloud::read_with_intensity(path);
+            (has, inten)
         };
         let (has, inten) = read_i(&write("i.e57", true));
         assert!(has);

@@ -580,3 +580,21 @@ pub fn write(path: &Path, format: OutFormat, points: &[Point]) -> Result<()> {
     w.finish()?;
     Ok(())
 }
+
+/// Every point and intensity a file's reader gives through
+/// [`PointReader::next_chunk_intensity`], and whether it has intensities
+/// (the readers' tests share it). Each block's intensities are one a point,
+/// or none.
+#[cfg(test)]
+pub(crate) fn read_with_intensity(path: &Path) -> (Vec<Point>, Vec<f32>, bool) {
+    let mut r = open(path).unwrap();
+    let has = r.has_intensity();
+    let (mut pts, mut inten) = (Vec::new(), Vec::new());
+    let (mut b, mut i) = (Vec::new(), Vec::new());
+    while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
+        assert!(i.len() == b.len() || (!has && i.is_empty()));
+        pts.extend_from_slice(&b);
+        inten.extend_from_slice(&i);
+    }
+    (pts, inten, has)
+}

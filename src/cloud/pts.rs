@@ -393,14 +393,8 @@ mod tests {
     fn intensity_of_leica_lines() {
         let dir = tempfile::tempdir().unwrap();
         let with_i = |p: &Path| {
-            let mut r = cloud::open(p).unwrap();
-            let has = r.has_intensity();
-            let (mut b, mut i, mut all) = (Vec::new(), Vec::new(), Vec::new());
-            while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
-                assert!(i.is_empty() || i.len() == b.len());
-                all.extend_from_slice(&i);
-            }
-            (has, all)
+            let (_, inten, has) = cloud::read_with_intensity(p);
+            (has, inten)
         };
         let p = file(
             &dir,

@@ -3,28 +3,12 @@
 //! the result is compared with the scene's true target positions.
 
 use crate::truth::{Limits, Run};
-use crate::util::{bin, tempdir};
+use crate::util::{bin, synth_into, tempdir};
 use serde_json::Value;
 use std::panic::AssertUnwindSafe;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
-
-/// Runs `mapgauge synth --out SCENE ARGS...`, which must succeed.
-fn synth_into(scene: &Path, args: &[&str]) {
-    let out = bin()
-        .arg("synth")
-        .arg("--out")
-        .arg(scene)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "synth: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 /// Runs `mapgauge eval` on a scene's map and survey into `res` with `threads`
 /// rayon threads (None: the default); must succeed.

@@ -28,6 +28,12 @@ fn synth_with(scene: &Path, seed: &str, extra: &[&str]) -> Value {
     serde_json::from_slice(&std::fs::read(scene.join("truth.json")).unwrap()).unwrap()
 }
 
+/// `synth --out scene` with exactly `args`: its truth.json.
+fn synth_scene(scene: &Path, args: &[&str]) -> Value {
+    crate::util::synth_into(scene, args);
+    json(&scene.join("truth.json"))
+}
+
 fn eval(scene: &Path, survey: &Path, out: &Path) -> std::process::Output {
     bin()
         .arg("eval")
@@ -196,16 +202,12 @@ fn spheres_and_ls_in_one_survey() {
 fn boards_are_located_by_their_print() {
     let dir = tempdir();
     let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
-    let o = bin()
-        .arg("synth")
-        .arg("--out")
-        .arg(&scene)
-        .args(["--points", "3000000", "--seed", "3", "--models", "l,board"])
-        .args(["--format", "pcd-xyzi"])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "synth: {}", stderr(&o));
-    let truth = json(&scene.join("truth.json"));
+    let truth = synth_scene(
+        &scene,
+        &[
+            "--points", "3000000", "--seed", "3", "--models", "l,board", "--format", "pcd-xyzi",
+        ],
+    );
     let run = |survey: &Path, out: &Path| eval_pcd(&scene, survey, out);
     let r = run(&scene.join("survey.csv"), &out);
     let found = located(&r, &truth);
@@ -252,16 +254,21 @@ fn boards_are_located_by_their_print() {
 fn boards_are_located_in_a_laz_map() {
     let dir = tempdir();
     let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
-    let o = bin()
-        .arg("synth")
-        .arg("--out")
-        .arg(&scene)
-        .args(["--points", "2000000", "--seed", "6", "--models", "board"])
-        .args(["--targets", "4", "--format", "laz"])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "synth: {}", stderr(&o));
-    let truth = json(&scene.join("truth.json"));
+    let truth = synth_scene(
+        &scene,
+        &[
+            "--points",
+            "2000000",
+            "--seed",
+            "6",
+            "--models",
+            "board",
+            "--targets",
+            "4",
+            "--format",
+            "laz",
+        ],
+    );
     let r = eval_map(&scene.join("map.laz"), &scene.join("survey.csv"), &out);
     let found = located(&r, &truth);
     assert_eq!(found.len(), 4, "{}", r["targets"]);

@@ -15,6 +15,18 @@ pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// Runs `mapgauge synth --out SCENE ARGS...`, which must succeed.
+pub fn synth_into(scene: &std::path::Path, args: &[&str]) {
+    let out = bin()
+        .arg("synth")
+        .arg("--out")
+        .arg(scene)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "synth: {}", stderr(&out));
+}
+
 /// Runs `cmd`, which must succeed (its stderr is the failure message); returns stdout.
 pub fn stdout_ok(cmd: &mut Command) -> String {
     let out = cmd.output().expect("spawn mapgauge");

@@ -4,19 +4,7 @@
 use super::*;
 use crate::cloud::{CloudWriter, OutFormat};
 
-/// Every point and intensity a reader gives through `next_chunk_intensity`.
-fn with_intensity(path: &Path) -> (Vec<Point>, Vec<f32>, bool) {
-    let mut r = super::super::open(path).unwrap();
-    let has = r.has_intensity();
-    let (mut pts, mut inten) = (Vec::new(), Vec::new());
-    let (mut b, mut i) = (Vec::new(), Vec::new());
-    while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
-        assert_eq!(b.len(), i.len());
-        pts.extend_from_slice(&b);
-        inten.extend_from_slice(&i);
-    }
-    (pts, inten, has)
-}
+use crate::cloud::read_with_intensity as with_intensity;
 
 /// The `las` crate's own reading: every point's intensity, in file order.
 fn crate_intensities(path: &Path) -> Vec<f32> {

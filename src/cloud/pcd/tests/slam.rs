@@ -295,18 +295,11 @@ fn float_ply_with_colour_bytes_is_read_exactly() {
     assert_eq!(kept, want);
 }
 
-/// Every point and intensity through `next_chunk_intensity`.
+/// Every point and intensity of a file that has intensities.
 fn read_intensity(path: &Path) -> (Vec<Point>, Vec<f32>) {
-    let mut r = cloud::open(path).unwrap();
-    assert!(r.has_intensity(), "{}", path.display());
-    let (mut buf, mut inten) = (Vec::new(), Vec::new());
-    let (mut pts, mut all) = (Vec::new(), Vec::new());
-    while r.next_chunk_intensity(&mut buf, &mut inten).unwrap() {
-        assert_eq!(buf.len(), inten.len());
-        pts.extend_from_slice(&buf);
-        all.extend_from_slice(&inten);
-    }
-    (pts, all)
+    let (pts, inten, has) = cloud::read_with_intensity(path);
+    assert!(has, "{}", path.display());
+    (pts, inten)
 }
 
 #[test]
@@ -423,6 +416,6 @@ fn ascii_intensity_is_read_beside_its_point() {
     // Coordinates as the coordinates-only read gives them.
     assert_eq!(pts, cloud::read_all(&p).unwrap());
     let plain = text.replace("FIELDS x y z intensity ring", "FIELDS x y z power ring");
-    let mut r = cloud::open(&file(&dir, "b.pcd", plain.as_bytes())).unwrap();
+    let r = cloud::open(&file(&dir, "b.pcd", plain.as_bytes())).unwrap();
     assert!(!r.has_intensity());
 }
