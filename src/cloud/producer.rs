@@ -212,8 +212,11 @@ impl PointReader for Producer {
 impl Producer {
     /// The next block, and its intensities into `inten` (cleared first;
     /// left empty without them) when given.
-    fn receive(&mut self, buf: &mut Vec<Point>, inten: Option<&mut Vec<f32>>) -> Result<bool> {
+    fn receive(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<bool> {
         buf.clear();
+        if let Some(v) = inten.as_deref_mut() {
+            v.clear();
+        }
         if self.done {
             return Ok(false);
         }

@@ -79,7 +79,7 @@ fn every_real_file_reads_as_an_independent_reader_reads_it() {
 /// independent reader reads it (laspy for LAS/LAZ, plyfile for PLY, pye57
 /// for E57 in the local run's larger files), every
 /// file's intensities read as it reads them: their sum, least, greatest and
-/// first, over the finite points.
+/// first, over the finite intensities of the points with finite coordinates.
 #[test]
 fn intensities_read_as_an_independent_reader_reads_them() {
     let (dir, manifest) = corpus();
@@ -97,7 +97,13 @@ fn intensities_read_as_an_independent_reader_reads_them() {
         }
         let (mut all, mut buf, mut inten) = (Vec::new(), Vec::new(), Vec::new());
         while r.next_chunk_intensity(&mut buf, &mut inten).unwrap() {
-            all.extend(inten.iter().map(|&v| f64::from(v)));
+            // A point without one (NaN) says nothing of a print, as in measure.py.
+            all.extend(
+                inten
+                    .iter()
+                    .filter(|v| v.is_finite())
+                    .map(|&v| f64::from(v)),
+            );
         }
         let got = [
             all.iter().sum::<f64>(),

@@ -174,6 +174,7 @@ def stats(path):
     i = INTENSITY.get(str(path))
     if i is not None:
         i = i[~nan]
+        i = i[np.isfinite(i)]
         out["intensity"] = {"sum": float(i.sum()), "min": float(i.min()), "max": float(i.max()),
                             "first": float(i[0])}
     return out
