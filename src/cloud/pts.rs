@@ -124,11 +124,11 @@ fn count_of(line: &[u8]) -> Option<u64> {
     std::str::from_utf8(tok).ok()?.parse().ok()
 }
 
-/// x, y, z of a point line and its intensity (4 or 7 values; NaN when not
-/// a number), or what is wrong with it.
-fn point_of(line: &[u8]) -> std::result::Result<([f64; 3], Option<f64>), String> {
+/// x, y, z of a point line and its intensity's token (4 or 7 values; left
+/// unparsed: only the boards' pass reads it), or what is wrong with it.
+fn point_of(line: &[u8]) -> std::result::Result<([f64; 3], Option<&[u8]>), String> {
     let mut v = [0.0; 3];
-    let mut i = f64::NAN;
+    let mut i: &[u8] = &[];
     let mut n = 0usize;
     for tok in line
         .split(|b| b.is_ascii_whitespace())
@@ -143,7 +143,7 @@ fn point_of(line: &[u8]) -> std::result::Result<([f64; 3], Option<f64>), String>
                 )
             })?;
         } else if n == 3 {
-            i = parse_f64(tok).unwrap_or(f64::NAN);
+            i = tok;
         }
         n += 1;
     }
@@ -219,7 +219,8 @@ impl Cursor {
                     if v.iter().all(|c| c.is_finite()) {
                         buf.push(Point::new(v[0], v[1], v[2]));
                         if let Some(out) = inten.as_deref_mut() {
-                            out.push(i.unwrap_or(f64::NAN) as f32);
+                            // NaN where none, or not a number.
+                            out.push(i.and_then(parse_f64).unwrap_or(f64::NAN) as f32);
                         }
                     } else {
                         self.stats.skipped_nonfinite += 1;
