@@ -110,6 +110,14 @@ pub struct SphereDetail {
     pub rms: f64,
     /// Half-angle of the cap seen, the narrower way (degrees).
     pub cap_deg: f64,
+    /// The side the surface was seen from (unit, evaluation frame): the
+    /// mean direction from the centre to its points.
+    #[serde(default)]
+    pub seen_from: [f64; 3],
+    /// How far the centre was moved back from the fitted one, away from
+    /// the side seen, for the range noise's second-order pull (m).
+    #[serde(default)]
+    pub shift_m: f64,
     /// Spheres of the surveyed size seen in the search.
     pub candidates: usize,
 }
@@ -353,6 +361,8 @@ fn detail(t: &TargetRun) -> TargetDetail {
                 inliers: s.inliers,
                 rms: s.rms,
                 cap_deg: s.cap_deg,
+                seen_from: s.seen_from,
+                shift_m: s.shift_m,
                 candidates: s.candidates,
             });
             d.board = f.board.as_ref().map(|b| BoardDetail {

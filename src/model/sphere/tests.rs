@@ -457,3 +457,92 @@ fn the_covariance_is_calibrated_on_independent_noise() {
         "{inside} of {total} inside: {share:.3}"
     );
 }
+
+/// A sphere (centre `c`) scanned by a LiDAR passing by on a straight road
+/// `road` metres away: stations every metre over ±`half` m along x, each
+/// casting rays on an angular grid (a random phase per station), the first
+/// hit along each ray returned with Gaussian noise `range_sigma` along it,
+/// as a spinning LiDAR's range noise is.
+fn passed_by(
+    rng: &mut Pcg64,
+    c: Vector3<f64>,
+    road: f64,
+    half: f64,
+    range_sigma: f64,
+) -> Vec<Point> {
+    let noise = Normal::new(0.0, range_sigma).unwrap();
+    let (d_az, d_el) = (0.004, 0.01);
+    let mut out = Vec::new();
+    let mut x = -half;
+    while x <= half {
+        let s = Vector3::new(c.x + x, c.y - road, c.z + 0.3);
+        let to = c - s;
+        let (az0, el0) = (to.y.atan2(to.x), (to.z / to.norm()).asin());
+        let reach = (R / to.norm()).asin() + 0.02;
+        let (pa, pe): (f64, f64) = (rng.random_range(0.0..d_az), rng.random_range(0.0..d_el));
+        let mut el = el0 - reach + pe;
+        while el < el0 + reach {
+            let mut az = az0 - reach + pa;
+            while az < az0 + reach {
+                let d = Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+                let oc = s - c;
+                let b = d.dot(&oc);
+                let disc = b * b - (oc.norm_squared() - R * R);
+                if disc > 0.0 {
+                    let t = -b - disc.sqrt() + noise.sample(rng);
+                    out.push(Point::from(s + d * t));
+                }
+                az += d_az;
+            }
+            el += d_el;
+        }
+        x += 1.0;
+    }
+    out
+}
+
+/// Range noise of 2 cm on a 145 mm sphere (s/r ≈ 0.28, a SLAM map's noise):
+/// least squares alone put the centre ~3 mm towards the side seen and its
+/// 95 % ellipsoid held ~70 % of the truths (issue 33). With the noise's
+/// second-order pull taken off and its scatter carried, the error along the
+/// view averages about nothing and the ellipsoid holds about 95 %.
+#[test]
+fn range_noise_on_a_small_sphere_neither_pulls_nor_overstates() {
+    let mut rng = Pcg64::seed_from_u64(11);
+    let p = SphereParams::default();
+    let (mut inside, mut along, mut total) = (0, Vec::new(), 0);
+    for _ in 0..240 {
+        let c = Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            1.3,
+        );
+        let road = rng.random_range(5.0..12.0);
+        let half = rng.random_range(5.0..15.0);
+        let pts = passed_by(&mut rng, c, road, half, 0.02);
+        let Ok((fit, _)) = locate(&search(&pts, Point::from(c)), &p) else {
+            continue;
+        };
+        let cov = Matrix3::from_fn(|i, j| fit.covariance[i][j]);
+        let e = fit.centre.coords - c;
+        total += 1;
+        inside += usize::from(e.dot(&(cov.try_inverse().unwrap() * e)) <= 7.815);
+        along.push(e.dot(&Vector3::from(fit.seen_from)));
+    }
+    // The rest are refused, most as too little seen to tell their size.
+    assert!(total >= 120, "only {total} of 240 located");
+    let n = along.len() as f64;
+    let mean = along.iter().sum::<f64>() / n;
+    let sd = (along.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    assert!(
+        mean.abs() < 3.0 * sd / n.sqrt() + 0.0005,
+        "mean error along the view {:.2} mm (sd {:.2} mm, {n} spheres)",
+        mean * 1e3,
+        sd * 1e3
+    );
+    let share = inside as f64 / total as f64;
+    assert!(
+        (0.9..=0.99).contains(&share),
+        "{inside} of {total} inside: {share:.3}"
+    );
+}
