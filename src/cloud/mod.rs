@@ -122,8 +122,8 @@ pub trait PointReader: Send {
     /// Bytes of the file consumed so far (for progress bars).
     fn bytes_read(&self) -> u64;
     /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
-    /// cloud has an `intensity` field and the reader reads it (binary and
-    /// ASCII PCD, fixed-size binary PLY, LAS, LAZ and COPC, E57 whose every
+    /// cloud has an `intensity` field and the reader reads it (binary,
+    /// binary_compressed and ASCII PCD, fixed-size binary PLY, LAS, LAZ and COPC, E57 whose every
     /// scan has one, PTS whose first point line has one).
     fn has_intensity(&self) -> bool {
         false
@@ -451,8 +451,10 @@ pub enum OutFormat {
     /// ascii PCD with double x, y, z written to the micrometre (6 decimals).
     #[serde(rename = "pcd-ascii")]
     PcdAscii,
-    /// binary_compressed PCD (PCL's LZF, column-wise) with double x, y, z; the
-    /// format's 32-bit sizes limit it to 178 956 970 points.
+    /// binary_compressed PCD (PCL's LZF, column-wise) with double x, y, z, and
+    /// a float intensity when the source has one (synth: with boards); the
+    /// format's 32-bit sizes limit it to 178 956 970 points (153 391 689 with
+    /// intensity).
     #[serde(rename = "pcd-compressed")]
     PcdCompressed,
     /// LAZ (LASzip-compressed LAS 1.2, point format 0, millimetre scale).
@@ -493,6 +495,7 @@ impl OutFormat {
             self,
             OutFormat::PcdXyzi
                 | OutFormat::PcdFastlio
+                | OutFormat::PcdCompressed
                 | OutFormat::PlyF32
                 | OutFormat::Xyz
                 | OutFormat::Las
@@ -549,7 +552,7 @@ impl CloudWriter {
             OutFormat::Las => las::las_sink(path, false)?,
             OutFormat::Laz => las::las_sink(path, true)?,
             OutFormat::PcdAscii => write::pcd_ascii_sink(path)?,
-            OutFormat::PcdCompressed => write::pcd_compressed_sink(path)?,
+            OutFormat::PcdCompressed => write::pcd_compressed_sink(path, intensity)?,
             OutFormat::PcdF32 => write::pcd_f32_sink(path)?,
             OutFormat::PcdXyzi => write::pcd_xyzi_sink(path)?,
             OutFormat::PcdFastlio => write::pcd_fastlio_sink(path)?,

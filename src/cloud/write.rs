@@ -373,20 +373,37 @@ pub(super) fn pcd_ascii_sink(path: &Path) -> Result<Box<dyn Sink>> {
 const LZF_BLOCK: usize = 1 << 20;
 
 /// A binary_compressed PCD writer. The format stores all x, then all y, then
-/// all z, LZF-compressed as one stream behind the header, so the coordinates
-/// are spooled to three temporary column files while points arrive and
-/// compressed at `finish`, 1 MiB at a time (LZF blocks compressed separately
-/// concatenate into one valid stream): memory stays bounded.
+/// all z (then all intensities, as float32, when asked for), LZF-compressed
+/// as one stream behind the header, so the columns are spooled to temporary
+/// files while points arrive and compressed at `finish`, 1 MiB at a time
+/// (LZF blocks compressed separately concatenate into one valid stream):
+/// memory stays bounded.
 struct PcdCompressedSink {
     dest: PathBuf,
     tmp: PathBuf,
     cols: Vec<(PathBuf, BufWriter<File>)>,
+    /// Whether the fourth column is the intensity.
+    intensity: bool,
     count: u64,
     finished: bool,
 }
 
-/// Starts a binary_compressed PCD writer.
-pub(super) fn pcd_compressed_sink(path: &Path) -> Result<Box<dyn Sink>> {
+/// The binary_compressed header: double x, y, z, and a float intensity.
+fn compressed_header(n: u64, intensity: bool) -> String {
+    if intensity {
+        format!(
+            "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z intensity\n\
+             SIZE 8 8 8 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
+             VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary_compressed\n"
+        )
+    } else {
+        pcd_header(n, "", 8, "binary_compressed")
+    }
+}
+
+/// Starts a binary_compressed PCD writer, with an intensity column when
+/// `intensity` (points written without one get NaN there).
+pub(super) fn pcd_compressed_sink(path: &Path, intensity: bool) -> Result<Box<dyn Sink>> {
     let name = path
         .file_name()
         .ok_or_else(|| Error::Param(format!("{}: output path has no file name", path.display())))?;
@@ -402,10 +419,16 @@ pub(super) fn pcd_compressed_sink(path: &Path) -> Result<Box<dyn Sink>> {
         dest: path.to_path_buf(),
         tmp: tmp_name(""),
         cols: Vec::new(),
+        intensity,
         count: 0,
         finished: false,
     };
-    for c in ["x", "y", "z"] {
+    let names: &[&str] = if intensity {
+        &["x", "y", "z", "i"]
+    } else {
+        &["x", "y", "z"]
+    };
+    for c in names {
         let p = tmp_name(&format!(".{c}"));
         let f = File::options()
             .write(true)
@@ -418,8 +441,26 @@ pub(super) fn pcd_compressed_sink(path: &Path) -> Result<Box<dyn Sink>> {
 }
 
 impl Sink for PcdCompressedSink {
-    fn write(&mut self, points: &[Point], _intensity: Option<&[f32]>) -> Result<()> {
+    fn write(&mut self, points: &[Point], intensity: Option<&[f32]>) -> Result<()> {
+        if let Some(i) = intensity
+            && i.len() != points.len()
+        {
+            return Err(Error::Param(format!(
+                "{}: {} intensities for {} points",
+                self.dest.display(),
+                i.len(),
+                points.len()
+            )));
+        }
         for (c, (p, w)) in self.cols.iter_mut().enumerate() {
+            if c == 3 {
+                for k in 0..points.len() {
+                    let v = intensity.map_or(f32::NAN, |i| i[k]);
+                    w.write_all(&v.to_le_bytes())
+                        .map_err(|e| Error::io(&*p, e))?;
+                }
+                continue;
+            }
             for q in points {
                 w.write_all(&q[c].to_le_bytes())
                     .map_err(|e| Error::io(&*p, e))?;
@@ -430,13 +471,19 @@ impl Sink for PcdCompressedSink {
     }
 
     fn finish(mut self: Box<Self>) -> Result<u64> {
-        let raw = self.count * 24;
+        let per_point = if self.intensity { 28 } else { 24 };
+        let raw = self.count * per_point;
         let Ok(raw32) = u32::try_from(raw) else {
             return Err(Error::Input(format!(
-                "{}: {} points do not fit in a binary_compressed PCD (its sizes are 32-bit: at most {} double x, y, z points)",
+                "{}: {} points do not fit in a binary_compressed PCD (its sizes are 32-bit: at most {} double x, y, z points{})",
                 self.dest.display(),
                 self.count,
-                u32::MAX / 24
+                u32::MAX as u64 / per_point,
+                if self.intensity {
+                    " with intensity"
+                } else {
+                    ""
+                }
             )));
         };
         let tmp = self.tmp.clone();
@@ -447,7 +494,7 @@ impl Sink for PcdCompressedSink {
             .map_err(|e| Error::io(&tmp, e))?;
         let mut out = BufWriter::with_capacity(1 << 20, file);
         let io = |e| Error::io(&tmp, e);
-        out.write_all(pcd_header(self.count, "", 8, "binary_compressed").as_bytes())
+        out.write_all(compressed_header(self.count, self.intensity).as_bytes())
             .map_err(io)?;
         out.write_all(&[0u8; 8]).map_err(io)?;
         let mut comp: u64 = 0;
@@ -475,7 +522,7 @@ impl Sink for PcdCompressedSink {
             ))
         })?;
         let mut file = out.into_inner().map_err(|e| io(e.into_error()))?;
-        let head = pcd_header(self.count, "", 8, "binary_compressed").len() as u64;
+        let head = compressed_header(self.count, self.intensity).len() as u64;
         file.seek(SeekFrom::Start(head)).map_err(io)?;
         file.write_all(&comp32.to_le_bytes()).map_err(io)?;
         file.write_all(&raw32.to_le_bytes()).map_err(io)?;

@@ -173,10 +173,14 @@ fn write_map(
 ) -> Result<Truth> {
     // Boards print their squares in the intensity; the rest is a stand-in.
     let faces = super::print::board_faces(params);
-    // LAS and LAZ carry it only when boards print in it: without, they hold
-    // 0, as SLAM software's LAS exports do (and as synth's always did).
-    let las = matches!(format, OutFormat::Las | OutFormat::Laz);
-    let with = format.holds_intensity() && !(las && faces.is_empty());
+    // LAS, LAZ and binary_compressed PCD carry it only when boards print
+    // in it: without, LAS holds 0, as SLAM software's LAS exports do, and
+    // the compressed PCD x, y, z alone (as synth's always did).
+    let only_boards = matches!(
+        format,
+        OutFormat::Las | OutFormat::Laz | OutFormat::PcdCompressed
+    );
+    let with = format.holds_intensity() && !(only_boards && faces.is_empty());
     let mut writer = CloudWriter::create_with(path, format, with)?;
     let mut inten = Vec::new();
     let mut put = |pts: &[Point]| {

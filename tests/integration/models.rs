@@ -246,36 +246,43 @@ fn boards_are_located_by_their_print() {
 }
 
 /// Issue 33: boards in a LAZ map (LAS point format 0, compressed point by
-/// point: the `las` crate's path) are told by the intensity it stores, as
-/// in a PCD: located within 3 mm horizontally, inside their 99.9 %
-/// ellipsoid. (Formats 6-10 and COPC decode the intensity layer: unit
-/// tests compare it with the crate's.)
+/// point: the `las` crate's path) and in a binary_compressed PCD (PCL's
+/// column-wise LZF: the intensity a column of its own) are told by the
+/// intensity they store, as in a PCD: located within 3 mm horizontally,
+/// inside their 99.9 % ellipsoid. (Formats 6-10 and COPC decode the
+/// intensity layer: unit tests compare it with the crate's.)
 #[test]
-fn boards_are_located_in_a_laz_map() {
-    let dir = tempdir();
-    let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
-    let truth = synth_scene(
-        &scene,
-        &[
-            "--points",
-            "2000000",
-            "--seed",
-            "6",
-            "--models",
-            "board",
-            "--targets",
-            "4",
-            "--format",
-            "laz",
-        ],
-    );
-    let r = eval_map(&scene.join("map.laz"), &scene.join("survey.csv"), &out);
-    let found = located(&r, &truth);
-    assert_eq!(found.len(), 4, "{}", r["targets"]);
-    for ((id, err, c), e) in found.iter().zip(r["eval"]["targets"].as_array().unwrap()) {
-        assert_eq!(e["model"], "board");
-        assert!(err.xy().norm() < 0.003, "board {id}: {err:?}");
-        assert!(m2(err, c) < 16.27, "board {id}: {err:?} outside {c:?}");
+fn boards_are_located_in_laz_and_compressed_pcd_maps() {
+    for (format, ext) in [("laz", "laz"), ("pcd-compressed", "pcd")] {
+        let dir = tempdir();
+        let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
+        let truth = synth_scene(
+            &scene,
+            &[
+                "--points",
+                "2000000",
+                "--seed",
+                "6",
+                "--models",
+                "board",
+                "--targets",
+                "4",
+                "--format",
+                format,
+            ],
+        );
+        let map = scene.join(format!("map.{ext}"));
+        let r = eval_map(&map, &scene.join("survey.csv"), &out);
+        let found = located(&r, &truth);
+        assert_eq!(found.len(), 4, "{format}: {}", r["targets"]);
+        for ((id, err, c), e) in found.iter().zip(r["eval"]["targets"].as_array().unwrap()) {
+            assert_eq!(e["model"], "board");
+            assert!(err.xy().norm() < 0.003, "{format} board {id}: {err:?}");
+            assert!(
+                m2(err, c) < 16.27,
+                "{format} board {id}: {err:?} outside {c:?}"
+            );
+        }
     }
 }
 

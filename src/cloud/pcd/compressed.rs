@@ -34,6 +34,15 @@ pub(super) fn open(
         base: header.points * f(i).offset as u64,
         stride: (f(i).size * f(i).count) as u64,
     });
+    // The intensity, for the boards' pass: a column like the others.
+    let intensity = header.intensity_field().map(|i| {
+        let f = &header.fields[i];
+        Column {
+            kind: f.kind,
+            base: header.points * f.offset as u64,
+            stride: (f.size * f.count) as u64,
+        }
+    });
     let start = header.data_offset as u64 + 8;
     Ok(Box::new(LzfColumns::open(
         file,
@@ -44,6 +53,7 @@ pub(super) fn open(
         raw,
         header.points,
         cols,
+        intensity,
     )?))
 }
 

@@ -20,7 +20,9 @@
 //! with the cloud beyond 64 Ki points per chunk x 1024 chunks) plus, per
 //! thread, the three decoded columns of one chunk; never the decompressed
 //! cloud. The price is a second decode of the coordinate columns (pass 1 is
-//! sequential, pass 2 parallel).
+//! sequential, pass 2 parallel). The intensity (for checkerboard boards) is a
+//! fourth column whose checkpoints a pass 1 of its own records the first time
+//! a read asks for it, so reads of the coordinates alone never decode it.
 
 use crate::cloud::records::read_exact_at;
 use crate::cloud::scalar::Scalar;
@@ -130,13 +132,19 @@ pub(super) struct LzfColumns {
     start: u64,
     /// Compressed bytes.
     comp: u64,
+    /// Decompressed bytes.
+    raw: u64,
     points: u64,
-    cols: [Column; 3],
+    /// x, y and z, then the intensity when the cloud has one.
+    cols: Vec<Column>,
     /// Points per chunk.
     chunk: u64,
-    /// `cps[j][c]`: resume point for column `c` at the start of chunk `j`
-    /// (`j` up to and including the number of chunks: the last marks the end).
-    cps: Vec<[Checkpoint; 3]>,
+    /// `cps[c][j]`: resume point for column `c` at the start of chunk `j`
+    /// (`j` up to and including the number of chunks: the last marks the
+    /// end). x, y and z's from the open; the intensity's from the first
+    /// read that asks for it (a pass through the stream that only the
+    /// boards' pass pays for).
+    cps: Vec<Vec<Checkpoint>>,
     next_chunk: u64,
     kept: AtomicU64,
     skipped: AtomicU64,
@@ -150,8 +158,10 @@ fn corrupt(path: &Path, at: u64, msg: &str) -> Error {
 }
 
 impl LzfColumns {
-    /// Runs pass 1. `comp` and `raw` were checked against the file and the
-    /// header by the caller.
+    /// Runs pass 1 for the coordinates. `comp` and `raw` were checked
+    /// against the file and the header by the caller; `intensity` is the
+    /// intensity's column, when the cloud has one.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn open(
         file: File,
         path: &Path,
@@ -160,9 +170,34 @@ impl LzfColumns {
         comp: u64,
         raw: u64,
         points: u64,
-        cols: [Column; 3],
+        coords: [Column; 3],
+        intensity: Option<Column>,
     ) -> Result<LzfColumns> {
         let chunk = points.div_ceil(MAX_CHUNKS).max(MIN_CHUNK);
+        let mut r = LzfColumns {
+            file,
+            path: path.to_path_buf(),
+            info,
+            start,
+            comp,
+            raw,
+            points,
+            cols: coords.into_iter().chain(intensity).collect(),
+            chunk,
+            cps: Vec::new(),
+            next_chunk: 0,
+            kept: AtomicU64::new(0),
+            skipped: AtomicU64::new(0),
+        };
+        r.cps = r.checkpoints(&coords)?;
+        Ok(r)
+    }
+
+    /// Pass 1 over the stream, as far as the last of `cols` ends: for each
+    /// column, the checkpoint of each chunk's first value (`[c][j]`).
+    fn checkpoints(&self, cols: &[Column]) -> Result<Vec<Vec<Checkpoint>>> {
+        let (path, comp, raw, points, chunk) =
+            (&self.path, self.comp, self.raw, self.points, self.chunk);
         let nchunks = points.div_ceil(chunk);
         // Targets: the output offset of each chunk's first value, per column.
         let mut targets: Vec<(u64, usize, usize)> = Vec::new();
@@ -179,9 +214,9 @@ impl LzfColumns {
             }
         }
         targets.sort_unstable();
-        let mut cps = vec![<[Checkpoint; 3]>::default(); nchunks as usize + 1];
+        let mut cps = vec![vec![Checkpoint::default(); nchunks as usize + 1]; cols.len()];
         let end = targets.last().map_or(0, |t| t.0);
-        // Pass 1: decode sequentially into a sliding window.
+        // Decode sequentially into a sliding window.
         let mut input = vec![0u8; IN_BLOCK];
         let mut in_len = 0usize; // valid bytes in `input`
         let mut in_base = 0u64; // stream offset of input[0]
@@ -198,9 +233,9 @@ impl LzfColumns {
                 i = 0;
                 let want = ((comp - in_base) as usize).min(IN_BLOCK) - in_len;
                 read_exact_at(
-                    &file,
+                    &self.file,
                     &mut input[in_len..in_len + want],
-                    start + in_base + in_len as u64,
+                    self.start + in_base + in_len as u64,
                 )
                 .map_err(|e| read_err(path, e))?;
                 in_len += want;
@@ -230,7 +265,7 @@ impl LzfColumns {
                     ));
                 }
                 let h = out.len().min(WINDOW);
-                cps[j][c] = Checkpoint {
+                cps[c][j] = Checkpoint {
                     input: in_base + i as u64,
                     output: o,
                     history: out[out.len() - h..].to_vec(),
@@ -260,23 +295,10 @@ impl LzfColumns {
         if t < targets.len() {
             return Err(Error::format(
                 path,
-                "binary_compressed data ends before the coordinate columns",
+                "binary_compressed data ends before the columns read",
             ));
         }
-        Ok(LzfColumns {
-            file,
-            path: path.to_path_buf(),
-            info,
-            start,
-            comp,
-            points,
-            cols,
-            chunk,
-            cps,
-            next_chunk: 0,
-            kept: AtomicU64::new(0),
-            skipped: AtomicU64::new(0),
-        })
+        Ok(cps)
     }
 
     fn nchunks(&self) -> u64 {
@@ -286,7 +308,7 @@ impl LzfColumns {
     /// Decodes column `c` of chunk `j` into `out` (values only, `stride` bytes
     /// per point); `input` is scratch for the compressed bytes.
     fn column(&self, j: usize, c: usize, input: &mut Vec<u8>, out: &mut Vec<u8>) -> Result<usize> {
-        let (cp, next) = (&self.cps[j][c], &self.cps[j + 1][c]);
+        let (cp, next) = (&self.cps[c][j], &self.cps[c][j + 1]);
         let col = self.cols[c];
         let first = j as u64 * self.chunk;
         let n = (self.points - first).min(self.chunk);
@@ -314,38 +336,99 @@ impl LzfColumns {
         Ok(n as usize)
     }
 
-    /// Decodes chunk `j` into `points` (finite points only); returns how many.
-    fn chunk_points(&self, j: usize, s: &mut Scratch) -> Result<usize> {
+    /// Decodes chunk `j` into `points` (finite points only); returns how
+    /// many. With `intensity`, each kept point's intensity goes there too
+    /// (the intensity's checkpoints must be in place).
+    fn chunk_points(
+        &self,
+        j: usize,
+        s: &mut Scratch,
+        intensity: Option<&mut Vec<f32>>,
+    ) -> Result<usize> {
         let Scratch {
             bytes,
             points,
             cols,
             ..
         } = s;
-        cols.resize_with(3, Vec::new);
+        let ncols = if intensity.is_some() { 4 } else { 3 };
+        cols.resize_with(ncols, Vec::new);
         let mut n = 0;
-        for c in 0..3 {
+        for c in 0..ncols {
             n = self.column(j, c, bytes, &mut cols[c])?;
         }
         points.clear();
         points.reserve(n);
-        let [k0, k1, k2] = self.cols.map(|c| c.kind);
-        let [s0, s1, s2] = self.cols.map(|c| c.stride as usize);
+        let [k0, k1, k2] = [0, 1, 2].map(|c| self.cols[c].kind);
+        let [s0, s1, s2] = [0, 1, 2].map(|c| self.cols[c].stride as usize);
         let (a, b, d) = (&cols[0], &cols[1], &cols[2]);
-        for i in 0..n {
-            let p = Point::new(
-                k0.read_at(a, i * s0, false),
-                k1.read_at(b, i * s1, false),
-                k2.read_at(d, i * s2, false),
-            );
-            if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
-                points.push(p);
+        match intensity {
+            None => {
+                for i in 0..n {
+                    let p = Point::new(
+                        k0.read_at(a, i * s0, false),
+                        k1.read_at(b, i * s1, false),
+                        k2.read_at(d, i * s2, false),
+                    );
+                    if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
+                        points.push(p);
+                    }
+                }
+            }
+            Some(inten) => {
+                inten.clear();
+                let (ki, si) = (self.cols[3].kind, self.cols[3].stride as usize);
+                let e = &cols[3];
+                for i in 0..n {
+                    let p = Point::new(
+                        k0.read_at(a, i * s0, false),
+                        k1.read_at(b, i * s1, false),
+                        k2.read_at(d, i * s2, false),
+                    );
+                    if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
+                        points.push(p);
+                        inten.push(ki.read_at(e, i * si, false) as f32);
+                    }
+                }
             }
         }
         self.kept.fetch_add(points.len() as u64, Ordering::Relaxed);
         self.skipped
             .fetch_add((n - points.len()) as u64, Ordering::Relaxed);
         Ok(points.len())
+    }
+
+    /// The next batch of chunks, decoded in parallel, into `buf` (and their
+    /// intensities into `inten` when given).
+    fn fill(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<bool> {
+        buf.clear();
+        if let Some(v) = inten.as_deref_mut() {
+            v.clear();
+        }
+        let with = inten.is_some();
+        while buf.is_empty() && self.next_chunk < self.nchunks() {
+            let first = self.next_chunk as usize;
+            let n = (self.nchunks() - self.next_chunk).min(BATCH_CHUNKS as u64) as usize;
+            let this = &*self;
+            let parts: Vec<Result<(Vec<Point>, Vec<f32>)>> = (first..first + n)
+                .into_par_iter()
+                .map(|j| {
+                    let mut s = Scratch::default();
+                    let mut i = Vec::new();
+                    this.chunk_points(j, &mut s, with.then_some(&mut i))?;
+                    Ok((s.points, i))
+                })
+                .collect();
+            for p in parts {
+                let (pts, i) = p?;
+                buf.extend_from_slice(&pts);
+                if let Some(v) = inten.as_deref_mut() {
+                    v.extend_from_slice(&i);
+                }
+            }
+            self.next_chunk += n as u64;
+        }
+        Ok(!buf.is_empty())
     }
 }
 
@@ -374,7 +457,7 @@ impl Batch for LzfBatch<'_> {
         if i >= self.n {
             return Ok(&[]);
         }
-        let k = self.r.chunk_points(self.first + i, s)?;
+        let k = self.r.chunk_points(self.first + i, s, None)?;
         Ok(&s.points[..k])
     }
 }
@@ -388,25 +471,23 @@ impl PointReader for LzfColumns {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
-        buf.clear();
-        while buf.is_empty() && self.next_chunk < self.nchunks() {
-            let first = self.next_chunk as usize;
-            let n = (self.nchunks() - self.next_chunk).min(BATCH_CHUNKS as u64) as usize;
-            let this = &*self;
-            let parts: Vec<Result<Vec<Point>>> = (first..first + n)
-                .into_par_iter()
-                .map(|j| {
-                    let mut s = Scratch::default();
-                    this.chunk_points(j, &mut s)?;
-                    Ok(s.points)
-                })
-                .collect();
-            for p in parts {
-                buf.extend_from_slice(&p?);
-            }
-            self.next_chunk += n as u64;
+        self.fill(buf, None)
+    }
+
+    fn has_intensity(&self) -> bool {
+        self.cols.len() == 4
+    }
+
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        if self.cols.len() < 4 {
+            inten.clear();
+            return self.next_chunk(buf);
         }
-        Ok(!buf.is_empty())
+        if self.cps.len() < 4 {
+            let more = self.checkpoints(&self.cols[3..])?;
+            self.cps.extend(more);
+        }
+        self.fill(buf, Some(inten))
     }
 
     fn next_batch<'a>(

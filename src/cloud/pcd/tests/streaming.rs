@@ -361,3 +361,97 @@ fn ascii_pcd_is_bit_identical_to_str_parse_across_blocks() {
     assert_eq!(bits(&got), bits(&want));
     assert_eq!(st.points as usize, want.len());
 }
+
+/// binary_compressed PCD's intensity column (PCL's `pcl_convert_pcd_ascii_binary
+/// … 2`, Autoware's map tools): each intensity stays with its point over
+/// several chunks, with points dropped for a non-finite coordinate, in any
+/// field order and type, and the coordinates-only read is unchanged.
+#[test]
+fn compressed_intensity_is_read_beside_its_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 200_003usize;
+    let layouts: [(&[F], &str); 3] = [
+        (
+            &[
+                ("x", 'F', 4, 1),
+                ("y", 'F', 4, 1),
+                ("z", 'F', 4, 1),
+                ("intensity", 'F', 4, 1),
+            ],
+            "after",
+        ),
+        (
+            &[
+                ("intensity", 'U', 2, 1),
+                ("x", 'F', 8, 1),
+                ("normal", 'F', 4, 3),
+                ("y", 'F', 8, 1),
+                ("z", 'F', 8, 1),
+            ],
+            "first",
+        ),
+        (
+            &[
+                ("x", 'F', 4, 1),
+                ("y", 'F', 4, 1),
+                ("z", 'F', 4, 1),
+                ("i", 'F', 4, 1),
+            ],
+            "short name",
+        ),
+    ];
+    for (fields, tag) in layouts {
+        let pts: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let y = if i % 977 == 5 {
+                    f64::NAN
+                } else {
+                    i as f64 * 0.25
+                };
+                [i as f64 * 0.5, y, 1.0 + (i % 100) as f64]
+            })
+            .collect();
+        let inten = |i: usize| (i % 50_000) as f64;
+        let mut cols = Vec::new();
+        for f in fields {
+            for (i, p) in pts.iter().enumerate() {
+                for k in 0..f.3 {
+                    let v = match f.0 {
+                        "x" => p[0],
+                        "y" => p[1],
+                        "z" => p[2],
+                        "intensity" | "i" => inten(i),
+                        _ => 7.0 + k as f64,
+                    };
+                    encode(f.1, f.2, v, &mut cols);
+                }
+            }
+        }
+        let packed = crate::cloud::write::lzf_block(&cols);
+        let mut bytes = header(fields, n as u64, 1, "binary_compressed").into_bytes();
+        bytes.extend_from_slice(&(packed.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&(cols.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&packed);
+        let p = file(&dir, "ci.pcd", &bytes);
+        let (got, got_i, has) = cloud::read_with_intensity(&p);
+        assert!(has, "{tag}");
+        let keep: Vec<usize> = (0..n).filter(|&i| pts[i][1].is_finite()).collect();
+        assert_eq!(got.len(), keep.len(), "{tag}");
+        assert_eq!(got_i.len(), keep.len(), "{tag}");
+        // Each coordinate as its field stores it.
+        let size = |name: &str| fields.iter().find(|f| f.0 == name).unwrap().2;
+        let stored = |v: f64, name: &str| if size(name) == 4 { v as f32 as f64 } else { v };
+        for (k, &i) in keep.iter().enumerate() {
+            let want = Point::new(
+                stored(pts[i][0], "x"),
+                stored(pts[i][1], "y"),
+                stored(pts[i][2], "z"),
+            );
+            assert_eq!(got[k], want, "{tag} point {i}");
+            assert_eq!(got_i[k], inten(i) as f32, "{tag} intensity {i}");
+        }
+        let (plain, _) = read(&p).unwrap();
+        let got: Vec<[f64; 3]> = got.iter().map(|q| [q.x, q.y, q.z]).collect();
+        assert_eq!(plain, got, "{tag}: the coordinates-only read");
+    }
+}

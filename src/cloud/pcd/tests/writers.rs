@@ -215,3 +215,50 @@ fn float32_pcd_writer_rounds_and_refuses_what_f32_cannot_hold() {
     assert!(e.is_err());
     cloud::write(&utm, OutFormat::PcdF32, &[Point::new(0.0, -32_767.99, 0.0)]).unwrap();
 }
+
+/// The binary_compressed writer keeps an intensity when asked (a fourth,
+/// float column; NaN for points written without one), which the reader
+/// gives back beside its point; without, the file is x, y, z as before.
+#[test]
+fn compressed_pcd_writer_keeps_the_intensity_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts: Vec<Point> = (0..150_000)
+        .map(|i| {
+            Point::new(
+                500_000.25 + i as f64 * 1e-3,
+                -12.5 * i as f64,
+                (i % 97) as f64,
+            )
+        })
+        .collect();
+    let inten: Vec<f32> = (0..150_000).map(|i| (i % 4096) as f32 * 0.5).collect();
+    let p = dir.path().join("ci.pcd");
+    let mut w = CloudWriter::create_with(&p, OutFormat::PcdCompressed, true).unwrap();
+    w.write_intensity(&pts[..70_000], &inten[..70_000]).unwrap();
+    w.write(&pts[70_000..70_010]).unwrap();
+    w.write_intensity(&pts[70_010..], &inten[70_010..]).unwrap();
+    assert!(w.write_intensity(&pts[..3], &inten[..2]).is_err());
+    assert_eq!(w.finish().unwrap(), 150_000);
+    let (got, got_i, has) = cloud::read_with_intensity(&p);
+    assert!(has);
+    assert_eq!(got, pts);
+    for (k, (a, b)) in got_i.iter().zip(&inten).enumerate() {
+        if (70_000..70_010).contains(&k) {
+            assert!(a.is_nan(), "point {k}: {a}");
+        } else {
+            assert_eq!(a, b, "point {k}");
+        }
+    }
+    let head = String::from_utf8_lossy(&std::fs::read(&p).unwrap()[..200]).into_owned();
+    assert!(
+        head.contains("FIELDS x y z intensity\nSIZE 8 8 8 4\nTYPE F F F F\n"),
+        "{head}"
+    );
+    let q = dir.path().join("plain.pcd");
+    cloud::write(&q, OutFormat::PcdCompressed, &pts).unwrap();
+    let head = String::from_utf8_lossy(&std::fs::read(&q).unwrap()[..200]).into_owned();
+    assert!(head.contains("FIELDS x y z\n"), "{head}");
+    let (got, _, has) = cloud::read_with_intensity(&q);
+    assert!(!has);
+    assert_eq!(got, pts);
+}
