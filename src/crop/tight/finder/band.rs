@@ -26,17 +26,18 @@ impl PlanePoints {
         off: f64,
         dir: [f64; 2],
     ) -> Self {
-        let pts: Vec<Near> = by_height
-            .iter()
-            .filter_map(|&(z, [x, y])| {
-                let d = (n[0] * x + n[1] * y) - off;
-                (d.abs() < SHELL.1).then(|| Near {
-                    d,
-                    t: dir[0] * x + dir[1] * y,
-                    z,
-                })
+        // Room for a quarter of the window up front: grown from nothing, a
+        // wall's plane reallocated a dozen times (callgrind: reallocations
+        // were 5 % of a dense crop's finder).
+        let mut pts: Vec<Near> = Vec::with_capacity(by_height.len() / 4);
+        pts.extend(by_height.iter().filter_map(|&(z, [x, y])| {
+            let d = (n[0] * x + n[1] * y) - off;
+            (d.abs() < SHELL.1).then(|| Near {
+                d,
+                t: dir[0] * x + dir[1] * y,
+                z,
             })
-            .collect();
+        }));
         let mut slab: Vec<(f64, f64)> = pts
             .iter()
             .filter(|q| q.d.abs() < SLAB)

@@ -43,12 +43,26 @@ impl Flat {
         }
     }
 
-    /// A window's points (by index) in height order: its ranks sorted, which
-    /// is cheaper than sorting its heights.
+    /// A window's points (by index) in height order: its ranks marked in a
+    /// bitset of the crop's and read out in order, the same list as sorting
+    /// them (ranks are distinct) in time linear in the window, plus a word
+    /// per 64 of the crop's points (the sort was 4 % of a dense crop's
+    /// finder, measured by callgrind).
     pub(super) fn by_height(&self, win: &[u32]) -> Vec<(f64, [f64; 2])> {
-        let mut r: Vec<u32> = win.iter().map(|&i| self.rank[i as usize]).collect();
-        r.sort_unstable();
-        r.into_iter().map(|k| self.sorted[k as usize]).collect()
+        let mut bits = vec![0u64; self.rank.len().div_ceil(64)];
+        for &i in win {
+            let r = self.rank[i as usize] as usize;
+            bits[r >> 6] |= 1 << (r & 63);
+        }
+        let mut out = Vec::with_capacity(win.len());
+        for (w, &word) in bits.iter().enumerate() {
+            let mut b = word;
+            while b != 0 {
+                out.push(self.sorted[(w << 6) | b.trailing_zeros() as usize]);
+                b &= b - 1;
+            }
+        }
+        out
     }
 }
 
