@@ -382,6 +382,9 @@ struct PcdCompressedSink {
     dest: PathBuf,
     tmp: PathBuf,
     cols: Vec<(PathBuf, BufWriter<File>)>,
+    /// Every column file made, so that a `finish` failing part way (after
+    /// `cols` was taken) still leaves none behind.
+    spooled: Vec<PathBuf>,
     /// Whether the fourth column is the intensity.
     intensity: bool,
     count: u64,
@@ -419,6 +422,7 @@ pub(super) fn pcd_compressed_sink(path: &Path, intensity: bool) -> Result<Box<dy
         dest: path.to_path_buf(),
         tmp: tmp_name(""),
         cols: Vec::new(),
+        spooled: Vec::new(),
         intensity,
         count: 0,
         finished: false,
@@ -435,6 +439,7 @@ pub(super) fn pcd_compressed_sink(path: &Path, intensity: bool) -> Result<Box<dy
             .create_new(true)
             .open(&p)
             .map_err(|e| Error::io(&p, e))?;
+        sink.spooled.push(p.clone());
         sink.cols.push((p, BufWriter::with_capacity(1 << 20, f)));
     }
     Ok(Box::new(sink))
@@ -535,8 +540,10 @@ impl Sink for PcdCompressedSink {
 
 impl Drop for PcdCompressedSink {
     fn drop(&mut self) {
-        for (p, w) in self.cols.drain(..) {
+        for (_, w) in self.cols.drain(..) {
             drop(w);
+        }
+        for p in &self.spooled {
             let _ = std::fs::remove_file(p);
         }
         if !self.finished {

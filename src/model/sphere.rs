@@ -934,7 +934,9 @@ fn covariance(
     // the correction's uncertainty, and a scatter of the same order in
     // every direction.
     let [k_bias, k_scatter] = SECOND_ORDER;
-    let inflation = k_bias * s2 / r;
+    // Bounded: a sphere is refused beyond an RMS of 0.25 r (`judge`), which
+    // keeps this under 0.1 r; the bound holds whatever the band let in.
+    let inflation = (k_bias * s2 / r).min(0.1 * r);
     let scatter = k_scatter * s2 / r;
     let var_r = p.radius_sigma_m.powi(2) + unexplained + (0.5 * inflation).powi(2);
     // The noise's part: least squares', or the resampled centres' spread

@@ -380,6 +380,7 @@ fn turn_found(f: &mut target::Found, m: &RigidMotion) {
         s.centre = l.corner;
         s.covariance = l.covariance;
         s.samples = l.samples.clone();
+        s.seen_from = (r * Vector3::from(s.seen_from)).into();
     }
     if let Some(b) = f.board.as_mut() {
         b.centre = l.corner;

@@ -16,7 +16,8 @@
 //! 2. each chunk is then decoded independently (in parallel) from its three
 //!    checkpoints, producing x, y and z of its `P` points.
 //!
-//! Memory bound: at most 3 x 1025 checkpoints of 8 KiB (≈ 25 MiB: `P` grows
+//! Memory bound: at most 3 x 1025 checkpoints of 8 KiB (≈ 25 MiB; 4 x, ≈ 33
+//! MiB, once the intensity is read: `P` grows
 //! with the cloud beyond 64 Ki points per chunk x 1024 chunks) plus, per
 //! thread, the three decoded columns of one chunk; never the decompressed
 //! cloud. The price is a second decode of the coordinate columns (pass 1 is
@@ -467,7 +468,9 @@ impl PointReader for LzfColumns {
         &self.info
     }
     fn float32_coords(&self) -> bool {
-        self.cols.iter().any(|c| c.kind == Scalar::F32)
+        // x, y and z only: a float intensity beside double coordinates
+        // says nothing of their precision.
+        self.cols[..3].iter().any(|c| c.kind == Scalar::F32)
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {

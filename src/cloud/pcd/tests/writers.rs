@@ -254,6 +254,9 @@ fn compressed_pcd_writer_keeps_the_intensity_when_asked() {
         head.contains("FIELDS x y z intensity\nSIZE 8 8 8 4\nTYPE F F F F\n"),
         "{head}"
     );
+    // A float intensity beside double coordinates: still double coordinates
+    // (the float32 map checks must not take the map for a float one).
+    assert!(!cloud::open(&p).unwrap().float32_coords());
     let q = dir.path().join("plain.pcd");
     cloud::write(&q, OutFormat::PcdCompressed, &pts).unwrap();
     let head = String::from_utf8_lossy(&std::fs::read(&q).unwrap()[..200]).into_owned();
