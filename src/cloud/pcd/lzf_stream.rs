@@ -363,30 +363,22 @@ impl LzfColumns {
         let [k0, k1, k2] = [0, 1, 2].map(|c| self.cols[c].kind);
         let [s0, s1, s2] = [0, 1, 2].map(|c| self.cols[c].stride as usize);
         let (a, b, d) = (&cols[0], &cols[1], &cols[2]);
+        let at = |i: usize| {
+            let p = Point::new(
+                k0.read_at(a, i * s0, false),
+                k1.read_at(b, i * s1, false),
+                k2.read_at(d, i * s2, false),
+            );
+            (p.x.is_finite() && p.y.is_finite() && p.z.is_finite()).then_some(p)
+        };
         match intensity {
-            None => {
-                for i in 0..n {
-                    let p = Point::new(
-                        k0.read_at(a, i * s0, false),
-                        k1.read_at(b, i * s1, false),
-                        k2.read_at(d, i * s2, false),
-                    );
-                    if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
-                        points.push(p);
-                    }
-                }
-            }
+            None => points.extend((0..n).filter_map(at)),
             Some(inten) => {
                 inten.clear();
                 let (ki, si) = (self.cols[3].kind, self.cols[3].stride as usize);
                 let e = &cols[3];
                 for i in 0..n {
-                    let p = Point::new(
-                        k0.read_at(a, i * s0, false),
-                        k1.read_at(b, i * s1, false),
-                        k2.read_at(d, i * s2, false),
-                    );
-                    if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() {
+                    if let Some(p) = at(i) {
                         points.push(p);
                         inten.push(ki.read_at(e, i * si, false) as f32);
                     }
