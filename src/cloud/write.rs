@@ -381,10 +381,11 @@ const LZF_BLOCK: usize = 1 << 20;
 struct PcdCompressedSink {
     dest: PathBuf,
     tmp: PathBuf,
-    cols: Vec<(PathBuf, BufWriter<File>)>,
-    /// Every column file made, so that a `finish` failing part way (after
-    /// `cols` was taken) still leaves none behind.
+    /// The column files being written, one writer each in `cols`, kept
+    /// apart so that a `finish` failing part way (after `cols` was taken)
+    /// still leaves none behind.
     spooled: Vec<PathBuf>,
+    cols: Vec<BufWriter<File>>,
     /// Whether the fourth column is the intensity.
     intensity: bool,
     count: u64,
@@ -439,8 +440,8 @@ pub(super) fn pcd_compressed_sink(path: &Path, intensity: bool) -> Result<Box<dy
             .create_new(true)
             .open(&p)
             .map_err(|e| Error::io(&p, e))?;
-        sink.spooled.push(p.clone());
-        sink.cols.push((p, BufWriter::with_capacity(1 << 20, f)));
+        sink.spooled.push(p);
+        sink.cols.push(BufWriter::with_capacity(1 << 20, f));
     }
     Ok(Box::new(sink))
 }
@@ -457,18 +458,17 @@ impl Sink for PcdCompressedSink {
                 points.len()
             )));
         }
-        for (c, (p, w)) in self.cols.iter_mut().enumerate() {
+        for (c, (w, p)) in self.cols.iter_mut().zip(&self.spooled).enumerate() {
             if c == 3 {
                 for k in 0..points.len() {
                     let v = intensity.map_or(f32::NAN, |i| i[k]);
-                    w.write_all(&v.to_le_bytes())
-                        .map_err(|e| Error::io(&*p, e))?;
+                    w.write_all(&v.to_le_bytes()).map_err(|e| Error::io(p, e))?;
                 }
                 continue;
             }
             for q in points {
                 w.write_all(&q[c].to_le_bytes())
-                    .map_err(|e| Error::io(&*p, e))?;
+                    .map_err(|e| Error::io(p, e))?;
             }
         }
         self.count += points.len() as u64;
@@ -504,7 +504,8 @@ impl Sink for PcdCompressedSink {
         out.write_all(&[0u8; 8]).map_err(io)?;
         let mut comp: u64 = 0;
         let mut block = vec![0u8; LZF_BLOCK];
-        for (p, w) in std::mem::take(&mut self.cols) {
+        let paths = self.spooled.clone();
+        for (p, w) in paths.iter().zip(std::mem::take(&mut self.cols)) {
             let mut f = w.into_inner().map_err(|e| Error::io(&p, e.into_error()))?;
             f.seek(SeekFrom::Start(0)).map_err(|e| Error::io(&p, e))?;
             drop(f);
@@ -540,9 +541,7 @@ impl Sink for PcdCompressedSink {
 
 impl Drop for PcdCompressedSink {
     fn drop(&mut self) {
-        for (_, w) in self.cols.drain(..) {
-            drop(w);
-        }
+        self.cols.clear();
         for p in &self.spooled {
             let _ = std::fs::remove_file(p);
         }

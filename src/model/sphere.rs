@@ -229,10 +229,9 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         inliers: c.inliers.len(),
         rms: c.rms,
         cap_deg: cap_half_angle(&surface, &c.centre),
-        seen_from: {
-            let m = mean_direction(&surface, &c.centre);
-            [m.x, m.y, m.z]
-        },
+        seen_from: mean_direction(&directions(&surface, &c.centre))
+            .unwrap_or_else(Vector3::zeros)
+            .into(),
         covariance,
         samples: samples.iter().map(|v| o + v + shift).collect(),
         shift_m: shift.norm(),
@@ -824,15 +823,11 @@ fn ground_below(v: &[Vector3<f64>], c: &Vector3<f64>, r: f64, up: &Vector3<f64>)
 /// cover, the narrower way: from the spread of the directions across their
 /// mean (a cap of half-angle θ seen evenly has a spread of θ/2 each way).
 fn cap_half_angle(pts: &[Vector3<f64>], c: &Vector3<f64>) -> f64 {
-    let dirs: Vec<Vector3<f64>> = pts
-        .iter()
-        .filter_map(|q| (q - c).try_normalize(1e-12))
-        .collect();
+    let dirs = directions(pts, c);
     if dirs.len() < 3 {
         return 0.0;
     }
-    let m = dirs.iter().sum::<Vector3<f64>>() / dirs.len() as f64;
-    let mean = match m.try_normalize(1e-9) {
+    let mean = match mean_direction(&dirs) {
         Some(m) => m,
         // Directions all round: the whole sphere seen.
         None => return 90.0,
@@ -849,14 +844,17 @@ fn cap_half_angle(pts: &[Vector3<f64>], c: &Vector3<f64>) -> f64 {
     (2.0 * ev[1].max(0.0).sqrt()).asin().to_degrees().min(90.0)
 }
 
-/// The mean of the unit vectors from `c` to the points, normalised (zero
-/// when they cancel: the whole sphere seen).
-fn mean_direction(pts: &[Vector3<f64>], c: &Vector3<f64>) -> Vector3<f64> {
-    let m: Vector3<f64> = pts
-        .iter()
+/// The unit vectors from `c` to the points.
+fn directions(pts: &[Vector3<f64>], c: &Vector3<f64>) -> Vec<Vector3<f64>> {
+    pts.iter()
         .filter_map(|q| (q - c).try_normalize(1e-12))
-        .sum();
-    m.try_normalize(1e-9).unwrap_or_else(Vector3::zeros)
+        .collect()
+}
+
+/// The mean of unit vectors, normalised; `None` when they cancel (the whole
+/// sphere seen).
+fn mean_direction(dirs: &[Vector3<f64>]) -> Option<Vector3<f64>> {
+    (dirs.iter().sum::<Vector3<f64>>() / dirs.len().max(1) as f64).try_normalize(1e-9)
 }
 
 /// Step 4: of the accepted candidates with a quarter of the best's support

@@ -67,11 +67,21 @@ fn binary(fields: &[F], pts: &[[f64; 3]]) -> Vec<u8> {
 
 /// PCL's binary_compressed payload: column-wise, LZF, two u32 sizes.
 fn compressed(fields: &[F], pts: &[[f64; 3]]) -> Vec<u8> {
+    compressed_with(fields, pts, &|name, k, _, p| value(name, k, p))
+}
+
+/// [`compressed`] with each field's value from `value(name, element,
+/// point index, point)`.
+fn compressed_with(
+    fields: &[F],
+    pts: &[[f64; 3]],
+    value: &dyn Fn(&str, usize, usize, &[f64; 3]) -> f64,
+) -> Vec<u8> {
     let mut cols = Vec::new();
     for f in fields {
-        for p in pts {
+        for (i, p) in pts.iter().enumerate() {
             for k in 0..f.3 {
-                encode(f.1, f.2, value(f.0, k, p), &mut cols);
+                encode(f.1, f.2, value(f.0, k, i, p), &mut cols);
             }
         }
     }

@@ -412,26 +412,11 @@ fn compressed_intensity_is_read_beside_its_point() {
             })
             .collect();
         let inten = |i: usize| (i % 50_000) as f64;
-        let mut cols = Vec::new();
-        for f in fields {
-            for (i, p) in pts.iter().enumerate() {
-                for k in 0..f.3 {
-                    let v = match f.0 {
-                        "x" => p[0],
-                        "y" => p[1],
-                        "z" => p[2],
-                        "intensity" | "i" => inten(i),
-                        _ => 7.0 + k as f64,
-                    };
-                    encode(f.1, f.2, v, &mut cols);
-                }
-            }
-        }
-        let packed = crate::cloud::write::lzf_block(&cols);
         let mut bytes = header(fields, n as u64, 1, "binary_compressed").into_bytes();
-        bytes.extend_from_slice(&(packed.len() as u32).to_le_bytes());
-        bytes.extend_from_slice(&(cols.len() as u32).to_le_bytes());
-        bytes.extend_from_slice(&packed);
+        bytes.extend(compressed_with(fields, &pts, &|name, k, i, p| match name {
+            "intensity" | "i" => inten(i),
+            _ => value(name, k, p),
+        }));
         let p = file(&dir, "ci.pcd", &bytes);
         let (got, got_i, has) = cloud::read_with_intensity(&p);
         assert!(has, "{tag}");
