@@ -132,9 +132,100 @@ pub(crate) fn fit(pts: &[Vector3<f64>], idx: &[u32]) -> Option<Plane> {
     Scatter::of(idx.iter().map(|&i| &pts[i as usize]))?.plane()
 }
 
+/// Running sums of points about a fixed origin near them: a scatter in one
+/// pass, and a part's sums taken from the whole's (the locator's refit fits a
+/// plate with and without its free end from one pass, `locate::attempt`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Moments {
+    origin: Vector3<f64>,
+    n: usize,
+    sum: Vector3<f64>,
+    sq: Matrix3<f64>,
+}
+
+impl Moments {
+    /// No points yet, about `origin`.
+    pub(crate) fn new(origin: Vector3<f64>) -> Self {
+        Moments {
+            origin,
+            n: 0,
+            sum: Vector3::zeros(),
+            sq: Matrix3::zeros(),
+        }
+    }
+
+    /// One more point.
+    #[inline]
+    pub(crate) fn add(&mut self, p: &Vector3<f64>) {
+        let d = p - self.origin;
+        self.n += 1;
+        self.sum += d;
+        self.sq += d * d.transpose();
+    }
+
+    /// The points counted.
+    pub(crate) fn count(&self) -> usize {
+        self.n
+    }
+
+    /// The sums of this set's points that are not in `part` (a subset
+    /// summed about the same origin).
+    pub(crate) fn without(&self, part: &Moments) -> Moments {
+        Moments {
+            origin: self.origin,
+            n: self.n - part.n,
+            sum: self.sum - part.sum,
+            sq: self.sq - part.sq,
+        }
+    }
+
+    /// The least-squares plane of the points ([`Scatter::plane`]), `None`
+    /// for fewer than three.
+    pub(crate) fn plane(&self) -> Option<Plane> {
+        if self.n < 3 {
+            return None;
+        }
+        let n = self.n as f64;
+        let mean = self.sum / n;
+        Scatter {
+            mean: self.origin + mean,
+            matrix: self.sq - self.sum * mean.transpose(),
+        }
+        .plane()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn moments_fit_the_plane_a_scatter_does() {
+        let pts: Vec<Vector3<f64>> = (0..40)
+            .map(|i| {
+                let (u, v) = (f64::from(i % 7) * 0.1, f64::from(i / 7) * 0.1);
+                Vector3::new(u, 0.02 * u + 0.001 * f64::from(i % 3), v)
+            })
+            .collect();
+        let idx: Vec<u32> = (0..40).collect();
+        let mut all = Moments::new(pts[5]);
+        let mut tail = Moments::new(pts[5]);
+        for (i, p) in pts.iter().enumerate() {
+            all.add(p);
+            if i >= 30 {
+                tail.add(p);
+            }
+        }
+        let (a, b) = (all.plane().unwrap(), fit(&pts, &idx).unwrap());
+        assert!((a.normal - b.normal).norm() < 1e-9 || (a.normal + b.normal).norm() < 1e-9);
+        let (c, d) = (
+            all.without(&tail).plane().unwrap(),
+            fit(&pts, &idx[..30]).unwrap(),
+        );
+        assert!(c.normal.dot(&d.normal).abs() > 1.0 - 1e-12);
+        assert!((c.offset.abs() - d.offset.abs()).abs() < 1e-12);
+        assert_eq!(all.without(&tail).count(), 30);
+    }
 
     #[test]
     fn fit_recovers_a_tilted_plane() {

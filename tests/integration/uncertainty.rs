@@ -425,23 +425,31 @@ fn heights_of_plates_seen_in_part_are_covered() {
 /// forward cone, 240 k points/s, walking pace, 3° of sway) sees each target
 /// from one side, obliquely, densest where the rose passes its centre.
 /// `ROSETTE_SEEDS=N` runs seeds 1..=N and prints every target (measured over
-/// 12 seeds at 3 M points and 8 at 6 M: 79 of 89 located targets inside their
-/// 95 % ellipse, short of the 92 % the locator's grid holds: see
-/// docs/uncertainty.md); the test asserts seeds 1–2, which it does not fix.
+/// 12 seeds at 3 M points and 8 at 6 M, `ROSETTE_POINTS`: 83 of 90 located
+/// targets inside their 95 % ellipse, 80 before the refit's free-end test:
+/// see docs/uncertainty.md; `ROSETTE_SPINNING=1` scans with synth's spinning
+/// LiDAR instead); the test asserts seeds 1–2 at 3 M points.
 #[test]
 fn covariance_holds_for_a_rosette_scan() {
     let seeds: u64 = std::env::var("ROSETTE_SEEDS").map_or(2, |s| s.parse().unwrap());
+    let points: u64 = std::env::var("ROSETTE_POINTS").map_or(3_000_000, |s| s.parse().unwrap());
+    // ROSETTE_SPINNING=1: synth's spinning LiDAR instead, for comparison.
+    let spinning = std::env::var_os("ROSETTE_SPINNING").is_some();
     let tmp = crate::util::tempdir();
     let cfg = tmp.path().join("rosette.toml");
     std::fs::write(
         &cfg,
-        "[lidar]\npattern = \"rosette\"\nfov_deg = 70.0\nsway_deg = 3.0\nbeams = 1\n\
-         az_step_deg = 0.015\nspeed_mps = 1.4\nheight_m = 1.5\nmax_range_m = 60.0\n",
+        if spinning {
+            ""
+        } else {
+            "[lidar]\npattern = \"rosette\"\nfov_deg = 70.0\nsway_deg = 3.0\nbeams = 1\n\
+             az_step_deg = 0.015\nspeed_mps = 1.4\nheight_m = 1.5\nmax_range_m = 60.0\n"
+        },
     )
     .unwrap();
     let (mut located, mut inside, mut targets) = (0, 0, 0);
     for seed in 1..=seeds {
-        let r = synth_and_eval(&cfg, seed, 3_000_000, &tmp.path().join(format!("s{seed}")));
+        let r = synth_and_eval(&cfg, seed, points, &tmp.path().join(format!("s{seed}")));
         let truth = r.truth["targets"].as_array().unwrap();
         targets += truth.len();
         for t in r.result["targets"].as_array().unwrap() {
@@ -465,7 +473,7 @@ fn covariance_holds_for_a_rosette_scan() {
             );
             located += 1;
             inside += usize::from(chi2 <= CHI2_95);
-            if seeds <= 2 {
+            if seeds <= 2 && points == 3_000_000 && !spinning {
                 // Seeds 1-2: the largest is 6.9 (99 % ellipse: 9.21).
                 assert!(
                     chi2 < 9.21,
