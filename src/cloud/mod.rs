@@ -123,7 +123,7 @@ pub trait PointReader: Send {
     fn bytes_read(&self) -> u64;
     /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
     /// cloud has an `intensity` field and the reader reads it (binary,
-    /// binary_compressed and ASCII PCD, fixed-size binary PLY, LAS, LAZ and COPC, E57 whose every
+    /// binary_compressed and ASCII PCD, binary and ASCII PLY, LAS, LAZ and COPC, E57 whose every
     /// scan has one, PTS whose first point line has one).
     fn has_intensity(&self) -> bool {
         false

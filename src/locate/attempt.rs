@@ -306,7 +306,13 @@ impl<'a> Ctx<'a> {
                 if next.len() < MIN_PLATE_INLIERS {
                     return Err(Reason::Degenerate);
                 }
-                let mut plane = all.plane().ok_or(Reason::Degenerate)?;
+                let Some(mut plane) = all.plane() else {
+                    // The old inliers' own plane, fitted before: kept.
+                    if *next == inl[k] {
+                        continue;
+                    }
+                    return Err(Reason::Degenerate);
+                };
                 let short = all.without(&past);
                 if let Some(s) = sigma[k].filter(|_| past.count() > 0)
                     && short.count() >= MIN_PLATE_INLIERS
@@ -319,7 +325,8 @@ impl<'a> Ctx<'a> {
                     ];
                     let excess = s * s * (1.0 / spread(along[0]) - 1.0 / spread(whole));
                     let turn = plane.normal.cross(&trimmed.normal).dot(&self.up);
-                    if turn * turn > FREE_END_CHI2 * excess.max(0.0) {
+                    // No excess (noiseless or quantised points): nothing to test.
+                    if excess > 0.0 && turn * turn > FREE_END_CHI2 * excess {
                         plane = trimmed;
                         next.clear();
                         next.extend(
@@ -457,14 +464,15 @@ fn median_sigma(d: &mut [f64]) -> Option<f64> {
     Some(1.4826 * *median)
 }
 
-/// How far from the corner line a plate's inliers may lie: its free end less
-/// three of the other plate's noise. Range noise moves a return along its ray,
+/// How far from the corner line a plate's inliers may lie when the refit
+/// drops its free end: the end less `FREE_END_SIGMAS` of the other plate's
+/// noise, at most `corner_margin`. Range noise moves a return along its ray,
 /// so on a plate seen obliquely it moves along the plate as much as off it;
 /// in the plate's middle the moves cancel, but past the free end only the
 /// returns pushed outwards remain, all offset to one side, and a plane
 /// fitted through them turns (by σ²·cos·sin of the incidence over the
 /// plate's spread: ~5 mrad, ~1.5 mm at the corner, for 2 cm of noise seen at
-/// 45° from one side, as a forward-looking scanner sees it; docs/uncertainty.md).
+/// 45° from one side, as a forward-looking scanner sees it; docs/algorithm.md).
 /// Along-plate noise is the other plate's off-plate noise (the plates are
 /// square to each other), so its σ sets the margin. The free end is the
 /// 99th percentile of the in-band candidates' distance from the corner line

@@ -171,7 +171,7 @@ pub(super) fn board_crops(
             MapSource::Points(_) => "a map handed over in memory has no intensity".to_string(),
             MapSource::File(p) => format!(
                 "{} has no intensity mapgauge reads (it reads it from binary PCD, \
-                 fixed-size binary PLY, ASCII PCD, LAS, LAZ, COPC, E57, PTS and tiled maps of those)",
+                 PLY, ASCII PCD, LAS, LAZ, COPC, E57, PTS and tiled maps of those)",
                 p.display()
             ),
         };

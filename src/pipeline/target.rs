@@ -603,7 +603,7 @@ fn hand_board_crop(dir: &Path, id: &str) -> Result<super::crops::BoardCrop> {
         let mut r = crate::cloud::open(&p)?;
         if !r.has_intensity() {
             return Ok(Err(format!(
-                "{} has no intensity mapgauge reads (binary PCD, fixed-size binary PLY, \
+                "{} has no intensity mapgauge reads (binary PCD, PLY, \
                  ASCII PCD, LAS, LAZ, COPC, E57, PTS)",
                 p.display()
             )));

@@ -286,6 +286,59 @@ fn boards_are_located_in_laz_and_compressed_pcd_maps() {
     }
 }
 
+/// Issue 33: an ASCII PLY map with an `intensity` property (as CloudCompare
+/// and Open3D write text PLY) gives its boards' print: the synth scene's
+/// points and intensities written out as text, then `eval`.
+#[test]
+fn boards_are_located_in_an_ascii_ply_map() {
+    use std::io::Write;
+    let dir = tempdir();
+    let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
+    let truth = synth_scene(
+        &scene,
+        &[
+            "--points",
+            "1500000",
+            "--seed",
+            "6",
+            "--models",
+            "board",
+            "--targets",
+            "4",
+            "--format",
+            "pcd-xyzi",
+        ],
+    );
+    let mut r = mapgauge::cloud::open(&scene.join("map.pcd")).unwrap();
+    assert!(r.has_intensity());
+    let (mut pts, mut inten) = (Vec::new(), Vec::new());
+    let (mut b, mut i) = (Vec::new(), Vec::new());
+    while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
+        pts.extend_from_slice(&b);
+        inten.extend_from_slice(&i);
+    }
+    let map = scene.join("map-ascii.ply");
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&map).unwrap());
+    write!(
+        w,
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\n\
+         property double z\nproperty float intensity\nend_header\n",
+        pts.len()
+    )
+    .unwrap();
+    for (p, v) in pts.iter().zip(&inten) {
+        writeln!(w, "{} {} {} {v}", p.x, p.y, p.z).unwrap();
+    }
+    drop(w);
+    let r = eval_map(&map, &scene.join("survey.csv"), &out);
+    let found = located(&r, &truth);
+    assert_eq!(found.len(), 4, "{}", r["targets"]);
+    for (id, err, c) in &found {
+        assert!(err.xy().norm() < 0.003, "board {id}: {err:?}");
+        assert!(m2(err, c) < 16.27, "board {id}: {err:?} outside {c:?}");
+    }
+}
+
 /// Issue 33: a flat thing of a board's size is not a board. A plain sign
 /// stands 0.4 m beside each board and the survey places the boards nearer
 /// the signs than the boards: the boards are located all the same. With the

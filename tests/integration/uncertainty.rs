@@ -434,7 +434,7 @@ fn covariance_holds_for_a_rosette_scan() {
     let seeds: u64 = std::env::var("ROSETTE_SEEDS").map_or(2, |s| s.parse().unwrap());
     let points: u64 = std::env::var("ROSETTE_POINTS").map_or(3_000_000, |s| s.parse().unwrap());
     // ROSETTE_SPINNING=1: synth's spinning LiDAR instead, for comparison.
-    let spinning = std::env::var_os("ROSETTE_SPINNING").is_some();
+    let spinning = std::env::var("ROSETTE_SPINNING").is_ok_and(|v| v == "1");
     let tmp = crate::util::tempdir();
     let cfg = tmp.path().join("rosette.toml");
     std::fs::write(

@@ -40,6 +40,9 @@ pub(super) struct PlyReader {
     pub(super) bytes: u64,
     /// The vertex element is the last one: nothing but blanks may follow it.
     pub(super) vertex_last: bool,
+    /// The vertex property that is the intensity ([`super::intensity_prop`]),
+    /// read only when asked for (the boards' pass).
+    pub(super) intensity: Option<usize>,
 }
 
 /// Walks one binary element instance with list properties starting at `pos`;
@@ -101,10 +104,19 @@ fn ascii_tail_is_blank(
 }
 
 /// x, y, z of the binary vertex with list properties at `pos` (already
-/// walked, so every read is within the map).
+/// walked, so every read is within the map), and property `inten`'s value
+/// when given (NaN otherwise).
 #[inline]
-fn variable_vertex(map: &[u8], pos: usize, props: &[Prop], xyz: Xyz, be: bool) -> [f64; 3] {
+fn variable_vertex(
+    map: &[u8],
+    pos: usize,
+    props: &[Prop],
+    xyz: Xyz,
+    inten: Option<usize>,
+    be: bool,
+) -> ([f64; 3], f32) {
     let mut v = [0.0; 3];
+    let mut w = f32::NAN;
     let mut p = pos;
     for (i, prop) in props.iter().enumerate() {
         match prop {
@@ -114,6 +126,9 @@ fn variable_vertex(map: &[u8], pos: usize, props: &[Prop], xyz: Xyz, be: bool) -
                         v[c] = t.read(&map[p..], be);
                     }
                 }
+                if inten == Some(i) {
+                    w = t.read(&map[p..], be) as f32;
+                }
                 p += t.size();
             }
             Prop::List(ct, it) => {
@@ -122,12 +137,13 @@ fn variable_vertex(map: &[u8], pos: usize, props: &[Prop], xyz: Xyz, be: bool) -
             }
         }
     }
-    v
+    (v, w)
 }
 
 /// x, y, z of the ascii vertex `line` (line number and vertex index in `at`,
-/// for errors): the values up to the last of x, y, z are read, lists by their
-/// count; a missing or unreadable value is an error.
+/// for errors), and property `inten`'s value when given (NaN otherwise): the
+/// values up to the last of those wanted are read, lists by their count; a
+/// missing or unreadable value is an error.
 #[inline]
 fn ascii_vertex(
     path: &Path,
@@ -135,13 +151,18 @@ fn ascii_vertex(
     line: &[u8],
     props: &[Prop],
     xyz: Xyz,
-) -> Result<[f64; 3]> {
+    inten: Option<usize>,
+) -> Result<([f64; 3], f32)> {
     let mut v = [f64::NAN; 3];
+    let mut w = f32::NAN;
     let mut it = line
         .split(|b| b.is_ascii_whitespace())
         .filter(|t| !t.is_empty());
     let bad = |msg: String| Error::table(path, ln, msg);
-    let need = xyz.idx.iter().copied().max().unwrap_or(0);
+    let need = xyz.idx.iter().copied().chain(inten).max().unwrap_or(0);
+    let number = |t: &[u8]| {
+        parse_f64(t).ok_or_else(|| bad(format!("{:?} is not a number", String::from_utf8_lossy(t))))
+    };
     for (i, prop) in props.iter().enumerate().take(need + 1) {
         let count = match prop {
             Prop::Scalar(_) => 1,
@@ -158,14 +179,15 @@ fn ascii_vertex(
                 .ok_or_else(|| bad(format!("too few values for vertex {vertex}")))?;
             for c in 0..3 {
                 if xyz.idx[c] == i {
-                    v[c] = parse_f64(t).ok_or_else(|| {
-                        bad(format!("{:?} is not a number", String::from_utf8_lossy(t)))
-                    })?;
+                    v[c] = number(t)?;
                 }
+            }
+            if inten == Some(i) {
+                w = number(t)? as f32;
             }
         }
     }
-    Ok(v)
+    Ok((v, w))
 }
 
 impl PointReader for PlyReader {
@@ -174,9 +196,37 @@ impl PointReader for PlyReader {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+        self.fill(buf, None)
+    }
+
+    fn has_intensity(&self) -> bool {
+        self.intensity.is_some()
+    }
+
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        inten.clear();
+        if self.intensity.is_none() {
+            return self.next_chunk(buf);
+        }
+        self.fill(buf, Some(inten))
+    }
+
+    fn stats(&self) -> ReadStats {
+        self.stats
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.bytes
+    }
+}
+
+impl PlyReader {
+    /// The next points, with their intensities into `inten` when given.
+    fn fill(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<bool> {
         buf.clear();
         let be = self.be;
         let xyz = self.xyz;
+        let want = inten.is_some().then_some(self.intensity).flatten();
         while buf.is_empty() && self.next < self.total {
             let n = (self.total - self.next).min(CHUNK as u64) as usize;
             match &mut self.body {
@@ -186,11 +236,14 @@ impl PointReader for PlyReader {
                         let Some(end) = walk(map, *pos, props, be) else {
                             return Err(self.truncated(self.next));
                         };
-                        let v = variable_vertex(map, *pos, props, xyz, be);
+                        let (v, w) = variable_vertex(map, *pos, props, xyz, want, be);
                         *pos = end;
                         self.next += 1;
                         if v.iter().all(|c| c.is_finite()) {
                             buf.push(Point::new(v[0], v[1], v[2]));
+                            if let Some(out) = inten.as_deref_mut() {
+                                out.push(w);
+                            }
                         } else {
                             self.stats.skipped_nonfinite += 1;
                         }
@@ -230,10 +283,13 @@ impl PointReader for PlyReader {
                             continue;
                         }
                         let at = (ln, self.next);
-                        let v = ascii_vertex(&self.path, at, line, props, xyz)?;
+                        let (v, w) = ascii_vertex(&self.path, at, line, props, xyz, want)?;
                         self.next += 1;
                         if v.iter().all(|c| c.is_finite()) {
                             buf.push(Point::new(v[0], v[1], v[2]));
+                            if let Some(out) = inten.as_deref_mut() {
+                                out.push(w);
+                            }
                         } else {
                             self.stats.skipped_nonfinite += 1;
                         }
@@ -258,13 +314,5 @@ impl PointReader for PlyReader {
         }
         self.stats.points += buf.len() as u64;
         Ok(!buf.is_empty())
-    }
-
-    fn stats(&self) -> ReadStats {
-        self.stats
-    }
-
-    fn bytes_read(&self) -> u64 {
-        self.bytes
     }
 }

@@ -73,6 +73,7 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         stats: ReadStats::default(),
         bytes: header.data_offset as u64,
         vertex_last,
+        intensity: intensity_prop(vertex),
     }))
 }
 
@@ -202,29 +203,13 @@ fn fixed_layout(
     be: bool,
 ) -> records::Layout {
     let offs = xyz.idx.map(|i| prop_offset(vertex, i));
-    // A scalar `intensity` (any case), or CloudCompare's
-    // `scalar_intensity`, for boards and `convert`.
-    let named = |want: &str| {
-        vertex
-            .props
-            .iter()
-            .position(|(n, _)| n == want)
-            .or_else(|| {
-                vertex
-                    .props
-                    .iter()
-                    .position(|(n, _)| n.eq_ignore_ascii_case(want))
-            })
-    };
-    let intensity = named("intensity")
-        .or_else(|| named("scalar_intensity"))
-        .and_then(|i| match vertex.props[i].1 {
-            Prop::Scalar(t) => Some(records::Coord {
-                kind: t,
-                offset: prop_offset(vertex, i),
-            }),
-            Prop::List(..) => None,
-        });
+    let intensity = intensity_prop(vertex).and_then(|i| match vertex.props[i].1 {
+        Prop::Scalar(t) => Some(records::Coord {
+            kind: t,
+            offset: prop_offset(vertex, i),
+        }),
+        Prop::List(..) => None,
+    });
     records::Layout {
         start: pos as u64,
         stride,
@@ -237,6 +222,21 @@ fn fixed_layout(
         transform: None,
         intensity,
     }
+}
+
+/// The vertex property that holds the intensity: a scalar `intensity` (any
+/// case), or CloudCompare's `scalar_intensity`, for boards and `convert`.
+fn intensity_prop(vertex: &Element) -> Option<usize> {
+    let named = |want: &str| {
+        let props = &vertex.props;
+        props
+            .iter()
+            .position(|(n, _)| n == want)
+            .or_else(|| props.iter().position(|(n, _)| n.eq_ignore_ascii_case(want)))
+    };
+    named("intensity")
+        .or_else(|| named("scalar_intensity"))
+        .filter(|&i| matches!(vertex.props[i].1, Prop::Scalar(_)))
 }
 
 /// Byte offset of property `i` in a fixed-stride vertex record.

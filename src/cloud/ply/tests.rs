@@ -252,3 +252,78 @@ property float z\nend_header\n1 2 q\n",
     // Every message names the file.
     assert!(e.contains(".ply"), "{e}");
 }
+
+/// Every point and its intensity, read as the boards' pass reads them.
+fn read_with_intensity(bytes: &[u8]) -> Result<(Vec<Point>, Vec<f32>)> {
+    let f = tmp(bytes);
+    let mut r = open(f.path())?;
+    assert!(r.has_intensity());
+    let (mut all, mut inten) = (Vec::new(), Vec::new());
+    let (mut buf, mut ib) = (Vec::new(), Vec::new());
+    while r.next_chunk_intensity(&mut buf, &mut ib)? {
+        assert_eq!(buf.len(), ib.len());
+        all.extend_from_slice(&buf);
+        inten.extend_from_slice(&ib);
+    }
+    Ok((all, inten))
+}
+
+#[test]
+fn intensity_from_every_encoding_and_layout() {
+    // Fixed stride (the record reader) and ascii, from the shared file.
+    for enc in ["ascii", "binary_little_endian", "binary_big_endian"] {
+        let (got, inten) = read_with_intensity(&ply(enc, true)).unwrap();
+        assert_eq!(got.len(), 3, "{enc}");
+        assert_eq!(inten, vec![0.75; 3], "{enc}");
+    }
+    // Ascii: CloudCompare's name, before x, after a list, with a NaN point.
+    let a = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty list uchar float n\n\
+property ushort scalar_Intensity\nproperty double x\nproperty double y\nproperty double z\n\
+end_header\n2 9 9 1200 1 2 3\n0 7 nan 5 6\n1 4 65535 -1 -2 -3.5\n";
+    let (got, inten) = read_with_intensity(a).unwrap();
+    assert_eq!(
+        got,
+        vec![Point::new(1., 2., 3.), Point::new(-1., -2., -3.5)]
+    );
+    assert_eq!(inten, vec![1200.0, 65535.0]);
+    // Binary with a list in the vertex (variable stride): intensity last.
+    let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 2\n\
+property list uint8 float extra\nproperty double x\nproperty double y\nproperty double z\n\
+property float intensity\nend_header\n"
+        .to_vec();
+    for (i, k) in [(1.0f64, 2u8), (2.0, 0)] {
+        b.push(k);
+        b.extend(std::iter::repeat_n(0u8, 4 * k as usize));
+        for v in [i, i + 0.5, -i] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&(i as f32 * 10.0).to_le_bytes());
+    }
+    let (got, inten) = read_with_intensity(&b).unwrap();
+    assert_eq!(
+        got,
+        vec![Point::new(1., 1.5, -1.), Point::new(2., 2.5, -2.)]
+    );
+    assert_eq!(inten, vec![10.0, 20.0]);
+}
+
+#[test]
+fn ascii_intensity_is_parsed_only_when_asked_for() {
+    // A bad intensity token: the coordinate passes never read it; the
+    // boards' pass says where it is.
+    let a = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+property float z\nproperty float intensity\nend_header\n1 2 3 0.5\n4 5 6 bright\n";
+    let (got, _) = read_bytes(a).unwrap();
+    assert_eq!(got.len(), 2);
+    let e = read_with_intensity(a).unwrap_err().to_string();
+    assert!(
+        e.contains(":10:") && e.contains("\"bright\" is not a number"),
+        "{e}"
+    );
+    // No intensity property: said, and nothing is given.
+    let f = tmp(
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+property float z\nend_header\n1 2 3\n",
+    );
+    assert!(!open(f.path()).unwrap().has_intensity());
+}
