@@ -179,6 +179,29 @@ impl Moments {
         }
     }
 
+    /// How much a plane fitted to the points knows of its turn about `up`:
+    /// the variance of that turn per unit residual variance, [S⁻¹]_uu of
+    /// the points' 2×2 scatter S in the plane of `normal` (u its horizontal
+    /// axis, v its vertical). Not 1/S_uu: where the points seen of a plate
+    /// slant across it, its along and up spreads are correlated and the turn
+    /// is known less well. Infinite for a degenerate set.
+    pub(crate) fn turn_leverage(&self, normal: &Vector3<f64>, up: &Vector3<f64>) -> f64 {
+        let Some(u) = up.cross(normal).try_normalize(1e-9) else {
+            return f64::INFINITY;
+        };
+        let v = normal.cross(&u);
+        if self.n < 3 {
+            return f64::INFINITY;
+        }
+        let m = self.sq - self.sum * (self.sum / self.n as f64).transpose();
+        let (uu, vv, uv) = (u.dot(&(m * u)), v.dot(&(m * v)), u.dot(&(m * v)));
+        let det = uu * vv - uv * uv;
+        if !(det > 0.0) {
+            return f64::INFINITY;
+        }
+        vv / det
+    }
+
     /// The least-squares plane of the points ([`Scatter::plane`]), `None`
     /// for fewer than three.
     pub(crate) fn plane(&self) -> Option<Plane> {
@@ -225,6 +248,24 @@ mod tests {
         assert!(c.normal.dot(&d.normal).abs() > 1.0 - 1e-12);
         assert!((c.offset.abs() - d.offset.abs()).abs() < 1e-12);
         assert_eq!(all.without(&tail).count(), 30);
+        // Points in the plane x = 0 (u = y, v = z): uncorrelated, 1/S_uu;
+        // slanted across it, more.
+        let grid = |slant: f64| {
+            let mut m = Moments::new(Vector3::zeros());
+            for i in 0..10 {
+                for j in 0..10 {
+                    let (y, z) = (f64::from(i) * 0.1, f64::from(j) * 0.1);
+                    m.add(&Vector3::new(0.0, y, z + slant * y));
+                }
+            }
+            m.turn_leverage(&Vector3::x(), &Vector3::z())
+        };
+        let s_uu: f64 = 10.0
+            * (0..10)
+                .map(|i| (f64::from(i) * 0.1 - 0.45).powi(2))
+                .sum::<f64>();
+        assert!((grid(0.0) - 1.0 / s_uu).abs() < 1e-9 / s_uu);
+        assert!(grid(1.0) > 1.5 / s_uu);
     }
 
     #[test]

@@ -290,18 +290,13 @@ impl<'a> Ctx<'a> {
                     .first()
                     .map_or_else(Vector3::zeros, |c| self.pts[c.i as usize]);
                 let (mut all, mut past) = (Moments::new(origin), Moments::new(origin));
-                let mut along = [[0.0f64; 3]; 2];
                 for c in near[k].iter().filter(|c| c.own < band) {
                     let q = &self.pts[c.i as usize];
                     next.push(c.i);
                     all.add(q);
-                    let j = usize::from(c.other > to);
-                    if j == 1 {
+                    if c.other > to {
                         past.add(q);
                     }
-                    along[j][0] += 1.0;
-                    along[j][1] += c.other;
-                    along[j][2] += c.other * c.other;
                 }
                 if next.len() < MIN_PLATE_INLIERS {
                     return Err(Reason::Degenerate);
@@ -318,12 +313,8 @@ impl<'a> Ctx<'a> {
                     && short.count() >= MIN_PLATE_INLIERS
                     && let Some(trimmed) = short.plane()
                 {
-                    let whole = [
-                        along[0][0] + along[1][0],
-                        along[0][1] + along[1][1],
-                        along[0][2] + along[1][2],
-                    ];
-                    let excess = s * s * (1.0 / spread(along[0]) - 1.0 / spread(whole));
+                    let leverage = |m: &Moments| m.turn_leverage(&plane.normal, &self.up);
+                    let excess = s * s * (leverage(&short) - leverage(&all));
                     let turn = plane.normal.cross(&trimmed.normal).dot(&self.up);
                     // No excess (noiseless or quantised points): nothing to test.
                     if excess > 0.0 && turn * turn > FREE_END_CHI2 * excess {
@@ -494,16 +485,6 @@ fn free_end(
     let at = (d.len() - 1) * 99 / 100;
     let (_, end, _) = d.select_nth_unstable_by(at, f64::total_cmp);
     Some(*end - (FREE_END_SIGMAS * s).min(cap))
-}
-
-/// Σ (t − t̄)² from the sums [n, Σt, Σt²] of the in-band candidates'
-/// distances t from the corner line: how much a plane fitted to them knows of
-/// its turn.
-fn spread([n, sum, sq]: [f64; 3]) -> f64 {
-    if n < 2.0 {
-        return f64::INFINITY;
-    }
-    (sq - sum * sum / n).max(f64::MIN_POSITIVE)
 }
 
 /// Each cluster's point indices from the k-means labels.
