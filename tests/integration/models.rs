@@ -256,33 +256,44 @@ fn boards_are_located_in_laz_and_compressed_pcd_maps() {
     for (format, ext) in [("laz", "laz"), ("pcd-compressed", "pcd")] {
         let dir = tempdir();
         let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
-        let truth = synth_scene(
-            &scene,
-            &[
-                "--points",
-                "2000000",
-                "--seed",
-                "6",
-                "--models",
-                "board",
-                "--targets",
-                "4",
-                "--format",
-                format,
-            ],
-        );
+        let truth = four_boards(&scene, format, "2000000");
         let map = scene.join(format!("map.{ext}"));
         let r = eval_map(&map, &scene.join("survey.csv"), &out);
-        let found = located(&r, &truth);
-        assert_eq!(found.len(), 4, "{format}: {}", r["targets"]);
-        for ((id, err, c), e) in found.iter().zip(r["eval"]["targets"].as_array().unwrap()) {
-            assert_eq!(e["model"], "board");
-            assert!(err.xy().norm() < 0.003, "{format} board {id}: {err:?}");
-            assert!(
-                m2(err, c) < 16.27,
-                "{format} board {id}: {err:?} outside {c:?}"
-            );
-        }
+        assert_boards_located(&r, &truth, format);
+    }
+}
+
+/// synth's scene of 4 boards (seed 6) in `format`; its truth.
+fn four_boards(scene: &Path, format: &str, points: &str) -> Value {
+    synth_scene(
+        scene,
+        &[
+            "--points",
+            points,
+            "--seed",
+            "6",
+            "--models",
+            "board",
+            "--targets",
+            "4",
+            "--format",
+            format,
+        ],
+    )
+}
+
+/// Every one of the 4 boards located within 3 mm horizontally and inside
+/// its 99.9 % ellipsoid.
+fn assert_boards_located(r: &Value, truth: &Value, what: &str) {
+    let found = located(r, truth);
+    assert_eq!(found.len(), 4, "{what}: {}", r["targets"]);
+    for ((id, err, c), e) in found.iter().zip(r["eval"]["targets"].as_array().unwrap()) {
+        assert_eq!(e["model"], "board");
+        assert!(err.xy().norm() < 0.003, "{what} board {id}: {err:?}");
+        assert!(
+            m2(err, c) < 16.27,
+            "{what} board {id}: {err:?} outside {c:?}"
+        );
     }
 }
 
@@ -294,21 +305,7 @@ fn boards_are_located_in_an_ascii_ply_map() {
     use std::io::Write;
     let dir = tempdir();
     let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
-    let truth = synth_scene(
-        &scene,
-        &[
-            "--points",
-            "1500000",
-            "--seed",
-            "6",
-            "--models",
-            "board",
-            "--targets",
-            "4",
-            "--format",
-            "pcd-xyzi",
-        ],
-    );
+    let truth = four_boards(&scene, "pcd-xyzi", "1500000");
     let mut r = mapgauge::cloud::open(&scene.join("map.pcd")).unwrap();
     assert!(r.has_intensity());
     let (mut pts, mut inten) = (Vec::new(), Vec::new());
@@ -331,12 +328,7 @@ fn boards_are_located_in_an_ascii_ply_map() {
     }
     drop(w);
     let r = eval_map(&map, &scene.join("survey.csv"), &out);
-    let found = located(&r, &truth);
-    assert_eq!(found.len(), 4, "{}", r["targets"]);
-    for (id, err, c) in &found {
-        assert!(err.xy().norm() < 0.003, "board {id}: {err:?}");
-        assert!(m2(err, c) < 16.27, "board {id}: {err:?} outside {c:?}");
-    }
+    assert_boards_located(&r, &truth, "ascii PLY");
 }
 
 /// Issue 33: a flat thing of a board's size is not a board. A plain sign
