@@ -166,11 +166,10 @@ impl<'a> Ctx<'a> {
         if self.params.refit_iterations == 0 {
             return [self.params.inlier_threshold; 2];
         }
-        let mut resid = Vec::new();
-        [
-            self.refit_band(&planes[0], &planes[1], &mut resid),
-            self.refit_band(&planes[1], &planes[0], &mut resid),
-        ]
+        // The refit's own candidates and noise, about the final planes.
+        let (mut near, mut resid) = ([Vec::new(), Vec::new()], Vec::new());
+        self.near_plates(planes, &mut near);
+        [0, 1].map(|k| self.band(noise(&near[k], &mut resid)))
     }
 
     /// Runs attempt `index`; with `labels`, also records each point's role.
@@ -375,18 +374,6 @@ impl<'a> Ctx<'a> {
             }
             _ => p.inlier_threshold,
         }
-    }
-
-    /// Half-width of the refit's inlier band around `own` (see [`Ctx::band`]),
-    /// as the covariance takes it.
-    fn refit_band(&self, own: &Plane, other: &Plane, resid: &mut Vec<f64>) -> f64 {
-        let m = self.params.corner_margin;
-        resid.clear();
-        resid.extend(self.pts.iter().filter_map(|q| {
-            let d = own.distance(q).abs();
-            (d < m && other.distance(q).abs() >= m).then_some(d)
-        }));
-        self.band(median_sigma(resid))
     }
 
     /// Step 4a: the plates perpendicular to each other within the tolerance.
