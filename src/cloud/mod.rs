@@ -124,7 +124,8 @@ pub trait PointReader: Send {
     /// Whether [`PointReader::next_chunk_intensity`] gives intensities: the
     /// cloud has an `intensity` field and the reader reads it (binary,
     /// binary_compressed and ASCII PCD, binary and ASCII PLY, LAS, LAZ and COPC, E57 whose every
-    /// scan has one, PTS whose first point line has one).
+    /// scan has one, PTS whose first point line has one, XYZ/CSV whose header
+    /// names an intensity column).
     fn has_intensity(&self) -> bool {
         false
     }

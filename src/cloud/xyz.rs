@@ -2,8 +2,12 @@
 //!
 //! `x y z [more columns]`, separated by spaces/tabs, commas or semicolons (chosen
 //! from the first data line). An optional header line names the columns; `x`,
-//! `y`, `z` are then found by name (case-insensitive). `#` and `//` lines and
-//! blank lines are skipped. The file is read in blocks of whole lines and each
+//! `y`, `z` are then found by name (case-insensitive), and an intensity column
+//! (`intensity`, `i`, `scalar_intensity`) when named. CloudCompare writes its
+//! header as a comment (`//X,Y,Z,Intensity`): a `//` line naming x, y and z
+//! before the first data line is the header. Other `#` and `//` lines and
+//! blank lines are skipped. Without a header a fourth column is not taken for
+//! intensity: it may as well be a time, a label or a colour. The file is read in blocks of whole lines and each
 //! block is parsed in parallel (order kept), without per-line allocation.
 
 use super::{CloudInfo, Format, PointReader, ReadStats};
@@ -114,7 +118,12 @@ enum Sep {
 struct Layout {
     sep: Sep,
     cols: [usize; 3],
+    /// The intensity's column, when a header names one.
+    icol: Option<usize>,
 }
+
+/// Header names of an intensity column (lower case).
+const INTENSITY_NAMES: [&str; 4] = ["intensity", "i", "scalar_intensity", "intensities"];
 
 /// Splits a line into fields per `sep` and calls `f(index, field)` until it
 /// returns false.
@@ -168,24 +177,38 @@ pub(super) use super::num::parse_f64;
 
 /// Parses a block of whole lines; `first_line` is the 1-based number of its first
 /// line. Appends finite points to `out`; returns the number of non-finite rows.
+/// With `inten`, each kept point's intensity is appended to it (the layout's
+/// intensity column; coordinate passes leave that column unparsed).
 fn parse_block(
     path: &Path,
     block: &[u8],
     first_line: u64,
     layout: Layout,
     out: &mut Vec<Point>,
+    mut inten: Option<&mut Vec<f32>>,
 ) -> Result<u64> {
     let mut skipped = 0;
-    let need = layout.cols.iter().copied().max().unwrap_or(0);
+    let icol = layout.icol.filter(|_| inten.is_some());
+    let need = layout.cols.iter().copied().chain(icol).max().unwrap_or(0);
     for (k, raw) in block.split(|&b| b == b'\n').enumerate() {
         let line = clean(raw);
         if is_skip(line) {
             continue;
         }
         let mut v = [f64::NAN; 3];
+        let mut value = f64::NAN;
         let mut seen = 0usize;
         let mut bad: Option<usize> = None;
         for_fields(line, layout.sep, |i, field| {
+            if icol == Some(i) {
+                match parse_f64(field) {
+                    Some(x) => value = x,
+                    None => {
+                        bad = Some(i);
+                        return false;
+                    }
+                }
+            }
             for c in 0..3 {
                 if layout.cols[c] == i {
                     match parse_f64(field) {
@@ -221,6 +244,9 @@ fn parse_block(
         }
         if v.iter().all(|c| c.is_finite()) {
             out.push(Point::new(v[0], v[1], v[2]));
+            if let Some(inten) = inten.as_deref_mut() {
+                inten.push(value as f32);
+            }
         } else {
             skipped += 1;
         }
@@ -241,6 +267,9 @@ fn field_at(line: &[u8], sep: Sep, i: usize) -> &[u8] {
     r
 }
 
+/// One task's points, their intensities (when asked for) and non-finite rows.
+type Parsed = (Vec<Point>, Vec<f32>, u64);
+
 /// Streaming XYZ reader.
 struct XyzReader {
     info: CloudInfo,
@@ -248,6 +277,8 @@ struct XyzReader {
     lines: LineBlocks,
     /// Layout, once the first data line was seen.
     layout: Option<Layout>,
+    /// A header names an intensity column (read at open).
+    intensity: bool,
     /// 1-based number of the first line of the next block.
     line_no: u64,
     stats: ReadStats,
@@ -267,6 +298,7 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
         path: path.to_path_buf(),
         lines: LineBlocks::new(file, path),
         layout: None,
+        intensity: peek_layout(path).is_some_and(|l| l.icol.is_some()),
         line_no: 1,
         stats: ReadStats::default(),
         done: false,
@@ -307,11 +339,13 @@ fn detect_layout(path: &Path, line: &[u8], line_no: u64) -> Result<(Layout, bool
             Layout {
                 sep,
                 cols: [0, 1, 2],
+                icol: None,
             },
             false,
         ));
     }
     let mut cols = [usize::MAX; 3];
+    let mut icol = None;
     for (i, name) in fields.iter().enumerate() {
         let n = name
             .trim_matches(|c| c == '"' || c == '\'')
@@ -321,6 +355,9 @@ fn detect_layout(path: &Path, line: &[u8], line_no: u64) -> Result<(Layout, bool
             if n == *want && cols[c] == usize::MAX {
                 cols[c] = i;
             }
+        }
+        if icol.is_none() && INTENSITY_NAMES.contains(&n.as_str()) {
+            icol = Some(i);
         }
     }
     for (c, want) in ["x", "y", "z"].iter().enumerate() {
@@ -335,7 +372,69 @@ fn detect_layout(path: &Path, line: &[u8], line_no: u64) -> Result<(Layout, bool
             ));
         }
     }
-    Ok((Layout { sep, cols }, true))
+    Ok((Layout { sep, cols, icol }, true))
+}
+
+/// A CloudCompare header: a `//` comment line whose fields name x, y and z
+/// (`//X,Y,Z,Intensity`); the line without its `//`.
+fn comment_header(line: &[u8]) -> Option<&[u8]> {
+    let rest = line.strip_prefix(b"//")?.trim_ascii();
+    let sep = if rest.contains(&b',') {
+        Sep::Char(b',')
+    } else if rest.contains(&b';') {
+        Sep::Char(b';')
+    } else {
+        Sep::Space
+    };
+    let mut named = [false; 3];
+    for_fields(rest, sep, |_, f| {
+        let n = String::from_utf8_lossy(f).trim().to_ascii_lowercase();
+        for (c, want) in ["x", "y", "z"].iter().enumerate() {
+            named[c] |= n == *want;
+        }
+        true
+    });
+    named.iter().all(|&b| b).then_some(rest)
+}
+
+/// The first data line of `lines` (a header, a comment header, or data),
+/// its layout and whether it is a header; `None` when none is there yet.
+/// `first` is the 1-based number of the first line; returns how many bytes
+/// the lines up to and including a header take (0 up to the data line).
+fn layout_of(path: &Path, lines: &[u8], first: u64) -> Result<Option<(Layout, usize)>> {
+    let mut at = 0;
+    let mut line_no = first;
+    while at < lines.len() {
+        let end = lines[at..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(lines.len(), |p| at + p + 1);
+        let line = clean(&lines[at..end]);
+        if let Some(header) = comment_header(line) {
+            let (layout, _) = detect_layout(path, header, line_no)?;
+            return Ok(Some((layout, end)));
+        }
+        if is_skip(line) {
+            at = end;
+            line_no += 1;
+            continue;
+        }
+        let (layout, header) = detect_layout(path, line, line_no)?;
+        return Ok(Some((layout, if header { end } else { at })));
+    }
+    Ok(None)
+}
+
+/// The layout from the file's first 1 MiB, to say at open whether it has
+/// an intensity; `None` when it cannot tell (the read then says why).
+fn peek_layout(path: &Path) -> Option<Layout> {
+    let mut head = Vec::with_capacity(1 << 20);
+    File::open(path)
+        .ok()?
+        .take(1 << 20)
+        .read_to_end(&mut head)
+        .ok()?;
+    layout_of(path, &head, 1).ok().flatten().map(|l| l.0)
 }
 
 impl PointReader for XyzReader {
@@ -344,6 +443,33 @@ impl PointReader for XyzReader {
     }
 
     fn next_chunk(&mut self, buf: &mut Vec<Point>) -> Result<bool> {
+        self.fill(buf, None)
+    }
+
+    fn has_intensity(&self) -> bool {
+        self.intensity
+    }
+
+    fn next_chunk_intensity(&mut self, buf: &mut Vec<Point>, inten: &mut Vec<f32>) -> Result<bool> {
+        inten.clear();
+        if !self.intensity {
+            return self.fill(buf, None);
+        }
+        self.fill(buf, Some(inten))
+    }
+
+    fn stats(&self) -> ReadStats {
+        self.stats
+    }
+
+    fn bytes_read(&self) -> u64 {
+        self.lines.bytes
+    }
+}
+
+impl XyzReader {
+    /// The next points, with their intensities into `inten` when given.
+    fn fill(&mut self, buf: &mut Vec<Point>, mut inten: Option<&mut Vec<f32>>) -> Result<bool> {
         buf.clear();
         while !self.done {
             let Some(block) = self.lines.next_block()? else {
@@ -355,25 +481,14 @@ impl PointReader for XyzReader {
             let lines_in_block = block.iter().filter(|&&b| b == b'\n').count() as u64;
             self.line_no += lines_in_block;
             if self.layout.is_none() {
-                // Skip comment lines up to the first data line and detect the layout.
-                while !block.is_empty() {
-                    let end = block
-                        .iter()
-                        .position(|&b| b == b'\n')
-                        .map_or(block.len(), |p| p + 1);
-                    let line = clean(&block[..end]);
-                    if is_skip(line) {
-                        block = &block[end..];
-                        first += 1;
-                        continue;
-                    }
-                    let (layout, header) = detect_layout(&self.path, line, first)?;
+                // Skip comment lines up to the first data line and detect the
+                // layout; a header (or comment header) is skipped too.
+                if let Some((layout, skip)) = layout_of(&self.path, block, first)? {
                     self.layout = Some(layout);
-                    if header {
-                        block = &block[end..];
-                        first += 1;
-                    }
-                    break;
+                    first += block[..skip].iter().filter(|&&b| b == b'\n').count() as u64;
+                    block = &block[skip..];
+                } else {
+                    block = &[];
                 }
             }
             let Some(layout) = self.layout else { continue };
@@ -396,17 +511,23 @@ impl PointReader for XyzReader {
                 rest = b;
             }
             let path = &self.path;
-            let parts: Vec<Result<(Vec<Point>, u64)>> = tasks
+            let want = inten.is_some();
+            let parts: Vec<Result<Parsed>> = tasks
                 .par_iter()
                 .map(|&(t, l)| {
                     let mut out = Vec::with_capacity(t.len() / 24);
-                    let skipped = parse_block(path, t, l, layout, &mut out)?;
-                    Ok((out, skipped))
+                    let mut values = Vec::new();
+                    let skipped =
+                        parse_block(path, t, l, layout, &mut out, want.then_some(&mut values))?;
+                    Ok((out, values, skipped))
                 })
                 .collect();
             for part in parts {
-                let (pts, skipped) = part?;
+                let (pts, values, skipped) = part?;
                 buf.extend_from_slice(&pts);
+                if let Some(inten) = inten.as_deref_mut() {
+                    inten.extend_from_slice(&values);
+                }
                 self.stats.skipped_nonfinite += skipped;
             }
             if !buf.is_empty() {
@@ -415,14 +536,6 @@ impl PointReader for XyzReader {
         }
         self.stats.points += buf.len() as u64;
         Ok(!buf.is_empty())
-    }
-
-    fn stats(&self) -> ReadStats {
-        self.stats
-    }
-
-    fn bytes_read(&self) -> u64 {
-        self.lines.bytes
     }
 }
 
@@ -560,5 +673,57 @@ mod tests {
         s.push_str("1 2 x\n");
         let e = read(&s).unwrap_err().to_string();
         assert!(e.contains(&format!(":{}:", n + 1)), "{e}");
+    }
+
+    /// Points and intensities of a text file (`None` without an intensity).
+    fn read_intensity(text: &str) -> Result<(Vec<Point>, Option<Vec<f32>>)> {
+        let f = file(text);
+        let mut r = open(f.path())?;
+        let has = r.has_intensity();
+        let (mut all, mut values) = (Vec::new(), Vec::new());
+        let (mut buf, mut inten) = (Vec::new(), Vec::new());
+        while r.next_chunk_intensity(&mut buf, &mut inten)? {
+            assert_eq!(inten.len(), if has { buf.len() } else { 0 });
+            all.extend_from_slice(&buf);
+            values.extend_from_slice(&inten);
+        }
+        Ok((all, has.then_some(values)))
+    }
+
+    /// Issue 33: a header naming an intensity column gives the boards'
+    /// intensity, in any column and with any separator, CloudCompare's
+    /// `//X,Y,Z,Intensity` header too; without a header a fourth column is
+    /// not taken for one. Coordinates read alike either way, a bad
+    /// intensity token is said with its line, and non-finite rows drop
+    /// their intensity with them.
+    #[test]
+    fn intensity_from_a_header_naming_it() {
+        let (p, i) = read_intensity("x y z intensity\n1 2 3 0.5\n4 5 6 7\n").unwrap();
+        assert_eq!(p, vec![Point::new(1., 2., 3.), Point::new(4., 5., 6.)]);
+        assert_eq!(i, Some(vec![0.5, 7.0]));
+        let (p, i) =
+            read_intensity("# scan\nIntensity;Z;Y;X\n9;3;2;1\n8;nan;5;4\n7;6;5;4\n").unwrap();
+        assert_eq!(p, vec![Point::new(1., 2., 3.), Point::new(4., 5., 6.)]);
+        assert_eq!(i, Some(vec![9.0, 7.0]));
+        let (p, i) =
+            read_intensity("//X,Y,Z,R,G,B,Intensity\n1,2,3,0,0,0,120\n4,5,6,0,0,0,30\n").unwrap();
+        assert_eq!(p, vec![Point::new(1., 2., 3.), Point::new(4., 5., 6.)]);
+        assert_eq!(i, Some(vec![120.0, 30.0]));
+        let (p, i) = read_intensity("\"x\",\"y\",\"z\",\"scalar_intensity\"\n1,2,3,4\n").unwrap();
+        assert_eq!((p.len(), i), (1, Some(vec![4.0])));
+        // No header, or a header without one: no intensity.
+        assert_eq!(read_intensity("1 2 3 0.5\n4 5 6 7\n").unwrap().1, None);
+        assert_eq!(read_intensity("x,y,z,time\n1,2,3,4\n").unwrap().1, None);
+        // A plain comment is not a header.
+        let (p, i) = read_intensity("// exported by a tool\n1 2 3 4\n").unwrap();
+        assert_eq!((p.len(), i), (1, None));
+        // Coordinates never parse the intensity; the intensity pass does.
+        let bad = "x y z i\n1 2 3 0.5\n4 5 6 bright\n";
+        assert_eq!(read(bad).unwrap().0.len(), 2);
+        let e = read_intensity(bad).unwrap_err().to_string();
+        assert!(
+            e.contains(":3:") && e.contains("column 4") && e.contains("bright"),
+            "{e}"
+        );
     }
 }

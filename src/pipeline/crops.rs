@@ -171,7 +171,8 @@ pub(super) fn board_crops(
             MapSource::Points(_) => "a map handed over in memory has no intensity".to_string(),
             MapSource::File(p) => format!(
                 "{} has no intensity mapgauge reads (it reads it from binary PCD, \
-                 PLY, ASCII PCD, LAS, LAZ, COPC, E57, PTS and tiled maps of those)",
+                 PLY, ASCII PCD, LAS, LAZ, COPC, E57, PTS, XYZ/CSV with a header naming \
+                 an intensity column, and tiled maps of those)",
                 p.display()
             ),
         };

@@ -604,7 +604,7 @@ fn hand_board_crop(dir: &Path, id: &str) -> Result<super::crops::BoardCrop> {
         if !r.has_intensity() {
             return Ok(Err(format!(
                 "{} has no intensity mapgauge reads (binary PCD, PLY, \
-                 ASCII PCD, LAS, LAZ, COPC, E57, PTS)",
+                 ASCII PCD, LAS, LAZ, COPC, E57, PTS, XYZ/CSV with a header naming one)",
                 p.display()
             )));
         }

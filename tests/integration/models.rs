@@ -331,6 +331,54 @@ fn boards_are_located_in_an_ascii_ply_map() {
     assert_boards_located(&r, &truth, "ascii PLY");
 }
 
+/// Issue 33: a CSV map with CloudCompare's comment header naming the
+/// intensity (`//X,Y,Z,Intensity`, its ASCII export) gives its boards'
+/// print; the same file without the header has no intensity, and every
+/// board is `not_found` saying so.
+#[test]
+fn boards_are_located_in_a_csv_map_whose_header_names_the_intensity() {
+    use std::io::Write;
+    let dir = tempdir();
+    let (scene, out) = (dir.path().join("scene"), dir.path().join("out"));
+    let truth = four_boards(&scene, "pcd-xyzi", "1500000");
+    let mut r = mapgauge::cloud::open(&scene.join("map.pcd")).unwrap();
+    let (mut pts, mut inten) = (Vec::new(), Vec::new());
+    let (mut b, mut i) = (Vec::new(), Vec::new());
+    while r.next_chunk_intensity(&mut b, &mut i).unwrap() {
+        pts.extend_from_slice(&b);
+        inten.extend_from_slice(&i);
+    }
+    let write = |name: &str, header: &str| {
+        let map = scene.join(name);
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&map).unwrap());
+        w.write_all(header.as_bytes()).unwrap();
+        for (p, v) in pts.iter().zip(&inten) {
+            writeln!(w, "{},{},{},{v}", p.x, p.y, p.z).unwrap();
+        }
+        map
+    };
+    let map = write("map.csv", "//X,Y,Z,Intensity\n");
+    let r = eval_map(&map, &scene.join("survey.csv"), &out);
+    assert_boards_located(&r, &truth, "CSV");
+    let bare = write("bare.csv", "");
+    let failed = dir.path().join("bare");
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(&bare)
+        .arg("--survey")
+        .arg(scene.join("survey.csv"))
+        .arg("--out")
+        .arg(&failed)
+        .output()
+        .unwrap();
+    assert!(
+        !o.status.success(),
+        "no board can be found without intensity"
+    );
+    let why = std::fs::read_to_string(failed.join("failed.csv")).unwrap();
+    assert_eq!(why.matches("has no intensity").count(), 4, "{why}");
+}
+
 /// Issue 33: a flat thing of a board's size is not a board. A plain sign
 /// stands 0.4 m beside each board and the survey places the boards nearer
 /// the signs than the boards: the boards are located all the same. With the
