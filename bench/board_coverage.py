@@ -35,8 +35,14 @@ for s in seeds:
                    check=True, capture_output=True)
     subprocess.run([B, "eval", "--map", f"{d}/map.{ext}", "--survey", d + "/survey.csv",
                     "--out", d + "/out", "--no-report"], capture_output=True)
-    r = json.load(open(d + "/out/result.json"))
     t = json.load(open(d + "/truth.json"))
+    if not os.path.exists(d + "/out/result.json"):
+        # eval found none: every board not found (failed.csv says why).
+        why = open(d + "/out/failed.csv").read().splitlines()[1:]
+        for x, w in zip(t["targets"], why + [""] * len(t["targets"])):
+            rows.append((s, x["id"], None, None, None, x.get("points"), w[-160:]))
+        continue
+    r = json.load(open(d + "/out/result.json"))
     tt = {x["id"]: x for x in t["targets"]}
     for e, rt in zip(r["eval"]["targets"], r["targets"]):
         T = tt[e["id"]]

@@ -30,6 +30,8 @@
 //! where larger; across the plane, the plane's offset error, from its
 //! residual and point count.
 
+mod flat;
+
 use super::sphere::{Grid, unit};
 use crate::Point;
 use crate::geom::plane::{Plane, fit as plane_fit};
@@ -241,6 +243,23 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             }
         }
     }
+    // Nothing standing: a board lying on the ground (or flush with a
+    // larger level surface) is told by its print alone.
+    if cands.is_empty() {
+        let mut is_above = vec![false; all.len()];
+        for &k in &above {
+            is_above[k] = true;
+        }
+        let low: Vec<usize> = (0..all.len()).filter(|&k| !is_above[k]).collect();
+        let g: Vec<Vector3<f64>> = low.iter().map(|&k| all[k]).collect();
+        let gi: Vec<f64> = low
+            .iter()
+            .map(|&k| f64::from(s.intensity[idx[k]]))
+            .collect();
+        let (found, flat_refused) = flat::flat_prints(&g, &gi, &up, side, p.search_radius_m, p);
+        cands = found;
+        refused.extend(flat_refused.into_iter().map(|r| (r.points, r.why, r.from)));
+    }
     let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
     let Some(best) = choose(&cands, &others) else {
         let seen = refused
@@ -253,7 +272,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
         return Err(BoardError::NoBoard {
             radius: p.search_radius_m,
             side_mm: side * 1e3,
-            points: v.len(),
+            points: all.len(),
             seen,
         });
     };
@@ -594,6 +613,56 @@ fn judge(
             &at,
         );
     }
+    let face = Face {
+        ids,
+        plane,
+        e,
+        at,
+        bounds: [u0, u1, v0, v1],
+    };
+    read_print(v, inten, grid, &face, side, p)
+}
+
+/// A face a print is read on: its plane, in-face axes and origin, its
+/// points near the plane (`ids`), and the box `[u0, u1, v0, v1]` (in the
+/// axes, from the origin) the board fills.
+struct Face {
+    ids: Vec<u32>,
+    plane: Plane,
+    e: [Vector3<f64>; 2],
+    at: Vector3<f64>,
+    bounds: [f64; 4],
+}
+
+/// Step 3 on a face: the checkerboard in its points' intensity, or why not.
+fn read_print(
+    v: &[Vector3<f64>],
+    inten: &[f64],
+    grid: &Grid,
+    face: &Face,
+    side: f64,
+    p: &BoardParams,
+) -> Result<Candidate, Refusal> {
+    let refuse = |n: usize, why: String, at: &Vector3<f64>| {
+        Err(Refusal {
+            points: n,
+            why,
+            from: at.xy().norm(),
+            wider: None,
+        })
+    };
+    let Face {
+        ids,
+        plane,
+        e,
+        at,
+        bounds: [u0, u1, v0, v1],
+    } = face;
+    let (plane, e, at, ids) = (*plane, *e, *at, ids.as_slice());
+    let (u0, u1, v0, v1) = (*u0, *u1, *v0, *v1);
+    let n = plane.normal;
+    let uv = |q: &Vector3<f64>| [e[0].dot(&(q - at)), e[1].dot(&(q - at))];
+    let extent = [u1 - u0, v1 - v0];
     // The board's own points: within its size of the face's middle.
     let mid = [(u0 + u1) / 2.0, (v0 + v1) / 2.0];
     // Less its rim: a footprint on the board's edge is part background, and
@@ -605,7 +674,7 @@ fn judge(
     };
     let mut pts = Vec::new();
     let mut pts3 = Vec::new();
-    for &i in &ids {
+    for &i in ids {
         let q = uv(&v[i as usize]);
         if inside(q[0], u0, u1, mid[0]) && inside(q[1], v0, v1, mid[1]) {
             pts.push([q[0], q[1], inten[i as usize]]);
@@ -711,6 +780,7 @@ fn judge(
             .collect();
         let k = kept.len() as f64;
         let mean = kept.iter().sum::<f64>() / k;
+
         let rms = (kept.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / k).sqrt();
         (mean, rms, kept.len())
     } else {

@@ -253,6 +253,12 @@ pub struct BoardShape {
     /// of a flat thing of the right size. Part of the target's object.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sign_gap_m: Option<f64>,
+    /// Lying face up on the ground (2 cm thick, level, resting on the
+    /// ground's highest point under it), as UAV ground-control boards lie,
+    /// instead of standing on legs; `centre_height_m` is then unused and the
+    /// print's first axis runs along the road. A sign beside it lies flat too.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub flat: bool,
 }
 
 impl Default for BoardShape {
@@ -264,6 +270,7 @@ impl Default for BoardShape {
             levels: [15.0, 200.0],
             footprint_m: 0.004,
             sign_gap_m: None,
+            flat: false,
         }
     }
 }

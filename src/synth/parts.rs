@@ -229,8 +229,11 @@ pub(super) fn board_target(
 ) -> (Object, TargetTruth) {
     let gz = g.height(x, y);
     let half = shape.side_m / 2.0;
-    let zc = gz + shape.centre_height_m;
     let t = 0.01;
+    if shape.flat {
+        return flat_board(g, shape, id, (x, y), road_distance_m, towards);
+    }
+    let zc = gz + shape.centre_height_m;
     // The box's own x along the face, y through it (towards the road is -y).
     let (nx, ny) = towards;
     let cs = (-ny, nx);
@@ -266,6 +269,61 @@ pub(super) fn board_target(
         id,
         [x, y, zc],
         (gz, half),
+        ny.atan2(nx).to_degrees(),
+        road_distance_m,
+        (crate::model::ModelKind::Board, shape.side_m),
+    );
+    (Object::new(prims), truth)
+}
+
+/// A board lying face up on the ground at (x, y), the print's first axis
+/// along the road (across `towards`): a level 2 cm slab resting on the
+/// ground's highest point under it. The survey gives the crossing, on the
+/// top face.
+fn flat_board(
+    g: &Ground,
+    shape: &super::BoardShape,
+    id: String,
+    (x, y): (f64, f64),
+    road_distance_m: f64,
+    towards: (f64, f64),
+) -> (Object, TargetTruth) {
+    let half = shape.side_m / 2.0;
+    let t = 0.01;
+    let (nx, ny) = towards;
+    let cs = (-ny, nx);
+    let mut centres = vec![(x, y)];
+    if let Some(gap) = shape.sign_gap_m {
+        let along = 2.0 * half + gap;
+        centres.push((x + cs.0 * along, y + cs.1 * along));
+    }
+    let mut prims = Vec::new();
+    let mut top = 0.0;
+    for (k, &(bx, by)) in centres.iter().enumerate() {
+        let rest = [
+            (-1.0, -1.0),
+            (-1.0, 1.0),
+            (1.0, -1.0),
+            (1.0, 1.0),
+            (0.0, 0.0),
+        ]
+        .iter()
+        .map(|(a, b)| g.height(bx + a * half, by + b * half))
+        .fold(f64::NEG_INFINITY, f64::max);
+        let face = rest + 2.0 * t;
+        if k == 0 {
+            top = face;
+        }
+        prims.push(Prim::Box {
+            c: Vector3::new(bx, by, face - t),
+            half: Vector3::new(half, half, t),
+            cs,
+        });
+    }
+    let truth = point_truth(
+        id,
+        [x, y, top],
+        (g.height(x, y), 0.0),
         ny.atan2(nx).to_degrees(),
         road_distance_m,
         (crate::model::ModelKind::Board, shape.side_m),

@@ -38,11 +38,15 @@ pub(crate) fn board_faces(params: &SynthParams) -> Vec<BoardFace> {
             let h = t.heading_deg.to_radians();
             let n = Vector3::new(h.cos(), h.sin(), 0.0);
             let e0 = Vector3::z().cross(&n);
+            // The face's second axis: up on a standing board; on one lying
+            // flat, away from the road (so that the print's first axis runs
+            // along the road either way).
+            let e1 = if b.flat { -n } else { Vector3::z() };
             let face = |c: Point, levels: [f64; 2]| {
                 let cm = warp(&c);
                 let step = 0.1;
                 let a = (warp(&(c + e0 * step)) - cm).normalize();
-                let up = (warp(&(c + Vector3::z() * step)) - cm).normalize();
+                let up = (warp(&(c + e1 * step)) - cm).normalize();
                 BoardFace {
                     centre: cm,
                     normal: a.cross(&up),

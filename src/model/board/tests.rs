@@ -299,3 +299,92 @@ fn a_few_saturated_returns_leave_the_board_a_board() {
     assert!((fit.centre - sc.truth).norm() < 0.002, "{fit:?}");
     assert!(fit.explained > 0.8 && fit.contrast > 10.0, "{fit:?}");
 }
+
+/// Ground of ±3 m on a 2.5 cm jittered lattice, with a board of `side`
+/// lying face up at `c` (its top 2 cm up, turned `h`), printed with
+/// `levels` (equal: a plain panel); the ground's intensity is even noise in
+/// 30–90, or, with `tiles`, a floor of 0.3 m tiles of 20 and 180 (no board
+/// on it then: the tiles go on where it would lie).
+fn flat_scene(seed: u64, levels: (f64, f64), tiles: bool) -> Scene {
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    let c = Point::new(
+        0.4 * rng.random::<f64>() - 0.2,
+        0.4 * rng.random::<f64>() - 0.2,
+        0.02,
+    );
+    let h: f64 = rng.random::<f64>() * std::f64::consts::FRAC_PI_2;
+    let (hs, hc) = h.sin_cos();
+    let side = 0.6;
+    let noise = Normal::new(0.0, 0.004).unwrap();
+    let (mut pts, mut inten) = (Vec::new(), Vec::new());
+    let step = 0.025;
+    let k = (3.0 / step) as i64;
+    for i in -k..=k {
+        for j in -k..=k {
+            let x = (i as f64 + rng.random::<f64>() - 0.5) * step;
+            let y = (j as f64 + rng.random::<f64>() - 0.5) * step;
+            let (du, dv) = (x - c.x, y - c.y);
+            let (u, v) = (du * hc + dv * hs, -du * hs + dv * hc);
+            if !tiles && u.abs() <= side / 2.0 && v.abs() <= side / 2.0 {
+                let (s1, s2) = (erf_ish(u / 0.004), erf_ish(v / 0.004));
+                let p = s1 * s2 + (1.0 - s1) * (1.0 - s2);
+                let lvl = levels.0 + (levels.1 - levels.0) * p;
+                pts.push(Point::new(x, y, c.z + noise.sample(&mut rng)));
+                inten.push(
+                    (lvl * (1.0 + 0.05 * rng.sample::<f64, _>(rand_distr::StandardNormal))) as f32,
+                );
+                continue;
+            }
+            pts.push(Point::new(x, y, noise.sample(&mut rng)));
+            let i = if tiles {
+                let odd = ((x / 0.3).floor() + (y / 0.3).floor()) as i64 % 2 != 0;
+                if odd { 180.0 } else { 20.0 }
+            } else {
+                30.0 + 60.0 * rng.random::<f32>()
+            };
+            inten.push(i);
+        }
+    }
+    Scene {
+        pts,
+        inten,
+        truth: c,
+    }
+}
+
+/// Issue 33: a board lying face up on the ground (UAV ground control) has
+/// no face of its own to find, the ground's is wider than a board; its
+/// print tells it, and it is located where its squares meet, on its face.
+#[test]
+fn a_board_lying_on_the_ground_is_located_by_its_print() {
+    for seed in 1..=4 {
+        let sc = flat_scene(seed, (20.0, 180.0), false);
+        let expected = sc.truth + Vector3::new(1.5, -0.8, 0.3);
+        let (fit, _) = locate(&search(&sc, expected), &BoardParams::default())
+            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let err = fit.centre - sc.truth;
+        assert!(err.xy().norm() < 0.003, "seed {seed}: {err:?}");
+        assert!(err.z.abs() < 0.003, "seed {seed}: {err:?}");
+        assert!(fit.normal[2].abs() > 0.999, "{:?}", fit.normal);
+        assert!(fit.covariance[0][0] > 0.0 && fit.covariance[2][2] > 0.0);
+    }
+}
+
+/// ... and a plain panel on the ground, or a floor of a board's squares
+/// (tiles 0.3 m: a checkerboard that goes on), is not one. (A board lying
+/// on such a floor, turned from its tiles, is still found: the floor
+/// around it does not go on in its pattern.)
+#[test]
+fn a_plain_panel_bare_ground_or_a_tiled_floor_is_not_a_board_lying_there() {
+    for seed in 1..=3 {
+        let plain = flat_scene(seed, (100.0, 100.0), false);
+        let e = locate(&search(&plain, plain.truth), &BoardParams::default()).unwrap_err();
+        assert!(matches!(e, BoardError::NoBoard { .. }), "seed {seed}: {e}");
+        let tiled = flat_scene(seed, (20.0, 180.0), true);
+        let e = locate(&search(&tiled, tiled.truth), &BoardParams::default()).unwrap_err();
+        assert!(
+            e.to_string().contains("checkered surface"),
+            "seed {seed}: {e}"
+        );
+    }
+}
