@@ -194,6 +194,17 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
         .iter()
         .map(|&k| f64::from(s.intensity[idx[k]]))
         .collect();
+    // What the map's intensity spans here (1st–99th percentile of the crop):
+    // a printed board's squares differ by a good share of it.
+    let spread = {
+        let mut all_i: Vec<f64> = idx.iter().map(|&i| f64::from(s.intensity[i])).collect();
+        all_i.retain(|x| x.is_finite());
+        if all_i.is_empty() {
+            0.0
+        } else {
+            pct(&mut all_i, 0.99) - pct(&mut all_i, 0.01)
+        }
+    };
     let grid = Grid::new(&v, side / 2.0);
     let mut cands: Vec<Candidate> = Vec::new();
     let mut refused: Vec<(usize, String, f64)> = Vec::new();
@@ -234,7 +245,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
         if judged {
             continue;
         }
-        match judge(&v, &inten, &grid, &seed_plane, side, &up, p) {
+        match judge(&v, &inten, &grid, &seed_plane, side, &up, spread, p) {
             Ok(c) => cands.push(c),
             Err(r) => {
                 wide.extend(r.wider);
@@ -256,7 +267,8 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             .iter()
             .map(|&k| f64::from(s.intensity[idx[k]]))
             .collect();
-        let (found, flat_refused) = flat::flat_prints(&g, &gi, &up, side, p.search_radius_m, p);
+        let (found, flat_refused) =
+            flat::flat_prints(&g, &gi, &up, side, (p.search_radius_m, spread), p);
         cands = found;
         refused.extend(flat_refused.into_iter().map(|r| (r.points, r.why, r.from)));
     }
@@ -302,6 +314,18 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     let near = c.pts3.iter().map(|v| o + v).collect();
     Ok((fit, near))
 }
+
+/// A board's squares differ by at least this share of what the map's
+/// intensity spans about it (1st–99th percentile of the crop): a printed
+/// black and white differ by most of a sensor's range (synth: 185 of 255),
+/// while the rings of one scan frame, each beam with its own gain, differ
+/// by a few counts and fooled the fit on quantised intensity (a Velodyne
+/// frame's ground: 3 of 100, its robust σ under one count).
+const MIN_SPREAD_SHARE: f64 = 0.2;
+
+/// Each quarter of a board (points away from the lines) reads mostly as
+/// its square's colour.
+const MIN_QUARTER_AGREEMENT: f64 = 0.7;
 
 /// Places judged: enough that other flat things (signs, walls' patches, the
 /// ground's bumps) cannot crowd the board out before it is judged.
@@ -512,6 +536,7 @@ struct Refusal {
 }
 
 /// Steps 2–3 for one plane: the board, or why not.
+#[allow(clippy::too_many_arguments)]
 fn judge(
     v: &[Vector3<f64>],
     inten: &[f64],
@@ -519,6 +544,7 @@ fn judge(
     seed: &Seed,
     side: f64,
     up: &Vector3<f64>,
+    spread: f64,
     p: &BoardParams,
 ) -> Result<Candidate, Refusal> {
     let refuse = |n: usize, why: String, at: &Vector3<f64>| {
@@ -619,6 +645,7 @@ fn judge(
         e,
         at,
         bounds: [u0, u1, v0, v1],
+        spread,
     };
     read_print(v, inten, grid, &face, side, p)
 }
@@ -632,6 +659,8 @@ struct Face {
     e: [Vector3<f64>; 2],
     at: Vector3<f64>,
     bounds: [f64; 4],
+    /// What the map's intensity spans about here (1st–99th percentile).
+    spread: f64,
 }
 
 /// Step 3 on a face: the checkerboard in its points' intensity, or why not.
@@ -657,6 +686,7 @@ fn read_print(
         e,
         at,
         bounds: [u0, u1, v0, v1],
+        spread,
     } = face;
     let (plane, e, at, ids) = (*plane, *e, *at, ids.as_slice());
     let (u0, u1, v0, v1) = (*u0, *u1, *v0, *v1);
@@ -736,20 +766,32 @@ fn read_print(
     let thr = (x[3] + x[4]) / 2.0;
     let mut quad = [0usize; 4];
     let (mut agree, mut away) = (0usize, 0usize);
+    // Per quarter, away from the edges: points, and those of its colour.
+    let mut quarter = [(0usize, 0usize); 4];
     for q in &pts {
         let (du, dv) = (q[0] - x[0], q[1] - x[1]);
         let (d1, d2) = (du * c + dv * s, -du * s + dv * c);
-        quad[usize::from(d1 > 0.0) * 2 + usize::from(d2 > 0.0)] += 1;
+        let k = usize::from(d1 > 0.0) * 2 + usize::from(d2 > 0.0);
+        quad[k] += 1;
         if d1.abs() > 3.0 * w && d2.abs() > 3.0 * w {
             away += 1;
+            quarter[k].0 += 1;
             let same = (d1 > 0.0) == (d2 > 0.0);
             let bright_side = (q[2] > thr) == (x[4] > x[3]);
             if same == bright_side {
                 agree += 1;
+                quarter[k].1 += 1;
             }
         }
     }
     let agreement = agree as f64 / away.max(1) as f64;
+    // Every quarter of its own colour: one bright patch on a dark face (a
+    // reflector, a lit corner) fits as a checkerboard whose other bright
+    // quarter holds a few points at the face's edge (a Velodyne frame's
+    // slanted face: 91 % agreement overall, the fourth quarter wrong).
+    let odd_quarter = quarter
+        .iter()
+        .find(|(n, a)| *n >= 5 && (*a as f64) < MIN_QUARTER_AGREEMENT * *n as f64);
     let least = *quad.iter().min().unwrap_or(&0);
     // The face's offset from its inside only (at its rims the rays graze
     // the board's edges and catch the legs behind it), from a band wide
@@ -792,12 +834,23 @@ fn read_print(
         Some(format!(
             "no checkerboard in its intensity (contrast {contrast:.1} σ of the intensity noise)"
         ))
+    } else if (x[4] - x[3]).abs() < MIN_SPREAD_SHARE * spread {
+        Some(format!(
+            "a print too faint for a checkerboard (its squares differ by {:.1}, of the {spread:.1} \
+             the map's intensity spans here: a scanner's rings or a surface's shades)",
+            (x[4] - x[3]).abs()
+        ))
     } else if fit.explained < 0.5 || agreement < 0.85 {
         Some(format!(
             "a print that is not a checkerboard (the pattern explains {:.0} % of the intensity, \
              {:.0} % of the points have its colours)",
             100.0 * fit.explained,
             100.0 * agreement
+        ))
+    } else if let Some((n, a)) = odd_quarter {
+        Some(format!(
+            "a print whose quarters are not a checkerboard's (one has {a} of its {n} points in \
+             the pattern's colour)"
         ))
     } else if least < (np / 20).max(3) {
         Some(format!(

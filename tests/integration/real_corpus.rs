@@ -168,10 +168,12 @@ fn detect_finds_no_target_in_real_maps_without_any() {
 /// the Velodyne frames, not the airborne tiles), each the lowest point
 /// within 1 m of points spread through the file, surveyed as targets and
 /// evaluated in the survey's frame: every spot is `not_found`; as L targets
-/// (the corner at the spot) and as spheres (the centre 1.3 m above it).
+/// (the corner at the spot), as spheres (the centre 1.3 m above it) and as
+/// checkerboard boards (the crossing at the spot: lying on the ground is
+/// searched too, since 6 Dec 2026).
 #[test]
 fn ground_spots_of_a_fake_survey_are_never_located() {
-    for model in ["l", "sphere"] {
+    for model in ["l", "sphere", "board"] {
         ground_spots_as(model);
     }
 }

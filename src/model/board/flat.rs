@@ -45,7 +45,7 @@ pub(super) fn flat_prints(
     gi: &[f64],
     up: &Vector3<f64>,
     side: f64,
-    radius: f64,
+    (radius, spread): (f64, f64),
     p: &BoardParams,
 ) -> (Vec<Candidate>, Vec<Refusal>) {
     let e1 = (Vector3::x() - up * up.x).normalize();
@@ -136,7 +136,7 @@ pub(super) fn flat_prints(
             (c, angle),
             [e1, e2],
             up,
-            side,
+            (side, spread),
             p,
         ) {
             Ok(b) => match stops(b, &flat, gi, &disc, [e1, e2], side) {
@@ -163,7 +163,7 @@ fn read_square(
     (c, angle): ([f64; 2], f64),
     [e1, e2]: [Vector3<f64>; 2],
     up: &Vector3<f64>,
-    side: f64,
+    (side, spread): (f64, f64),
     p: &BoardParams,
 ) -> Result<Candidate, Refusal> {
     let (s, co) = angle.sin_cos();
@@ -240,6 +240,7 @@ fn read_square(
             e,
             at,
             bounds: [mid[0] - h, mid[0] + h, mid[1] - h, mid[1] + h],
+            spread,
         };
         read = read_print(g, gi, grid, &face, side, p);
         let Ok(b) = &read else { break };
