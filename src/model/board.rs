@@ -524,6 +524,16 @@ fn pct(x: &mut [f64], q: f64) -> f64 {
     x[((x.len() - 1) as f64 * q).round() as usize]
 }
 
+/// A face of `n` points at `at` (local frame) refused as a board, and why.
+fn refuse<T>(n: usize, why: String, at: &Vector3<f64>) -> Result<T, Refusal> {
+    Err(Refusal {
+        points: n,
+        why,
+        from: at.xy().norm(),
+        wider: None,
+    })
+}
+
 /// A face judged not to be a board.
 struct Refusal {
     /// Its points.
@@ -547,14 +557,6 @@ fn judge(
     spread: f64,
     p: &BoardParams,
 ) -> Result<Candidate, Refusal> {
-    let refuse = |n: usize, why: String, at: &Vector3<f64>| {
-        Err(Refusal {
-            points: n,
-            why,
-            from: at.xy().norm(),
-            wider: None,
-        })
-    };
     // The face: points near the plane within a board's reach, refitted twice
     // about their centroid.
     let mut plane = seed.plane;
@@ -672,14 +674,6 @@ fn read_print(
     side: f64,
     p: &BoardParams,
 ) -> Result<Candidate, Refusal> {
-    let refuse = |n: usize, why: String, at: &Vector3<f64>| {
-        Err(Refusal {
-            points: n,
-            why,
-            from: at.xy().norm(),
-            wider: None,
-        })
-    };
     let Face {
         ids,
         plane,
