@@ -404,25 +404,56 @@ fn comment_header(line: &[u8]) -> Option<&[u8]> {
 fn layout_of(path: &Path, lines: &[u8], first: u64) -> Result<Option<(Layout, usize)>> {
     let mut at = 0;
     let mut line_no = first;
+    // The first comment that reads as a header, and its line.
+    let mut comment: Option<(&[u8], u64)> = None;
     while at < lines.len() {
         let end = lines[at..]
             .iter()
             .position(|&b| b == b'\n')
             .map_or(lines.len(), |p| at + p + 1);
         let line = clean(&lines[at..end]);
-        if let Some(header) = comment_header(line) {
-            let (layout, _) = detect_layout(path, header, line_no)?;
-            return Ok(Some((layout, end)));
-        }
         if is_skip(line) {
+            if comment.is_none() {
+                comment = comment_header(line).map(|h| (h, line_no));
+            }
             at = end;
             line_no += 1;
             continue;
         }
         let (layout, header) = detect_layout(path, line, line_no)?;
-        return Ok(Some((layout, if header { end } else { at })));
+        if header {
+            return Ok(Some((layout, end)));
+        }
+        // A comment names the columns only when it reads as the data's: the
+        // same separator and as many fields (review: "// fields: x y z i t"
+        // above five numbers would have moved every column by one, and
+        // "// x y z" above CSV split nothing).
+        if let Some((h, n)) = comment
+            && shape(h) == shape(line)
+        {
+            let (named, _) = detect_layout(path, h, n)?;
+            return Ok(Some((named, at)));
+        }
+        return Ok(Some((layout, at)));
     }
     Ok(None)
+}
+
+/// A line's separator (as `detect_layout` chooses it) and field count.
+fn shape(line: &[u8]) -> (Sep, usize) {
+    let sep = if line.contains(&b',') {
+        Sep::Char(b',')
+    } else if line.contains(&b';') {
+        Sep::Char(b';')
+    } else {
+        Sep::Space
+    };
+    let mut n = 0;
+    for_fields(line, sep, |_, _| {
+        n += 1;
+        true
+    });
+    (sep, n)
 }
 
 /// The layout from the file's first 1 MiB, to say at open whether it has
@@ -714,9 +745,14 @@ mod tests {
         // No header, or a header without one: no intensity.
         assert_eq!(read_intensity("1 2 3 0.5\n4 5 6 7\n").unwrap().1, None);
         assert_eq!(read_intensity("x,y,z,time\n1,2,3,4\n").unwrap().1, None);
-        // A plain comment is not a header.
+        // A plain comment is not a header, nor one that does not read as
+        // the data's columns (another count, another separator).
         let (p, i) = read_intensity("// exported by a tool\n1 2 3 4\n").unwrap();
         assert_eq!((p.len(), i), (1, None));
+        let (p, i) = read_intensity("// fields: x y z intensity time\n1 2 3 40 9.5\n").unwrap();
+        assert_eq!((p, i), (vec![Point::new(1., 2., 3.)], None));
+        let (p, i) = read_intensity("// x y z\n1,2,3\n").unwrap();
+        assert_eq!((p, i), (vec![Point::new(1., 2., 3.)], None));
         // Coordinates never parse the intensity; the intensity pass does.
         let bad = "x y z i\n1 2 3 0.5\n4 5 6 bright\n";
         assert_eq!(read(bad).unwrap().0.len(), 2);

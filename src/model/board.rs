@@ -194,15 +194,16 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
         .iter()
         .map(|&k| f64::from(s.intensity[idx[k]]))
         .collect();
-    // What the map's intensity spans here (1st–99th percentile of the crop):
-    // a printed board's squares differ by a good share of it.
+    // What the map's intensity spans here (5th–95th percentile of the crop:
+    // a few retroreflectors, a sign or a plate, do not move it): a printed
+    // board's squares differ by a good share of it.
     let spread = {
         let mut all_i: Vec<f64> = idx.iter().map(|&i| f64::from(s.intensity[i])).collect();
         all_i.retain(|x| x.is_finite());
         if all_i.is_empty() {
             0.0
         } else {
-            pct(&mut all_i, 0.99) - pct(&mut all_i, 0.01)
+            pct(&mut all_i, 0.95) - pct(&mut all_i, 0.05)
         }
     };
     let grid = Grid::new(&v, side / 2.0);
@@ -316,7 +317,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
 }
 
 /// A board's squares differ by at least this share of what the map's
-/// intensity spans about it (1st–99th percentile of the crop): a printed
+/// intensity spans about it (5th–95th percentile of the crop): a printed
 /// black and white differ by most of a sensor's range (synth: 185 of 255),
 /// while the rings of one scan frame, each beam with its own gain, differ
 /// by a few counts and fooled the fit on quantised intensity (a Velodyne
@@ -661,7 +662,7 @@ struct Face {
     e: [Vector3<f64>; 2],
     at: Vector3<f64>,
     bounds: [f64; 4],
-    /// What the map's intensity spans about here (1st–99th percentile).
+    /// What the map's intensity spans about here (5th–95th percentile).
     spread: f64,
 }
 

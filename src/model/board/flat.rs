@@ -1,5 +1,6 @@
 //! Boards on a surface wider than a board: lying on the ground (the UAV
-//! ground-control board) or flush with a wall or a panel. Their face is the
+//! ground-control board) or on a larger level surface (a wall is not
+//! searched: the lattice lies in the horizontal plane). Their face is the
 //! surface's, so its extent cannot tell them (`judge` refuses it as "a flat
 //! face wider than a board"); only the print can.
 //!
@@ -12,9 +13,10 @@
 //! 2. **The print.** The best-scoring places, a board apart, are read as a
 //!    standing board's face is (`read_print`: the blurred checkerboard's fit
 //!    and every check on it), on the surface's plane fitted to their points.
-//! 3. **The print stops.** A board's squares meet at its centre only: where
-//!    they meet at its corners too, the surface is checkered (a floor of
-//!    board-sized tiles), not a board.
+//! 3. **The print stops.** A board's squares meet at its centre only and its
+//!    lines end at its edges: where they meet at its corners too (tiles of a
+//!    square's size), or its lines go on past its edges (larger tiles), the
+//!    surface is checkered, not a board.
 
 use super::*;
 
@@ -223,16 +225,21 @@ fn read_square(
             return Err(refuse("too few points for a plane", ids.len()));
         };
         let at = ids.iter().map(|&i| g[i as usize]).sum::<Vector3<f64>>() / ids.len() as f64;
-        let n = if plane.normal.dot(up) < 0.0 {
-            -plane.normal
+        // Facing up, as the report and `Candidate::e` read it.
+        let plane = if plane.normal.dot(up) < 0.0 {
+            plane.flipped()
         } else {
-            plane.normal
+            plane
         };
+        let n = plane.normal;
         // The face's axes along the square's sides.
         let along = e1 * a[0] + e2 * a[1];
         let e0 = (along - n * n.dot(&along)).normalize();
         let e = [e0, n.cross(&e0)];
+        // The place on the face (the lattice lies at the expected height,
+        // which on a slope is beside the face, not over it).
         let place = e1 * centre[0] + e2 * centre[1];
+        let place = place + up * up.dot(&(at - place));
         let mid = [e[0].dot(&(place - at)), e[1].dot(&(place - at))];
         let face = Face {
             ids,
@@ -338,11 +345,42 @@ fn stops(
             crossings += 1;
         }
     }
-    if crossings >= 3 {
+    // ... and its lines end at its edges: a floor of tiles larger than a
+    // board's squares puts no crossing at its corners, but the lines go on.
+    let mut going_on = 0;
+    for (l, other) in [
+        (l0, l1),
+        ([-l0[0], -l0[1]], l1),
+        (l1, l0),
+        ([-l1[0], -l1[1]], l0),
+    ] {
+        let r = side / 2.0 + 0.15 * side;
+        let q = [c[0] + r * l[0], c[1] + r * l[1]];
+        let ids = disc(q, 0.15 * side);
+        if ids.len() < 20 {
+            continue;
+        }
+        let mut iv: Vec<f64> = ids.iter().map(|&i| inten[i as usize]).collect();
+        let thr = (pct(&mut iv, 0.1) + pct(&mut iv, 0.9)) / 2.0;
+        // The line along `l` splits the colours across it (along `other`).
+        let sum: f64 = ids
+            .iter()
+            .map(|&i| {
+                let p = flat[i as usize];
+                let d = (p[0] - q[0]) * other[0] + (p[1] - q[1]) * other[1];
+                d.signum() * (inten[i as usize] - thr).signum()
+            })
+            .sum();
+        if (sum / ids.len() as f64).abs() > 0.6 {
+            going_on += 1;
+        }
+    }
+    if crossings >= 3 || going_on >= 3 {
         return Err(Refusal {
             points: b.pts.len(),
             why: format!(
-                "a checkered surface ({crossings} of the board's 4 corners are crossings of squares too: tiles, not a board)"
+                "a checkered surface (of the board's 4 corners {crossings} are crossings of squares too, \
+                 and {going_on} of its 4 lines' ends go on past its edges: tiles, not a board)"
             ),
             from: b.centre.xy().norm(),
             wider: None,

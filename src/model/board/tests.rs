@@ -306,6 +306,13 @@ fn a_few_saturated_returns_leave_the_board_a_board() {
 /// 30–90, or, with `tiles`, a floor of 0.3 m tiles of 20 and 180 (no board
 /// on it then: the tiles go on where it would lie).
 fn flat_scene(seed: u64, levels: (f64, f64), tiles: bool) -> Scene {
+    flat_scene_tiled(seed, levels, tiles.then_some(0.3))
+}
+
+/// [`flat_scene`] with tiles of any size (m).
+fn flat_scene_tiled(seed: u64, levels: (f64, f64), tile: Option<f64>) -> Scene {
+    let tiles = tile.is_some();
+    let tile = tile.unwrap_or(0.3);
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
     let c = Point::new(
         0.4 * rng.random::<f64>() - 0.2,
@@ -337,7 +344,7 @@ fn flat_scene(seed: u64, levels: (f64, f64), tiles: bool) -> Scene {
             }
             pts.push(Point::new(x, y, noise.sample(&mut rng)));
             let i = if tiles {
-                let odd = ((x / 0.3).floor() + (y / 0.3).floor()) as i64 % 2 != 0;
+                let odd = ((x / tile).floor() + (y / tile).floor()) as i64 % 2 != 0;
                 if odd { 180.0 } else { 20.0 }
             } else {
                 30.0 + 60.0 * rng.random::<f32>()
@@ -380,11 +387,15 @@ fn a_plain_panel_bare_ground_or_a_tiled_floor_is_not_a_board_lying_there() {
         let plain = flat_scene(seed, (100.0, 100.0), false);
         let e = locate(&search(&plain, plain.truth), &BoardParams::default()).unwrap_err();
         assert!(matches!(e, BoardError::NoBoard { .. }), "seed {seed}: {e}");
-        let tiled = flat_scene(seed, (20.0, 180.0), true);
-        let e = locate(&search(&tiled, tiled.truth), &BoardParams::default()).unwrap_err();
-        assert!(
-            e.to_string().contains("checkered surface"),
-            "seed {seed}: {e}"
-        );
+        // Tiles of a square's size, a board's and larger (review: their
+        // corners are no crossings, but the lines go on).
+        for tile in [0.3, 0.6, 1.0] {
+            let tiled = flat_scene_tiled(seed, (20.0, 180.0), Some(tile));
+            let e = locate(&search(&tiled, tiled.truth), &BoardParams::default()).unwrap_err();
+            assert!(
+                e.to_string().contains("checkered surface"),
+                "seed {seed}, {tile} m tiles: {e}"
+            );
+        }
     }
 }
