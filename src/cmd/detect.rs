@@ -33,6 +33,13 @@ pub struct Args {
     /// as the position. Default: Ls only.
     #[arg(long, value_name = "M")]
     sphere_diameter: Option<f64>,
+    /// Also look for checkerboard boards of this side (m; 0.6 is a common
+    /// ground-control board) standing in the map: listed with model
+    /// `board`, the point where its four squares meet as the position.
+    /// Needs the map's intensity; boards lying flat are not detected
+    /// map-wide. Default: Ls only.
+    #[arg(long, value_name = "M")]
+    board_side: Option<f64>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -55,6 +62,12 @@ pub fn run(a: Args) -> Result<()> {
             .check_size(d)
             .map_err(|e| Error::Param(format!("--sphere-diameter: {e}")))?;
     }
+    let board = mapgauge::model::BoardParams::default();
+    if let Some(d) = a.board_side {
+        mapgauge::model::ModelKind::Board
+            .check_size(d)
+            .map_err(|e| Error::Param(format!("--board-side: {e}")))?;
+    }
     let source = MapSource::File(&a.map);
     let ground = ground_level(source, None, None, |_| {})?;
     // A georeferenced map (its header declares a CRS) is vertical by
@@ -73,10 +86,11 @@ pub fn run(a: Args) -> Result<()> {
         mapgauge::detect::Models {
             tight: &tight,
             sphere: a.sphere_diameter.map(|d| (&sphere, d)),
+            board: a.board_side.map(|d| (&board, d)),
         },
         |_| {},
     )?;
-    let models = a.sphere_diameter.is_some();
+    let models = a.sphere_diameter.is_some() || a.board_side.is_some();
     let mut s = String::new();
     let _ = writeln!(s, "map: {} ({} points)", a.map.display(), ground.points);
     match &ground.level {
@@ -113,6 +127,12 @@ pub fn run(a: Args) -> Result<()> {
     );
     for (why, n) in found.rejected.iter().take(5) {
         let _ = writeln!(s, "  rejected {n}: {why}");
+    }
+    if let Some(why) = &found.boards_not_looked_for {
+        let _ = writeln!(
+            s,
+            "boards: not looked for: {why} (a board is told by its print)"
+        );
     }
     if !found.detections.is_empty() {
         s.push_str(&table(&found.detections, models));
@@ -221,6 +241,28 @@ fn ply(d: &[Detection], t: &TightParams, motion: &mapgauge::cloud::RigidMotion) 
                 let c = d.corner;
                 let p = nalgebra::Point3::new(c.x + r * a.cos(), c.y + r * a.sin(), c.z);
                 v.push((motion.invert(&p), i + 1));
+            }
+            continue;
+        }
+        if d.model == mapgauge::model::ModelKind::Board {
+            // Its outline, standing across its face's normal (the boards
+            // detected map-wide stand), and the lines where its squares meet.
+            let (h, s) = (d.heading_deg.to_radians(), d.plate_height / 2.0);
+            let e1 = nalgebra::Vector3::new(-h.sin(), h.cos(), 0.0);
+            let e2 = nalgebra::Vector3::z();
+            let at = |u: f64, w: f64| motion.invert(&(d.corner + e1 * u + e2 * w));
+            for k in 0..=24 {
+                let f = s * (2.0 * k as f64 / 24.0 - 1.0);
+                for q in [
+                    at(f, -s),
+                    at(f, s),
+                    at(-s, f),
+                    at(s, f),
+                    at(f, 0.0),
+                    at(0.0, f),
+                ] {
+                    v.push((q, i + 1));
+                }
             }
             continue;
         }

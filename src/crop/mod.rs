@@ -2,8 +2,11 @@
 //! one streaming pass for all targets) and the automatic tight crop (ground
 //! removed, the target's plates isolated).
 
+mod intensity;
 mod loose;
 mod tight;
+
+pub use intensity::{IntensityCrop, crops_with_intensity};
 
 pub use loose::{LooseCrop, LooseParams, Shape, loose_crop, loose_crop_by_level, loose_crop_each};
 /// The coordinate hash crops thin by (deterministic, order-free).

@@ -18,6 +18,14 @@
 //!    every way and of the surveyed diameter, not a pole, a post's top or a
 //!    bush.
 //!
+//! 4. **Boards**, when asked for and the map has intensity: the candidates
+//!    that are neither are read again with their intensities and given to
+//!    the board locator ([`crate::model::board::locate`]), with its checks:
+//!    a face of a board's size, its print's four squares, their contrast
+//!    against the map's intensity. A board lying flat on the ground is no
+//!    candidate (nothing stands above the ground there): only boards that
+//!    stand are detected map-wide.
+//!
 //! Memory follows the site's area (the two grids), not its number of points.
 
 use crate::cloud::{MapSource, PointReader, RigidMotion, fold_points};
@@ -89,8 +97,12 @@ impl DetectParams {
 /// One object shaped like a target.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Detection {
-    /// What it is: an L, or a sphere (then `corner` is its centre, the plate
-    /// sizes its diameter, `heading_deg` 0 and `support` its surface points).
+    /// What it is: an L, a sphere (then `corner` is its centre, the plate
+    /// sizes its diameter, `heading_deg` 0 and `support` its surface points)
+    /// or a board (`corner` where its squares meet, `heading_deg` that of
+    /// its face's normal, the plate widths its face's extent seen, the plate
+    /// height its side, `support` its points and `score` the share of them
+    /// its print's colours predict).
     pub model: crate::model::ModelKind,
     /// Corner (plates' intersection, z at the plates' mid-height), levelled frame.
     pub corner: Point,
@@ -121,8 +133,12 @@ pub struct MapDetections {
     /// Memory of the occupancy grid (bytes).
     pub grid_bytes: usize,
     /// What its passes read: the cells above the ground, and the crops
-    /// around the candidates (when there were any).
+    /// around the candidates (when there were any), and those crops again
+    /// with intensities (when boards were looked for).
     pub reads: Vec<crate::cloud::PassRead>,
+    /// Why boards were asked for and not looked for (the map has no
+    /// intensity).
+    pub boards_not_looked_for: Option<String>,
 }
 
 #[derive(Clone, Copy)]
@@ -141,13 +157,16 @@ struct Occ {
 /// the rest are located at their predicted places with the looser test.
 const DETECT_MIN_HEIGHT_SHARE: f64 = 0.7;
 
-/// What to detect: the L (always), and spheres of a diameter when given.
+/// What to detect: the L (always), and spheres of a diameter and boards of
+/// a side when given.
 #[derive(Debug, Clone, Copy)]
 pub struct Models<'a> {
     /// The L's size.
     pub tight: &'a TightParams,
     /// Spheres: their parameters and diameter (m), when looked for.
     pub sphere: Option<(&'a crate::model::SphereParams, f64)>,
+    /// Checkerboard boards: their parameters and side (m), when looked for.
+    pub board: Option<(&'a crate::model::BoardParams, f64)>,
 }
 
 /// Detects targets in `source`, read through `motion` (the levelling; the
@@ -171,6 +190,7 @@ pub fn detect_map(
     let centres = candidate_centres(&occ, params, &mut rejected);
     let candidates = centres.len();
     let mut detections = Vec::new();
+    let mut boards_not_looked_for = None;
     if !centres.is_empty() {
         // Candidate centres at their ground height (the crop is a cylinder).
         let mut reader = source.open_moved_within(Some(motion), ground.z_range)?;
@@ -182,7 +202,13 @@ pub fn detect_map(
         };
         let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
         reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));
-        for f in shapes(&crop.points, &centres, motion, params, models) {
+        let mut found = shapes(&crop.points, &centres, motion, params, models);
+        if let Some(bp) = models.board {
+            let (read, why) = boards(source, ground, &centres, &mut found, motion, params, bp)?;
+            reads.extend(read);
+            boards_not_looked_for = why;
+        }
+        for f in found {
             match f {
                 Ok(d) => detections.push(d),
                 Err(why) => *rejected.entry(why).or_default() += 1,
@@ -195,6 +221,122 @@ pub fn detect_map(
         rejected: most_common_first(rejected),
         grid_bytes,
         reads,
+        boards_not_looked_for,
+    })
+}
+
+/// Boards among the candidates that are no L and no sphere: their crops
+/// read again with intensities (one more pass, over those places only),
+/// each given to the board locator, whose checks are the print's (a face of
+/// a board's size, its four squares' colours, their contrast against the
+/// map's intensity, each quarter its square's colour). A found board takes
+/// the candidate's place in `found`; a flat face without the print says so.
+/// Returns the pass's read, and why no board was looked for (the map has
+/// no intensity).
+fn boards(
+    source: MapSource,
+    ground: &MapGround,
+    centres: &[Point],
+    found: &mut [std::result::Result<Detection, String>],
+    motion: &RigidMotion,
+    params: &DetectParams,
+    (bp, side): (&crate::model::BoardParams, f64),
+) -> Result<(Option<crate::cloud::PassRead>, Option<String>)> {
+    let at: Vec<Option<Point>> = centres
+        .iter()
+        .zip(found.iter())
+        .map(|(c, f)| f.is_err().then_some(*c))
+        .collect();
+    let p = crate::model::BoardParams {
+        search_radius_m: params.search_radius,
+        ..bp.clone()
+    };
+    let (crops, read) = crate::crop::crops_with_intensity(
+        source,
+        &at,
+        p.search_radius_m + side,
+        p.max_points,
+        motion,
+        ground.z_range,
+    )?;
+    let mut no_intensity = None;
+    let judged: Vec<(usize, std::result::Result<Detection, Option<String>>)> = crops
+        .into_par_iter()
+        .enumerate()
+        .filter_map(|(i, c)| c.map(|c| (i, c)))
+        .filter_map(|(i, c)| match c {
+            Ok((pts, inten)) => Some((i, board_at(&pts, &inten, &centres[i], motion, &p, side))),
+            Err(_) => None,
+        })
+        .collect();
+    if read.is_none() && at.iter().any(Option::is_some) {
+        no_intensity = Some(match source {
+            MapSource::Points(_) => "a map handed over in memory has no intensity".to_string(),
+            MapSource::File(path) => format!("{} has no intensity", path.display()),
+        });
+    }
+    for (i, j) in judged {
+        match j {
+            Ok(d) => found[i] = Ok(d),
+            Err(Some(why)) => found[i] = Err(why),
+            Err(None) => {}
+        }
+    }
+    Ok((read, no_intensity))
+}
+
+/// A board of side `side` within the search radius of a candidate's centre
+/// `c`, when the board locator finds one; else why a face it judged was
+/// refused (`None`: no board-like face there).
+fn board_at(
+    pts: &[Point],
+    inten: &[f32],
+    c: &Point,
+    motion: &RigidMotion,
+    p: &crate::model::BoardParams,
+    side: f64,
+) -> std::result::Result<Detection, Option<String>> {
+    let search = crate::model::board::Search {
+        points: pts,
+        intensity: inten,
+        expected: *c,
+        others: &[],
+        side,
+        up: nalgebra::Vector3::z(),
+        lying: false,
+    };
+    let (fit, _) = crate::model::board::locate(&search, p).map_err(|e| match e {
+        // Counted by kind (the locator's reasons carry numbers; `eval` at a
+        // surveyed place names them).
+        crate::model::BoardError::NoBoard { seen: Some(s), .. } => Some(
+            if s.contains("fewer than") {
+                "a board-sized face with too few points to read a print"
+            } else if s.contains("wider than a board") || s.contains("smaller than a") {
+                "a flat face of another size than a board"
+            } else {
+                "a flat face without a board's print"
+            }
+            .to_string(),
+        ),
+        _ => None,
+    })?;
+    // The heading of the face's normal, horizontally (a board lying flat
+    // has none: 0).
+    let n = fit.normal;
+    let heading_deg = if n[0].hypot(n[1]) > 0.5 {
+        n[1].atan2(n[0]).to_degrees()
+    } else {
+        0.0
+    };
+    Ok(Detection {
+        model: crate::model::ModelKind::Board,
+        corner: fit.centre,
+        corner_map: motion.invert(&fit.centre),
+        heading_deg,
+        plate_widths: [fit.extent_m[0], fit.extent_m[1]],
+        plate_height: side,
+        support: fit.points,
+        score: fit.agreement,
     })
 }
 

@@ -166,6 +166,11 @@ pub struct Search<'a> {
     pub side: f64,
     /// The vertical: the face's first axis is horizontal.
     pub up: Vector3<f64>,
+    /// Whether a board lying on the ground may be it, when nothing standing
+    /// is: where a survey places a board, yes; about an object map-wide
+    /// detection saw standing, no (its few metres of ground are too little
+    /// intensity to tell a print from a scanner's rings by).
+    pub lying: bool,
 }
 
 /// Finds and locates the board; returns it with its points (the tight crop).
@@ -257,7 +262,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     }
     // Nothing standing: a board lying on the ground (or flush with a
     // larger level surface) is told by its print alone.
-    if cands.is_empty() {
+    if cands.is_empty() && s.lying {
         let mut is_above = vec![false; all.len()];
         for &k in &above {
             is_above[k] = true;

@@ -103,7 +103,9 @@ pub(super) fn read_crops(
     ))
 }
 
-/// [`board_crops`] for the survey's board targets among `which` (indices
+/// The crops with intensities ([`crate::crop::crops_with_intensity`]: the
+/// crop pass carries coordinates only, and a board is told by its print) of
+/// the survey's board targets among `which` (indices
 /// into the survey), searched about `centres` (one per `which`); no pass
 /// when there are none or crops are hand-made (`auto` false).
 #[allow(clippy::too_many_arguments)]
@@ -129,7 +131,7 @@ pub(super) fn board_crops_of(
             })
         })
         .collect();
-    board_crops(
+    crate::crop::crops_with_intensity(
         source,
         &at,
         cfg.board.search_radius_m + side,
@@ -141,94 +143,7 @@ pub(super) fn board_crops_of(
 
 /// A board target's crop: its points and their intensities, or why the map
 /// has none to give.
-pub(crate) type BoardCrop = std::result::Result<(Vec<Point>, Vec<f32>), String>;
-
-/// The crops of the board targets (`Some` centres; `None`: not a board)
-/// with intensities, in one more pass over the map: the crop pass carries
-/// coordinates only, and a board is told by its intensity pattern. Each crop
-/// keeps at most `max_points` (a coordinate-hash sample beyond, halved as it
-/// fills, so memory stays bounded however dense the map).
-pub(super) fn board_crops(
-    source: MapSource,
-    centres: &[Option<Point>],
-    radius: f64,
-    max_points: usize,
-    motion: &RigidMotion,
-    z_range: Option<[f64; 2]>,
-) -> Result<(Vec<Option<BoardCrop>>, Option<crate::cloud::PassRead>)> {
-    let at: Vec<(usize, Point)> = centres
-        .iter()
-        .enumerate()
-        .filter_map(|(i, c)| c.map(|c| (i, c)))
-        .collect();
-    let mut out: Vec<Option<BoardCrop>> = vec![None; centres.len()];
-    if at.is_empty() {
-        return Ok((out, None));
-    }
-    let mut reader = source.open_moved_within(Some(motion), z_range)?;
-    if !reader.has_intensity() {
-        let why = match source {
-            MapSource::Points(_) => "a map handed over in memory has no intensity".to_string(),
-            MapSource::File(p) => format!(
-                "{} has no intensity mapgauge reads (it reads it from binary PCD, \
-                 PLY, ASCII PCD, LAS, LAZ, COPC, E57, PTS, XYZ/CSV with a header naming \
-                 an intensity column, and tiled maps of those)",
-                p.display()
-            ),
-        };
-        for &(i, _) in &at {
-            out[i] = Some(Err(why.clone()));
-        }
-        return Ok((out, None));
-    }
-    let discs: Vec<[f64; 2]> = at.iter().map(|(_, c)| [c.x, c.y]).collect();
-    reader.hint_discs(&discs, radius);
-    let r2 = radius * radius;
-    // Per crop: points, intensities, and the hash level kept (a point is
-    // kept while its hash's top `level` bits are zero).
-    let mut kept: Vec<(Vec<Point>, Vec<f32>, u32)> = vec![(Vec::new(), Vec::new(), 0); at.len()];
-    let (mut buf, mut inten) = (Vec::new(), Vec::new());
-    let hash = |p: &Point| crate::crop::point_hash(p);
-    while reader.next_chunk_intensity(&mut buf, &mut inten)? {
-        for (p, &v) in buf.iter().zip(&inten) {
-            // A broken intensity (NaN, infinite) says nothing of the print.
-            if !v.is_finite() {
-                continue;
-            }
-            for (k, (_, c)) in at.iter().enumerate() {
-                let (dx, dy) = (p.x - c.x, p.y - c.y);
-                if dx * dx + dy * dy >= r2 {
-                    continue;
-                }
-                let (pts, iv, level) = &mut kept[k];
-                if *level > 0 && hash(p) >> (64 - (*level).min(63)) != 0 {
-                    continue;
-                }
-                pts.push(*p);
-                iv.push(v);
-                if pts.len() > 2 * max_points {
-                    *level += 1;
-                    let l = *level;
-                    let mut j = 0;
-                    for i in 0..pts.len() {
-                        if hash(&pts[i]) >> (64 - l.min(63)) == 0 {
-                            pts[j] = pts[i];
-                            iv[j] = iv[i];
-                            j += 1;
-                        }
-                    }
-                    pts.truncate(j);
-                    iv.truncate(j);
-                }
-            }
-        }
-    }
-    let read = crate::cloud::PassRead::of("board-crops", reader.as_ref());
-    for ((i, _), (pts, iv, _)) in at.into_iter().zip(kept) {
-        out[i] = Some(Ok((pts, iv)));
-    }
-    Ok((out, Some(read)))
-}
+pub(crate) type BoardCrop = crate::crop::IntensityCrop;
 
 #[cfg(test)]
 mod tests {

@@ -89,8 +89,8 @@ pub(super) fn not_there(
     if detections == 0 {
         use crate::model::ModelKind;
         // The remedies that fit the survey's models: a plate size only for
-        // Ls; boards are never detected map-wide, so none found there says
-        // nothing of them.
+        // Ls; boards lying flat are never detected map-wide, so none found
+        // there says nothing of them.
         let mut hint = String::new();
         if found.iter().any(|r| r.model == ModelKind::L) {
             hint += &format!(
@@ -99,7 +99,7 @@ pub(super) fn not_there(
             );
         }
         if found.iter().any(|r| r.model == ModelKind::Board) {
-            hint += " Checkerboard boards are looked for only where the survey places them (map-wide detection finds Ls and spheres); failed.csv (with --out) gives each place's reason.";
+            hint += " Map-wide detection finds checkerboard boards that stand (by their print: the map must carry intensity); boards lying flat are looked for only where the survey places them. failed.csv (with --out) gives each place's reason.";
         }
         return Error::FrameNotFound {
             detections,

@@ -186,11 +186,17 @@ fn spheres_to_detect<'a>(
     survey: &Survey,
     cfg: &'a Config,
 ) -> Option<(&'a crate::model::SphereParams, f64)> {
+    most_common_size(survey, ModelKind::Sphere, cfg.sphere.diameter_m).map(|d| (&cfg.sphere, d))
+}
+
+/// The size most of the survey's rows of `model` give (`default` for rows
+/// without one; ties: the smaller); `None` without such rows.
+fn most_common_size(survey: &Survey, model: ModelKind, default: f64) -> Option<f64> {
     let mut sizes: Vec<f64> = survey
         .targets
         .iter()
-        .filter(|t| t.model == ModelKind::Sphere)
-        .map(|t| t.size.unwrap_or(cfg.sphere.diameter_m))
+        .filter(|t| t.model == model)
+        .map(|t| t.size.unwrap_or(default))
         .collect();
     sizes.sort_by(f64::total_cmp);
     let mut best: Option<(f64, usize)> = None;
@@ -199,7 +205,16 @@ fn spheres_to_detect<'a>(
             best = Some((run[0], run.len()));
         }
     }
-    best.map(|(d, _)| (&cfg.sphere, d))
+    best.map(|(d, _)| d)
+}
+
+/// The boards detection looks for: none unless the survey has boards; the
+/// side most of its board rows give (ties: the smaller), as for spheres.
+fn boards_to_detect<'a>(
+    survey: &Survey,
+    cfg: &'a Config,
+) -> Option<(&'a crate::model::BoardParams, f64)> {
+    most_common_size(survey, ModelKind::Board, cfg.board.side_m).map(|s| (&cfg.board, s))
 }
 
 /// Detects targets map-wide and matches them to the survey.
@@ -229,6 +244,7 @@ pub(super) fn detect_and_match(
     let models = crate::detect::Models {
         tight: &cfg.tight,
         sphere: spheres_to_detect(survey, cfg),
+        board: boards_to_detect(survey, cfg),
     };
     let found = detect_map(
         source,

@@ -288,7 +288,7 @@ pub(crate) struct Place<'a> {
     pub(crate) more_ups: &'a [Vector3<f64>],
     /// What the target is, and its surveyed size (m) when given.
     pub(crate) model: (crate::model::ModelKind, Option<f64>),
-    /// A board's crop with intensities (`crops::board_crops`), read apart
+    /// A board's crop with intensities (`crops::board_crops_of`), read apart
     /// from the loose crops, which carry coordinates only.
     pub(crate) board: Option<super::crops::BoardCrop>,
 }
@@ -529,6 +529,7 @@ fn board_target(
         others,
         side: size.unwrap_or(p.side_m),
         up: Vector3::z(),
+        lying: true,
     };
     match crate::model::board::locate(&search, &p) {
         Ok((fit, near)) => {

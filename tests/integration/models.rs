@@ -517,9 +517,9 @@ fn a_plain_sign_is_never_taken_for_a_board() {
 }
 
 /// A survey of boards alone in a map without intensity: every board is
-/// `not_found`, map-wide detection (Ls and spheres) finds nothing, and the
-/// run's error says boards are looked for only at their places, with no
-/// plate-size remedy (the survey has no L).
+/// `not_found`, map-wide detection finds nothing (no intensity to tell a
+/// board by), and the run's error says what detection finds of boards,
+/// with no plate-size remedy (the survey has no L).
 #[test]
 fn a_survey_of_boards_alone_that_finds_none_says_why() {
     let dir = tempdir();
@@ -674,6 +674,90 @@ fn spheres_alone_give_the_maps_frame() {
         "{}",
         stderr(&out)
     );
+}
+
+/// A survey of standing boards only, its map yawed 237° and 500 m away:
+/// detection finds the boards map-wide by their print (a plain sign stands
+/// beside each, and is not taken) and matches them to the survey; every
+/// board located is within 1 cm of its truth. `detect --board-side` lists
+/// them with their model; plain `detect` (Ls only) none; a map without
+/// intensity says boards were not looked for; a side no board has is
+/// refused before the map is read.
+#[test]
+fn boards_alone_give_the_maps_frame() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    let truth = synth_scene(
+        &scene,
+        &[
+            "--points",
+            "3000000",
+            "--seed",
+            "1",
+            "--models",
+            "board",
+            "--format",
+            "pcd-xyzi",
+            "--yaw-deg",
+            "237",
+            "--offset-m",
+            "500,-300,5",
+        ],
+    );
+    let r = eval_pcd(&scene, &scene.join("survey.csv"), &dir.path().join("res"));
+    assert_eq!(
+        r["eval"]["frame"]["how"], "detect",
+        "{}",
+        r["eval"]["frame"]
+    );
+    let found = located(&r, &truth);
+    for (id, err, _) in &found {
+        assert!(err.norm() < 0.01, "{id}: {err}");
+    }
+    assert!(
+        found.len() >= 4,
+        "{} of 5 located: {}",
+        found.len(),
+        r["targets"]
+    );
+    let detect = |map: &Path, extra: &[&str]| {
+        let out = bin()
+            .arg("detect")
+            .arg("--map")
+            .arg(map)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let map = scene.join("map.pcd");
+    let listed = detect(&map, &["--board-side", "0.6"]);
+    let boards = listed.lines().filter(|l| l.ends_with(" board")).count();
+    assert!(boards >= 4, "{listed}");
+    assert!(
+        listed.contains(&format!("{boards} target-shaped object(s)")),
+        "{listed}"
+    );
+    let ls_only = detect(&map, &[]);
+    assert!(ls_only.contains("0 target-shaped object(s)"), "{ls_only}");
+    // The same scene as a PLY of doubles: no intensity, no board looked for.
+    let ply = dir.path().join("ply");
+    synth_scene(
+        &ply,
+        &["--points", "300000", "--seed", "1", "--models", "board"],
+    );
+    let said = detect(&ply.join("map.ply"), &["--board-side", "0.6"]);
+    assert!(
+        said.contains("boards: not looked for:") && said.contains("has no intensity"),
+        "{said}"
+    );
+    let out = bin()
+        .args(["detect", "--map", "nowhere.pcd", "--board-side", "7"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--board-side"), "{}", stderr(&out));
 }
 
 /// Ls of their own size (a survey `size` of 0.4 against the configured

@@ -148,6 +148,9 @@ fn detect_finds_no_target_in_real_maps_without_any() {
             // Spheres too (issue 33): a 145 mm round patch of a tank, a
             // machine or a boulder is not a sphere target standing alone.
             .args(["--sphere-diameter", "0.145"])
+            // Standing boards too: a sign, a window or a patch of a wall
+            // with contrast is not a board's print.
+            .args(["--board-side", "0.6"])
             .output()
             .unwrap();
         assert!(o.status.success(), "{name}: {}", stderr(&o));

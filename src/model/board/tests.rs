@@ -123,6 +123,7 @@ fn search<'a>(s: &'a Scene, expected: Point) -> Search<'a> {
         others: &[],
         side: 0.6,
         up: Vector3::z(),
+        lying: true,
     }
 }
 
