@@ -305,16 +305,22 @@ pub(super) fn open(path: &Path) -> Result<Box<dyn PointReader>> {
     }))
 }
 
-/// Finds the layout from the first non-comment line. Returns the layout and
-/// whether that line is a header (to be skipped).
-fn detect_layout(path: &Path, line: &[u8], line_no: u64) -> Result<(Layout, bool)> {
-    let sep = if line.contains(&b',') {
+/// A line's separator: a comma if it has one, else a semicolon, else
+/// spaces and tabs.
+fn sep_of(line: &[u8]) -> Sep {
+    if line.contains(&b',') {
         Sep::Char(b',')
     } else if line.contains(&b';') {
         Sep::Char(b';')
     } else {
         Sep::Space
-    };
+    }
+}
+
+/// Finds the layout from the first non-comment line. Returns the layout and
+/// whether that line is a header (to be skipped).
+fn detect_layout(path: &Path, line: &[u8], line_no: u64) -> Result<(Layout, bool)> {
+    let sep = sep_of(line);
     let mut fields: Vec<String> = Vec::new();
     let mut numeric = true;
     for_fields(line, sep, |_, f| {
@@ -379,13 +385,7 @@ fn detect_layout(path: &Path, line: &[u8], line_no: u64) -> Result<(Layout, bool
 /// (`//X,Y,Z,Intensity`); the line without its `//`.
 fn comment_header(line: &[u8]) -> Option<&[u8]> {
     let rest = line.strip_prefix(b"//")?.trim_ascii();
-    let sep = if rest.contains(&b',') {
-        Sep::Char(b',')
-    } else if rest.contains(&b';') {
-        Sep::Char(b';')
-    } else {
-        Sep::Space
-    };
+    let sep = sep_of(rest);
     let mut named = [false; 3];
     for_fields(rest, sep, |_, f| {
         let n = String::from_utf8_lossy(f).trim().to_ascii_lowercase();
@@ -439,15 +439,9 @@ fn layout_of(path: &Path, lines: &[u8], first: u64) -> Result<Option<(Layout, us
     Ok(None)
 }
 
-/// A line's separator (as `detect_layout` chooses it) and field count.
+/// A line's separator ([`sep_of`]) and field count.
 fn shape(line: &[u8]) -> (Sep, usize) {
-    let sep = if line.contains(&b',') {
-        Sep::Char(b',')
-    } else if line.contains(&b';') {
-        Sep::Char(b';')
-    } else {
-        Sep::Space
-    };
+    let sep = sep_of(line);
     let mut n = 0;
     for_fields(line, sep, |_, _| {
         n += 1;

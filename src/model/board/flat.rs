@@ -297,6 +297,32 @@ fn checker_score(flat: &[[f64; 2]], inten: &[f64], ids: &[u32], c: [f64; 2]) -> 
     (best.0 / pts.len() as f64, best.1)
 }
 
+/// How far the side of `q` a point lies on (the sign of `side_of` its
+/// offset from `q`) predicts its colour (bright or dark of halfway between
+/// the 10th and 90th percentiles of `ids`' intensities), 0–1 either way
+/// round; 0 with under 20 points (too few to say).
+fn colours_split(
+    flat: &[[f64; 2]],
+    inten: &[f64],
+    ids: &[u32],
+    q: [f64; 2],
+    side_of: impl Fn([f64; 2]) -> f64,
+) -> f64 {
+    if ids.len() < 20 {
+        return 0.0;
+    }
+    let mut iv: Vec<f64> = ids.iter().map(|&i| inten[i as usize]).collect();
+    let mid = (pct(&mut iv, 0.1) + pct(&mut iv, 0.9)) / 2.0;
+    let sum: f64 = ids
+        .iter()
+        .map(|&i| {
+            let p = flat[i as usize];
+            side_of([p[0] - q[0], p[1] - q[1]]).signum() * (inten[i as usize] - mid).signum()
+        })
+        .sum();
+    (sum / ids.len() as f64).abs()
+}
+
 /// Step 3: the board found, unless the surface about it is checkered too: a
 /// board's squares meet at its centre only, a tiled floor's at every
 /// corner. At the board's four corners (half a side along both lines from
@@ -326,22 +352,8 @@ fn stops(
             c[0] + h * (a * l0[0] + bb * l1[0]),
             c[1] + h * (a * l0[1] + bb * l1[1]),
         ];
-        let ids = disc(q, 0.25 * side);
-        if ids.len() < 20 {
-            continue;
-        }
-        let mut iv: Vec<f64> = ids.iter().map(|&i| inten[i as usize]).collect();
-        let med = (pct(&mut iv, 0.1) + pct(&mut iv, 0.9)) / 2.0;
-        let sum: f64 = ids
-            .iter()
-            .map(|&i| {
-                let p = flat[i as usize];
-                let d = [p[0] - q[0], p[1] - q[1]];
-                let s = (d[0] * l0[0] + d[1] * l0[1]) * (d[0] * l1[0] + d[1] * l1[1]);
-                s.signum() * (inten[i as usize] - med).signum()
-            })
-            .sum();
-        if (sum / ids.len() as f64).abs() > 0.6 {
+        let quarter = |d: [f64; 2]| (d[0] * l0[0] + d[1] * l0[1]) * (d[0] * l1[0] + d[1] * l1[1]);
+        if colours_split(flat, inten, &disc(q, 0.25 * side), q, quarter) > 0.6 {
             crossings += 1;
         }
     }
@@ -356,22 +368,9 @@ fn stops(
     ] {
         let r = side / 2.0 + 0.15 * side;
         let q = [c[0] + r * l[0], c[1] + r * l[1]];
-        let ids = disc(q, 0.15 * side);
-        if ids.len() < 20 {
-            continue;
-        }
-        let mut iv: Vec<f64> = ids.iter().map(|&i| inten[i as usize]).collect();
-        let thr = (pct(&mut iv, 0.1) + pct(&mut iv, 0.9)) / 2.0;
         // The line along `l` splits the colours across it (along `other`).
-        let sum: f64 = ids
-            .iter()
-            .map(|&i| {
-                let p = flat[i as usize];
-                let d = (p[0] - q[0]) * other[0] + (p[1] - q[1]) * other[1];
-                d.signum() * (inten[i as usize] - thr).signum()
-            })
-            .sum();
-        if (sum / ids.len() as f64).abs() > 0.6 {
+        let across = |d: [f64; 2]| d[0] * other[0] + d[1] * other[1];
+        if colours_split(flat, inten, &disc(q, 0.15 * side), q, across) > 0.6 {
             going_on += 1;
         }
     }
