@@ -40,7 +40,10 @@ enum Kind {
         intensity: bool,
     },
     /// `x y z` text lines (micrometres), plus intensity when the writer was
-    /// created with intensity; no header.
+    /// created with intensity, under a header line naming the columns then
+    /// (`x y z intensity`: a headerless fourth column may be anything, and
+    /// mapgauge's own reader, PDAL's and pandas' take the names from it);
+    /// no header without.
     Xyz {
         intensity: bool,
     },
@@ -78,8 +81,9 @@ fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
         Kind::PcdAscii => pcd_header(n, &pad, 8, "ascii"),
         Kind::PcdF32 => pcd_header(n, &pad, 4, "binary"),
         Kind::PcdXyzi => pcd_f32_header(n, &pad, &["x", "y", "z", "intensity"]),
-        // Nothing to fix up: no header.
-        Kind::Xyz { .. } => String::new(),
+        // Nothing to fix up: the same line whatever the count.
+        Kind::Xyz { intensity: true } => "x y z intensity\n".into(),
+        Kind::Xyz { intensity: false } => String::new(),
         Kind::PcdFastlio => pcd_f32_header(
             n,
             &pad,

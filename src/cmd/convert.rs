@@ -21,7 +21,8 @@ pub struct Args {
     /// the other float32 layouts refuse coordinates beyond ±32 768 m, where
     /// f32 rounds by over 1 mm. The input's intensity (binary PCD, binary PLY,
     /// LAS, LAZ, COPC, E57) is kept by `pcd-xyzi`, `pcd-fastlio`, `ply-f32`,
-    /// `xyz`, `las` and `laz` (the last two as whole numbers 0–65535).
+    /// `xyz` (under an `x y z intensity` header line), `las` and `laz` (the
+    /// last two as whole numbers 0–65535).
     #[arg(long, visible_alias = "to", value_enum)]
     format: Option<OutFormat>,
     /// Multiply every coordinate by this: 0.001 turns a map written in

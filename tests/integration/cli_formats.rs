@@ -242,7 +242,8 @@ fn convert_keeps_intensity_where_the_output_holds_it() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         String::from_utf8_lossy(&o.stdout).into_owned()
     };
-    // XYZ text, by extension and by `--to`: x y z intensity, every point.
+    // XYZ text, by extension and by `--to`: x y z intensity, every point,
+    // under a header naming the columns, so that the intensity reads back.
     for (name, extra) in [("a.xyz", &[][..]), ("b.txt", &["--to", "xyz"][..])] {
         let out = dir.path().join(name);
         let said = convert(&out, extra);
@@ -251,8 +252,18 @@ fn convert_keeps_intensity_where_the_output_holds_it() {
             "{said}"
         );
         let text = std::fs::read_to_string(&out).unwrap();
-        let lines: Vec<&str> = text.lines().collect();
+        let lines: Vec<&str> = text.lines().skip(1).collect();
+        assert_eq!(text.lines().next(), Some("x y z intensity"));
         assert_eq!(lines.len(), n);
+        let mut r = mapgauge::cloud::open(&out).unwrap();
+        assert!(r.has_intensity(), "{name}: its intensity not read back");
+        let (mut pts, mut inten) = (Vec::new(), Vec::new());
+        let mut back = Vec::new();
+        while r.next_chunk_intensity(&mut pts, &mut inten).unwrap() {
+            back.extend(inten.iter().copied());
+        }
+        assert_eq!(back.len(), n);
+        assert!((0..n).all(|k| back[k] == f(k, 3)), "{name}: intensities");
         for k in [0, 1, n / 2, n - 1] {
             let v: Vec<f64> = lines[k].split(' ').map(|t| t.parse().unwrap()).collect();
             assert_eq!(v.len(), 4, "{}", lines[k]);

@@ -359,16 +359,20 @@ fn intensity_is_read_beside_its_point_and_written_where_it_fits() {
         assert_eq!(back, want, "{format:?}");
         assert_eq!(back_i, want_i, "{format:?}");
     }
-    // XYZ text: a fourth column.
+    // XYZ text: a fourth column, named by a header line, read back.
     let p = dir.path().join("i.xyz");
     let mut w = CloudWriter::create_with(&p, OutFormat::Xyz, true).unwrap();
     w.write_intensity(&got[..3], &got_i[..3]).unwrap();
     w.finish().unwrap();
     let text = std::fs::read_to_string(&p).unwrap();
-    let first = format!("{:.6} {:.6} {:.6} 0\n", got[0].x, got[0].y, got[0].z);
+    let first = format!(
+        "x y z intensity\n{:.6} {:.6} {:.6} 0\n",
+        got[0].x, got[0].y, got[0].z
+    );
     assert!(text.starts_with(&first), "{text}");
-    assert_eq!(text.lines().count(), 3);
-    assert_eq!(cloud::read_all(&p).unwrap().len(), 3);
+    assert_eq!(text.lines().count(), 4);
+    let (back, back_i) = read_intensity(&p);
+    assert_eq!((back.len(), &back_i[..]), (3, &got_i[..3]));
     // A cloud without intensity says so, and gives none.
     let p = dir.path().join("plain.pcd");
     cloud::write(&p, OutFormat::Pcd, &got[..10]).unwrap();
