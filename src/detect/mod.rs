@@ -100,7 +100,7 @@ pub struct Detection {
     /// What it is: an L, a sphere (then `corner` is its centre, the plate
     /// sizes its diameter, `heading_deg` 0 and `support` its surface points)
     /// or a board (`corner` where its squares meet, `heading_deg` that of
-    /// its face's normal, the plate widths its face's extent seen, the plate
+    /// its face's normal in [-90°, 90°) (the normal's sign is the fit's), the plate widths its face's extent seen, the plate
     /// height its side, `support` its points and `score` the share of them
     /// its print's colours predict).
     pub model: crate::model::ModelKind,
@@ -181,8 +181,28 @@ pub fn detect_map(
 ) -> Result<MapDetections> {
     let tight = models.tight;
     params.validate()?;
-    let floor = ground.floor(motion);
+    // Boards are told by their print: none looked for in a map without
+    // intensity, and said so whatever the candidates.
     let mut reader = source.open_moved(Some(motion))?;
+    let boards_not_looked_for = match models.board {
+        Some(_) if !reader.has_intensity() => Some(match source {
+            MapSource::Points(_) => "a map handed over in memory has no intensity".to_string(),
+            MapSource::File(path) => format!("{} has no intensity", path.display()),
+        }),
+        _ => None,
+    };
+    let board = models.board.filter(|_| boards_not_looked_for.is_none());
+    // A board stands on its legs about as wide as its side: groups of up to
+    // that size are candidates too.
+    let params = &match board {
+        Some((_, side)) if 1.2 * side > params.max_extent => DetectParams {
+            max_extent: 1.2 * side,
+            max_height: params.max_height.max(side + 1.5),
+            ..params.clone()
+        },
+        _ => params.clone(),
+    };
+    let floor = ground.floor(motion);
     let occ = occupancy(reader.as_mut(), &floor, ground.z0, params, &mut progress)?;
     let grid_bytes = occ.bytes() + floor.bytes() + ground.lowest.bytes();
     let mut reads = vec![crate::cloud::PassRead::of("detect-cells", reader.as_ref())];
@@ -190,7 +210,6 @@ pub fn detect_map(
     let centres = candidate_centres(&occ, params, &mut rejected);
     let candidates = centres.len();
     let mut detections = Vec::new();
-    let mut boards_not_looked_for = None;
     if !centres.is_empty() {
         // Candidate centres at their ground height (the crop is a cylinder).
         let mut reader = source.open_moved_within(Some(motion), ground.z_range)?;
@@ -203,10 +222,12 @@ pub fn detect_map(
         let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
         reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));
         let mut found = shapes(&crop.points, &centres, motion, params, models);
-        if let Some(bp) = models.board {
-            let (read, why) = boards(source, ground, &centres, &mut found, motion, params, bp)?;
-            reads.extend(read);
-            boards_not_looked_for = why;
+        // The coordinates are done with before the intensities are read.
+        drop(crop);
+        if let Some(bp) = board {
+            reads.extend(boards(
+                source, ground, &centres, &mut found, motion, params, bp,
+            )?);
         }
         for f in found {
             match f {
@@ -230,9 +251,9 @@ pub fn detect_map(
 /// each given to the board locator, whose checks are the print's (a face of
 /// a board's size, its four squares' colours, their contrast against the
 /// map's intensity, each quarter its square's colour). A found board takes
-/// the candidate's place in `found`; a flat face without the print says so.
-/// Returns the pass's read, and why no board was looked for (the map has
-/// no intensity).
+/// the candidate's place in `found`; a face the locator refused gives the
+/// candidate's reason, unless the L's or sphere's is a near miss of its
+/// own (another size: the hint a user acts on). Returns the pass's read.
 fn boards(
     source: MapSource,
     ground: &MapGround,
@@ -241,7 +262,7 @@ fn boards(
     motion: &RigidMotion,
     params: &DetectParams,
     (bp, side): (&crate::model::BoardParams, f64),
-) -> Result<(Option<crate::cloud::PassRead>, Option<String>)> {
+) -> Result<Option<crate::cloud::PassRead>> {
     let at: Vec<Option<Point>> = centres
         .iter()
         .zip(found.iter())
@@ -259,7 +280,6 @@ fn boards(
         motion,
         ground.z_range,
     )?;
-    let mut no_intensity = None;
     let judged: Vec<(usize, std::result::Result<Detection, Option<String>>)> = crops
         .into_par_iter()
         .enumerate()
@@ -269,20 +289,17 @@ fn boards(
             Err(_) => None,
         })
         .collect();
-    if read.is_none() && at.iter().any(Option::is_some) {
-        no_intensity = Some(match source {
-            MapSource::Points(_) => "a map handed over in memory has no intensity".to_string(),
-            MapSource::File(path) => format!("{} has no intensity", path.display()),
-        });
-    }
     for (i, j) in judged {
+        let near_miss = |why: &str| why == L_OF_ANOTHER_SIZE || why == NOT_A_SPHERE;
         match j {
             Ok(d) => found[i] = Ok(d),
-            Err(Some(why)) => found[i] = Err(why),
-            Err(None) => {}
+            Err(Some(why)) if !found[i].as_ref().is_err_and(|w| near_miss(w)) => {
+                found[i] = Err(why)
+            }
+            Err(_) => {}
         }
     }
-    Ok((read, no_intensity))
+    Ok(read)
 }
 
 /// A board of side `side` within the search radius of a candidate's centre
@@ -322,9 +339,11 @@ fn board_at(
     })?;
     // The heading of the face's normal, horizontally (a board lying flat
     // has none: 0).
+    // The normal's sign is the fit's: the heading is taken in [-90°, 90°).
     let n = fit.normal;
     let heading_deg = if n[0].hypot(n[1]) > 0.5 {
-        n[1].atan2(n[0]).to_degrees()
+        let h = n[1].atan2(n[0]).to_degrees();
+        (h + 90.0).rem_euclid(180.0) - 90.0
     } else {
         0.0
     };
@@ -482,9 +501,7 @@ fn sphere_at(
     let (fit, _) = crate::model::sphere::locate(&search, &p).map_err(|e| match e {
         // Counted as one kind (the sphere locator's reasons carry numbers;
         // `eval` at a surveyed place names them).
-        crate::model::SphereError::NoSphere { seen: Some(_), .. } => {
-            Some("a round object, not a sphere target".to_string())
-        }
+        crate::model::SphereError::NoSphere { seen: Some(_), .. } => Some(NOT_A_SPHERE.to_string()),
         _ => None,
     })?;
     let score = 1.0 - ((fit.free_radius - fit.radius).abs() / fit.radius).min(1.0);
@@ -528,11 +545,16 @@ fn most_common_first(rejected: HashMap<String, usize>) -> Vec<(String, usize)> {
     rejected
 }
 
+/// The rejections that are near misses of a model: the hint a user acts on
+/// (`--plate-size`, `--sphere-diameter`).
+const L_OF_ANOTHER_SIZE: &str = "an L of another size than the target's";
+const NOT_A_SPHERE: &str = "a round object, not a sphere target";
+
 /// A tight-crop error as a kind, without its numbers, so that rejections can
 /// be counted.
 fn short_reason(e: &str) -> String {
     let kinds = [
-        (" m L (plates", "an L of another size than the target's"),
+        (" m L (plates", L_OF_ANOTHER_SIZE),
         ("continuing", "a plane going on past the corner"),
         ("tall", "an L taller than a plate"),
         ("T or a cross", "a T or a cross"),
