@@ -320,7 +320,7 @@ fn board_at(
         others: &[],
         side,
         up: nalgebra::Vector3::z(),
-        lying: false,
+        on_surfaces: false,
     };
     let (fit, _) = crate::model::board::locate(&search, p).map_err(|e| match e {
         // Counted by kind (the locator's reasons carry numbers; `eval` at a

@@ -24,6 +24,9 @@
 //! 4. **Choice.** Of the boards with a quarter of the best's support or
 //!    more, the one nearest the expected position, unless nearer another
 //!    target's.
+//! 5. **On a surface** (`flat.rs`), when nothing standing free is a board:
+//!    the ground, then each standing wall, searched for the print alone (a
+//!    board lying there or hung flush has the surface's face).
 //!
 //! The covariance in the plane is the least-squares one of the crossing,
 //! s² (JᵀWJ)⁻¹ (Huber weights), or the spread of refits on resampled points
@@ -166,11 +169,12 @@ pub struct Search<'a> {
     pub side: f64,
     /// The vertical: the face's first axis is horizontal.
     pub up: Vector3<f64>,
-    /// Whether a board lying on the ground may be it, when nothing standing
-    /// is: where a survey places a board, yes; about an object map-wide
+    /// Whether a board on a surface wider than a board (lying on the
+    /// ground, hung on a wall) may be it, when nothing standing free is:
+    /// where a survey places a board, yes; about an object map-wide
     /// detection saw standing, no (its few metres of ground are too little
     /// intensity to tell a print from a scanner's rings by).
-    pub lying: bool,
+    pub on_surfaces: bool,
 }
 
 /// Finds and locates the board; returns it with its points (the tight crop).
@@ -262,7 +266,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     }
     // Nothing standing: a board lying on the ground (or flush with a
     // larger level surface) is told by its print alone.
-    if cands.is_empty() && s.lying {
+    if cands.is_empty() && s.on_surfaces {
         let mut is_above = vec![false; all.len()];
         for &k in &above {
             is_above[k] = true;
@@ -277,6 +281,33 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             flat::flat_prints(&g, &gi, &up, side, (p.search_radius_m, spread), p);
         cands = found;
         refused.extend(flat_refused.into_iter().map(|r| (r.points, r.why, r.from)));
+    }
+    // Nor lying: a board hung on a wall (or a panel, a façade) is told by its
+    // print on the wall's plane, searched as the ground is. The wall's
+    // points within `ON_WALL` of its plane: a board mounted proud of it
+    // stands that far off, and its own face is fitted again.
+    if cands.is_empty() && s.on_surfaces {
+        // Walls stand: a slanted face (a roof, a windshield) holds no board.
+        for w in wide
+            .iter()
+            .filter(|w| w.normal.dot(&up).abs() < WALL_LEAN.sin())
+        {
+            let on: Vec<usize> = (0..v.len())
+                .filter(|&i| (w.normal.dot(&v[i]) - w.offset).abs() < ON_WALL)
+                .collect();
+            if on.len() < p.min_points {
+                continue;
+            }
+            let g: Vec<Vector3<f64>> = on.iter().map(|&i| v[i]).collect();
+            let gi: Vec<f64> = on.iter().map(|&i| inten[i]).collect();
+            let (found, wall_refused) =
+                flat::flat_prints(&g, &gi, &w.normal, side, (p.search_radius_m, spread), p);
+            refused.extend(wall_refused.into_iter().map(|r| (r.points, r.why, r.from)));
+            if !found.is_empty() {
+                cands = found;
+                break;
+            }
+        }
     }
     let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
     let Some(best) = choose(&cands, &others) else {
@@ -332,6 +363,19 @@ const MIN_SPREAD_SHARE: f64 = 0.2;
 /// Each quarter of a board (points away from the lines) reads mostly as
 /// its square's colour.
 const MIN_QUARTER_AGREEMENT: f64 = 0.7;
+
+/// The two squares of one colour differ by at most this share of the
+/// difference between the colours (medians of their points away from the
+/// lines): one paint, at one range.
+const MAX_SQUARE_MISMATCH: f64 = 0.3;
+
+/// The most a wall a board hangs on may lean (rad): walls and façades
+/// stand, within a few degrees.
+const WALL_LEAN: f64 = 0.26;
+
+/// How far off a wall's plane (m) a board hung on it may stand: its
+/// thickness and a bracket's.
+const ON_WALL: f64 = 0.1;
 
 /// Places judged: enough that other flat things (signs, walls' patches, the
 /// ground's bumps) cannot crowd the board out before it is judged.
@@ -768,6 +812,7 @@ fn read_print(
     let (mut agree, mut away) = (0usize, 0usize);
     // Per quarter, away from the edges: points, and those of its colour.
     let mut quarter = [(0usize, 0usize); 4];
+    let mut level: [Vec<f64>; 4] = Default::default();
     for q in &pts {
         let (du, dv) = (q[0] - x[0], q[1] - x[1]);
         let (d1, d2) = (du * c + dv * s, -du * s + dv * c);
@@ -776,6 +821,7 @@ fn read_print(
         if d1.abs() > 3.0 * w && d2.abs() > 3.0 * w {
             away += 1;
             quarter[k].0 += 1;
+            level[k].push(q[2]);
             let same = (d1 > 0.0) == (d2 > 0.0);
             let bright_side = (q[2] > thr) == (x[4] > x[3]);
             if same == bright_side {
@@ -792,6 +838,18 @@ fn read_print(
     let odd_quarter = quarter
         .iter()
         .find(|(n, a)| *n >= 5 && (*a as f64) < MIN_QUARTER_AGREEMENT * *n as f64);
+    // The two squares of a colour are one paint at one range: they read
+    // alike. A face whose "squares" are different surfaces (a Velodyne
+    // frame's object corner: bright quarters at 35 and 50, dark at 2 and
+    // 17, of a 0-70 range) does not.
+    let uneven = [(0, 3), (1, 2)].into_iter().find_map(|(a, b)| {
+        let (la, lb) = (&mut level[a].clone(), &mut level[b].clone());
+        if la.len() < 5 || lb.len() < 5 {
+            return None;
+        }
+        let (ma, mb) = (pct(la, 0.5), pct(lb, 0.5));
+        ((ma - mb).abs() > MAX_SQUARE_MISMATCH * (x[4] - x[3]).abs()).then_some((ma, mb))
+    });
     let least = *quad.iter().min().unwrap_or(&0);
     // The face's offset from its inside only (at its rims the rays graze
     // the board's edges and catch the legs behind it), from a band wide
@@ -846,6 +904,12 @@ fn read_print(
              {:.0} % of the points have its colours)",
             100.0 * fit.explained,
             100.0 * agreement
+        ))
+    } else if let Some((a, b)) = uneven {
+        Some(format!(
+            "a print whose squares of one colour read differently ({a:.0} and {b:.0}, against \
+             {:.0} between the colours): not one board's paint",
+            (x[4] - x[3]).abs()
         ))
     } else if let Some((n, a)) = odd_quarter {
         Some(format!(

@@ -529,7 +529,7 @@ fn board_target(
         others,
         side: size.unwrap_or(p.side_m),
         up: Vector3::z(),
-        lying: true,
+        on_surfaces: true,
     };
     match crate::model::board::locate(&search, &p) {
         Ok((fit, near)) => {

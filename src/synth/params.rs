@@ -259,6 +259,13 @@ pub struct BoardShape {
     /// print's first axis runs along the road. A sign beside it lies flat too.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub flat: bool,
+    /// With a value, a wall (3 m wide, 2.5 m tall, plain) stands behind each
+    /// standing board, its face this far (m) behind the board's back: a
+    /// board hung on a wall, whose face alone is no board's (-0.02, the
+    /// board's thickness: the wall's face flush with the board's, as a
+    /// print on the wall is).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_gap_m: Option<f64>,
 }
 
 impl Default for BoardShape {
@@ -271,6 +278,7 @@ impl Default for BoardShape {
             footprint_m: 0.004,
             sign_gap_m: None,
             flat: false,
+            wall_gap_m: None,
         }
     }
 }
@@ -394,6 +402,9 @@ impl SynthParams {
         }
         if b.sign_gap_m.is_some_and(|g| !(0.05..=5.0).contains(&g)) {
             return bad("board.sign_gap_m must be in [0.05, 5]");
+        }
+        if b.wall_gap_m.is_some_and(|g| !(-0.02..=0.2).contains(&g)) {
+            return bad("board.wall_gap_m must be in [-0.02, 0.2]");
         }
         if !b.print_turn_deg.is_finite() {
             return bad("board.print_turn_deg must be finite");

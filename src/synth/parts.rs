@@ -254,6 +254,15 @@ pub(super) fn board_target(
         });
         boards.push(sign);
     }
+    if let Some(gap) = shape.wall_gap_m {
+        // The wall behind, away from the road, 10 cm thick.
+        let back = 2.0 * t + gap + 0.05;
+        prims.push(Prim::Box {
+            c: Vector3::new(x - nx * back, y - ny * back, gz + 1.2),
+            half: Vector3::new(1.5, 0.05, 1.25),
+            cs,
+        });
+    }
     for b in boards {
         for s in [-0.7, 0.7] {
             prims.push(Prim::VCyl {

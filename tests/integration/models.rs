@@ -300,6 +300,37 @@ fn assert_boards_located(r: &Value, truth: &Value, what: &str) {
 /// Issue 33: an ASCII PLY map with an `intensity` property (as CloudCompare
 /// and Open3D write text PLY) gives its boards' print: the synth scene's
 /// points and intensities written out as text, then `eval`.
+/// Boards hung flush on a wall (`[board] wall_gap_m = -0.02`: the wall's
+/// face at the board's, a print on the wall): no face of their own, the
+/// wall's is wider; each is located by its print on the wall's plane,
+/// within 3 mm and inside its ellipsoid. (Before, every one `not_found`.)
+#[test]
+fn boards_hung_on_walls_are_located_by_their_print() {
+    let dir = tempdir();
+    let cfg = dir.path().join("wall.toml");
+    std::fs::write(&cfg, "[board]\nwall_gap_m = -0.02\n").unwrap();
+    let scene = dir.path().join("scene");
+    let truth = synth_scene(
+        &scene,
+        &[
+            "--points",
+            "3000000",
+            "--seed",
+            "6",
+            "--models",
+            "board",
+            "--targets",
+            "4",
+            "--format",
+            "pcd-xyzi",
+            "--config",
+            cfg.to_str().unwrap(),
+        ],
+    );
+    let r = eval_pcd(&scene, &scene.join("survey.csv"), &dir.path().join("out"));
+    assert_boards_located(&r, &truth, "on a wall");
+}
+
 #[test]
 fn boards_are_located_in_an_ascii_ply_map() {
     use std::io::Write;

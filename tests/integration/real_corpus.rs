@@ -173,18 +173,62 @@ fn detect_finds_no_target_in_real_maps_without_any() {
 /// evaluated in the survey's frame: every spot is `not_found`; as L targets
 /// (the corner at the spot), as spheres (the centre 1.3 m above it) and as
 /// checkerboard boards (the crossing at the spot: lying on the ground is
-/// searched too, since 6 Dec 2026).
+/// searched too, since 6 Dec 2026). And spots on the scans' walls (points
+/// 0.8 m or more above the ground whose 0.3 m about them is a standing
+/// plane), surveyed as boards: a board hung on a wall is searched for on
+/// the wall's plane, and none of these is one.
 #[test]
 fn ground_spots_of_a_fake_survey_are_never_located() {
     for model in ["l", "sphere", "board"] {
-        ground_spots_as(model);
+        ground_spots_as(model, false);
     }
+    ground_spots_as("board", true);
 }
 
-fn ground_spots_as(model: &str) {
+/// Up to five points 3 m apart or more, at least 0.8 m above the scan's
+/// 5th-percentile height, each with 60 or more points within 0.3 m that lie
+/// on a standing plane (normal within 11.5° of level, the least spread under
+/// a fiftieth of the middle one).
+fn wall_spots(pts: &[mapgauge::Point]) -> Vec<mapgauge::Point> {
+    let mut z: Vec<f64> = pts.iter().map(|p| p.z).collect();
+    z.sort_by(f64::total_cmp);
+    let floor = z[z.len() / 20];
+    let mut spots: Vec<mapgauge::Point> = Vec::new();
+    for p in pts.iter().step_by((pts.len() / 3000).max(1)) {
+        if p.z < floor + 0.8 || spots.iter().any(|q| (q - p).norm() < 3.0) {
+            continue;
+        }
+        let near: Vec<_> = pts.iter().filter(|q| (*q - p).norm() < 0.3).collect();
+        if near.len() < 60 {
+            continue;
+        }
+        let m = near
+            .iter()
+            .fold(nalgebra::Vector3::zeros(), |a, q| a + q.coords)
+            / near.len() as f64;
+        let cov = near.iter().fold(nalgebra::Matrix3::zeros(), |a, q| {
+            let d = q.coords - m;
+            a + d * d.transpose()
+        });
+        let eig = cov.symmetric_eigen();
+        let mut order = [0, 1, 2];
+        order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+        let n = eig.eigenvectors.column(order[0]);
+        if n.z.abs() < 0.2 && eig.eigenvalues[order[0]] < 0.02 * eig.eigenvalues[order[1]] {
+            spots.push(*p);
+            if spots.len() == 5 {
+                break;
+            }
+        }
+    }
+    spots
+}
+
+fn ground_spots_as(model: &str, walls: bool) {
     let (dir, manifest) = corpus();
     let tmp = tempdir();
     let mut tried = 0;
+    let mut spots_tried = 0;
     for e in &manifest {
         let (lo, hi) = (triple(&e["min"]), triple(&e["max"]));
         let (w, d) = (hi[0] - lo[0], hi[1] - lo[1]);
@@ -196,7 +240,14 @@ fn ground_spots_as(model: &str) {
         let pts = mapgauge::cloud::read_all(&dir.join(name)).unwrap();
         let mut survey = String::from("id,x,y,z,antenna_height,model\n");
         let above = if model == "sphere" { 1.3 } else { 0.0 };
+        let on_walls = if walls { wall_spots(&pts) } else { Vec::new() };
+        for (i, c) in on_walls.iter().enumerate() {
+            survey += &format!("w{i},{:.3},{:.3},{:.3},0,{model}\n", c.x, c.y, c.z);
+        }
         for i in 0..5 {
+            if walls {
+                break;
+            }
             let c = pts[(2 * i + 1) * pts.len() / 10];
             let low = pts
                 .iter()
@@ -209,6 +260,10 @@ fn ground_spots_as(model: &str) {
                 low.y,
                 low.z + above
             );
+        }
+        let spots = if walls { on_walls.len() } else { 5 };
+        if spots == 0 {
+            continue;
         }
         let s = tmp.path().join(format!("{name}.{model}.csv"));
         std::fs::write(&s, survey).unwrap();
@@ -232,7 +287,8 @@ fn ground_spots_as(model: &str) {
         let failed = std::fs::read_to_string(out.join("failed.csv"))
             .unwrap_or_else(|e| panic!("{name}: no failed.csv ({e}): {}", stderr(&o)));
         let rows: Vec<&str> = failed.lines().skip(1).collect();
-        assert_eq!(rows.len(), 5, "{name}:\n{failed}");
+        assert_eq!(rows.len(), spots, "{name}:\n{failed}");
+        spots_tried += spots;
         for r in rows {
             assert!(
                 r.split(',').nth(1) == Some("not_found"),
@@ -242,4 +298,8 @@ fn ground_spots_as(model: &str) {
         tried += 1;
     }
     assert!(tried >= 2, "only {tried} real scans wide and dense enough");
+    assert!(
+        spots_tried >= 8,
+        "only {spots_tried} spots (walls: {walls})"
+    );
 }

@@ -1,6 +1,6 @@
 //! Boards on a surface wider than a board: lying on the ground (the UAV
-//! ground-control board) or on a larger level surface (a wall is not
-//! searched: the lattice lies in the horizontal plane). Their face is the
+//! ground-control board) or on a larger level surface, or hung on a wall
+//! (the lattice then lies in the wall's plane). Their face is the
 //! surface's, so its extent cannot tell them (`judge` refuses it as "a flat
 //! face wider than a board"); only the print can.
 //!
@@ -50,7 +50,12 @@ pub(super) fn flat_prints(
     (radius, spread): (f64, f64),
     p: &BoardParams,
 ) -> (Vec<Candidate>, Vec<Refusal>) {
-    let e1 = (Vector3::x() - up * up.x).normalize();
+    // Axes in the surface: x's share in it (y's on a wall facing x).
+    let e1 = if up.x.abs() < 0.9 {
+        (Vector3::x() - up * up.x).normalize()
+    } else {
+        (Vector3::y() - up * up.y).normalize()
+    };
     let e2 = up.cross(&e1);
     let flat: Vec<[f64; 2]> = g.iter().map(|q| [e1.dot(q), e2.dot(q)]).collect();
     let cell = side / 2.0;
