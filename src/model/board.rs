@@ -287,11 +287,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     // points within `ON_WALL` of its plane: a board mounted proud of it
     // stands that far off, and its own face is fitted again.
     if cands.is_empty() && s.on_surfaces {
-        // Walls stand: a slanted face (a roof, a windshield) holds no board.
-        for w in wide
-            .iter()
-            .filter(|w| w.normal.dot(&up).abs() < WALL_LEAN.sin())
-        {
+        for w in walls(&wide, &up, p.search_radius_m) {
             let on: Vec<usize> = (0..v.len())
                 .filter(|&i| (w.normal.dot(&v[i]) - w.offset).abs() < ON_WALL)
                 .collect();
@@ -303,6 +299,12 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             let (found, wall_refused) =
                 flat::flat_prints(&g, &gi, &w.normal, side, (p.search_radius_m, spread), p);
             refused.extend(wall_refused.into_iter().map(|r| (r.points, r.why, r.from)));
+            // The best-supported wall with a print is the board's: its plane
+            // is the best fitted. (A wall seen from both sides, or fitted
+            // within a board's reach about its edge, is also a plane a few
+            // centimetres off and leaning; gathered about such a plane the
+            // board's points beyond the band are cut, and its crossing was
+            // read 8-13 mm off along the normal.)
             if !found.is_empty() {
                 cands = found;
                 break;
@@ -363,6 +365,38 @@ const MIN_SPREAD_SHARE: f64 = 0.2;
 /// Each quarter of a board (points away from the lines) reads mostly as
 /// its square's colour.
 const MIN_QUARTER_AGREEMENT: f64 = 0.7;
+
+/// The walls a board may hang on, each once, best supported first (the
+/// order `wide` was refused in: seeds by their support): the standing (a
+/// slanted face, a roof's or a windshield's, holds no board) faces refused
+/// as wider than a board whose plane passes within the search radius of
+/// the expected position (the origin), a wall's repeats (planes within
+/// `ON_WALL` and 10° of one kept) left out, at most `WALLS`; the first
+/// with a print is taken.
+fn walls(wide: &[Plane], up: &Vector3<f64>, radius: f64) -> Vec<Plane> {
+    let w = wide
+        .iter()
+        .filter(|w| w.normal.dot(up).abs() < WALL_LEAN.sin() && w.offset.abs() <= radius)
+        .copied();
+    let mut kept: Vec<Plane> = Vec::new();
+    for p in w {
+        let again = kept.iter().any(|k| {
+            let d = k.normal.dot(&p.normal);
+            d.abs() > 0.985 && (k.offset - p.offset * d.signum()).abs() < ON_WALL
+        });
+        if !again {
+            kept.push(p);
+            if kept.len() == WALLS {
+                break;
+            }
+        }
+    }
+    kept
+}
+
+/// Walls searched for a board hung on them, at most: each costs a
+/// lattice over the search disc.
+const WALLS: usize = 4;
 
 /// The two squares of one colour differ by at most this share of the
 /// difference between the colours (medians of their points away from the
@@ -479,7 +513,8 @@ struct Candidate {
     /// The crossing (local frame).
     centre: Vector3<f64>,
     normal: Vector3<f64>,
-    /// The face's axes: `e[0]` horizontal, `e[1] = normal × e[0]`.
+    /// The face's axes: `e[0]` horizontal on a standing board (along the
+    /// print's first line on a surface's), `e[1] = normal × e[0]`.
     e: [Vector3<f64>; 2],
     /// The face's origin (the points' centroid); `u, v` are from it.
     origin: Vector3<f64>,
@@ -844,6 +879,10 @@ fn read_print(
     // 17, of a 0-70 range) does not.
     let uneven = [(0, 3), (1, 2)].into_iter().find_map(|(a, b)| {
         let (la, lb) = (&mut level[a].clone(), &mut level[b].clone());
+        // Five points a square, as for its colour's share: judged on twenty
+        // (review: the medians of fewer scatter by a share of a faint
+        // print's contrast) a real frame's ring-banded wall passed as a
+        // print of 184 points.
         if la.len() < 5 || lb.len() < 5 {
             return None;
         }

@@ -75,7 +75,8 @@ pub struct BoardDetail {
     pub lines: [[f64; 3]; 2],
     /// Points on the board.
     pub points: usize,
-    /// The face's extent seen (horizontal first), m.
+    /// The face's extent seen (horizontal first), m; a board on a surface
+    /// (lying, on a wall) is read on a square of its side: that side twice.
     pub extent_m: [f64; 2],
     /// Fitted intensity of the dark and the bright squares.
     pub levels: [f64; 2],

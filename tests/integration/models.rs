@@ -297,9 +297,6 @@ fn assert_boards_located(r: &Value, truth: &Value, what: &str) {
     }
 }
 
-/// Issue 33: an ASCII PLY map with an `intensity` property (as CloudCompare
-/// and Open3D write text PLY) gives its boards' print: the synth scene's
-/// points and intensities written out as text, then `eval`.
 /// Boards hung flush on a wall (`[board] wall_gap_m = -0.02`: the wall's
 /// face at the board's, a print on the wall): no face of their own, the
 /// wall's is wider; each is located by its print on the wall's plane,
@@ -331,6 +328,9 @@ fn boards_hung_on_walls_are_located_by_their_print() {
     assert_boards_located(&r, &truth, "on a wall");
 }
 
+/// Issue 33: an ASCII PLY map with an `intensity` property (as CloudCompare
+/// and Open3D write text PLY) gives its boards' print: the synth scene's
+/// points and intensities written out as text, then `eval`.
 #[test]
 fn boards_are_located_in_an_ascii_ply_map() {
     use std::io::Write;
@@ -646,16 +646,7 @@ fn spheres_alone_give_the_maps_frame() {
     let out = eval(&scene, &scene.join("survey.csv"), &res);
     assert!(out.status.success(), "{}", stderr(&out));
     let r = json(&res.join("result.json"));
-    assert_eq!(
-        r["eval"]["frame"]["how"], "detect",
-        "{}",
-        r["eval"]["frame"]
-    );
-    let found = located(&r, &truth);
-    for (id, err, _) in &found {
-        assert!(err.norm() < 0.01, "{id}: {err}");
-    }
-    let ok = found.len();
+    let ok = located_by_detection(&r, &truth);
     assert!(ok >= 4, "{ok} of 5 located: {}", r["targets"]);
     // A detected sphere the survey has no row for is left unmatched, named
     // a sphere in result.json and the report.
@@ -678,17 +669,7 @@ fn spheres_alone_give_the_maps_frame() {
     assert_eq!(d["unmatched"].as_array().unwrap().len(), 1, "{d}");
     let page = std::fs::read_to_string(res.join("report.html")).unwrap();
     assert!(page.contains("left unmatched</th><td class=\"w\" style=\"text-align:left\">sphere ("));
-    let detect = |extra: &[&str]| {
-        let out = bin()
-            .arg("detect")
-            .arg("--map")
-            .arg(scene.join("map.ply"))
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", stderr(&out));
-        String::from_utf8(out.stdout).unwrap()
-    };
+    let detect = |extra: &[&str]| detect_listing(&scene.join("map.ply"), extra);
     let listed = detect(&["--sphere-diameter", "0.145"]);
     let spheres = listed.lines().filter(|l| l.ends_with(" sphere")).count();
     assert!(spheres >= 4, "{listed}");
@@ -736,32 +717,9 @@ fn boards_alone_give_the_maps_frame() {
         ],
     );
     let r = eval_pcd(&scene, &scene.join("survey.csv"), &dir.path().join("res"));
-    assert_eq!(
-        r["eval"]["frame"]["how"], "detect",
-        "{}",
-        r["eval"]["frame"]
-    );
-    let found = located(&r, &truth);
-    for (id, err, _) in &found {
-        assert!(err.norm() < 0.01, "{id}: {err}");
-    }
-    assert!(
-        found.len() >= 4,
-        "{} of 5 located: {}",
-        found.len(),
-        r["targets"]
-    );
-    let detect = |map: &Path, extra: &[&str]| {
-        let out = bin()
-            .arg("detect")
-            .arg("--map")
-            .arg(map)
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", stderr(&out));
-        String::from_utf8(out.stdout).unwrap()
-    };
+    let ok = located_by_detection(&r, &truth);
+    assert!(ok >= 4, "{ok} of 5 located: {}", r["targets"]);
+    let detect = detect_listing;
     let map = scene.join("map.pcd");
     let listed = detect(&map, &["--board-side", "0.6"]);
     // Every line listed a board within 2 cm of a true board: no sign taken.
@@ -811,6 +769,34 @@ fn boards_alone_give_the_maps_frame() {
         .unwrap();
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--board-side"), "{}", stderr(&out));
+}
+
+/// The frame of `r` found by detection, and every target located within
+/// 1 cm of its truth: how many were located.
+fn located_by_detection(r: &Value, truth: &Value) -> usize {
+    assert_eq!(
+        r["eval"]["frame"]["how"], "detect",
+        "{}",
+        r["eval"]["frame"]
+    );
+    let found = located(r, truth);
+    for (id, err, _) in &found {
+        assert!(err.norm() < 0.01, "{id}: {err}");
+    }
+    found.len()
+}
+
+/// `mapgauge detect --map map` with `extra`: what it printed.
+fn detect_listing(map: &Path, extra: &[&str]) -> String {
+    let out = bin()
+        .arg("detect")
+        .arg("--map")
+        .arg(map)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    String::from_utf8(out.stdout).unwrap()
 }
 
 /// Ls of their own size (a survey `size` of 0.4 against the configured

@@ -403,17 +403,26 @@ fn a_plain_panel_bare_ground_or_a_tiled_floor_is_not_a_board_lying_there() {
 
 /// [`flat_scene_tiled`] stood up as a wall facing −y (x along it, the
 /// scene's y up it from 0.3 m above the ground at z = 0), with a strip of
-/// ground in front: a board hung on a wall, its face 2 cm proud of it.
-fn wall_scene(seed: u64, levels: (f64, f64), tile: Option<f64>) -> Scene {
+/// ground in front, then turned `turn_deg` about z (90: facing +x): a board
+/// hung on a wall, its face 2 cm proud of it.
+fn wall_scene(seed: u64, levels: (f64, f64), tile: Option<f64>, turn_deg: f64) -> Scene {
     let mut sc = flat_scene_tiled(seed, levels, tile);
-    let up = |p: &Point| Point::new(p.x, -p.z, p.y + 3.3);
+    let (s, c) = turn_deg.to_radians().sin_cos();
+    let up = |p: &Point| {
+        let (x, y) = (p.x, -p.z);
+        Point::new(c * x - s * y, s * x + c * y, p.y + 3.3)
+    };
     sc.pts = sc.pts.iter().map(up).collect();
     sc.truth = up(&sc.truth);
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed ^ 77);
     for i in 0..4_000 {
         let x = 6.0 * rng.random::<f64>() - 3.0;
         let y = -0.1 - 2.0 * rng.random::<f64>();
-        sc.pts.push(Point::new(x, y, 0.004 * (i % 5) as f64));
+        sc.pts.push(Point::new(
+            c * x - s * y,
+            s * x + c * y,
+            0.004 * (i % 5) as f64,
+        ));
         sc.inten.push(40.0);
     }
     sc
@@ -424,26 +433,29 @@ fn wall_scene(seed: u64, levels: (f64, f64), tile: Option<f64>) -> Scene {
 /// its squares meet. A plain wall and a wall of tiles are no board.
 #[test]
 fn a_board_on_a_wall_is_located_by_its_print_and_a_tiled_wall_is_not_one() {
-    for seed in 1..=3 {
-        let sc = wall_scene(seed, (20.0, 180.0), None);
+    // Facing −y, +x (the surface's axes built from y, not x) and between.
+    for (seed, turn) in [(1, 0.0), (2, 90.0), (3, 30.0)] {
+        let sc = wall_scene(seed, (20.0, 180.0), None, turn);
         let expected = sc.truth + Vector3::new(1.2, 0.1, -0.5);
         let (fit, _) = locate(&search(&sc, expected), &BoardParams::default())
             .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         let err = fit.centre - sc.truth;
         assert!(err.norm() < 0.003, "seed {seed}: {err:?}");
-        assert!(fit.normal[1].abs() > 0.999, "{:?}", fit.normal);
+        let facing = Vector3::new(-turn.to_radians().sin(), turn.to_radians().cos(), 0.0);
+        let n = Vector3::from(fit.normal);
+        assert!(n.dot(&facing).abs() > 0.999, "{n:?}");
         // Without looking on surfaces (map-wide detection), none.
         let s = Search {
             on_surfaces: false,
             ..search(&sc, expected)
         };
         assert!(locate(&s, &BoardParams::default()).is_err());
-        let plain = wall_scene(seed, (100.0, 100.0), None);
+        let plain = wall_scene(seed, (100.0, 100.0), None, turn);
         let e = locate(&search(&plain, plain.truth), &BoardParams::default()).unwrap_err();
         assert!(matches!(e, BoardError::NoBoard { .. }), "seed {seed}: {e}");
         // (Refused as a checkered surface; the reason given is the wall's,
         // the refusal with the most points.)
-        let tiled = wall_scene(seed, (20.0, 180.0), Some(0.3));
+        let tiled = wall_scene(seed, (20.0, 180.0), Some(0.3), turn);
         let e = locate(&search(&tiled, tiled.truth), &BoardParams::default()).unwrap_err();
         assert!(matches!(e, BoardError::NoBoard { .. }), "seed {seed}: {e}");
     }
