@@ -460,3 +460,34 @@ fn a_board_on_a_wall_is_located_by_its_print_and_a_tiled_wall_is_not_one() {
         assert!(matches!(e, BoardError::NoBoard { .. }), "seed {seed}: {e}");
     }
 }
+
+/// Review (the same-colour check): a board's intensity falls off across it
+/// as a real sensor's does with range and incidence (here 30 % from one
+/// edge to the other, either way), and a sparse board at low contrast: the
+/// two squares of a colour still read alike enough, and it is located.
+#[test]
+fn a_board_whose_intensity_falls_off_across_it_is_still_one() {
+    for seed in 1..=6u64 {
+        let sparse = seed % 2 == 0;
+        let look = Look {
+            spacing: if sparse { 0.035 } else { BOARD.spacing },
+            levels: if sparse { (40.0, 110.0) } else { BOARD.levels },
+            ..BOARD
+        };
+        let mut sc = scene(seed + 40, look, |_, _, _| {});
+        let sign = if seed % 3 == 0 { -1.0 } else { 1.0 };
+        for (p, i) in sc.pts.iter().zip(sc.inten.iter_mut()) {
+            let d = p - sc.truth;
+            if d.norm() < 0.45 {
+                *i *= (1.0 + sign * 0.3 * (d.x + d.y) / (0.6 * std::f64::consts::SQRT_2)) as f32;
+            }
+        }
+        let (fit, _) = locate(&search(&sc, sc.truth), &BoardParams::default())
+            .unwrap_or_else(|e| panic!("seed {seed} (sparse {sparse}): {e}"));
+        assert!(
+            (fit.centre - sc.truth).norm() < 0.005,
+            "seed {seed}: {:?}",
+            fit.centre - sc.truth
+        );
+    }
+}
