@@ -877,16 +877,13 @@ fn read_print(
     // alike. A face whose "squares" are different surfaces (a Velodyne
     // frame's object corner: bright quarters at 35 and 50, dark at 2 and
     // 17, of a 0-70 range) does not.
+    // Five points a square, as for its colour's share: judged on twenty
+    // (review: the medians of fewer scatter by a share of a faint print's
+    // contrast) a real frame's ring-banded wall passed as a print of 184
+    // points.
+    let median = level.map(|mut l| (l.len() >= 5).then(|| pct(&mut l, 0.5)));
     let uneven = [(0, 3), (1, 2)].into_iter().find_map(|(a, b)| {
-        let (la, lb) = (&mut level[a].clone(), &mut level[b].clone());
-        // Five points a square, as for its colour's share: judged on twenty
-        // (review: the medians of fewer scatter by a share of a faint
-        // print's contrast) a real frame's ring-banded wall passed as a
-        // print of 184 points.
-        if la.len() < 5 || lb.len() < 5 {
-            return None;
-        }
-        let (ma, mb) = (pct(la, 0.5), pct(lb, 0.5));
+        let (ma, mb) = (median[a]?, median[b]?);
         ((ma - mb).abs() > MAX_SQUARE_MISMATCH * (x[4] - x[3]).abs()).then_some((ma, mb))
     });
     let least = *quad.iter().min().unwrap_or(&0);

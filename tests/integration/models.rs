@@ -265,21 +265,25 @@ fn boards_are_located_in_laz_and_compressed_pcd_maps() {
 
 /// synth's scene of 4 boards (seed 6) in `format`; its truth.
 fn four_boards(scene: &Path, format: &str, points: &str) -> Value {
-    synth_scene(
-        scene,
-        &[
-            "--points",
-            points,
-            "--seed",
-            "6",
-            "--models",
-            "board",
-            "--targets",
-            "4",
-            "--format",
-            format,
-        ],
-    )
+    four_boards_with(scene, format, points, &[])
+}
+
+/// [`four_boards`] with more synth flags.
+fn four_boards_with(scene: &Path, format: &str, points: &str, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "--points",
+        points,
+        "--seed",
+        "6",
+        "--models",
+        "board",
+        "--targets",
+        "4",
+        "--format",
+        format,
+    ];
+    args.extend_from_slice(extra);
+    synth_scene(scene, &args)
 }
 
 /// Every one of the 4 boards located within 3 mm horizontally and inside
@@ -307,22 +311,11 @@ fn boards_hung_on_walls_are_located_by_their_print() {
     let cfg = dir.path().join("wall.toml");
     std::fs::write(&cfg, "[board]\nwall_gap_m = -0.02\n").unwrap();
     let scene = dir.path().join("scene");
-    let truth = synth_scene(
+    let truth = four_boards_with(
         &scene,
-        &[
-            "--points",
-            "3000000",
-            "--seed",
-            "6",
-            "--models",
-            "board",
-            "--targets",
-            "4",
-            "--format",
-            "pcd-xyzi",
-            "--config",
-            cfg.to_str().unwrap(),
-        ],
+        "pcd-xyzi",
+        "3000000",
+        &["--config", cfg.to_str().unwrap()],
     );
     let r = eval_pcd(&scene, &scene.join("survey.csv"), &dir.path().join("out"));
     assert_boards_located(&r, &truth, "on a wall");
