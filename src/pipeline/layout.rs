@@ -17,9 +17,9 @@ pub(super) type Far = (usize, f64, f64, FarBy);
 /// at a turn is 3.5 % over the diagonal), which must be measured, not set
 /// aside. Metres over tens of metres (a rock 4 m from a surveyed spot 30 m
 /// from the next, a survey in feet) are a wrong object, position, id or unit.
-const LAYOUT_ABS_M: f64 = 0.3;
+pub(super) const LAYOUT_ABS_M: f64 = 0.3;
 /// See [`LAYOUT_ABS_M`].
-const LAYOUT_REL: f64 = 0.05;
+pub(super) const LAYOUT_REL: f64 = 0.05;
 
 /// Each pair of located targets: (index a, index b, |map − survey distance|,
 /// survey distance, map distance), horizontal unless a 3D score with both

@@ -37,6 +37,7 @@ mod steps;
 mod target;
 mod vertical;
 mod warning;
+mod waves;
 
 pub use config::{Config, FrameConfig, FrameMode, MetricsConfig};
 pub use frame::{FrameFound, FrameHow};

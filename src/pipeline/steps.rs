@@ -7,7 +7,7 @@
 
 use super::frame::{self, FrameHow};
 use super::target::{self, Pass, TargetRun};
-use super::{Config, not_there, other_plate_size, vertical};
+use super::{Config, not_there, other_plate_size, vertical, waves};
 use super::{
     Evaluation, Failed, FrameFound, MapStats, Progress, Warning, against_survey, check_found,
     check_map, config, expected_positions, first_levelling, more_ups, others_than, passes,
@@ -469,6 +469,30 @@ fn score_options(
     }
 }
 
+/// A target that waits for the others: its index, loose crop (points, and
+/// how many the map offered) and board crop.
+type Waiting = (usize, ((Vec<Point>, u64), Option<super::crops::BoardCrop>));
+
+/// Where target `i` of `survey` is looked for: at `at`, among `others`.
+fn place_of<'p>(
+    survey: &'p Survey,
+    i: usize,
+    at: Point,
+    others: &'p [Point],
+    ups: &'p [nalgebra::Vector3<f64>],
+    board: Option<super::crops::BoardCrop>,
+) -> target::Place<'p> {
+    let t = &survey.targets[i];
+    target::Place {
+        id: &t.id,
+        expected: at,
+        others,
+        more_ups: ups,
+        model: (t.model, t.size),
+        board,
+    }
+}
+
 /// `--init` and the survey frame are the map's own; hints and detections
 /// were moved into the levelled frame already.
 fn own(how: &FrameHow) -> bool {
@@ -533,32 +557,90 @@ impl FirstPass<'_> {
         )?;
         reads.extend(board_read);
         let ups = more_ups(self.motion, self.ground_up);
-        let found: Vec<TargetRun> = self
-            .survey
-            .targets
-            .par_iter()
-            .zip(&expected)
-            .zip(crops)
+        let late = match self.crops_dir {
+            Some(_) => vec![false; expected.len()],
+            None => waves::dense(&crops.iter().map(|c| c.0.len()).collect::<Vec<_>>()),
+        };
+        let (now, later): (Vec<_>, Vec<_>) = crops
+            .into_iter()
             .zip(boards)
             .enumerate()
-            .map(|(i, (((t, e), (pts, offered)), board))| {
-                let thinned = (offered > pts.len() as u64).then_some(offered);
+            .partition(|(i, _)| !late[*i]);
+        let mut found: Vec<(usize, TargetRun)> = now
+            .into_par_iter()
+            .map(|(i, (crop, board))| {
                 let others = others_than(&expected, i);
-                let place = target::Place {
-                    id: &t.id,
-                    expected: *e,
-                    others: &others,
-                    more_ups: &ups,
-                    model: (t.model, t.size),
-                    board,
-                };
-                let mut r =
-                    target::locate_target(place, pts, self.crops_dir, &cfg.tight, cfg, Pass::First);
-                r.loose_thinned_from = thinned;
-                r
+                let at = place_of(self.survey, i, expected[i], &others, &ups, board);
+                (i, self.locate(at, crop, &cfg.tight, Pass::First))
             })
             .collect();
+        if !later.is_empty() {
+            found.extend(self.after_the_others(later, &found, &expected, &ups));
+            found.sort_by_key(|f| f.0);
+        }
+        let found = found.into_iter().map(|f| f.1).collect();
         Ok((expected, found))
+    }
+
+    /// The targets that waited (`waves::dense`), each searched where the
+    /// ones located first (`found`) put it, else as they were.
+    fn after_the_others(
+        &self,
+        later: Vec<Waiting>,
+        found: &[(usize, TargetRun)],
+        expected: &[Point],
+        ups: &[nalgebra::Vector3<f64>],
+    ) -> Vec<(usize, TargetRun)> {
+        let (cfg, survey) = (self.cfg, self.survey);
+        let located = found
+            .iter()
+            .filter_map(|(i, r)| r.corner().map(|c| (*i, c)))
+            .collect();
+        let fit = waves::FirstFit::of(located, survey);
+        let (full, loose) = (cfg.tight.search_radius, self.crop_params.radius);
+        later
+            .into_par_iter()
+            .map(|(i, (crop, board))| {
+                let others = others_than(expected, i);
+                let plan = fit.as_ref().and_then(|f| {
+                    let n = f.narrowed(survey, i, &expected[i], full, loose)?;
+                    Some((n, f.others(survey, i, expected)))
+                });
+                let Some(((at, radius), near)) = plan else {
+                    let at = place_of(survey, i, expected[i], &others, ups, board);
+                    return (i, self.locate(at, crop, &cfg.tight, Pass::First));
+                };
+                let tight = crate::crop::TightParams {
+                    search_radius: radius,
+                    ..cfg.tight.clone()
+                };
+                let offered = crop.1;
+                let at = place_of(survey, i, at, &near, ups, board.clone());
+                let mut r = self.locate(at, crop, &tight, Pass::Second);
+                if r.outcome.is_err() {
+                    // Not where the others put it: searched as they were.
+                    let crop = (std::mem::take(&mut r.loose), offered);
+                    let at = place_of(survey, i, expected[i], &others, ups, board);
+                    r = self.locate(at, crop, &cfg.tight, Pass::First);
+                }
+                (i, r)
+            })
+            .collect()
+    }
+
+    /// One target located at `place` in its loose crop (points, and how many
+    /// the map offered before thinning).
+    fn locate(
+        &self,
+        place: target::Place,
+        (pts, offered): (Vec<Point>, u64),
+        tight: &crate::crop::TightParams,
+        pass: Pass,
+    ) -> TargetRun {
+        let thinned = (offered > pts.len() as u64).then_some(offered);
+        let mut r = target::locate_target(place, pts, self.crops_dir, tight, self.cfg, pass);
+        r.loose_thinned_from = thinned;
+        r
     }
 
     /// Auto mode's answer to a guess (`how`) whose first pass (`found`)
