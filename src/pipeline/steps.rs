@@ -557,9 +557,15 @@ impl FirstPass<'_> {
         )?;
         reads.extend(board_read);
         let ups = more_ups(self.motion, self.ground_up);
-        let late = match self.crops_dir {
+        // Only Ls wait (their finder's windows are the cost), by the points
+        // the map had about them (a crop is thinned beyond `crop.max_points`).
+        let late: Vec<bool> = match self.crops_dir {
             Some(_) => vec![false; expected.len()],
-            None => waves::dense(&crops.iter().map(|c| c.0.len()).collect::<Vec<_>>()),
+            None => waves::dense(&crops.iter().map(|c| c.1 as usize).collect::<Vec<_>>())
+                .into_iter()
+                .zip(&self.survey.targets)
+                .map(|(d, t)| d && t.model == crate::model::ModelKind::L)
+                .collect(),
         };
         let (now, later): (Vec<_>, Vec<_>) = crops
             .into_iter()
@@ -597,13 +603,14 @@ impl FirstPass<'_> {
             .filter_map(|(i, r)| r.corner().map(|c| (*i, c)))
             .collect();
         let fit = waves::FirstFit::of(located, survey);
-        let (full, loose) = (cfg.tight.search_radius, self.crop_params.radius);
+        let radii = (cfg.tight.search_radius, self.crop_params.radius);
         later
             .into_par_iter()
             .map(|(i, (crop, board))| {
                 let others = others_than(expected, i);
+                let plate = target::l_plates(survey.targets[i].size, &cfg.tight).0;
                 let plan = fit.as_ref().and_then(|f| {
-                    let n = f.narrowed(survey, i, &expected[i], full, loose)?;
+                    let n = f.narrowed(survey, i, &expected[i], plate, radii)?;
                     Some((n, f.others(survey, i, expected)))
                 });
                 let Some(((at, radius), near)) = plan else {
@@ -616,7 +623,9 @@ impl FirstPass<'_> {
                 };
                 let offered = crop.1;
                 let at = place_of(survey, i, at, &near, ups, board.clone());
-                let mut r = self.locate(at, crop, &tight, Pass::Second);
+                // Still the first pass: `Pass::Second` is the search again
+                // after the checks (`score::check_found` trusts it).
+                let mut r = self.locate(at, crop, &tight, Pass::First);
                 if r.outcome.is_err() {
                     // Not where the others put it: searched as they were.
                     let crop = (std::mem::take(&mut r.loose), offered);

@@ -253,6 +253,11 @@ pub struct TargetRun {
     pub expected: Point,
     /// Which search this is.
     pub pass: Pass,
+    /// How far from `expected` the target was searched (m, horizontal): the
+    /// configured `tight.search_radius` (a sphere's or board's own), or less
+    /// where the other targets placed it (a dense crop in the first pass,
+    /// one far from them after).
+    pub search_radius: f64,
     /// The loose crop (thinned beyond `crop.max_points`).
     pub loose: Vec<Point>,
     /// Points the map had in the loose crop, when it was thinned (of a COPC
@@ -319,6 +324,7 @@ pub(crate) fn locate_target(
         id: id.to_string(),
         expected,
         pass,
+        search_radius: tight.search_radius,
         loose,
         loose_thinned_from: None,
         tight: Vec::new(),
@@ -456,6 +462,7 @@ fn sphere_target(
     if tight.search_radius < cfg.tight.search_radius {
         p.search_radius_m = p.search_radius_m.min(tight.search_radius);
     }
+    run.search_radius = p.search_radius_m;
     let search = crate::model::sphere::Search {
         points: &run.loose,
         expected: centre,
@@ -522,6 +529,7 @@ fn board_target(
     if tight.search_radius < cfg.tight.search_radius {
         p.search_radius_m = p.search_radius_m.min(tight.search_radius);
     }
+    run.search_radius = p.search_radius_m;
     let search = crate::model::board::Search {
         points: &run.loose,
         intensity: &inten,

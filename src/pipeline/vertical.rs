@@ -731,6 +731,7 @@ mod tests {
             id: format!("t{k}"),
             expected: t.corner,
             pass: target::Pass::First,
+            search_radius: cfg.tight.search_radius,
             loose: Vec::new(),
             loose_thinned_from: None,
             tight: t.points,

@@ -5,12 +5,13 @@
 //! windows over whatever stands near it (a car, a wall, a stack), most of the
 //! first pass's time. Once three or more lighter targets are located and agree
 //! with the survey, the guess's error at a dense target is that fit's error,
-//! so the dense one is searched only where the fit puts it, within what a
-//! map's distortion allows between neighbouring targets (`layout`'s 0.3 m +
-//! 5 % of the distance to the nearest located one, at least 1 m). An object
-//! beyond that would be set aside later as far from the others, so nothing
-//! the run could keep is lost; a target not found there is searched as
-//! before, over the whole radius.
+//! so the dense one is searched only where the fit puts it: its corner
+//! within what a map's distortion allows between neighbouring targets
+//! (`layout`'s 0.3 m + 5 % of the distance to the nearest located one, at
+//! least 0.5 m), its points a plate further. An object beyond that would be
+//! set aside later as far from the others, so nothing the run could keep is
+//! lost; a target not found there is searched as before, over the whole
+//! radius. Only Ls wait: the cost is the L finder's windows.
 
 use super::layout::{LAYOUT_ABS_M, LAYOUT_REL};
 use crate::Point;
@@ -25,9 +26,8 @@ const DENSE_MIN_POINTS: usize = 100_000;
 /// Located targets a prediction needs: a rigid fit passes through two
 /// whatever they are, so only a third can show that they agree.
 const MIN_LOCATED: usize = 3;
-/// The narrowed search radius is at least this (m): a target's own windows
-/// reach half a plate about the corner, and the fit's corner is a guess.
-const MIN_RADIUS_M: f64 = 1.0;
+/// The corner's allowed distance from the fit's place is at least this (m).
+const MIN_ALLOWED_M: f64 = 0.5;
 
 /// Which targets wait, by their loose crops' point counts: those over
 /// [`DENSE_OVER_MEDIAN`] × the median and [`DENSE_MIN_POINTS`], when at
@@ -89,16 +89,17 @@ impl FirstFit {
 
     /// Where and how far to search for target `i`: its prediction, and the
     /// distortion allowed over the distance to the nearest located target (at
-    /// least [`MIN_RADIUS_M`], at most `full`). `None` when that disc does not
-    /// lie inside the loose crop about `expected` (radius `loose`): then it is
-    /// searched as the others were.
+    /// least [`MIN_ALLOWED_M`]) plus `reach` (the target's plates reach that
+    /// far from its corner), below `full`. `None` when that disc does not
+    /// lie inside the loose crop about `expected` (radius `loose`): then it
+    /// is searched as the others were.
     pub(super) fn narrowed(
         &self,
         survey: &Survey,
         i: usize,
         expected: &Point,
-        full: f64,
-        loose: f64,
+        reach: f64,
+        (full, loose): (f64, f64),
     ) -> Option<(Point, f64)> {
         let at = self.predict(survey, i, expected);
         let me = survey.targets[i].reference();
@@ -107,9 +108,7 @@ impl FirstFit {
             .iter()
             .map(|l| (survey.targets[l.0].reference() - me).xy().norm())
             .fold(f64::INFINITY, f64::min);
-        let radius = (LAYOUT_ABS_M + LAYOUT_REL * nearest)
-            .max(MIN_RADIUS_M)
-            .min(full);
+        let radius = (LAYOUT_ABS_M + LAYOUT_REL * nearest).max(MIN_ALLOWED_M) + reach;
         let inside = (at - expected).xy().norm() + radius <= loose;
         (radius < full && inside).then_some((at, radius))
     }
@@ -147,7 +146,7 @@ mod tests {
 
     /// A map turned 1° and moved 2 m from a survey's frame: four targets
     /// located first place the fifth to the millimetre and search it within
-    /// 0.3 m + 5 % of the 25 m to its nearest (at least 1 m); one of the four
+    /// 0.3 m + 5 % of the 27 m to its nearest, plus a plate; one of the four
     /// half a metre off, and no place is trusted.
     #[test]
     fn the_first_targets_place_the_rest_when_they_agree() {
@@ -172,15 +171,23 @@ mod tests {
         let located: Vec<(usize, Point)> = (1..5).map(|i| (i, map[i])).collect();
         let fit = FirstFit::of(located.clone(), &survey).expect("they agree");
         let expected = survey.targets[0].reference();
-        let (place, radius) = fit.narrowed(&survey, 0, &expected, 4.5, 5.0).unwrap();
+        let (place, radius) = fit
+            .narrowed(&survey, 0, &expected, 0.6, (4.5, 5.0))
+            .unwrap();
         assert!((place - map[0]).xy().norm() < 1e-9);
         assert_eq!(place.z, expected.z);
         let nearest = (25f64).hypot(10.0);
-        assert!((radius - (0.3 + 0.05 * nearest)).abs() < 1e-9);
+        assert!((radius - (0.3 + 0.05 * nearest + 0.6)).abs() < 1e-9);
         // The disc must lie in the loose crop about the first guess (2 m off).
-        assert!(fit.narrowed(&survey, 0, &expected, 4.5, 3.0).is_none());
-        // Nor wider than the whole search.
-        assert!(fit.narrowed(&survey, 0, &expected, 1.2, 5.0).is_none());
+        assert!(
+            fit.narrowed(&survey, 0, &expected, 0.6, (4.5, 3.5))
+                .is_none()
+        );
+        // Nor be as wide as the whole search.
+        assert!(
+            fit.narrowed(&survey, 0, &expected, 0.6, (2.0, 5.0))
+                .is_none()
+        );
         let others = fit.others(&survey, 0, &[expected; 5]);
         assert_eq!(others, map[1..]);
 

@@ -223,8 +223,8 @@ fn progress_names_each_pass_as_reads_lists_them() {
 /// Issue 29: a target whose loose crop is far denser than the others'
 /// (seed 1's first target, 147 k points beside a car, against 19–62 k)
 /// waits for them and is searched only where their fit puts it. Found there,
-/// it is the corner the whole search finds; with its surveyed position 2.5 m
-/// off, nothing is there, and the whole radius about the survey's place is
+/// it is the corner the whole search finds; with the others' fit 2.66 m off
+/// for it, nothing is there, and the whole radius about its first guess is
 /// searched, as before: the object is found and set aside as far from the
 /// others.
 #[test]
@@ -240,21 +240,27 @@ fn a_dense_target_is_searched_where_the_others_put_it() {
     let mut survey = read_survey(&files.survey, &SurveyOptions::default()).unwrap();
     let cfg = Config::default();
     let ev = pipeline::run(MapSource::File(&files.map), &survey, &cfg, |_, _| {}).unwrap();
+    // The first guess is the survey's own frame, unlevelled.
     assert!(ev.frame.levelling.is_identity());
-    let passes: Vec<Pass> = ev.targets.iter().map(|t| t.pass).collect();
-    assert_eq!(
-        passes,
-        [
-            Pass::Second,
-            Pass::First,
-            Pass::First,
-            Pass::First,
-            Pass::First
-        ]
+    let guess = |i: usize| survey.targets[i].reference();
+    assert!((ev.targets[1].expected - guess(1)).xy().norm() < 1e-9);
+    // Target 1's crop is the one far denser than the others'.
+    let sizes: Vec<usize> = ev.targets.iter().map(|t| t.loose.len()).collect();
+    let mut sorted = sizes.clone();
+    sorted.sort_unstable();
+    assert!(sizes[0] > 100_000 && sizes[0] > 2 * sorted[2], "{sizes:?}");
+    assert!(ev.targets.iter().all(|t| t.pass == Pass::First));
+    // Searched within 0.3 m + 5 % of the 30.7 m to target 2, plus a plate;
+    // the others over the whole radius.
+    let radii: Vec<f64> = ev.targets.iter().map(|t| t.search_radius).collect();
+    assert!(
+        (radii[0] - (0.3 + 0.05 * 30.7 + 0.6)).abs() < 0.01,
+        "{radii:?}"
     );
+    assert!(radii[1..].iter().all(|&r| r == cfg.tight.search_radius));
     let t = &ev.targets[0];
     let at = t.corner().expect("the dense target is located");
-    let first_guess = survey.targets[0].reference();
+    let first_guess = guess(0);
     assert!(
         (t.expected - first_guess).xy().norm() > 1.5,
         "searched at the fit's place"
@@ -268,12 +274,25 @@ fn a_dense_target_is_searched_where_the_others_put_it() {
     let alone = pipeline::locate_with(&whole.points, &[up], &cfg).unwrap();
     assert!((alone.located.corner - at).norm() < 3e-4);
 
-    survey.targets[0].position.x += 2.5;
+    // The other four surveyed 2.66 m off together (each still within its
+    // search, its first guess nearer its object): their fit puts target 1
+    // 2.66 m from its corner, beyond the narrowed disc (2.43 m).
+    let dense = sizes[0];
+    for t in &mut survey.targets[1..] {
+        t.position.x += 2.2;
+        t.position.y -= 1.5;
+    }
     // Without the second pass, which would also search the whole radius
     // about the fit's place.
     let mut cfg = cfg;
     cfg.frame.second_pass = false;
     let ev = pipeline::run(MapSource::File(&files.map), &survey, &cfg, |_, _| {}).unwrap();
+    // It still waited: its crop (the same) is still over twice the median.
+    assert!(ev.targets[1..].iter().all(|t| t.pass == Pass::First));
+    let mut sizes: Vec<usize> = ev.targets[1..].iter().map(|t| t.loose.len()).collect();
+    sizes.push(dense);
+    sizes.sort_unstable();
+    assert!(dense > 2 * sizes[2], "{sizes:?}");
     // Where the object was found says the whole radius was searched: the
     // narrowed search alone would have left no object to name.
     match &ev.targets[0].outcome {
