@@ -14,6 +14,11 @@ pub struct TargetDetail {
     pub expected: [f64; 3],
     /// Which pass found it (1, or 2 = around the alignment's prediction).
     pub pass: u8,
+    /// How far from `expected` it was searched (m, horizontal): the
+    /// configured search radius, or less where the other targets placed it
+    /// (a dense crop searched after them, a search again near the fit).
+    #[serde(default)]
+    pub search_radius_m: f64,
     /// Points in the loose crop.
     pub loose_points: usize,
     /// Points the map had inside the loose crop, when more than `crop.max_points`
@@ -337,6 +342,7 @@ fn detail(t: &TargetRun) -> TargetDetail {
         id: t.id.clone(),
         expected: [t.expected.x, t.expected.y, t.expected.z],
         pass: t.pass as u8,
+        search_radius_m: t.search_radius,
         loose_points: t.loose.len(),
         loose_thinned_from: t.loose_thinned_from,
         tight_points: t.tight.len(),
