@@ -274,6 +274,24 @@ fn a_dense_target_is_searched_where_the_others_put_it() {
     let alone = pipeline::locate_with(&whole.points, &[up], &cfg).unwrap();
     assert!((alone.located.corner - at).norm() < 3e-4);
 
+    // The report says where it was searched.
+    let out = dir.path().join("out");
+    crate::util::stdout_ok(
+        crate::util::bin()
+            .args(["eval", "--map"])
+            .arg(&files.map)
+            .arg("--survey")
+            .arg(&files.survey)
+            .arg("--out")
+            .arg(&out),
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert_eq!(
+        html.matches("searched within 2.44 m of where the other targets place it")
+            .count(),
+        1
+    );
+
     // The other four surveyed 2.66 m off together (each still within its
     // search, its first guess nearer its object): their fit puts target 1
     // 2.66 m from its corner, beyond the narrowed disc (2.43 m).
