@@ -626,6 +626,7 @@ impl FirstPass<'_> {
                 // Still the first pass: `Pass::Second` is the search again
                 // after the checks (`score::check_found` trusts it).
                 let mut r = self.locate(at, crop, &tight, Pass::First);
+                r.waited = r.outcome.is_ok();
                 if r.outcome.is_err() {
                     // Not where the others put it: searched as they were.
                     let crop = (std::mem::take(&mut r.loose), offered);

@@ -256,8 +256,11 @@ pub struct TargetRun {
     /// How far from `expected` the target was searched (m, horizontal): the
     /// configured `tight.search_radius` (a sphere's or board's own), or less
     /// where the other targets placed it (a dense crop in the first pass,
-    /// one far from them after).
+    /// one far from them after); 0 for a hand-made crop (used as it is).
     pub search_radius: f64,
+    /// Searched after the others, only where they place it (its crop was
+    /// far denser than theirs: `waves.rs`), and found there.
+    pub waited: bool,
     /// The loose crop (thinned beyond `crop.max_points`).
     pub loose: Vec<Point>,
     /// Points the map had in the loose crop, when it was thinned (of a COPC
@@ -324,7 +327,12 @@ pub(crate) fn locate_target(
         id: id.to_string(),
         expected,
         pass,
-        search_radius: tight.search_radius,
+        search_radius: if crops_dir.is_some() {
+            0.0
+        } else {
+            tight.search_radius
+        },
+        waited: false,
         loose,
         loose_thinned_from: None,
         tight: Vec::new(),
@@ -455,14 +463,16 @@ fn sphere_target(
     tight: &crate::crop::TightParams,
     cfg: &Config,
 ) {
-    if run.loose.is_empty() {
-        return;
-    }
     let mut p = cfg.sphere.clone();
     if tight.search_radius < cfg.tight.search_radius {
         p.search_radius_m = p.search_radius_m.min(tight.search_radius);
     }
-    run.search_radius = p.search_radius_m;
+    if run.search_radius > 0.0 {
+        run.search_radius = p.search_radius_m;
+    }
+    if run.loose.is_empty() {
+        return;
+    }
     let search = crate::model::sphere::Search {
         points: &run.loose,
         expected: centre,
@@ -505,6 +515,13 @@ fn board_target(
     tight: &crate::crop::TightParams,
     cfg: &Config,
 ) {
+    let mut p = cfg.board.clone();
+    if tight.search_radius < cfg.tight.search_radius {
+        p.search_radius_m = p.search_radius_m.min(tight.search_radius);
+    }
+    if run.search_radius > 0.0 {
+        run.search_radius = p.search_radius_m;
+    }
     let (pts, inten) = match crop {
         Some(Ok(c)) => c,
         Some(Err(why)) => {
@@ -525,11 +542,6 @@ fn board_target(
         run.outcome = Err(Failure::NoLoosePoints);
         return;
     }
-    let mut p = cfg.board.clone();
-    if tight.search_radius < cfg.tight.search_radius {
-        p.search_radius_m = p.search_radius_m.min(tight.search_radius);
-    }
-    run.search_radius = p.search_radius_m;
     let search = crate::model::board::Search {
         points: &run.loose,
         intensity: &inten,

@@ -732,6 +732,7 @@ mod tests {
             expected: t.corner,
             pass: target::Pass::First,
             search_radius: cfg.tight.search_radius,
+            waited: false,
             loose: Vec::new(),
             loose_thinned_from: None,
             tight: t.points,

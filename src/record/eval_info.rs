@@ -16,9 +16,14 @@ pub struct TargetDetail {
     pub pass: u8,
     /// How far from `expected` it was searched (m, horizontal): the
     /// configured search radius, or less where the other targets placed it
-    /// (a dense crop searched after them, a search again near the fit).
+    /// (a dense crop searched after them, a search again near the fit); 0
+    /// for a hand-made crop.
     #[serde(default)]
     pub search_radius_m: f64,
+    /// Searched after the other targets, only where they place it (its crop
+    /// was far denser than theirs), and found there.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub waited: bool,
     /// Points in the loose crop.
     pub loose_points: usize,
     /// Points the map had inside the loose crop, when more than `crop.max_points`
@@ -343,6 +348,7 @@ fn detail(t: &TargetRun) -> TargetDetail {
         expected: [t.expected.x, t.expected.y, t.expected.z],
         pass: t.pass as u8,
         search_radius_m: t.search_radius,
+        waited: t.waited,
         loose_points: t.loose.len(),
         loose_thinned_from: t.loose_thinned_from,
         tight_points: t.tight.len(),

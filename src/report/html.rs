@@ -281,14 +281,6 @@ fn targets_section<'f>(o: &mut String, rep: &Report, figs: impl Iterator<Item = 
     let r = rep.result;
     o.push_str("<section id=\"targets\"><h2>Targets</h2>");
     let details = r.eval.as_ref().map(|e| &e.targets);
-    // The first pass's widest search: a first-pass target searched
-    // narrower waited for the others and was looked for where they put it.
-    let widest = details
-        .into_iter()
-        .flatten()
-        .filter(|d| d.pass == 1)
-        .map(|d| d.search_radius_m)
-        .fold(0.0, f64::max);
     for (i, (t, f)) in r.targets.iter().zip(figs).enumerate() {
         let ok = t.status == "ok";
         let _ = write!(
@@ -327,7 +319,7 @@ fn targets_section<'f>(o: &mut String, rep: &Report, figs: impl Iterator<Item = 
             }
             if d.pass > 1 {
                 facts.push("found in the second pass".into());
-            } else if d.search_radius_m > 0.0 && d.search_radius_m < widest {
+            } else if d.waited {
                 facts.push(format!(
                     "searched within {:.2} m of where the other targets place it (its crop is dense)",
                     d.search_radius_m

@@ -258,6 +258,8 @@ fn a_dense_target_is_searched_where_the_others_put_it() {
         "{radii:?}"
     );
     assert!(radii[1..].iter().all(|&r| r == cfg.tight.search_radius));
+    let waited: Vec<bool> = ev.targets.iter().map(|t| t.waited).collect();
+    assert_eq!(waited, [true, false, false, false, false]);
     let t = &ev.targets[0];
     let at = t.corner().expect("the dense target is located");
     let first_guess = guess(0);
@@ -294,8 +296,12 @@ fn a_dense_target_is_searched_where_the_others_put_it() {
 
     // The other four surveyed 2.66 m off together (each still within its
     // search, its first guess nearer its object): their fit puts target 1
-    // 2.66 m from its corner, beyond the narrowed disc (2.43 m).
+    // 2.66 m from its corner, beyond the narrowed disc (2.44 m), which still
+    // lies inside its loose crop (5 m about the first guess), so the
+    // narrowed search is tried.
     let dense = sizes[0];
+    let fits_place = at - nalgebra::Vector3::new(2.2, -1.5, 0.0);
+    assert!((fits_place - first_guess).xy().norm() + radii[0] < 4.9);
     for t in &mut survey.targets[1..] {
         t.position.x += 2.2;
         t.position.y -= 1.5;
@@ -313,6 +319,7 @@ fn a_dense_target_is_searched_where_the_others_put_it() {
     assert!(dense > 2 * sizes[2], "{sizes:?}");
     // Where the object was found says the whole radius was searched: the
     // narrowed search alone would have left no object to name.
+    assert!(!ev.targets[0].waited);
     match &ev.targets[0].outcome {
         Err(Failure::FarFromOthers { at: there, .. } | Failure::OffLayout { at: there, .. }) => {
             assert!((there - at).xy().norm() < 0.01, "{there:?} against {at:?}")
