@@ -626,14 +626,14 @@ impl FirstPass<'_> {
                 // Still the first pass: `Pass::Second` is the search again
                 // after the checks (`score::check_found` trusts it).
                 let mut r = self.locate(at, crop, &tight, Pass::First);
-                r.waited = r.outcome.is_ok();
-                if r.outcome.is_err() {
-                    // Not where the others put it: searched as they were.
-                    let crop = (std::mem::take(&mut r.loose), offered);
-                    let at = place_of(survey, i, expected[i], &others, ups, board);
-                    r = self.locate(at, crop, &cfg.tight, Pass::First);
+                if r.outcome.is_ok() {
+                    r.waited = true;
+                    return (i, r);
                 }
-                (i, r)
+                // Not where the others put it: searched as they were.
+                let crop = (std::mem::take(&mut r.loose), offered);
+                let at = place_of(survey, i, expected[i], &others, ups, board);
+                (i, self.locate(at, crop, &cfg.tight, Pass::First))
             })
             .collect()
     }

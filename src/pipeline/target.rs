@@ -451,6 +451,26 @@ pub(crate) fn l_plates(size: Option<f64>, tight: &crate::crop::TightParams) -> (
     }
 }
 
+/// A sphere's or board's search radius (its model's own, `own`), no wider
+/// than the L's when that was narrowed for this search (`tight` against the
+/// configured), recorded in `run` unless it is a hand-made crop (0).
+fn own_radius(
+    run: &mut TargetRun,
+    own: f64,
+    tight: &crate::crop::TightParams,
+    cfg: &Config,
+) -> f64 {
+    let r = if tight.search_radius < cfg.tight.search_radius {
+        own.min(tight.search_radius)
+    } else {
+        own
+    };
+    if run.search_radius > 0.0 {
+        run.search_radius = r;
+    }
+    r
+}
+
 /// A sphere target: found in the loose crop and fitted
 /// (`model::sphere`); its points near it are the tight crop. A search
 /// narrowed below the configured L's (the second pass's, near a
@@ -464,12 +484,7 @@ fn sphere_target(
     cfg: &Config,
 ) {
     let mut p = cfg.sphere.clone();
-    if tight.search_radius < cfg.tight.search_radius {
-        p.search_radius_m = p.search_radius_m.min(tight.search_radius);
-    }
-    if run.search_radius > 0.0 {
-        run.search_radius = p.search_radius_m;
-    }
+    p.search_radius_m = own_radius(run, p.search_radius_m, tight, cfg);
     if run.loose.is_empty() {
         return;
     }
@@ -516,12 +531,7 @@ fn board_target(
     cfg: &Config,
 ) {
     let mut p = cfg.board.clone();
-    if tight.search_radius < cfg.tight.search_radius {
-        p.search_radius_m = p.search_radius_m.min(tight.search_radius);
-    }
-    if run.search_radius > 0.0 {
-        run.search_radius = p.search_radius_m;
-    }
+    p.search_radius_m = own_radius(run, p.search_radius_m, tight, cfg);
     let (pts, inten) = match crop {
         Some(Ok(c)) => c,
         Some(Err(why)) => {
