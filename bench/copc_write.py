@@ -7,6 +7,8 @@ and benchmark: mapgauge itself writes no COPC.
     copc_write.py --random N SEED OUT.copc.laz
 
 COPC_MAX_NODE (default 20000) sets the points a leaf holds about.
+COPC_KEEP="x,y,r;x,y,r..." keeps only a LAS file's points within r (m,
+horizontally) of one of the (x, y) (a small test scene cut from a big one).
 
 The octree is built here (copclib writes the nodes it is given): a depth at
 which leaves hold about MAX_NODE points, and each point on a level of detail
@@ -43,9 +45,11 @@ MAX_BUCKETS = 256  # per level: node x columns are grouped beyond this
 
 
 class LasSource:
-    """Integer coordinates of a LAS file (any version), in slabs."""
+    """Integer coordinates of a LAS file (any version), in slabs; with `keep`
+    ((x, y, r) discs), only its points within r of one of them
+    (horizontally), numbered in file order."""
 
-    def __init__(self, path):
+    def __init__(self, path, keep=()):
         head = np.fromfile(path, dtype=np.uint8, count=375)
         u32 = lambda o: int(head[o : o + 4].view("<u4")[0])
         start = u32(96)
@@ -57,11 +61,26 @@ class LasSource:
         self.offset = head[155:179].view("<f8").copy()
         self.n = count
         self.raw = np.memmap(path, dtype=np.uint8, mode="r", offset=start, shape=(count, rec))
+        self.keep = keep
+        if keep:
+            self.n = sum(len(xyz) for _, xyz in self.slabs())
 
     def slabs(self):
-        for i in range(0, self.n, CHUNK):
+        kept = 0
+        for i in range(0, len(self.raw), CHUNK):
             part = self.raw[i : i + CHUNK, :12]
-            yield i, np.ascontiguousarray(part).view("<i4").reshape(len(part), 3)
+            xyz = np.ascontiguousarray(part).view("<i4").reshape(len(part), 3)
+            if self.keep:
+                x = xyz[:, 0] * self.scale[0] + self.offset[0]
+                y = xyz[:, 1] * self.scale[1] + self.offset[1]
+                near = np.zeros(len(xyz), dtype=bool)
+                for cx, cy, r in self.keep:
+                    near |= (x - cx) ** 2 + (y - cy) ** 2 < r * r
+                xyz = xyz[near]
+                if len(xyz) == 0:
+                    continue
+            yield (kept if self.keep else i), xyz
+            kept += len(xyz)
 
 
 class RandomSource:
@@ -227,7 +246,8 @@ def main(argv):
     if len(argv) == 5 and argv[1] == "--random":
         write(RandomSource(int(argv[2]), int(argv[3])), argv[4])
     elif len(argv) == 3:
-        write(LasSource(argv[1]), argv[2])
+        keep = [tuple(float(v) for v in d.split(",")) for d in os.environ.get("COPC_KEEP", "").split(";") if d]
+        write(LasSource(argv[1], keep), argv[2])
     else:
         sys.exit(__doc__)
 

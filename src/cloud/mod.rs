@@ -76,9 +76,11 @@ pub struct CloudInfo {
 pub struct PassRead {
     /// The pass: `ground` (an even sample of a big map), `detect-ground`
     /// (the rest of the ground, when detection needs it), `detect-cells`,
-    /// `detect-crops`, `crops`, `second-pass`; `crops-again` and
-    /// `second-pass-again` when a COPC crop read by level (`crop.by_level`)
-    /// came out short and was read again at every level.
+    /// `detect-crops`, `crops`, `second-pass`; for a COPC map read by level
+    /// (`crop.by_level`), `crops-again` (a crop whose coarse levels came out
+    /// short, read again at every level), `crops-detail` (every level near
+    /// the targets found in the coarse levels) and `crops-whole` (every
+    /// level of the crops of targets the coarse levels did not show).
     pub pass: String,
     /// Finite points read.
     pub points: u64,

@@ -51,14 +51,22 @@ pub struct LooseParams {
     /// of targets, not by the map's density: 500,000 points of a 5 m crop still
     /// put tens of thousands on a 0.6 m target.
     pub max_points: usize,
-    /// `eval` of a COPC map reads, near each target, only the octree levels
-    /// from the root down that hold 1.5× `max_points` there, not every level
-    /// ([`loose_crop_by_level`]): for maps whose crops hold many times
-    /// `max_points`. Off by default: a COPC writer's coarse levels are a
+    /// `eval` of a map held in levels of detail (a COPC octree) finds each
+    /// target on the coarse levels near it, then reads every level within a
+    /// plate of what it found and locates the target there (`eval.reads`
+    /// says what each read cost). The coarse levels are a spatially even but
     /// density-capped sample (untwine and PDAL keep one point per voxel of a
-    /// level's grid), not the uniform thinning, so the located corners move
-    /// by about their σ, and the finder's density checks see capped surfaces.
+    /// level's grid), so only the search sees them: the located corner comes
+    /// from every point near it, and a target the coarse levels do not show
+    /// is searched again in every level of its whole crop. `false`: every
+    /// level of every crop is read, as `crop` does.
     pub by_level: bool,
+    /// Points a coarse read (`by_level`) wants near each target, 1.5× it by
+    /// the octree's estimate: with the ground about half of a crop, some
+    /// 30 k points above it for the L finder (which looks at 60 k at most),
+    /// a point every 3–4 cm over a 5 m crop: enough to find an L, which is
+    /// then located in every level near it.
+    pub coarse_points: u64,
 }
 
 impl Default for LooseParams {
@@ -67,7 +75,8 @@ impl Default for LooseParams {
             radius: 5.0,
             shape: Shape::Cylinder,
             max_points: 500_000,
-            by_level: false,
+            by_level: true,
+            coarse_points: 40_000,
         }
     }
 }
@@ -135,8 +144,8 @@ pub struct LooseCrop {
     /// Points the reader skipped as NaN/infinite.
     pub skipped_nonfinite: u64,
     /// Per crop, whether the reader left levels of detail unread near it
-    /// ([`loose_crop_by_level`]): such a crop of no more than `max_points`
-    /// is not a sample of its disc. Empty when nothing was cut.
+    /// ([`loose_crop_by_level`]): such a crop is no uniform sample of its
+    /// disc. Empty when nothing was cut.
     pub levels_cut: Vec<bool>,
 }
 
@@ -224,22 +233,22 @@ pub fn loose_crop(
 }
 
 /// [`loose_crop`] that lets a reader holding its map in levels of detail (a
-/// COPC octree) read near each centre only the coarser levels that hold more
-/// than `max_points` there: the crop is thinned to that anyway. The levels
-/// are a spatially even but density-capped sample (one point per voxel of a
-/// level's grid in untwine's and PDAL's files), not the uniform thinning:
-/// dense surfaces are thinned more than sparse ones. [`LooseCrop::levels_cut`]
-/// says which crops were read so; one of no more than `max_points` (the
-/// reader's estimate was short) must be read again with [`loose_crop`].
-/// Without a `max_points` cap this is [`loose_crop`].
+/// COPC octree) read near each centre only the coarser levels that hold
+/// `enough` points there (1.5× it by the reader's estimate), not every level;
+/// the crop is thinned to `max_points` as ever. The levels are a spatially
+/// even but density-capped sample (one point per voxel of a level's grid in
+/// untwine's and PDAL's files), not the uniform thinning: dense surfaces are
+/// thinned more than sparse ones. [`LooseCrop::levels_cut`] says which crops
+/// were read so; one of no more than `enough` points (the reader's estimate
+/// was short) must be read again with [`loose_crop`].
 pub fn loose_crop_by_level(
     reader: &mut dyn PointReader,
     centres: &[Point],
     params: &LooseParams,
+    enough: u64,
     progress: impl FnMut(u64),
 ) -> Result<LooseCrop> {
-    let enough = (params.max_points > 0).then_some(params.max_points as u64);
-    thinned(reader, centres, params, enough, progress)
+    thinned(reader, centres, params, Some(enough.max(1)), progress)
 }
 
 fn thinned(

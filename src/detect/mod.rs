@@ -218,6 +218,7 @@ pub fn detect_map(
             shape: Shape::Cylinder,
             max_points: 200_000,
             by_level: false,
+            ..LooseParams::default()
         };
         let crop = loose_crop(reader.as_mut(), &centres, &loose, &mut progress)?;
         reads.push(crate::cloud::PassRead::of("detect-crops", reader.as_ref()));

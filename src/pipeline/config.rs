@@ -335,7 +335,9 @@ fn count(key: &str, v: usize, lo: usize, hi: usize) -> Result<()> {
 }
 
 fn validate_loose(c: &LooseParams) -> Result<()> {
-    range("crop.radius", c.radius, 1e-3, 1e4)
+    range("crop.radius", c.radius, 1e-3, 1e4)?;
+    let coarse = usize::try_from(c.coarse_points).unwrap_or(usize::MAX);
+    count("crop.coarse_points", coarse, 1, 1_000_000_000)
 }
 
 fn validate_tight(t: &TightParams) -> Result<()> {

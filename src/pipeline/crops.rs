@@ -40,8 +40,21 @@ pub(super) fn expected_positions(
 /// Per centre, the crop's points and how many were offered before thinning.
 pub(super) type Crops = Vec<(Vec<Point>, u64)>;
 
+/// What [`read_crops`] read: per centre the crop, and whether it holds only
+/// the coarse levels of a COPC octree (to be read in detail near what is
+/// found there), with the pass's reads (the crops; a crop short of its
+/// levels' estimate read again).
+pub(super) struct CropsRead {
+    pub(super) crops: Crops,
+    pub(super) coarse: Vec<bool>,
+    pub(super) read: crate::cloud::PassRead,
+    pub(super) again: Option<crate::cloud::PassRead>,
+}
+
 /// The loose crops around `centres` in one pass over the map, each with the
-/// number of points the map had there before thinning, and what the pass read.
+/// number of points the map had there before thinning, and what the pass read;
+/// with `params.by_level`, only the levels that hold `params.coarse_points`
+/// near each centre.
 pub(super) fn read_crops(
     source: MapSource,
     centres: &[Point],
@@ -50,11 +63,7 @@ pub(super) fn read_crops(
     z_range: Option<[f64; 2]>,
     map: &mut MapStats,
     progress: &mut impl FnMut(u64, u64),
-) -> Result<(
-    Crops,
-    crate::cloud::PassRead,
-    Option<crate::cloud::PassRead>,
-)> {
+) -> Result<CropsRead> {
     // With the map's z range, a tilted map's region hint reaches its reader
     // (tiles and COPC nodes far from the targets stay unread).
     let mut reader = source.open_moved_within(Some(motion), z_range)?;
@@ -62,8 +71,11 @@ pub(super) fn read_crops(
     if reader.tile_stats().is_none() {
         map.bytes = total;
     }
+    let enough = params.coarse_points;
     let mut crop = if params.by_level {
-        crop::loose_crop_by_level(reader.as_mut(), centres, params, |b| progress(b, total))?
+        crop::loose_crop_by_level(reader.as_mut(), centres, params, enough, |b| {
+            progress(b, total)
+        })?
     } else {
         crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?
     };
@@ -74,33 +86,53 @@ pub(super) fn read_crops(
         map.skipped_nonfinite = crop.skipped_nonfinite;
     }
     let read = crate::cloud::PassRead::of("crops", reader.as_ref());
+    let mut coarse: Vec<bool> = (0..centres.len())
+        .map(|i| crop.levels_cut.get(i).copied().unwrap_or(false))
+        .collect();
     // A COPC octree read to the levels that hold enough points near a
-    // target: a crop that came out with no more than it keeps was short of
-    // the estimate, and is read again at every level (its own entry in
+    // target: a crop that came out with no more than that was short of the
+    // estimate, and is read again at every level (its own entry in
     // `eval.reads`: the two reads share the coarse nodes).
     let short: Vec<usize> = (0..centres.len())
-        .filter(|&i| {
-            crop.levels_cut.get(i).copied().unwrap_or(false)
-                && crop.offered[i] <= params.max_points as u64
-        })
+        .filter(|&i| coarse[i] && crop.offered[i] <= enough)
         .collect();
     let mut again_read = None;
     if !short.is_empty() {
-        let mut again = source.open_moved_within(Some(motion), z_range)?;
-        let total = again.info().file_bytes;
         let at: Vec<Point> = short.iter().map(|&i| centres[i]).collect();
-        let full = crop::loose_crop(again.as_mut(), &at, params, |b| progress(b, total))?;
-        again_read = Some(crate::cloud::PassRead::of("crops-again", again.as_ref()));
-        for (k, (pts, offered)) in full.points.into_iter().zip(full.offered).enumerate() {
+        let (full, again) = read_near(source, &at, params, motion, z_range, progress)?;
+        again_read = Some(crate::cloud::PassRead {
+            pass: "crops-again".into(),
+            ..again
+        });
+        for (k, (pts, offered)) in full.into_iter().enumerate() {
             crop.points[short[k]] = pts;
             crop.offered[short[k]] = offered;
+            coarse[short[k]] = false;
         }
     }
-    Ok((
-        crop.points.into_iter().zip(crop.offered).collect(),
+    Ok(CropsRead {
+        crops: crop.points.into_iter().zip(crop.offered).collect(),
+        coarse,
         read,
-        again_read,
-    ))
+        again: again_read,
+    })
+}
+
+/// Every level of the map within `params.radius` of each of `centres` (a
+/// crop as `crop` reads it), and what the read cost (pass "crops").
+pub(super) fn read_near(
+    source: MapSource,
+    centres: &[Point],
+    params: &LooseParams,
+    motion: &RigidMotion,
+    z_range: Option<[f64; 2]>,
+    progress: &mut impl FnMut(u64, u64),
+) -> Result<(Crops, crate::cloud::PassRead)> {
+    let mut reader = source.open_moved_within(Some(motion), z_range)?;
+    let total = reader.info().file_bytes;
+    let full = crop::loose_crop(reader.as_mut(), centres, params, |b| progress(b, total))?;
+    let read = crate::cloud::PassRead::of("crops", reader.as_ref());
+    Ok((full.points.into_iter().zip(full.offered).collect(), read))
 }
 
 /// The crops with intensities ([`crate::crop::crops_with_intensity`]: the
@@ -150,7 +182,7 @@ mod tests {
     use super::*;
 
     /// A COPC crop read to the coarse levels that came out no larger than
-    /// it keeps (a sphere hanging over the cloud's slab: the nodes' squares
+    /// it needs (a sphere hanging over the cloud's slab: the nodes' squares
     /// promise a cylinder's points) is read again at every level, and comes
     /// out as a crop of every level does; the others stay coarse.
     #[test]
@@ -166,10 +198,16 @@ mod tests {
             shape: crop::Shape::Sphere,
             max_points: 60,
             by_level: true,
+            coarse_points: 60,
         };
         let flat = RigidMotion::identity_at(Point::origin());
         let mut map = MapStats::default();
-        let (crops, read, again) = read_crops(
+        let CropsRead {
+            crops,
+            coarse: cut,
+            read,
+            again,
+        } = read_crops(
             source,
             &centres,
             &params,
@@ -180,6 +218,7 @@ mod tests {
         )
         .unwrap();
         let again = again.expect("the short crop read again");
+        assert_eq!(cut, [true, false], "the one read again holds every level");
         let mut r = crate::cloud::open(&path).unwrap();
         let every = crop::loose_crop(r.as_mut(), &centres, &params, |_| {}).unwrap();
         let whole = crate::cloud::PassRead::of("crops", r.as_ref());
@@ -193,7 +232,7 @@ mod tests {
         );
         // Both reads counted, less than reading every level near both.
         let mut r = crate::cloud::open(&path).unwrap();
-        let coarse = crop::loose_crop_by_level(r.as_mut(), &centres, &params, |_| {}).unwrap();
+        let coarse = crop::loose_crop_by_level(r.as_mut(), &centres, &params, 60, |_| {}).unwrap();
         // Both discs share the root: one group, both cut.
         assert_eq!(coarse.levels_cut, [true, true]);
         assert!(coarse.offered[1] <= 60, "{:?}", coarse.offered);

@@ -27,6 +27,7 @@
 
 mod config;
 mod crops;
+mod detail;
 mod diagnosis;
 mod frame;
 mod heights;

@@ -165,10 +165,21 @@ impl Search<'_> {
         reads: &mut Vec<crate::cloud::PassRead>,
     ) -> Result<super::crops::Crops> {
         let mut again_stats = super::MapStats::default();
-        let (again, read, more) = read_crops(
+        // Every level: a target searched again is located where it is
+        // searched (the first pass's coarse reads are for finding it first).
+        let every = crate::crop::LooseParams {
+            by_level: false,
+            ..*self.crop_params
+        };
+        let super::crops::CropsRead {
+            crops: again,
+            read,
+            again: more,
+            ..
+        } = read_crops(
             self.source,
             centres,
-            self.crop_params,
+            &every,
             self.motion,
             self.ground.z_range,
             &mut again_stats,

@@ -534,7 +534,12 @@ impl FirstPass<'_> {
     ) -> Result<(Vec<Point>, Vec<TargetRun>)> {
         let cfg = self.cfg;
         let expected = expected_positions(self.survey, init, dz, own.then_some(self.motion));
-        let (crops, read, again) = read_crops(
+        let super::crops::CropsRead {
+            crops,
+            coarse,
+            read,
+            again,
+        } = read_crops(
             self.source,
             &expected,
             &self.crop_params,
@@ -584,7 +589,20 @@ impl FirstPass<'_> {
             found.extend(self.after_the_others(later, &found, &expected, &ups));
             found.sort_by_key(|f| f.0);
         }
-        let found = found.into_iter().map(|f| f.1).collect();
+        let mut found: Vec<TargetRun> = found.into_iter().map(|f| f.1).collect();
+        if self.crops_dir.is_none() && coarse.contains(&true) {
+            let detail = super::detail::Detail {
+                source: self.source,
+                survey: self.survey,
+                crop: &self.crop_params,
+                motion: self.motion,
+                z_range: self.ground.z_range,
+                cfg,
+                ups: &ups,
+                expected: &expected,
+            };
+            detail.run(&mut found, &coarse, progress, reads)?;
+        }
         Ok((expected, found))
     }
 

@@ -16,6 +16,7 @@ mod cli_crop;
 mod cli_formats;
 mod cli_locate;
 mod clutter;
+mod copc;
 mod demo_truth;
 mod doubled;
 mod errors_cli;

@@ -62,6 +62,7 @@ fn copc_crop_reads_near_nodes_only_and_equals_plain_laz() {
             shape,
             max_points: 0,
             by_level: false,
+            ..LooseParams::default()
         };
         let mut copc = crate::cloud::las::open(&path).unwrap();
         let mut plain = open_with(&path, false, true).unwrap();
@@ -78,9 +79,9 @@ fn copc_crop_reads_near_nodes_only_and_equals_plain_laz() {
     }
 }
 
-/// A crop that keeps `max_points` reads near each centre only the levels
+/// A crop that needs `enough` points reads near each centre only the levels
 /// that hold more than that there: fewer nodes, a subset of the full crop's
-/// points, each crop still more than it keeps (so thinned either way).
+/// points, each crop still more than it needs.
 #[test]
 fn copc_crop_by_level_reads_the_coarse_levels_it_needs() {
     use crate::crop::{LooseParams, Shape, loose_crop, loose_crop_by_level};
@@ -94,12 +95,13 @@ fn copc_crop_by_level_reads_the_coarse_levels_it_needs() {
         shape: Shape::Cylinder,
         max_points: 60,
         by_level: false,
+        ..LooseParams::default()
     };
     let mut every = crate::cloud::las::open(&path).unwrap();
     let full = loose_crop(every.as_mut(), &centres, &params, |_| ()).unwrap();
     assert!(full.levels_cut.is_empty());
     let mut copc = crate::cloud::las::open(&path).unwrap();
-    let by_level = loose_crop_by_level(copc.as_mut(), &centres, &params, |_| ()).unwrap();
+    let by_level = loose_crop_by_level(copc.as_mut(), &centres, &params, 60, |_| ()).unwrap();
     let (a, b) = (copc.tile_stats().unwrap(), every.tile_stats().unwrap());
     assert!(
         by_level.levels_cut == [true, true] && a.opened < b.opened,
@@ -115,13 +117,9 @@ fn copc_crop_by_level_reads_the_coarse_levels_it_needs() {
         );
         assert!(by_level.offered[i] > 60, "{:?}", by_level.offered);
     }
-    // Uncapped, every level is read.
+    // Needing more than the levels hold, every level is read.
     let mut copc = crate::cloud::las::open(&path).unwrap();
-    let params = LooseParams {
-        max_points: 0,
-        ..params
-    };
-    let all = loose_crop_by_level(copc.as_mut(), &centres, &params, |_| ()).unwrap();
+    let all = loose_crop_by_level(copc.as_mut(), &centres, &params, u64::MAX / 2, |_| ()).unwrap();
     assert!(all.levels_cut.is_empty());
     assert_eq!(all.offered, full.offered);
 }
