@@ -91,21 +91,29 @@ impl Detail<'_> {
                 pass: "crops-detail".into(),
                 ..read
             });
-            let tight = TightParams {
-                search_radius: search,
-                ..self.cfg.tight.clone()
-            };
-            let located: Vec<(usize, TargetRun)> = near
+            let located: Vec<(usize, TargetRun, bool)> = near
                 .par_iter()
                 .zip(centres)
                 .zip(crops)
                 .map(|((&i, c), (pts, _))| {
+                    // Its own plates, no wider than the configured search.
+                    let tight = TightParams {
+                        search_radius: (DETAIL_SEARCH_M + self.reach(i))
+                            .min(self.cfg.tight.search_radius),
+                        ..self.cfg.tight.clone()
+                    };
                     let pts = self.merged(&found[i].loose, pts, &c, params.radius, i);
-                    (i, self.locate(i, c, pts, &tight, &found[i]))
+                    let mut r = self.locate(i, c, pts, &tight, &found[i]);
+                    // Every level confirms it only where the coarse levels
+                    // put it: another object nearby is not a confirmation.
+                    let shift = r.corner().map(|d| (d - c).xy().norm());
+                    let confirmed = shift.is_some_and(|s| s <= DETAIL_SEARCH_M);
+                    r.detail_radius = params.radius;
+                    (i, r, confirmed)
                 })
                 .collect();
-            for (i, r) in located {
-                match r.outcome.is_ok() {
+            for (i, r, confirmed) in located {
+                match confirmed {
                     true => found[i] = r,
                     // Not confirmed in every level: searched as in a map
                     // without levels.

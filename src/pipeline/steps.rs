@@ -563,8 +563,11 @@ impl FirstPass<'_> {
         reads.extend(board_read);
         let ups = more_ups(self.motion, self.ground_up);
         // Only Ls wait (their finder's windows are the cost), by the points
-        // the map had about them (a crop is thinned beyond `crop.max_points`).
+        // the map had about them (a crop is thinned beyond `crop.max_points`);
+        // none when some crops hold a COPC octree's coarse levels only, whose
+        // counts are the levels', not the map's.
         let late: Vec<bool> = match self.crops_dir {
+            _ if coarse.contains(&true) => vec![false; expected.len()],
             Some(_) => vec![false; expected.len()],
             None => waves::dense(&crops.iter().map(|c| c.1 as usize).collect::<Vec<_>>())
                 .into_iter()

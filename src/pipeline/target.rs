@@ -261,7 +261,12 @@ pub struct TargetRun {
     /// Searched after the others, only where they place it (its crop was
     /// far denser than theirs: `waves.rs`), and found there.
     pub waited: bool,
-    /// The loose crop (thinned beyond `crop.max_points`).
+    /// Found in the coarse levels of a COPC octree and located in every
+    /// level within this radius (m, horizontal) of where it was found there
+    /// (`detail.rs`); 0 otherwise.
+    pub detail_radius: f64,
+    /// The loose crop (thinned beyond `crop.max_points`; of a target located
+    /// in detail, the coarse levels with every level within `detail_radius`).
     pub loose: Vec<Point>,
     /// Points the map had in the loose crop, when it was thinned (of a COPC
     /// map read with `crop.by_level`: those of the octree levels read).
@@ -333,6 +338,7 @@ pub(crate) fn locate_target(
             tight.search_radius
         },
         waited: false,
+        detail_radius: 0.0,
         loose,
         loose_thinned_from: None,
         tight: Vec::new(),

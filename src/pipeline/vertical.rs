@@ -733,6 +733,7 @@ mod tests {
             pass: target::Pass::First,
             search_radius: cfg.tight.search_radius,
             waited: false,
+            detail_radius: 0.0,
             loose: Vec::new(),
             loose_thinned_from: None,
             tight: t.points,

@@ -24,6 +24,10 @@ pub struct TargetDetail {
     /// was far denser than theirs), and found there.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub waited: bool,
+    /// Found in the coarse levels of a COPC octree (`crop.by_level`) and
+    /// located in every level within this radius (m) of where it was found.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detail_radius_m: Option<f64>,
     /// Points in the loose crop.
     pub loose_points: usize,
     /// Points the map had inside the loose crop, when more than `crop.max_points`
@@ -349,6 +353,7 @@ fn detail(t: &TargetRun) -> TargetDetail {
         pass: t.pass as u8,
         search_radius_m: t.search_radius,
         waited: t.waited,
+        detail_radius_m: (t.detail_radius > 0.0).then_some(t.detail_radius),
         loose_points: t.loose.len(),
         loose_thinned_from: t.loose_thinned_from,
         tight_points: t.tight.len(),

@@ -325,6 +325,11 @@ fn targets_section<'f>(o: &mut String, rep: &Report, figs: impl Iterator<Item = 
                     d.search_radius_m
                 ));
             }
+            if let Some(r) = d.detail_radius_m {
+                facts.push(format!(
+                    "found in the map's coarse octree levels, located in every level within {r:.2} m"
+                ));
+            }
         }
         if let (Some(m), true) = (t.map, ok) {
             let s = survey_in_map(&rep.alignment, t);
