@@ -68,102 +68,90 @@ impl Detail<'_> {
             .into_iter()
             .partition(|&i| found[i].corner().is_some());
         if !near.is_empty() {
-            let centres: Vec<Point> = near.iter().filter_map(|&i| found[i].corner()).collect();
-            let reach = near.iter().map(|&i| self.reach(i)).fold(0.0, f64::max);
-            // The finder looks at points within its search radius of the
-            // place: the corner's allowance and the plates beyond it.
-            let search = DETAIL_SEARCH_M + reach;
-            let params = LooseParams {
-                radius: search + DETAIL_MARGIN_M,
-                shape: Shape::Cylinder,
-                by_level: false,
-                ..*self.crop
-            };
-            let (crops, read) = super::crops::read_near(
-                self.source,
-                &centres,
-                &params,
-                self.motion,
-                self.z_range,
-                progress,
-            )?;
-            reads.push(PassRead {
-                pass: "crops-detail".into(),
-                ..read
-            });
-            let located: Vec<(usize, TargetRun, bool)> = near
-                .par_iter()
-                .zip(centres)
-                .zip(crops)
-                .map(|((&i, c), (pts, _))| {
-                    // Its own plates, no wider than the configured search.
-                    let tight = TightParams {
-                        search_radius: (DETAIL_SEARCH_M + self.reach(i))
-                            .min(self.cfg.tight.search_radius),
-                        ..self.cfg.tight.clone()
-                    };
-                    let pts = self.merged(&found[i].loose, pts, &c, params.radius, i);
-                    let mut r = self.locate(i, c, pts, &tight, &found[i]);
-                    // Every level confirms it only where the coarse levels
-                    // put it: another object nearby is not a confirmation.
-                    let shift = r.corner().map(|d| (d - c).xy().norm());
-                    let confirmed = shift.is_some_and(|s| s <= DETAIL_SEARCH_M);
-                    r.detail_radius = params.radius;
-                    (i, r, confirmed)
-                })
-                .collect();
-            for (i, r, confirmed) in located {
-                match confirmed {
-                    true => found[i] = r,
-                    // Not confirmed in every level: searched as in a map
-                    // without levels.
-                    false => whole.push(i),
-                }
+            whole.extend(self.in_detail(found, &near, progress, reads)?);
+        }
+        if !whole.is_empty() {
+            whole.sort_unstable();
+            self.in_whole(found, &whole, progress, reads)?;
+        }
+        Ok(())
+    }
+
+    /// Targets `near` (found in the coarse levels) located again in every
+    /// level within a plate of where they were found; returns those every
+    /// level does not confirm there.
+    fn in_detail(
+        &self,
+        found: &mut [TargetRun],
+        near: &[usize],
+        progress: &mut impl FnMut(u64, u64),
+        reads: &mut Vec<PassRead>,
+    ) -> Result<Vec<usize>> {
+        let centres: Vec<Point> = near.iter().filter_map(|&i| found[i].corner()).collect();
+        // The finder looks at points within its search radius of the place:
+        // the corner's allowance and the plates beyond it.
+        let reach = near.iter().map(|&i| self.reach(i)).fold(0.0, f64::max);
+        let params = LooseParams {
+            radius: DETAIL_SEARCH_M + reach + DETAIL_MARGIN_M,
+            shape: Shape::Cylinder,
+            by_level: false,
+            ..*self.crop
+        };
+        let crops = self.read(&centres, &params, "crops-detail", progress, reads)?;
+        let located: Vec<(usize, TargetRun, bool)> = near
+            .par_iter()
+            .zip(centres)
+            .zip(crops)
+            .map(|((&i, c), (pts, _))| {
+                // Its own plates, no wider than the configured search.
+                let tight = TightParams {
+                    search_radius: (DETAIL_SEARCH_M + self.reach(i))
+                        .min(self.cfg.tight.search_radius),
+                    ..self.cfg.tight.clone()
+                };
+                let pts = self.merged(&found[i].loose, pts, &c, params.radius, i);
+                let mut r = self.locate(i, c, pts, &tight, &found[i]);
+                // Every level confirms it only where the coarse levels put
+                // it: another object nearby is not a confirmation.
+                let shift = r.corner().map(|d| (d - c).xy().norm());
+                let confirmed = shift.is_some_and(|s| s <= DETAIL_SEARCH_M);
+                r.detail_radius = params.radius;
+                (i, r, confirmed)
+            })
+            .collect();
+        let mut not = Vec::new();
+        for (i, r, confirmed) in located {
+            match confirmed {
+                true => found[i] = r,
+                false => not.push(i),
             }
         }
-        if whole.is_empty() {
-            return Ok(());
-        }
-        whole.sort_unstable();
+        Ok(not)
+    }
+
+    /// Targets `whole` searched in every level of their whole crops, as in a
+    /// map without levels.
+    fn in_whole(
+        &self,
+        found: &mut [TargetRun],
+        whole: &[usize],
+        progress: &mut impl FnMut(u64, u64),
+        reads: &mut Vec<PassRead>,
+    ) -> Result<()> {
         let centres: Vec<Point> = whole.iter().map(|&i| self.expected[i]).collect();
         let params = LooseParams {
             by_level: false,
             ..*self.crop
         };
-        let (crops, read) = super::crops::read_near(
-            self.source,
-            &centres,
-            &params,
-            self.motion,
-            self.z_range,
-            progress,
-        )?;
-        reads.push(PassRead {
-            pass: "crops-whole".into(),
-            ..read
-        });
+        let crops = self.read(&centres, &params, "crops-whole", progress, reads)?;
         let located: Vec<(usize, TargetRun)> = whole
             .par_iter()
             .zip(crops)
             .map(|(&i, (pts, offered))| {
                 let others = others_than(self.expected, i);
-                let t = &self.survey.targets[i];
-                let place = target::Place {
-                    id: &t.id,
-                    expected: self.expected[i],
-                    others: &others,
-                    more_ups: self.ups,
-                    model: (t.model, t.size),
-                    board: None,
-                };
-                let mut r = target::locate_target(
-                    place,
-                    pts,
-                    None,
-                    &self.cfg.tight,
-                    self.cfg,
-                    found[i].pass,
-                );
+                let place = self.place(i, self.expected[i], &others);
+                let tight = &self.cfg.tight;
+                let mut r = target::locate_target(place, pts, None, tight, self.cfg, found[i].pass);
                 r.loose_thinned_from = (offered > r.loose.len() as u64).then_some(offered);
                 (i, r)
             })
@@ -172,6 +160,44 @@ impl Detail<'_> {
             found[i] = r;
         }
         Ok(())
+    }
+
+    /// Every level within `params.radius` of `centres`, the read logged as
+    /// `pass`.
+    fn read(
+        &self,
+        centres: &[Point],
+        params: &LooseParams,
+        pass: &str,
+        progress: &mut impl FnMut(u64, u64),
+        reads: &mut Vec<PassRead>,
+    ) -> Result<super::crops::Crops> {
+        let (crops, read) = super::crops::read_near(
+            self.source,
+            centres,
+            params,
+            self.motion,
+            self.z_range,
+            progress,
+        )?;
+        reads.push(PassRead {
+            pass: pass.into(),
+            ..read
+        });
+        Ok(crops)
+    }
+
+    /// Where target `i` is looked for: at `at`, among `others`.
+    fn place<'p>(&'p self, i: usize, at: Point, others: &'p [Point]) -> target::Place<'p> {
+        let t = &self.survey.targets[i];
+        target::Place {
+            id: &t.id,
+            expected: at,
+            others,
+            more_ups: self.ups,
+            model: (t.model, t.size),
+            board: None,
+        }
     }
 
     /// How far target `i`'s points reach from its reference point: an L's
@@ -219,15 +245,7 @@ impl Detail<'_> {
         first: &TargetRun,
     ) -> TargetRun {
         let others = others_than(self.expected, i);
-        let t = &self.survey.targets[i];
-        let place = target::Place {
-            id: &t.id,
-            expected: at,
-            others: &others,
-            more_ups: self.ups,
-            model: (t.model, t.size),
-            board: None,
-        };
+        let place = self.place(i, at, &others);
         let mut r = target::locate_target(place, pts, None, tight, self.cfg, first.pass);
         r.expected = first.expected;
         r.search_radius = first.search_radius;
