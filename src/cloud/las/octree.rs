@@ -60,6 +60,63 @@ fn share_in_disc(sq: [f64; 4], c: [f64; 2], r: f64) -> f64 {
 }
 
 impl Octree {
+    /// Per disc, the share of each node's points inside it (nodes near no
+    /// disc left out), estimated from the node's subtree: a coarse node's
+    /// points are a sample of the map below it, and its descendants' counts
+    /// tell where in its cube those lie. Spread evenly over a coarse node's
+    /// square, the points of a road corridor 20 m wide in a node 40 m wide
+    /// were half as many in a disc on the road as they are, and the read
+    /// went a level deeper than it needed (a level holds ~8× the one above).
+    /// Each node weighs its own square's share by its points; a node's
+    /// estimate is the weighted mean over itself and all its descendants.
+    fn subtree_shares(
+        &self,
+        chunks: &[Chunk],
+        discs: &[[f64; 2]],
+        radius: f64,
+    ) -> Vec<std::collections::HashMap<usize, f64>> {
+        let index: std::collections::HashMap<[i32; 4], usize> = self
+            .keys
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (*k, i))
+            .collect();
+        let n = self.keys.len();
+        // Every node's points count below each of its ancestors (the
+        // denominator holds the nodes far from every disc too).
+        let mut total = vec![0.0f64; n];
+        let mut inside: Vec<std::collections::HashMap<usize, f64>> =
+            vec![std::collections::HashMap::new(); discs.len()];
+        for i in 0..n {
+            let w = chunks[i].points as f64;
+            let c = &self.cubes[i];
+            let own: Vec<(usize, f64)> = (0..discs.len())
+                .filter(|&k| self.near(c, &discs[k], radius))
+                .map(|k| (k, share_in_disc([c[0], c[1], c[3], c[4]], discs[k], radius)))
+                .filter(|s| s.1 > 0.0)
+                .collect();
+            let mut key = self.keys[i];
+            let mut at = Some(i);
+            while let Some(a) = at {
+                total[a] += w;
+                for &(k, share) in &own {
+                    *inside[k].entry(a).or_insert(0.0) += w * share;
+                }
+                if key[0] == 0 {
+                    break;
+                }
+                key = [key[0] - 1, key[1] >> 1, key[2] >> 1, key[3] >> 1];
+                at = index.get(&key).copied();
+            }
+        }
+        for m in &mut inside {
+            for (a, v) in m.iter_mut() {
+                *v = if total[*a] > 0.0 { (*v / total[*a]).min(1.0) } else { 0.0 };
+            }
+        }
+        inside
+    }
+
     /// Whether cube `c` comes within `radius` of `p` horizontally.
     pub(super) fn near(&self, c: &[f64; 6], p: &[f64; 2], radius: f64) -> bool {
         let s = self.slack;
@@ -95,11 +152,11 @@ impl Octree {
             })
             .collect();
         // Per disc, (level, estimated points inside it) of each node near it.
+        let shares = self.subtree_shares(chunks, discs, *radius);
         let mut by_level: Vec<Vec<(i32, f64)>> = vec![Vec::new(); discs.len()];
         for (&i, ks) in order.iter().zip(&near) {
-            let c = &self.cubes[i];
             for &k in ks {
-                let share = share_in_disc([c[0], c[1], c[3], c[4]], discs[k], *radius);
+                let share = shares[k].get(&i).copied().unwrap_or(0.0);
                 by_level[k].push((self.keys[i][0], share * chunks[i].points as f64));
             }
         }
@@ -154,5 +211,45 @@ impl Octree {
             }
         }
         (keep, cut)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A root 40 m wide whose points all lie below one 20 m quarter (its one
+    /// child): in a disc on that quarter, the root's points are estimated
+    /// from where the child's are, not spread over the root's whole square.
+    #[test]
+    fn a_coarse_nodes_share_follows_its_subtree() {
+        let chunk = |points| Chunk {
+            offset: 0,
+            bytes: 0,
+            points,
+        };
+        let tree = Octree {
+            keys: vec![[0, 0, 0, 0], [1, 0, 0, 0]],
+            cubes: vec![[0.0, 0.0, 0.0, 40.0, 40.0, 40.0], [0.0, 0.0, 0.0, 20.0, 20.0, 20.0]],
+            slack: 0.0,
+            counts: TileStats::default(),
+            discs: None,
+            levels_cut: Vec::new(),
+        };
+        let chunks = [chunk(1_000), chunk(8_000)];
+        let disc = [[10.0, 10.0]];
+        let s = tree.subtree_shares(&chunks, &disc, 5.0);
+        let even_root = share_in_disc([0.0, 0.0, 40.0, 40.0], disc[0], 5.0);
+        let child = share_in_disc([0.0, 0.0, 20.0, 20.0], disc[0], 5.0);
+        assert!((child - 0.196).abs() < 0.01, "{child}");
+        assert!((s[0][&1] - child).abs() < 1e-12);
+        // The root: its own even share and its child's, weighed by points.
+        let want = (1_000.0 * even_root + 8_000.0 * child) / 9_000.0;
+        assert!((s[0][&0] - want).abs() < 1e-12 && s[0][&0] > 3.0 * even_root);
+        // A disc over the empty quarters: only the root's own points count.
+        let far = tree.subtree_shares(&chunks, &[[30.0, 30.0]], 5.0);
+        let own = share_in_disc([0.0, 0.0, 40.0, 40.0], [30.0, 30.0], 5.0);
+        assert!((far[0][&0] - 1_000.0 * own / 9_000.0).abs() < 1e-12);
+        assert!(!far[0].contains_key(&1));
     }
 }
