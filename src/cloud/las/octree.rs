@@ -25,10 +25,17 @@ pub(super) struct Octree {
 }
 
 /// Points of a level-limited read near a disc, as a multiple of what the
-/// consumer keeps: the estimate (each node's points spread evenly over its
-/// square) is rough, and reading a little more than needed costs little,
+/// consumer keeps: the estimate (each node's points placed as its subtree's
+/// are, [`Octree::subtree_shares`]) is rough, and reading a little more than needed costs little,
 /// while a short read costs that disc's whole read again.
 const LEVEL_MARGIN: f64 = 1.5;
+
+/// Levels below a node whose points tell where its own lie: a writer's
+/// coarse levels keep one point per voxel of their grid, spread more evenly
+/// than the deepest levels' raw density, so only the next levels down speak
+/// for a node (a dense strip would otherwise draw its estimate too high and
+/// the read stop a level short, to be read again whole).
+const SUBTREE_LEVELS: i32 = 2;
 
 /// Cells per side of the grid that estimates the share of a node's square
 /// inside a disc (within about 1/16 of the disc's bounding box).
@@ -68,19 +75,16 @@ impl Octree {
     /// were half as many in a disc on the road as they are, and the read
     /// went a level deeper than it needed (a level holds ~8× the one above).
     /// Each node weighs its own square's share by its points; a node's
-    /// estimate is the weighted mean over itself and all its descendants.
+    /// estimate is the weighted mean over itself and its descendants down
+    /// to `SUBTREE_LEVELS` below it.
     fn subtree_shares(
         &self,
         chunks: &[Chunk],
         discs: &[[f64; 2]],
         radius: f64,
     ) -> Vec<std::collections::HashMap<usize, f64>> {
-        let index: std::collections::HashMap<[i32; 4], usize> = self
-            .keys
-            .iter()
-            .enumerate()
-            .map(|(i, k)| (*k, i))
-            .collect();
+        let index: std::collections::HashMap<[i32; 4], usize> =
+            self.keys.iter().enumerate().map(|(i, k)| (*k, i)).collect();
         let n = self.keys.len();
         // Every node's points count below each of its ancestors (the
         // denominator holds the nodes far from every disc too).
@@ -95,23 +99,29 @@ impl Octree {
                 .map(|k| (k, share_in_disc([c[0], c[1], c[3], c[4]], discs[k], radius)))
                 .filter(|s| s.1 > 0.0)
                 .collect();
+            // Up to `SUBTREE_LEVELS` ancestors, through any the hierarchy
+            // leaves out (a writer may omit an empty node).
             let mut key = self.keys[i];
-            let mut at = Some(i);
-            while let Some(a) = at {
-                total[a] += w;
-                for &(k, share) in &own {
-                    *inside[k].entry(a).or_insert(0.0) += w * share;
+            for up in 0..=SUBTREE_LEVELS {
+                if let Some(&a) = index.get(&key) {
+                    total[a] += w;
+                    for &(k, share) in &own {
+                        *inside[k].entry(a).or_insert(0.0) += w * share;
+                    }
                 }
-                if key[0] == 0 {
+                if key[0] == 0 || up == SUBTREE_LEVELS {
                     break;
                 }
                 key = [key[0] - 1, key[1] >> 1, key[2] >> 1, key[3] >> 1];
-                at = index.get(&key).copied();
             }
         }
         for m in &mut inside {
             for (a, v) in m.iter_mut() {
-                *v = if total[*a] > 0.0 { (*v / total[*a]).min(1.0) } else { 0.0 };
+                *v = if total[*a] > 0.0 {
+                    (*v / total[*a]).min(1.0)
+                } else {
+                    0.0
+                };
             }
         }
         inside
@@ -230,7 +240,10 @@ mod tests {
         };
         let tree = Octree {
             keys: vec![[0, 0, 0, 0], [1, 0, 0, 0]],
-            cubes: vec![[0.0, 0.0, 0.0, 40.0, 40.0, 40.0], [0.0, 0.0, 0.0, 20.0, 20.0, 20.0]],
+            cubes: vec![
+                [0.0, 0.0, 0.0, 40.0, 40.0, 40.0],
+                [0.0, 0.0, 0.0, 20.0, 20.0, 20.0],
+            ],
             slack: 0.0,
             counts: TileStats::default(),
             discs: None,
@@ -251,5 +264,28 @@ mod tests {
         let own = share_in_disc([0.0, 0.0, 40.0, 40.0], [30.0, 30.0], 5.0);
         assert!((far[0][&0] - 1_000.0 * own / 9_000.0).abs() < 1e-12);
         assert!(!far[0].contains_key(&1));
+        // A node whose parent the hierarchy leaves out still speaks for its
+        // grandparent, and nodes more than `SUBTREE_LEVELS` below do not.
+        let tree = Octree {
+            keys: vec![[0, 0, 0, 0], [2, 0, 0, 0], [3, 0, 0, 0]],
+            cubes: vec![
+                [0.0, 0.0, 0.0, 40.0, 40.0, 40.0],
+                [0.0, 0.0, 0.0, 10.0, 10.0, 10.0],
+                [0.0, 0.0, 0.0, 5.0, 5.0, 5.0],
+            ],
+            ..tree
+        };
+        let chunks = [chunk(1_000), chunk(4_000), chunk(32_000)];
+        let disc = [[5.0, 5.0]];
+        let s = tree.subtree_shares(&chunks, &disc, 5.0);
+        let sq = |w: f64| share_in_disc([0.0, 0.0, w, w], disc[0], 5.0);
+        let want = (1_000.0 * sq(40.0) + 4_000.0 * sq(10.0)) / 5_000.0;
+        assert!(
+            (s[0][&0] - want).abs() < 1e-12,
+            "{} against {want}",
+            s[0][&0]
+        );
+        let want = (4_000.0 * sq(10.0) + 32_000.0 * sq(5.0)) / 36_000.0;
+        assert!((s[0][&1] - want).abs() < 1e-12);
     }
 }
