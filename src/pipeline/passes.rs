@@ -2,9 +2,9 @@
 //! found targets predicts a missing one, and locating again with the map's
 //! common vertical.
 
+use super::Config;
 use super::layout::{self, Far};
 use super::target::{self, Pass, TargetRun};
-use super::{Config, read_crops};
 use crate::accuracy::{self, ScoreOptions};
 use crate::cloud::{MapSource, RigidMotion};
 use crate::crop::{LooseParams, TightParams};
@@ -164,35 +164,20 @@ impl Search<'_> {
         progress: &mut impl FnMut(u64, u64),
         reads: &mut Vec<crate::cloud::PassRead>,
     ) -> Result<super::crops::Crops> {
-        let mut again_stats = super::MapStats::default();
         // Every level: a target searched again is located where it is
         // searched (the first pass's coarse reads are for finding it first).
-        let every = crate::crop::LooseParams {
-            by_level: false,
-            ..*self.crop_params
-        };
-        let super::crops::CropsRead {
-            crops: again,
-            read,
-            again: more,
-            ..
-        } = read_crops(
+        let (again, read) = super::crops::read_near(
             self.source,
             centres,
-            &every,
+            self.crop_params,
             self.motion,
             self.ground.z_range,
-            &mut again_stats,
             progress,
         )?;
         reads.push(crate::cloud::PassRead {
             pass: "second-pass".into(),
             ..read
         });
-        reads.extend(more.map(|m| crate::cloud::PassRead {
-            pass: "second-pass-again".into(),
-            ..m
-        }));
         Ok(again)
     }
 

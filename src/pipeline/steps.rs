@@ -566,14 +566,14 @@ impl FirstPass<'_> {
         // the map had about them (a crop is thinned beyond `crop.max_points`);
         // none when some crops hold a COPC octree's coarse levels only, whose
         // counts are the levels', not the map's.
-        let late: Vec<bool> = match self.crops_dir {
-            _ if coarse.contains(&true) => vec![false; expected.len()],
-            Some(_) => vec![false; expected.len()],
-            None => waves::dense(&crops.iter().map(|c| c.1 as usize).collect::<Vec<_>>())
+        let late: Vec<bool> = if self.crops_dir.is_some() || coarse.contains(&true) {
+            vec![false; expected.len()]
+        } else {
+            waves::dense(&crops.iter().map(|c| c.1 as usize).collect::<Vec<_>>())
                 .into_iter()
                 .zip(&self.survey.targets)
                 .map(|(d, t)| d && t.model == crate::model::ModelKind::L)
-                .collect(),
+                .collect()
         };
         let (now, later): (Vec<_>, Vec<_>) = crops
             .into_iter()
