@@ -13,6 +13,11 @@
 # written as LAS, then as COPC by the same script) and the rows are `crop`
 # and `eval` of its survey on the COPC file (issue 29: eval reads the ground
 # sample and the crops' nodes only): wall, CPU and bytes read per pass.
+# That COPC's octree is adaptive, as real writers build it (COPC_LEAF=100000:
+# no node holds more than about 100 k points; a split node keeps about
+# 16 k). COPC_LEAF=0 writes it with the fixed depth of the random cloud
+# instead (COPC_MAX_NODE=2000), whose deepest nodes under this scene's
+# dense strip hold up to 2.3 M points each (the 6 Dec rows).
 #
 # Usage: bench/copc.sh [POINTS]        (default 20000000; 50 M: ~350 MB of disk)
 # Env:   DIR   data directory (default /tmp/mapgauge-copc)
@@ -48,12 +53,14 @@ case ${SCENE:-random} in
 esac
 if [[ ${SCENE:-random} == synth ]]; then
     scene=$DIR/synth$N
+    leaf=${COPC_LEAF-100000}
     copc=$DIR/synth$N.copc.laz
+    [[ $leaf == 0 ]] || copc=$DIR/synth$N-leaf$leaf.copc.laz
     [[ -s $scene/map.las ]] || "$BIN" synth --points "$N" --format las --out "$scene" >/dev/null
     # Written under another name first: an interrupted writer leaves no file
     # a later run would take for a whole one (synth renames its own at the end).
     if [[ ! -s $copc ]]; then
-        COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" "$scene/map.las" "$copc.partial"
+        COPC_LEAF=$leaf COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" "$scene/map.las" "$copc.partial"
         mv "$copc.partial" "$copc"
     fi
     cat "$copc" >/dev/null
@@ -88,7 +95,7 @@ fi
 
 copc=$DIR/r$N.copc.laz
 plain=$DIR/r$N.plain.laz
-[[ -s $copc ]] || COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" --random "$N" 3 "$copc"
+[[ -s $copc ]] || COPC_LEAF=0 COPC_MAX_NODE=${COPC_MAX_NODE:-2000} "$PY" "$REPO/bench/copc_write.py" --random "$N" 3 "$copc"
 if [[ ! -s $plain ]]; then
     cp "$copc" "$plain"
     # "copc" -> "xopc" in the first VLR's user id: no longer a COPC file.

@@ -7,6 +7,7 @@ and benchmark: mapgauge itself writes no COPC.
     copc_write.py --random N SEED OUT.copc.laz
 
 COPC_MAX_NODE (default 20000) sets the points a leaf holds about.
+COPC_LEAF=N switches to an adaptive octree, as real writers build it (below).
 COPC_KEEP="x,y,r;x,y,r..." keeps only a LAS file's points within r (m,
 horizontally) of one of the (x, y) (a small test scene cut from a big one).
 
@@ -18,6 +19,16 @@ Nodes are written in (level, x, y, z) order; points keep their input order
 within a node. (The depth counts the whole octree cube: for a flat cloud such
 as the random 400 m x 400 m x 20 m one, whose points fill about 1/20 of the
 cube, nodes hold about ten times MAX_NODE points.)
+
+With COPC_LEAF=N the octree is adaptive instead, as untwine's and PDAL's
+are: a node is split while its subtree holds more than N points (down to
+ADAPTIVE_DEPTH), and a node that is split keeps about COPC_NODE_KEEP (default
+16384, a 128 x 128 grid's worth of a surface) of the points that reach it,
+drawn by a hash of the point's index and the level; a leaf keeps every point
+that reaches it. Dense places go deep in small nodes, sparse ones stay
+shallow, so no node holds more than about N points (PDAL's lone-star COPC,
+written by untwine, has nodes of at most 127 k). The subtree counts come
+from one more pass over the points, binned at ADAPTIVE_DEPTH.
 
 Streaming, so memory stays bounded (well under 1 GB at 200 M points): the
 points are read in slabs of CHUNK in input order three times, (1) for the
@@ -42,6 +53,9 @@ import copclib as copc
 MAX_NODE = int(os.environ.get("COPC_MAX_NODE", "20000"))
 CHUNK = 4_000_000
 MAX_BUCKETS = 256  # per level: node x columns are grouped beyond this
+LEAF = int(os.environ.get("COPC_LEAF", "0"))
+NODE_KEEP = int(os.environ.get("COPC_NODE_KEEP", "16384"))
+ADAPTIVE_DEPTH = 10
 
 
 class LasSource:
@@ -115,14 +129,15 @@ class RandomSource:
 
 
 class Octree:
-    def __init__(self, n, scale, offset, lo, hi):
+    def __init__(self, n, scale, offset, lo, hi, depth=None):
         self.scale, self.offset = scale, offset
         self.lo, self.hi = lo, hi
         self.centre = (lo + hi) / 2
         self.half = float((hi - lo).max()) / 2 * 1.0001 + 1e-3
-        depth = 0
-        while n > MAX_NODE * 8**depth and depth < 12:
-            depth += 1
+        if depth is None:
+            depth = 0
+            while n > MAX_NODE * 8**depth and depth < 12:
+                depth += 1
         self.depth = depth
         self.cells = 1 << depth
         # Buckets: per level, node x columns, grouped by 2**shift.
@@ -147,6 +162,77 @@ class Octree:
 
     def bucket(self, level, kx):
         return self.first[level] + (kx >> np.asarray(self.shift)[level])
+
+
+def packed(key, bits):
+    """One int64 per (x, y, z) node key of `bits` bits an axis."""
+    return (key[:, 0] << (2 * bits)) | (key[:, 1] << bits) | key[:, 2]
+
+
+class Adaptive:
+    """The adaptive octree's shape: per level, the sorted packed keys of its
+    nodes and the chance a point reaching each one stays there."""
+
+    def __init__(self, src, tree):
+        d = tree.depth
+        keys = np.empty(0, dtype=np.int64)
+        counts = np.empty(0, dtype=np.int64)
+        for _, xyz in src.slabs():
+            k = packed(tree.key(xyz, np.full(len(xyz), d, dtype=np.int64)), d)
+            keys = np.concatenate([keys, k])
+            counts = np.concatenate([counts, np.ones(len(k), dtype=np.int64)])
+            keys, inv = np.unique(keys, return_inverse=True)
+            counts = np.bincount(inv.ravel(), weights=counts, minlength=len(keys)).astype(np.int64)
+        mask = (1 << d) - 1
+        fine = np.stack([(keys >> (2 * d)) & mask, (keys >> d) & mask, keys & mask], axis=1)
+        self.keys, self.keep = [], []
+        reach_of_parent = None  # per node of the level above: q, the share of its subtree reaching it
+        parent_keys = parent_split = parent_p = None
+        for l in range(d + 1):
+            k = packed(fine >> (d - l), l)
+            lk, inv = np.unique(k, return_inverse=True)
+            c = np.bincount(inv.ravel(), weights=counts, minlength=len(lk))
+            if l == 0:
+                q = np.ones(len(lk))
+                exists = np.ones(len(lk), dtype=bool)
+            else:
+                mask_l = (1 << l) - 1
+                xyz = np.stack([(lk >> (2 * l)) & mask_l, (lk >> l) & mask_l, lk & mask_l], axis=1)
+                pk = packed(xyz >> 1, l - 1)
+                at = np.searchsorted(parent_keys, pk)
+                exists = parent_split[at]
+                q = reach_of_parent[at] * (1 - parent_p[at])
+            split = exists & (c > LEAF) & (l < d)
+            reach = c * q
+            p = np.where(split, np.minimum(1.0, NODE_KEEP / np.maximum(reach, 1.0)), 1.0)
+            p[~exists] = 0.0
+            self.keys.append(lk)
+            self.keep.append(p)
+            parent_keys, parent_split, parent_p, reach_of_parent = lk, split, p, q
+        self.tree = tree
+
+    def level(self, index, xyz):
+        """The level each point stays at: walked down from the root, it stays
+        at a node with that node's chance (a hash of index and level)."""
+        tree = self.tree
+        d = tree.depth
+        leaf = tree.key(xyz, np.full(len(xyz), d, dtype=np.int64))
+        out = np.full(len(xyz), -1, dtype=np.int64)
+        h0 = (index.astype(np.uint64) + np.uint64(1)) * np.uint64(0x9E3779B97F4A7C15)
+        for l in range(d + 1):
+            open_ = np.flatnonzero(out < 0)
+            if len(open_) == 0:
+                break
+            k = packed(leaf[open_] >> (d - l), l)
+            at = np.searchsorted(self.keys[l], k)
+            p = self.keep[l][at]
+            h = h0[open_] ^ np.uint64((l + 1) * 0xBF58476D1CE4E5B9 & 0xFFFFFFFFFFFFFFFF)
+            h = (h ^ (h >> np.uint64(31))) * np.uint64(0x94D049BB133111EB)
+            h ^= h >> np.uint64(29)
+            u = (h >> np.uint64(11)).astype(np.float64) / float(1 << 53)
+            out[open_[u < p]] = l
+        assert (out >= 0).all()
+        return out
 
 
 BUCKET = np.dtype([("i", "<u8"), ("xyz", "<i4", 3)])
@@ -175,7 +261,8 @@ def write(src, out):
         imin = np.minimum(imin, xyz.min(axis=0))
         imax = np.maximum(imax, xyz.max(axis=0))
     lo, hi = imin * src.scale + src.offset, imax * src.scale + src.offset
-    tree = Octree(n, src.scale, src.offset, lo, hi)
+    tree = Octree(n, src.scale, src.offset, lo, hi, ADAPTIVE_DEPTH if LEAF else None)
+    adaptive = Adaptive(src, tree) if LEAF else None
 
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     if soft != resource.RLIM_INFINITY and soft < tree.buckets + 64:
@@ -188,7 +275,7 @@ def write(src, out):
         files = [open(os.path.join(tmp, f"{b}"), "wb") for b in range(tree.buckets)]
         for i0, xyz in src.slabs():
             index = np.arange(i0, i0 + len(xyz), dtype=np.int64)
-            level = tree.level(index)
+            level = adaptive.level(index, xyz) if adaptive else tree.level(index)
             b = tree.bucket(level, tree.key(xyz, level)[:, 0])
             order = np.argsort(b, kind="stable")
             recs = np.empty(len(xyz), dtype=BUCKET)
@@ -212,6 +299,8 @@ def write(src, out):
         w = copc.FileWriter(out, cfg)
         nodes = 0
         written = 0
+        biggest = 0
+        deepest = 0
         for l in range(tree.depth + 1):
             for b in range(tree.first[l], tree.first[l] + ((1 << l) >> tree.shift[l])):
                 path = os.path.join(tmp, f"{b}")
@@ -235,11 +324,13 @@ def write(src, out):
                     w.AddNode(copc.VoxelKey(l, kx, ky, kz), copc.VectorChar(r.view(np.int8)))
                     nodes += 1
                     written += e - s
+                    biggest = max(biggest, e - s)
+                    deepest = l
         w.Close()
         assert written == n, (written, n)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    print(f"{out}: {n} points, depth {tree.depth}, {nodes} nodes")
+    print(f"{out}: {n} points, depth {deepest}, {nodes} nodes, at most {biggest} points a node")
 
 
 def main(argv):
