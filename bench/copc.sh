@@ -25,6 +25,9 @@
 #        RUNS  runs per measurement, odd (default 3)
 #        PY    a python with copclib and numpy (default: a venv made in DIR
 #              with `pip install copclib==2.6.3 numpy`)
+#        COPC_LEAF  with SCENE=synth: split octree nodes past this many
+#              points (default 100000; 0: one depth, COPC_MAX_NODE=2000)
+#        COPC_NODE_KEEP  points a split node keeps (default 16384)
 #        BIN   a mapgauge binary to time as it is (default: cargo build
 #              --release, then target/release/mapgauge)
 set -euo pipefail
@@ -53,9 +56,9 @@ case ${SCENE:-random} in
 esac
 if [[ ${SCENE:-random} == synth ]]; then
     scene=$DIR/synth$N
-    leaf=${COPC_LEAF-100000}
+    leaf=${COPC_LEAF:-100000}
     copc=$DIR/synth$N.copc.laz
-    [[ $leaf == 0 ]] || copc=$DIR/synth$N-leaf$leaf.copc.laz
+    [[ $leaf == 0 ]] || copc=$DIR/synth$N-leaf$leaf${COPC_NODE_KEEP:+-keep$COPC_NODE_KEEP}.copc.laz
     [[ -s $scene/map.las ]] || "$BIN" synth --points "$N" --format las --out "$scene" >/dev/null
     # Written under another name first: an interrupted writer leaves no file
     # a later run would take for a whole one (synth renames its own at the end).

@@ -20,18 +20,25 @@ within a node. (The depth counts the whole octree cube: for a flat cloud such
 as the random 400 m x 400 m x 20 m one, whose points fill about 1/20 of the
 cube, nodes hold about ten times MAX_NODE points.)
 
-With COPC_LEAF=N the octree is adaptive instead, as untwine's and PDAL's
-are: a node is split while its subtree holds more than N points (down to
-ADAPTIVE_DEPTH), and a node that is split keeps about COPC_NODE_KEEP (default
-16384, a 128 x 128 grid's worth of a surface) of the points that reach it,
-drawn by a hash of the point's index and the level; a leaf keeps every point
-that reaches it. Dense places go deep in small nodes, sparse ones stay
-shallow, so no node holds more than about N points (PDAL's lone-star COPC,
-written by untwine, has nodes of at most 127 k). The subtree counts come
-from one more pass over the points, binned at ADAPTIVE_DEPTH.
+With COPC_LEAF=N the octree is adaptive instead, split as untwine's and
+PDAL's are: a node is split while its subtree holds more than N points (down
+to ADAPTIVE_DEPTH), and a node that is split keeps about min(N,
+COPC_NODE_KEEP) (default 16384, a 128 x 128 grid's worth of a surface) of
+the points that reach it; a leaf keeps every point that reaches it. Dense
+places go deep in small nodes, sparse ones stay shallow, so no node holds
+more than about N points (PDAL's lone-star COPC, written by untwine, has
+nodes of at most 127 k), save a leaf at ADAPTIVE_DEPTH. Unlike untwine,
+which keeps one point per cell of a grid over the node, the points a node
+keeps are drawn by a hash of the point's index and the level, so coarse
+levels follow the points' density (over-represent a dense strip) rather
+than spreading evenly. The subtree counts come from one more pass over the
+points, binned at ADAPTIVE_DEPTH, holding a count per occupied cell (about
+150 bytes each: a few GB for tens of millions of cells).
 
-Streaming, so memory stays bounded (well under 1 GB at 200 M points): the
-points are read in slabs of CHUNK in input order three times, (1) for the
+Streaming, so memory stays bounded (well under 1 GB at 200 M points with
+the fixed depth; the adaptive mode's counts above come on top): the points
+are read in slabs of CHUNK in input order three times (four when adaptive),
+(1) for the
 bounds, (2) to sort them into temporary bucket files next to OUT, one per
 (level, node x), in input order, and (3) bucket by bucket, to sort each by
 node and hand copclib one node at a time (copclib compresses and writes each
@@ -53,8 +60,8 @@ import copclib as copc
 MAX_NODE = int(os.environ.get("COPC_MAX_NODE", "20000"))
 CHUNK = 4_000_000
 MAX_BUCKETS = 256  # per level: node x columns are grouped beyond this
-LEAF = int(os.environ.get("COPC_LEAF", "0"))
-NODE_KEEP = int(os.environ.get("COPC_NODE_KEEP", "16384"))
+LEAF = int(os.environ.get("COPC_LEAF") or "0")
+NODE_KEEP = min(int(os.environ.get("COPC_NODE_KEEP") or "16384"), LEAF or 1 << 62)
 ADAPTIVE_DEPTH = 10
 
 
@@ -179,8 +186,9 @@ class Adaptive:
         counts = np.empty(0, dtype=np.int64)
         for _, xyz in src.slabs():
             k = packed(tree.key(xyz, np.full(len(xyz), d, dtype=np.int64)), d)
+            k, n = np.unique(k, return_counts=True)
             keys = np.concatenate([keys, k])
-            counts = np.concatenate([counts, np.ones(len(k), dtype=np.int64)])
+            counts = np.concatenate([counts, n])
             keys, inv = np.unique(keys, return_inverse=True)
             counts = np.bincount(inv.ravel(), weights=counts, minlength=len(keys)).astype(np.int64)
         mask = (1 << d) - 1

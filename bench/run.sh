@@ -193,7 +193,7 @@ for N in "${SIZES[@]}"; do
                            COPC_PY=$DIR/venv-copc/bin/python
                            [[ -x $COPC_PY ]] || { python3 -m venv "$DIR/venv-copc" && "$DIR/venv-copc/bin/pip" install --quiet copclib==2.6.3 numpy; } || true
                        fi
-                       "$COPC_PY" "$REPO/bench/copc_write.py" "${FILE[las]}" "${FILE[$f]}" \
+                       COPC_LEAF=0 "$COPC_PY" "$REPO/bench/copc_write.py" "${FILE[las]}" "${FILE[$f]}" \
                            || { rm -f "${FILE[$f]}"; note "copc skipped: copclib (PyPI copclib==2.6.3) could not write it"; } ;;
                 tiles) python3 "$REPO/bench/tiles_write.py" "$S/map.pcd" "${FILE[$f]}" 20 ;;
             esac

@@ -697,7 +697,7 @@ fn surroundings(
     seed: u64,
 ) -> Surroundings {
     let (lo, hi) = shell_of(r, c.rms);
-    let pole = pole_radius(r, c);
+    let pole = pole_radius(v, grid, c, r, up, hi);
     let around: Vec<Vector3<f64>> = grid
         .near(v, &c.centre, hi)
         .filter(|&i| {
@@ -735,23 +735,52 @@ fn surroundings(
 }
 
 /// How far from a candidate's vertical axis, below its centre, the returns
-/// of the pole it stands on may lie: a pole is far thinner than the sphere
-/// (half its radius at most), and the map's range noise scatters the
-/// pole's returns across it, along the rays, by three of its σ more. That σ
-/// is about √2 times the noise across the sphere's surface that the
+/// of the pole it stands on may lie. A survey sphere's pole is far thinner
+/// than the sphere (half its radius at most), and the map's range noise
+/// scatters the pole's returns across it, along the rays, by three of its
+/// σ more: about √2 times the noise across the sphere's surface that the
 /// candidate's residuals show (a cap seen from one side meets the rays at
-/// cos² 1/2 on average). Never wider than the sphere: what stands under it
-/// within its footprint holds it up (a bollard's body is refused by its
-/// own test in [`judge`]). Noise-free, half the radius; at 2 cm of range
-/// noise the whole footprint (a pole's returns 37–50 mm off its axis
-/// under a synth sphere whose radius is 72.5 mm).
-fn pole_radius(r: f64, c: &Candidate) -> f64 {
-    let across = crate::locate::covariance::untruncate(c.rms * c.rms, c.band).sqrt();
-    let along_rays = std::f64::consts::SQRT_2 * across;
+/// cos² 1/2 on average). At 2 cm of noise a 15 mm pole's returns lie up to
+/// 37–50 mm off its axis under a synth sphere of radius 72.5 mm. The wider
+/// reach is granted only when the column under the sphere is such a pole:
+/// the median of its points' distances from the axis within half the
+/// radius. A ball on a thick post (a finial, a ball-topped bollard) has its
+/// post's returns beyond that, and keeps half the radius. Never wider than
+/// the sphere.
+fn pole_radius(
+    v: &[Vector3<f64>],
+    grid: &Grid,
+    c: &Candidate,
+    r: f64,
+    up: &Vector3<f64>,
+    hi: f64,
+) -> f64 {
+    let thin = 0.5 * r;
+    // The column from the sphere's bottom to a little past the shell.
+    let deep = hi + 0.1;
+    let mut across: Vec<f64> = grid
+        .near(v, &c.centre, deep)
+        .filter_map(|i| {
+            let d = v[i] - c.centre;
+            let h = d.dot(up);
+            let a = (d - up * h).norm();
+            (h < -r && h > -deep && a < r).then_some(a)
+        })
+        .collect();
+    if across.len() < 5 {
+        return thin;
+    }
+    let mid = across.len() / 2;
+    let (_, median, _) = across.select_nth_unstable_by(mid, f64::total_cmp);
+    if *median > thin {
+        return thin;
+    }
+    let noise = crate::locate::covariance::untruncate(c.rms * c.rms, c.band).sqrt();
+    let along_rays = std::f64::consts::SQRT_2 * noise;
     if along_rays.is_finite() {
-        (0.5 * r + 3.0 * along_rays).min(r)
+        (thin + 3.0 * along_rays).min(r)
     } else {
-        0.5 * r
+        thin
     }
 }
 
