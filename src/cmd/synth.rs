@@ -90,7 +90,8 @@ pub struct Args {
     /// (i mod count)-th (l, sphere, board; a sphere stands on a pole, 145 mm,
     /// its centre 1.3 m up; a board is a 0.6 m checkerboard on two legs, its
     /// centre 1.2 m up, printed in the intensity of the formats that have
-    /// one: pcd-xyzi, pcd-fastlio, ply-f32, las, laz) [default: l].
+    /// one: pcd-xyzi, pcd-fastlio, pcd-compressed, ply-f32, xyz, las, laz)
+    /// [default: l].
     #[arg(long, value_delimiter = ',')]
     models: Option<Vec<mapgauge::model::ModelKind>>,
 }
@@ -191,6 +192,18 @@ pub fn run(a: Args) -> Result<()> {
         "synth: about {} points, {} targets, seed {}",
         p.points, p.targets, p.seed
     );
+    // A board is told by its print in the intensity: a format without one
+    // writes boards that eval cannot locate (said, not refused: a test of
+    // that very message needs such a map).
+    if p.models.contains(&mapgauge::model::ModelKind::Board) && !a.format.holds_intensity() {
+        eprintln!(
+            "synth: warning: --format {} holds no intensity, where boards print their \
+             squares: eval will find none of them (formats with intensity: pcd-xyzi, \
+             pcd-fastlio, pcd-compressed, ply-f32, xyz, las, laz)",
+            clap::ValueEnum::to_possible_value(&a.format)
+                .map_or("?".into(), |v| v.get_name().to_string())
+        );
+    }
     if a.labels && p.targets > synth::PointLabel::MAX_TARGETS {
         return Err(Error::Param(format!(
             "--labels names at most {} targets, not {}",

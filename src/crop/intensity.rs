@@ -40,9 +40,10 @@ pub fn crops_with_intensity(
         let why = match source {
             MapSource::Points(_) => "a map handed over in memory has no intensity".to_string(),
             MapSource::File(p) => format!(
-                "{} has no intensity mapgauge reads (it reads it from binary PCD, \
-                 PLY, ASCII PCD, LAS, LAZ, COPC, E57, PTS, XYZ/CSV with a header naming \
-                 an intensity column, and tiled maps of those)",
+                "{} has no intensity mapgauge reads: the file holds no intensity field \
+                 (mapgauge reads one from PCD `intensity` or `i`, PLY `intensity` or \
+                 `scalar_intensity`, LAS, LAZ, COPC, E57, PTS, XYZ/CSV with a header \
+                 naming an intensity column, and tiled maps of those)",
                 p.display()
             ),
         };

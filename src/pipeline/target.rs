@@ -640,8 +640,9 @@ fn hand_board_crop(dir: &Path, id: &str) -> Result<super::crops::BoardCrop> {
         let mut r = crate::cloud::open(&p)?;
         if !r.has_intensity() {
             return Ok(Err(format!(
-                "{} has no intensity mapgauge reads (binary PCD, PLY, \
-                 ASCII PCD, LAS, LAZ, COPC, E57, PTS, XYZ/CSV with a header naming one)",
+                "{} has no intensity mapgauge reads: the file holds no intensity field \
+                 (mapgauge reads one from PCD `intensity` or `i`, PLY `intensity` or \
+                 `scalar_intensity`, LAS, LAZ, COPC, E57, PTS, XYZ/CSV with a header naming one)",
                 p.display()
             )));
         }

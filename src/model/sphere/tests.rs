@@ -606,5 +606,8 @@ fn a_noisy_pole_under_a_sphere_is_its_mount_a_thick_post_is_not() {
         standing <= 1 && on_pole + 3 >= alone,
         "{on_pole} located on a pole, {alone} alone; {standing} refused as not standing alone: {refused_pole:?}"
     );
-    assert!(on_post <= 2, "{on_post} of 40 balls on a thick post taken for spheres");
+    assert!(
+        on_post <= 2,
+        "{on_post} of 40 balls on a thick post taken for spheres"
+    );
 }
