@@ -698,13 +698,16 @@ fn surroundings(
 ) -> Surroundings {
     let (lo, hi) = shell_of(r, c.rms);
     let pole = pole_radius(v, grid, c, r, up, hi);
+    // On the pole below the centre (`d` from the centre).
+    let under = |d: &Vector3<f64>| {
+        let h = d.dot(up);
+        h < 0.0 && (d - up * h).norm_squared() < pole * pole
+    };
     let around: Vec<Vector3<f64>> = grid
         .near(v, &c.centre, hi)
         .filter(|&i| {
             let d = v[i] - c.centre;
-            let h = d.dot(up);
-            let mount = h < 0.0 && (d - up * h).norm_squared() < pole * pole;
-            d.norm_squared() > lo * lo && !mount
+            d.norm_squared() > lo * lo && !under(&d)
         })
         .map(|i| v[i])
         .collect();
@@ -721,9 +724,7 @@ fn surroundings(
             let (mut on, mut all) = (0usize, 0usize);
             for i in grid.near(v, &c.centre, far) {
                 let d = v[i] - c.centre;
-                let h = d.dot(up);
-                let under = h < 0.0 && (d - up * h).norm_squared() < pole * pole;
-                if d.norm_squared() > hi * hi && !under {
+                if d.norm_squared() > hi * hi && !under(&d) {
                     all += 1;
                     on += usize::from(m.distance(&d).abs() < tol);
                 }
