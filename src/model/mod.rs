@@ -30,6 +30,11 @@ pub use sphere::{SphereError, SphereFit, SphereParams};
 
 use serde::{Deserialize, Serialize};
 
+/// A model's `not_found` reason names what was refused where the target
+/// should be: of the refused candidates within this distance (m,
+/// horizontally) of the nearest one, the best supported.
+pub(crate) const SAME_PLACE_M: f64 = 1.0;
+
 /// The kind of a surveyed target.
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize,

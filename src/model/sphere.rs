@@ -129,7 +129,7 @@ pub enum SphereError {
         diameter_mm: f64,
         /// Points looked at.
         points: usize,
-        /// The best-supported candidate refused, and why.
+        /// The refused candidate nearest the expected position, and why.
         seen: Option<String>,
     },
 }
@@ -193,16 +193,29 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
     }
     let chosen = choose(&cands, &s.others.iter().map(|q| q - o).collect::<Vec<_>>());
     let Some(best) = chosen else {
-        let seen = cands
+        // What was refused where the sphere should be: of the candidates
+        // within a metre of the nearest one (horizontally, as searched; a 2D
+        // frame leaves heights unfitted), the best supported. The sphere
+        // itself when it was seen and refused; a ground blob metres away has
+        // more points and says nothing of why the sphere failed.
+        let refused: Vec<&Candidate> = cands
             .iter()
             .filter(|c| c.refusal.is_some() && c.inliers.len() >= p.min_points / 2)
+            .collect();
+        let nearest = refused
+            .iter()
+            .map(|c| c.centre.xy().norm())
+            .fold(f64::INFINITY, f64::min);
+        let seen = refused
+            .iter()
+            .filter(|c| c.centre.xy().norm() <= nearest + super::SAME_PLACE_M)
             .max_by_key(|c| c.inliers.len())
             .map(|c| {
                 format!(
                     "{} ({} points, centre {:.2} m from the expected position)",
                     c.refusal.as_deref().unwrap_or(""),
                     c.inliers.len(),
-                    c.centre.norm()
+                    c.centre.xy().norm()
                 )
             });
         return Err(SphereError::NoSphere {

@@ -199,9 +199,12 @@ impl Search<'_> {
 
 /// Keeps a target found again; a target searched again because it was far
 /// from the others and not found near its prediction keeps its failure,
-/// with where it had been found.
+/// with where it had been found. A target missed in both passes keeps the
+/// second's failure: it was searched where the found targets place it, so
+/// its reason (the closest thing seen, and how far) is measured from there,
+/// not from a first guess that may be metres off.
 fn keep_better(slot: &mut TargetRun, r: TargetRun, narrowed: Option<Far>) {
-    if r.outcome.is_ok() {
+    if r.outcome.is_ok() || (narrowed.is_none() && slot.outcome.is_err()) {
         *slot = r;
     } else if let Some((_, error, median, by)) = narrowed
         && let Ok(f) = &slot.outcome

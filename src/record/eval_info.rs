@@ -12,7 +12,9 @@ pub struct TargetDetail {
     pub id: String,
     /// Where the target was looked for (map frame).
     pub expected: [f64; 3],
-    /// Which pass found it (1, or 2 = around the alignment's prediction).
+    /// The pass it comes from: 1, or 2 = searched again around the
+    /// alignment's prediction (found there, or, when not found, the reason
+    /// is from there).
     pub pass: u8,
     /// How far from `expected` it was searched (m, horizontal): the
     /// configured search radius, or less where the other targets placed it

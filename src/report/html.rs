@@ -317,8 +317,13 @@ fn targets_section<'f>(o: &mut String, rep: &Report, figs: impl Iterator<Item = 
                     s[2] * 1000.0
                 ));
             }
-            if d.pass > 1 {
+            if d.pass > 1 && ok {
                 facts.push("found in the second pass".into());
+            } else if d.pass > 1 {
+                facts.push(format!(
+                    "searched again within {:.2} m of where the other targets place it",
+                    d.search_radius_m
+                ));
             } else if d.waited {
                 facts.push(format!(
                     "searched within {:.2} m of where the other targets place it (its crop is dense)",

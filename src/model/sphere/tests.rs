@@ -611,3 +611,33 @@ fn a_noisy_pole_under_a_sphere_is_its_mount_a_thick_post_is_not() {
         "{on_post} of 40 balls on a thick post taken for spheres"
     );
 }
+
+/// A sphere seen too little to be taken, with a bollard's round top 3 m
+/// off holding far more points: the reason names the sphere (the candidate
+/// nearest where it should be), not the bollard.
+#[test]
+fn the_reason_names_the_refused_candidate_nearest_the_expected_place() {
+    let mut rng = Pcg64::seed_from_u64(5);
+    let view = Vector3::new(-1.0, 0.2, 0.05);
+    let mut pts = ground(&mut rng, 5000);
+    pts.extend(cap(&mut rng, Vector3::new(0.1, 0.05, 1.0), R, view, 0.3, 24, 0.001));
+    pts.extend(post(&mut rng, (3.0, 0.5), R, (0.0, 1.0), view, 2000, 0.002));
+    pts.extend(cap(
+        &mut rng,
+        Vector3::new(3.0, 0.5, 1.0),
+        R,
+        Vector3::new(-1.0, 0.2, 1.0),
+        0.3,
+        400,
+        0.002,
+    ));
+    let p = SphereParams::default();
+    match locate(&search(&pts, Point::new(0.0, 0.0, 1.3)), &p) {
+        Err(SphereError::NoSphere { seen: Some(why), .. }) => {
+            assert!(why.contains("fewer than 30"), "{why}");
+            // Horizontal, as searched: the 0.3 m of height is not in it.
+            assert!(why.contains("0.11 m from the expected position"), "{why}");
+        }
+        other => panic!("{other:?}"),
+    }
+}
