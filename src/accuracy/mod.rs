@@ -5,7 +5,9 @@
 //! sentences. `record` turns it into `result.json`, `render` into tables.
 
 mod asprs;
+mod distances;
 pub mod intervals;
+pub(crate) use distances::misfit_by_distances;
 mod iso19157;
 mod scale;
 mod score;
@@ -245,6 +247,19 @@ pub enum Warning {
         /// (error − median) / (1.4826 · MAD) over the scored targets.
         robust_z: f64,
     },
+    /// A target whose distances to the others disagree with the survey's
+    /// (median misfit over 5 × the other pairs' and over
+    /// [`score::BLUNDER_M`]), not flagged as a [`Warning::GrossError`]: a
+    /// blunder of a few decimetres pulls a fit of five targets so far that
+    /// its own error no longer stands out, but its distances need no fit.
+    LayoutMisfit {
+        /// Target id.
+        id: String,
+        /// Median |map distance − survey distance| over its pairs (m).
+        misfit: f64,
+        /// The same median over the pairs without it (m).
+        others: f64,
+    },
     /// Too few scored targets for confidence intervals.
     TooFewForIntervals {
         /// Targets scored.
@@ -259,7 +274,9 @@ impl Warning {
     pub fn weight(&self) -> u8 {
         match self {
             // A gross error, or every 3D number biased by the height datum.
-            Warning::GrossError { .. } | Warning::HeightDatumNotCorrected(_) => 0,
+            Warning::GrossError { .. }
+            | Warning::LayoutMisfit { .. }
+            | Warning::HeightDatumNotCorrected(_) => 0,
             Warning::VerticalNotReported => 3,
             _ => 2,
         }
@@ -309,6 +326,50 @@ mod tests {
 
     fn survey(pts: &[(f64, f64, f64)]) -> Survey {
         Survey::local(pts, true)
+    }
+
+    /// A 20 cm survey blunder among five targets pulls the fit so far that
+    /// its error is no robust outlier (a user's trial: errors 19-159 mm, no
+    /// warning); its distances to the others still single it out. A 3 cm
+    /// one, within what an RTK survey's noise gives a pair, is not called one.
+    #[test]
+    fn a_blunder_among_five_is_flagged_by_its_distances() {
+        let s = survey(&[
+            (0.0, 0.0, 0.0),
+            (24.0, 8.0, 0.0),
+            (47.5, -13.2, 0.0),
+            (75.0, 10.0, 0.0),
+            (100.0, -12.0, 0.0),
+        ]);
+        let jitter = [0.003, -0.004, 0.002, -0.003, 0.004];
+        let run = |blunder: f64| {
+            let est: Vec<Estimate> = s
+                .targets
+                .iter()
+                .zip(jitter)
+                .enumerate()
+                .map(|(i, (t, j))| {
+                    let b = if i == 2 { blunder } else { 0.0 };
+                    Estimate::found(t.id.clone(), t.position + Vector3::new(j + b, -j, 0.0))
+                })
+                .collect();
+            let r = score(&s, &est, &ScoreOptions::default()).unwrap();
+            r.warnings
+                .iter()
+                .filter_map(|w| match w {
+                    Warning::LayoutMisfit { id, misfit, .. } => Some((id.clone(), *misfit)),
+                    Warning::GrossError { id, .. } => Some((format!("gross {id}"), 0.0)),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        let flagged = run(0.2);
+        assert_eq!(flagged.len(), 1, "{flagged:?}");
+        assert_eq!(flagged[0].0, "t3");
+        // The median of its pairs: the blunder along each pair, at most 0.2 m.
+        assert!(flagged[0].1 > 0.1 && flagged[0].1 <= 0.2, "{flagged:?}");
+        assert!(run(0.03).is_empty());
+        assert!(run(0.0).is_empty());
     }
 
     #[test]

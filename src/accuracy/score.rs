@@ -68,12 +68,27 @@ pub fn score_with_covariances(
         warnings.push(Warning::VerticalNotReported);
     }
     let intervals = m.intervals(covariances, opts, !asprs.independent, &mut warnings);
-    warnings.extend(gross_errors(
-        &m.ids,
-        &abs,
-        &residuals,
-        &m.survey_covariances(&al),
-    ));
+    let gross = gross_errors(&m.ids, &abs, &residuals, &m.survey_covariances(&al));
+    // Distances in 3D only where the errors are: a 2D run leaves heights unscored.
+    let d3 = dim == Dim::D3 && all_z;
+    let surveyed: Vec<(Point, bool)> = m.survey.iter().map(|p| (*p, d3)).collect();
+    let misfits = super::misfit_by_distances(&m.map, &surveyed, BLUNDER_M);
+    let flagged = |id: &str| {
+        gross
+            .iter()
+            .any(|w| matches!(w, Warning::GrossError { id: g, .. } if g == id))
+    };
+    let layout: Vec<Warning> = misfits
+        .into_iter()
+        .filter(|&(k, ..)| !flagged(&m.ids[k]))
+        .map(|(k, misfit, others)| Warning::LayoutMisfit {
+            id: m.ids[k].clone(),
+            misfit,
+            others,
+        })
+        .collect();
+    warnings.extend(gross);
+    warnings.extend(layout);
     let scale = layout_scale(
         &m.survey
             .iter()
@@ -401,6 +416,12 @@ fn sigma_hat(aligned: &[Point], survey: &[Point], method: AlignMethod) -> Option
         dof: dof as usize,
     })
 }
+
+/// Least misfit of a target's distances (m) called a blunder: an RTK
+/// survey's ±2 cm (1σ horizontal) puts a pair's distance within ±3 cm, and
+/// a median over its pairs well within it; the misfit must also be over 5 ×
+/// the other pairs' (the map's own distortion at this scale).
+pub(crate) const BLUNDER_M: f64 = 0.05;
 
 /// χ²₂ 99.9 % quantile: −2 ln(0.001).
 const CHI2_2_999: f64 = 13.815_510_557_964_274;

@@ -686,8 +686,7 @@ fn judge(
         return refuse(
             ids.len(),
             format!(
-                "{} points on a flat face, fewer than {}",
-                ids.len(),
+                "a flat face with fewer points than a board needs ({})",
                 p.min_points
             ),
             &at,

@@ -119,7 +119,7 @@ pub enum SphereError {
     },
     /// Nothing round of the surveyed size stood there.
     #[error(
-        "no sphere of {diameter_mm:.0} mm within {radius} m ({points} points looked at){}",
+        "no sphere of {diameter_mm:.0} mm taken within {radius} m ({points} points looked at){}",
         seen.as_ref().map_or(String::new(), |s| format!("; closest thing seen: {s}"))
     )]
     NoSphere {
@@ -168,30 +168,9 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
     }
     thin(&mut local, p.max_points, p.seed);
     let up = s.up.normalize();
-    let tol0 = (0.15 * r).max(0.01);
-    let grid = Grid::new(&local, r + tol0);
-    let hyps = hypotheses(&local, &grid, r, tol0, p.seed);
-    let mut cands: Vec<Candidate> = distinct(hyps, r, CANDIDATES, p.min_points / 2)
-        .into_iter()
-        .map(|c| refine(&local, &grid, c, r, tol0, &up, None))
-        .collect();
-    for c in &mut cands {
-        // A sphere held to a wall or a plate: the mount's points within the
-        // surface's band (a nest holds it 1-2 cm off, within a SLAM map's
-        // noise) would swell its size and pull its centre; the sphere's own
-        // points that near the mount are on its far side, never seen.
-        let mut around = surroundings(&local, &grid, c, r, &up, p.seed);
-        if let Some((m, t)) = around.1 {
-            let wall = crate::geom::plane::Plane {
-                normal: m.normal,
-                offset: m.offset + m.normal.dot(&c.centre),
-            };
-            *c = refine(&local, &grid, c.centre, r, tol0, &up, Some((wall, t)));
-            around = surroundings(&local, &grid, c, r, &up, p.seed);
-        }
-        c.refusal = judge(&local, &grid, c, r, &up, p, around);
-    }
-    let chosen = choose(&cands, &s.others.iter().map(|q| q - o).collect::<Vec<_>>());
+    let (grid, cands) = judged(&local, r, &up, p);
+    let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
+    let chosen = choose(&cands, &others);
     let Some(best) = chosen else {
         // What was refused where the sphere should be: of the candidates
         // within a metre of the nearest one (horizontally, as searched; a 2D
@@ -218,6 +197,13 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
                     c.centre.xy().norm()
                 )
             });
+        // A survey that gives the wrong size (a radius for a diameter, the
+        // other common sphere) leaves the sphere itself unnamed: say so when
+        // one of those sizes stands where this one should.
+        let seen = match other_size(&local, r, &up, p, &others) {
+            Some(hint) => Some(seen.map_or(hint.clone(), |s| format!("{s}; {hint}"))),
+            None => seen,
+        };
         return Err(SphereError::NoSphere {
             radius: p.search_radius_m,
             diameter_mm: 2e3 * r,
@@ -251,6 +237,70 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         candidates: cands.iter().filter(|c| c.refusal.is_none()).count(),
     };
     Ok((fit, near))
+}
+
+/// Steps 1-3 for a sphere of radius `r`: the candidates, each judged
+/// (`refusal` says why it is no sphere of that size), and the grid they
+/// were found on.
+fn judged(
+    local: &[Vector3<f64>],
+    r: f64,
+    up: &Vector3<f64>,
+    p: &SphereParams,
+) -> (Grid, Vec<Candidate>) {
+    let tol0 = (0.15 * r).max(0.01);
+    let grid = Grid::new(local, r + tol0);
+    let hyps = hypotheses(local, &grid, r, tol0, p.seed);
+    let mut cands: Vec<Candidate> = distinct(hyps, r, CANDIDATES, p.min_points / 2)
+        .into_iter()
+        .map(|c| refine(local, &grid, c, r, tol0, up, None))
+        .collect();
+    for c in &mut cands {
+        // A sphere held to a wall or a plate: the mount's points within the
+        // surface's band (a nest holds it 1-2 cm off, within a SLAM map's
+        // noise) would swell its size and pull its centre; the sphere's own
+        // points that near the mount are on its far side, never seen.
+        let mut around = surroundings(local, &grid, c, r, up, p.seed);
+        if let Some((m, t)) = around.1 {
+            let wall = crate::geom::plane::Plane {
+                normal: m.normal,
+                offset: m.offset + m.normal.dot(&c.centre),
+            };
+            *c = refine(local, &grid, c.centre, r, tol0, up, Some((wall, t)));
+            around = surroundings(local, &grid, c, r, up, p.seed);
+        }
+        c.refusal = judge(local, &grid, c, r, up, p, around);
+    }
+    (grid, cands)
+}
+
+/// When no sphere of radius `r` was taken: a sphere of a size a survey
+/// mistakes for it (twice or half it: a radius written for a diameter or
+/// the reverse; the other common sizes, 145 and 200 mm) that would be
+/// taken here, named as a hint. Looked for only on failure, so a survey
+/// of the right size pays nothing for it.
+fn other_size(
+    local: &[Vector3<f64>],
+    r: f64,
+    up: &Vector3<f64>,
+    p: &SphereParams,
+    others: &[Vector3<f64>],
+) -> Option<String> {
+    let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
+    sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
+    sizes.dedup_by(|a, b| (*a - *b).abs() < 0.1 * *b);
+    for other in sizes {
+        let (_, cands) = judged(local, other, up, p);
+        if let Some(i) = choose(&cands, others) {
+            return Some(format!(
+                "a sphere of {:.0} mm stands {:.2} m from the expected position: is the survey's size ({:.0} mm) right?",
+                2e3 * other,
+                cands[i].centre.xy().norm(),
+                2e3 * r
+            ));
+        }
+    }
+    None
 }
 
 /// Keeps at most `max` of `v`, chosen by a hash of each index (uniform,
@@ -589,7 +639,7 @@ fn judge(
     let n = c.inliers.len();
     if n < p.min_points {
         return Some(format!(
-            "a round surface with {n} points, fewer than {}",
+            "a round surface with fewer points than a sphere needs ({})",
             p.min_points
         ));
     }

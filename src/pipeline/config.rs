@@ -252,7 +252,7 @@ impl Config {
             ));
         }
         if self.frame.init.is_none() {
-            unset.push(("frame", "# init = [x, y, yaw_deg]   # unset: the map is in the survey frame (survey = R(yaw)·map + (x, y))"));
+            unset.push(("frame", "# init = [x, y, yaw_deg]   # unset: no guess (mode auto: the survey frame, else detection; survey = R(yaw)·map + (x, y))"));
         }
         if self.frame.hints.is_none() {
             unset.push((
@@ -273,14 +273,23 @@ impl Config {
             ));
             unset.push((
                 "gates",
-                "# statistics: E_abs E_rel max_abs median_abs max_rel E_loo RMSE_H RMSE_V RMSE_3D NSSDA_H NSSDA_V (m), scale_ppm, found (0-1); policy: strict (undecided exits 3), point (values only), report-only",
+                "# statistics: E_abs E_rel max_abs median_abs max_rel E_loo RMSE_H RMSE_V RMSE_3D NSSDA_H NSSDA_V (m), scale_ppm, found (0-1)",
             ));
         }
         let mut out = String::new();
+        let mut section = "";
         for line in text.lines() {
+            // Each key with its line of explanation above it.
+            let key = line.split_once(" = ").map(|(k, _)| k.trim());
+            if let Some(d) = key.and_then(|k| super::config_keys::doc(section, k)) {
+                out.push_str("# ");
+                out.push_str(d);
+                out.push('\n');
+            }
             out.push_str(line);
             out.push('\n');
-            if let Some(section) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            if let Some(s) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+                section = s;
                 for (_, c) in unset.iter().filter(|(s, _)| *s == section) {
                     out.push_str(c);
                     out.push('\n');

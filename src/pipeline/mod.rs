@@ -26,6 +26,7 @@
 //! ```
 
 mod config;
+mod config_keys;
 mod crops;
 mod detail;
 mod diagnosis;
@@ -96,6 +97,9 @@ pub struct Evaluation {
     /// How close two copies of a target (a seam) may be and still be seen
     /// in this map; `None` with fewer than three targets located.
     pub doubling: Option<crate::locate::DoublingLimit>,
+    /// Every parameter the run used (result.json echoes it, so a result
+    /// says what produced it even without its report).
+    pub config: Config,
 }
 
 /// Points the levelling's ground pass reads of a bigger map by default

@@ -402,6 +402,7 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
             footprint,
             doubling,
             frame,
+            config: cfg.clone(),
         })
     }
 }

@@ -125,6 +125,11 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             error * 1000.0,
             sigma * 1000.0
         ),
+        Warning::LayoutMisfit { id, misfit, others } => format!(
+            "target {id}: its distances to the other targets differ from the survey's by {:.0} mm (median), the other pairs' by {:.0} mm: a gross error? (survey blunder, wrong corner, or the map distorted there; check it, or drop it from the survey)",
+            misfit * 1000.0,
+            others * 1000.0
+        ),
         Warning::TooFewForIntervals { n } => format!(
             "only {n} target(s) scored: no confidence intervals (need at least {})",
             accuracy::intervals::MIN_TARGETS

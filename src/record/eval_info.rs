@@ -254,6 +254,12 @@ pub struct EvalInfo {
     /// targets located.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub doubling: Option<crate::locate::DoublingLimit>,
+    /// Every parameter of the run, keyed as `eval --print-config` prints
+    /// them (a setting left unset is `null`), so a result without its
+    /// report still says what produced it. Absent in files of older
+    /// versions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub config: Option<serde_json::Value>,
 }
 
 impl EvalInfo {
@@ -284,6 +290,7 @@ impl EvalInfo {
             frame: frame_info(&ev.frame),
             reads: ev.reads.clone(),
             doubling: ev.doubling,
+            config: serde_json::to_value(&ev.config).ok(),
         }
     }
 }

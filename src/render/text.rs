@@ -106,6 +106,25 @@ fn headline(o: &mut String, r: &ResultFile) {
         mm(r.relative.std),
         r.relative.n
     );
+    // With roles, E_abs and E_rel stay the paper's (every target fitted);
+    // the check targets' errors under the control targets' own fit are
+    // the independent ones, and say so before the figures drawn from them.
+    if let Some(c) = &r.control_check {
+        let _ = writeln!(
+            o,
+            "  check  {:>7} mm   mean over {} check targets ({}), max {} mm, under a fit on the {} control targets alone",
+            mm(c.check.summary.mean),
+            c.check.summary.n,
+            c.check
+                .targets
+                .iter()
+                .map(|t| t.id.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            mm(c.check.summary.max),
+            c.control.len()
+        );
+    }
     let _ = writeln!(
         o,
         "  RMSE_H {:>7} mm   NSSDA 95 % horizontal {} mm ({} checkpoints{})",
@@ -113,7 +132,7 @@ fn headline(o: &mut String, r: &ResultFile) {
         mm(r.asprs.nssda_horizontal_95),
         r.asprs.n_checkpoints,
         if r.asprs.independent {
-            ""
+            ", not used to fit"
         } else {
             ", also used to fit"
         }

@@ -43,6 +43,10 @@ pub enum Role {
     Check,
 }
 
+/// Longest `antenna_height` taken (m, either way): survey poles are 2 m,
+/// extended 5 m at most.
+pub const MAX_ANTENNA_M: f64 = 5.0;
+
 /// One surveyed target.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SurveyTarget {
@@ -54,7 +58,8 @@ pub struct SurveyTarget {
     pub has_z: bool,
     /// Control or check, when the survey says.
     pub role: Option<Role>,
-    /// Metres from the antenna down to the target's reference height (0 if absent).
+    /// Metres from the antenna down to the target's reference height (0 if
+    /// absent; at most [`MAX_ANTENNA_M`] either way).
     pub antenna_height: f64,
     /// What the target is (the `model` column; the L when absent).
     pub model: crate::model::ModelKind,
@@ -310,6 +315,17 @@ impl Columns {
             let antenna_height = t
                 .opt_number(line, rec, self.antenna, "antenna_height")?
                 .unwrap_or(0.0);
+            // A survey pole is a few metres at most: more is another unit
+            // (42 for 0.42 m), and would put every height that far off.
+            if antenna_height.abs() > MAX_ANTENNA_M {
+                return Err(Error::table(
+                    path,
+                    line,
+                    format!(
+                        "antenna_height {antenna_height} is more than {MAX_ANTENNA_M} m: is it in centimetres or millimetres? (metres from the surveyed point down to the target's reference height)"
+                    ),
+                ));
+            }
             let (model, size) = self.model_and_size(t, path, line, rec)?;
             targets.push(SurveyTarget {
                 id,

@@ -80,6 +80,17 @@ fn local_survey_with_comments_roles_and_antenna() {
     assert!(s.has_z());
 }
 
+/// 42 where 0.42 m was meant would put that target's height 41.6 m off:
+/// refused with its line, as a size out of range is.
+#[test]
+fn an_antenna_height_in_centimetres_is_refused_with_its_line() {
+    let f = file("id,x,y,z,antenna_height\nT1,0,0,1,0.42\nT2,10,0,1,42\n");
+    let e = read_survey(f.path(), &SurveyOptions::default()).unwrap_err().to_string();
+    assert!(e.contains(":3") && e.contains("antenna_height 42") && e.contains("centimetres"), "{e}");
+    let f = file("id,x,y,z,antenna_height\nT1,0,0,1,-0.3\nT2,10,0,1,2.5\n");
+    assert!(read_survey(f.path(), &SurveyOptions::default()).is_ok());
+}
+
 #[test]
 fn geodetic_survey_about_first_target_and_given_origin() {
     let f = file("id,lat,lon,alt\na,36.0,127.0,50\nb,36.001,127.0,51\n");

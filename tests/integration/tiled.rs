@@ -136,6 +136,9 @@ fn a_sampled_ground_pass_reads_part_of_the_map_and_changes_nothing() {
     let without = |out: &Path| {
         let mut v: serde_json::Value = serde_json::from_str(&result_without_map(out)).unwrap();
         v["eval"].as_object_mut().unwrap().remove("map_points");
+        // The echoed configuration differs by the setting under test.
+        let cfg = v["eval"].as_object_mut().unwrap().remove("config").unwrap();
+        assert!(cfg["frame"]["ground_sample"].as_u64().is_some());
         let lev = v["eval"]["frame"]["levelling"].as_object_mut().unwrap();
         let ground = [
             "ground_tilt_deg",
