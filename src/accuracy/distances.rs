@@ -218,7 +218,10 @@ mod tests {
     fn a_right_map_or_a_scaled_one_condemns_nothing() {
         for scale in [1.0, 0.9996, 1.003] {
             let (map, survey) = scene(scale, None);
-            assert!(misfit_by_distances(&map, &survey, WRONG).is_empty(), "{scale}");
+            assert!(
+                misfit_by_distances(&map, &survey, WRONG).is_empty(),
+                "{scale}"
+            );
         }
     }
 }

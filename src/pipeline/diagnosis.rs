@@ -238,11 +238,17 @@ fn remedy(
             .iter()
             .all(|r| r.outcome.is_ok() || matches!(r.outcome, Err(Failure::HandCrop(_))))
     {
+        // The guess given places too few targets: say so, not "give one".
+        let init_hint = cfg.frame.init.as_ref().map(|i| format!(
+            ". The --init given ({}, {}, {}°) puts the surveyed targets where the map shows too few of them: check its convention (survey = R(yaw)·map + (x, y): x, y the map origin's survey position, yaw the map's +x axis from the survey's, anticlockwise), or run without it (eval then looks for the targets map-wide)",
+            i.x, i.y, i.yaw_deg
+        ));
         match (survey.frame, survey.origin) {
             (crate::survey::SurveyFrame::Wgs84Enu, Some(o)) => format!(
                 ". The survey is WGS84, placed in a local east-north-up frame about {:.7}, {:.7}; if the map's origin is elsewhere, give --origin LAT,LON[,ALT] of the map's origin (and --init x,y,yaw_deg if its axes are not east and north)",
                 o.lat, o.lon
             ),
+            _ if init_hint.is_some() => init_hint.unwrap_or_default(),
             // Told to look in the survey frame only: detection never ran.
             _ if cfg.frame.mode == config::FrameMode::Survey => ". Is the map in the survey frame? If not, run without --frame survey (eval then looks for the targets map-wide) or give --init x,y,yaw_deg".into(),
             _ => ". Is the map in the survey frame? If not, give --init x,y,yaw_deg".into(),

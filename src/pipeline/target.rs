@@ -171,7 +171,7 @@ impl std::fmt::Display for Failure {
                 }
                 if *searched {
                     f.write_str(
-                        ", and nothing target-shaped stands where they place it: not this target",
+                        ", and nothing target-shaped stands where they place it: not this target, or its survey row is that far off (check the row's position and id)",
                     )
                 } else {
                     f.write_str(": not this target, or a map or survey error (it was not searched for where they place it; with hand crops, check this target's crop)")

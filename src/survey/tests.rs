@@ -85,8 +85,13 @@ fn local_survey_with_comments_roles_and_antenna() {
 #[test]
 fn an_antenna_height_in_centimetres_is_refused_with_its_line() {
     let f = file("id,x,y,z,antenna_height\nT1,0,0,1,0.42\nT2,10,0,1,42\n");
-    let e = read_survey(f.path(), &SurveyOptions::default()).unwrap_err().to_string();
-    assert!(e.contains(":3") && e.contains("antenna_height 42") && e.contains("centimetres"), "{e}");
+    let e = read_survey(f.path(), &SurveyOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(":3") && e.contains("antenna_height 42") && e.contains("centimetres"),
+        "{e}"
+    );
     let f = file("id,x,y,z,antenna_height\nT1,0,0,1,-0.3\nT2,10,0,1,2.5\n");
     assert!(read_survey(f.path(), &SurveyOptions::default()).is_ok());
 }

@@ -951,3 +951,15 @@ fn the_summary_ranks_its_warnings_and_folds_the_stock_ones() {
     );
     assert!(out.contains("Relative error (mm, 2D)") && out.contains("Absolute error (mm, 2D)"));
 }
+
+/// A user's trial: an `--init` with its yaw's sign flipped placed no
+/// target, and the message advised giving `--init`. It now names the one
+/// given and its convention.
+#[test]
+fn a_wrong_init_is_named_not_asked_for() {
+    let d = tempdir();
+    let (map, survey) = scene(d.path());
+    let e = eval_refused(&map, &survey, &["--init", "500,0,90", "--frame", "survey"]);
+    assert!(e.contains("The --init given (500, 0, 90°)"), "{e}");
+    assert!(!e.contains("If not, give --init"), "{e}");
+}

@@ -620,7 +620,15 @@ fn the_reason_names_the_refused_candidate_nearest_the_expected_place() {
     let mut rng = Pcg64::seed_from_u64(5);
     let view = Vector3::new(-1.0, 0.2, 0.05);
     let mut pts = ground(&mut rng, 5000);
-    pts.extend(cap(&mut rng, Vector3::new(0.1, 0.05, 1.0), R, view, 0.3, 24, 0.001));
+    pts.extend(cap(
+        &mut rng,
+        Vector3::new(0.1, 0.05, 1.0),
+        R,
+        view,
+        0.3,
+        24,
+        0.001,
+    ));
     pts.extend(post(&mut rng, (3.0, 0.5), R, (0.0, 1.0), view, 2000, 0.002));
     pts.extend(cap(
         &mut rng,
@@ -633,8 +641,13 @@ fn the_reason_names_the_refused_candidate_nearest_the_expected_place() {
     ));
     let p = SphereParams::default();
     match locate(&search(&pts, Point::new(0.0, 0.0, 1.3)), &p) {
-        Err(SphereError::NoSphere { seen: Some(why), .. }) => {
-            assert!(why.contains("fewer points than a sphere needs (30)"), "{why}");
+        Err(SphereError::NoSphere {
+            seen: Some(why), ..
+        }) => {
+            assert!(
+                why.contains("fewer points than a sphere needs (30)"),
+                "{why}"
+            );
             // Horizontal, as searched: the 0.3 m of height is not in it.
             assert!(why.contains("0.11 m from the expected position"), "{why}");
         }
@@ -650,14 +663,32 @@ fn a_sphere_surveyed_at_half_its_size_is_named_with_its_size() {
     let mut rng = Pcg64::seed_from_u64(9);
     let view = Vector3::new(-1.0, 0.2, 0.05);
     let mut pts = ground(&mut rng, 5000);
-    pts.extend(cap(&mut rng, Vector3::new(0.1, 0.05, 1.0), R, view, 0.3, 300, 0.002));
-    pts.extend(post(&mut rng, (0.1, 0.05), 0.01, (0.0, 1.0 - R), view, 100, 0.002));
+    pts.extend(cap(
+        &mut rng,
+        Vector3::new(0.1, 0.05, 1.0),
+        R,
+        view,
+        0.3,
+        300,
+        0.002,
+    ));
+    pts.extend(post(
+        &mut rng,
+        (0.1, 0.05),
+        0.01,
+        (0.0, 1.0 - R),
+        view,
+        100,
+        0.002,
+    ));
     let s = Search {
         radius: 0.5 * R,
         ..search(&pts, Point::new(0.0, 0.0, 1.0))
     };
     match locate(&s, &SphereParams::default()) {
-        Err(SphereError::NoSphere { seen: Some(why), .. }) => {
+        Err(SphereError::NoSphere {
+            seen: Some(why), ..
+        }) => {
             assert!(why.contains("a sphere of 145 mm stands 0.11 m"), "{why}");
             assert!(why.contains("survey's size (72 mm)"), "{why}");
         }
