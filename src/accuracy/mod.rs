@@ -249,9 +249,11 @@ pub enum Warning {
     },
     /// A target whose distances to the others disagree with the survey's
     /// (median misfit over 5 × the other pairs' and over
-    /// [`score::BLUNDER_M`]), not flagged as a [`Warning::GrossError`]: a
-    /// blunder of a few decimetres pulls a fit of five targets so far that
-    /// its own error no longer stands out, but its distances need no fit.
+    /// [`score::BLUNDER_M`]; five targets or more), not flagged as a
+    /// [`Warning::GrossError`]: a blunder of a few decimetres pulls a fit of
+    /// five targets so far that its own error no longer stands out, but its
+    /// distances need no fit. A warning only: it cannot tell a survey typo
+    /// from the map distorted there, so `--exclude-outliers` keeps it.
     LayoutMisfit {
         /// Target id.
         id: String,

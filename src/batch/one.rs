@@ -123,9 +123,7 @@ fn evaluate_or_reuse(run: &Run, dir: &Path) -> Result<(Status, ResultFile)> {
             .iter()
             .map(|f| (f.role.clone(), f.blake3.clone()))
             .collect(),
-        config: blake3::hash(run.config.to_toml().as_bytes())
-            .to_hex()
-            .to_string(),
+        config: run.config.settings_hash(),
         result: String::new(),
     };
     if let Some(r) = reusable(dir, &made) {

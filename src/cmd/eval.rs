@@ -335,10 +335,7 @@ fn provenance(cfg: &Config, hashed: Option<&HashedInputs>) -> String {
         let gates: Vec<String> = cfg.gates.checks.iter().map(|g| g.to_string()).collect();
         line += &format!(", gates {} ({})", gates.join(" "), cfg.gates.policy.name());
     }
-    // Of the settings alone: the printed file's explanations may be
-    // reworded without the hash of the same settings changing.
-    let settings = toml::to_string(cfg).unwrap_or_default();
-    let whole = blake3::hash(settings.as_bytes()).to_hex();
+    let whole = cfg.settings_hash();
     line += &format!(", config blake3:{}", &whole[..16]);
     match hashed {
         Some(h) => {

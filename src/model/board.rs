@@ -150,7 +150,8 @@ pub enum BoardError {
         side_mm: f64,
         /// Points looked at.
         points: usize,
-        /// The refused candidate nearest the expected position, and why.
+        /// What was refused where the board should be (of the faces within
+        /// [`super::SAME_PLACE_M`] of the nearest, the best supported), and why.
         seen: Option<String>,
     },
 }

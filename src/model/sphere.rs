@@ -129,7 +129,9 @@ pub enum SphereError {
         diameter_mm: f64,
         /// Points looked at.
         points: usize,
-        /// The refused candidate nearest the expected position, and why.
+        /// What was refused where the sphere should be (of the candidates
+        /// within [`super::SAME_PLACE_M`] of the nearest, the best
+        /// supported), and why; a sphere of another size standing there.
         seen: Option<String>,
     },
 }
@@ -288,6 +290,7 @@ fn other_size(
 ) -> Option<String> {
     let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
     sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
+    sizes.sort_by(f64::total_cmp);
     sizes.dedup_by(|a, b| (*a - *b).abs() < 0.1 * *b);
     for other in sizes {
         let (_, cands) = judged(local, other, up, p);

@@ -226,6 +226,14 @@ impl Config {
         self.metrics.validate()?;
         self.frame.validate()
     }
+    /// BLAKE3 (hex) of the settings alone, without `to_toml`'s
+    /// explanations: rewording those changes no run's identity (the
+    /// provenance line, batch's reuse of a finished run).
+    pub fn settings_hash(&self) -> String {
+        let settings = toml::to_string(self).unwrap_or_default();
+        blake3::hash(settings.as_bytes()).to_hex().to_string()
+    }
+
     /// The configuration as TOML, every default written out.
     /// Settings left unset (TOML has no null) appear as comments that say
     /// what unset means.

@@ -240,8 +240,9 @@ fn remedy(
     {
         // The guess given places too few targets: say so, not "give one".
         let init_hint = cfg.frame.init.as_ref().map(|i| format!(
-            ". The --init given ({}, {}, {}°) puts the surveyed targets where the map shows too few of them: check its convention (survey = R(yaw)·map + (x, y): x, y the map origin's survey position, yaw the map's +x axis from the survey's, anticlockwise), or run without it (eval then looks for the targets map-wide)",
-            i.x, i.y, i.yaw_deg
+            ". The --init given ({}, {}, {}°) puts the surveyed targets where the map shows too few of them: check its convention (survey = R(yaw)·map + (x, y): x, y the map origin's survey position, yaw the map's +x axis from the survey's, anticlockwise), or run without it{} (eval then looks for the targets map-wide)",
+            i.x, i.y, i.yaw_deg,
+            if cfg.frame.mode == config::FrameMode::Survey { " and without --frame survey" } else { "" }
         ));
         match (survey.frame, survey.origin) {
             (crate::survey::SurveyFrame::Wgs84Enu, Some(o)) => format!(

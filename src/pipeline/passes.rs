@@ -204,7 +204,17 @@ impl Search<'_> {
 /// its reason (the closest thing seen, and how far) is measured from there,
 /// not from a first guess that may be metres off.
 fn keep_better(slot: &mut TargetRun, r: TargetRun, narrowed: Option<Far>) {
-    if r.outcome.is_ok() || (narrowed.is_none() && slot.outcome.is_err()) {
+    // Only a search's failure gives way: an object condemned (far from the
+    // others, another's, doubled) keeps its verdict and where it stood.
+    let searched_only = matches!(
+        slot.outcome,
+        Err(target::Failure::NoLoosePoints
+            | target::Failure::Tight(_)
+            | target::Failure::Locate(_)
+            | target::Failure::Sphere(_)
+            | target::Failure::Board(_))
+    );
+    if r.outcome.is_ok() || (narrowed.is_none() && searched_only) {
         *slot = r;
     } else if let Some((_, error, median, by)) = narrowed
         && let Ok(f) = &slot.outcome

@@ -123,14 +123,7 @@ pub(super) fn score(
                         error * 1e3
                     ),
                 )),
-                accuracy::Warning::LayoutMisfit { id, misfit, others } => Some((
-                    id.clone(),
-                    format!(
-                        "excluded as a gross error (--exclude-outliers): distances to the others off by {:.0} mm (median), the other pairs' by {:.0} mm",
-                        misfit * 1e3,
-                        others * 1e3
-                    ),
-                )),
+
                 _ => None,
             })
             .collect();

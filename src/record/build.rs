@@ -126,7 +126,7 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             sigma * 1000.0
         ),
         Warning::LayoutMisfit { id, misfit, others } => format!(
-            "target {id}: its distances to the other targets differ from the survey's by {:.0} mm (median), the other pairs' by {:.0} mm: a gross error? (survey blunder, wrong corner, or the map distorted there; check it, or drop it from the survey)",
+            "target {id}: its distances to the other targets differ from the survey's by {:.0} mm (median), the other pairs' by {:.0} mm: a survey blunder or a wrong corner? (or the map distorted there; check its survey row and its panel)",
             misfit * 1000.0,
             others * 1000.0
         ),
