@@ -429,8 +429,9 @@ fn sigma_hat(aligned: &[Point], survey: &[Point], method: AlignMethod) -> Option
 /// An RTK survey's ±2 cm and a SLAM map's ±2 cm per axis put a pair's
 /// distance within ±4 cm (1σ): a Monte Carlo of 5-8 targets over 100 m
 /// named a target with no blunder 0.0-0.4 % of the time at 2 cm per axis,
-/// 0.5-2.7 % at 3 cm (at 5 cm it had been 2-7 % at 2 cm), and found a 20 cm
-/// blunder 56-75 % of the time at 2 cm, 62-80 % at 0.5 cm. A warning only:
+/// 0.5-2.9 % at 3 cm (at 5 cm it had been 2-7 % at 2 cm), and found a 20 cm
+/// blunder 56-70 % of the time at 2 cm, 59-78 % at 0.5 cm
+/// (`bench/blunder_mc.py`). A warning only:
 /// `--exclude-outliers` leaves out what the covariance test names.
 pub(crate) const BLUNDER_M: f64 = 0.10;
 

@@ -314,21 +314,11 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     }
     let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
     let Some(best) = choose(&cands, &others) else {
-        // What was refused where the board should be: the best supported
-        // face within a metre of the nearest one (a wall metres away has
-        // more points, and says nothing of the board).
-        let nearest = refused
-            .iter()
-            .filter(|r| r.0 >= p.min_points / 2)
-            .map(|r| r.2)
-            .fold(f64::INFINITY, f64::min);
-        let seen = refused
-            .iter()
-            .filter(|r| r.0 >= p.min_points / 2 && r.2 <= nearest + super::SAME_PLACE_M)
-            .max_by_key(|r| r.0)
-            .map(|(n, why, at)| {
-                format!("{why} ({n} points, {at:.2} m from the expected position)")
-            });
+        let refused: Vec<&(usize, String, f64)> =
+            refused.iter().filter(|r| r.0 >= p.min_points / 2).collect();
+        let seen = super::at_same_place(&refused, |r| r.2, |r| r.0).map(|(n, why, at)| {
+            format!("{why} ({n} points, {at:.2} m from the expected position)")
+        });
         return Err(BoardError::NoBoard {
             radius: p.search_radius_m,
             side_mm: side * 1e3,

@@ -35,6 +35,23 @@ use serde::{Deserialize, Serialize};
 /// horizontally) of the nearest one, the best supported.
 pub(crate) const SAME_PLACE_M: f64 = 1.0;
 
+/// What a `not_found` reason names of `refused`: of those within
+/// [`SAME_PLACE_M`] of the nearest (`from`: horizontal distance from the
+/// expected position), the best supported. The target itself when it was
+/// seen and refused; a ground blob metres away has more points and says
+/// nothing of why the target failed.
+pub(crate) fn at_same_place<T>(
+    refused: &[T],
+    from: impl Fn(&T) -> f64,
+    support: impl Fn(&T) -> usize,
+) -> Option<&T> {
+    let nearest = refused.iter().map(&from).fold(f64::INFINITY, f64::min);
+    refused
+        .iter()
+        .filter(|r| from(r) <= nearest + SAME_PLACE_M)
+        .max_by_key(|r| support(r))
+}
+
 /// The kind of a surveyed target.
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize,

@@ -174,23 +174,12 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
     let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
     let chosen = choose(&cands, &others);
     let Some(best) = chosen else {
-        // What was refused where the sphere should be: of the candidates
-        // within a metre of the nearest one (horizontally, as searched; a 2D
-        // frame leaves heights unfitted), the best supported. The sphere
-        // itself when it was seen and refused; a ground blob metres away has
-        // more points and says nothing of why the sphere failed.
+        // Horizontally, as searched: a 2D frame leaves heights unfitted.
         let refused: Vec<&Candidate> = cands
             .iter()
             .filter(|c| c.refusal.is_some() && c.inliers.len() >= p.min_points / 2)
             .collect();
-        let nearest = refused
-            .iter()
-            .map(|c| c.centre.xy().norm())
-            .fold(f64::INFINITY, f64::min);
-        let seen = refused
-            .iter()
-            .filter(|c| c.centre.xy().norm() <= nearest + super::SAME_PLACE_M)
-            .max_by_key(|c| c.inliers.len())
+        let seen = super::at_same_place(&refused, |c| c.centre.xy().norm(), |c| c.inliers.len())
             .map(|c| {
                 format!(
                     "{} ({} points, centre {:.2} m from the expected position)",
@@ -202,9 +191,9 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         // A survey that gives the wrong size (a radius for a diameter, the
         // other common sphere) leaves the sphere itself unnamed: say so when
         // one of those sizes stands where this one should.
-        let seen = match other_size(&local, r, &up, p, &others) {
-            Some(hint) => Some(seen.map_or(hint.clone(), |s| format!("{s}; {hint}"))),
-            None => seen,
+        let seen = match (seen, other_size(&local, r, &up, p, &others)) {
+            (Some(s), Some(hint)) => Some(format!("{s}; {hint}")),
+            (s, hint) => s.or(hint),
         };
         return Err(SphereError::NoSphere {
             radius: p.search_radius_m,
