@@ -276,7 +276,11 @@ pub(super) fn detect_and_match(
         kinds: &kinds,
         has_z: survey.has_z(),
         params: &params,
+        wgs84_origin: (survey.frame == crate::survey::SurveyFrame::Wgs84Enu)
+            .then_some(survey.origin)
+            .flatten(),
     };
+    survey_xy.not_latlon_swapped(&m)?;
     survey_xy.not_swapped(&m)?;
     survey_xy.in_metres(&m)?;
     let m = m.map_err(|why| NoFrame::NotMatched {
@@ -313,9 +317,54 @@ struct SurveyXy<'a> {
     kinds: &'a [ModelKind],
     has_z: bool,
     params: &'a MatchParams,
+    /// The ENU origin of a survey read as latitude, longitude.
+    wgs84_origin: Option<crate::survey::Geodetic>,
 }
 
 impl SurveyXy<'_> {
+    /// A survey of latitude and longitude in each other's columns is not
+    /// the map's mirror image alone: a degree of longitude is cos(latitude)
+    /// of one of latitude, so the mirror is stretched one way (1.5× at 48°)
+    /// and the plain exchange of x and y misses it. Its positions are read
+    /// back to degrees, exchanged and projected again.
+    fn not_latlon_swapped(
+        &self,
+        m: &std::result::Result<FrameMatch, MatchError>,
+    ) -> std::result::Result<(), NoFrame> {
+        let Some(o) = self.wgs84_origin else {
+            return Ok(());
+        };
+        let swap = |g: crate::survey::Geodetic| crate::survey::Geodetic {
+            lat: g.lon,
+            lon: g.lat,
+            alt: g.alt,
+        };
+        let o2 = swap(o);
+        if !(o2.lat.abs() < 90.0) {
+            return Ok(());
+        }
+        let exchanged: Vec<Point> = self
+            .sur
+            .iter()
+            .map(|p| o2.enu_of(&swap(o.geodetic_of(p))))
+            .collect();
+        let Ok(mm) = match_frame(self.cands, &exchanged, self.kinds, self.has_z, self.params)
+        else {
+            return Ok(());
+        };
+        let given = matched_as_given(m);
+        if mm.matches.len() > given {
+            return Err(NoFrame::Failed(Error::Input(format!(
+                "the survey's latitude and longitude look swapped: read the other way round, {} of its {} targets fall on targets detected in the map (rms {:.0} mm); as written, {}. Check the order of the survey's columns (id,lat,lon: latitude first) and run again",
+                mm.matches.len(),
+                self.sur.len(),
+                mm.rms * 1e3,
+                as_written(given)
+            ))));
+        }
+        Ok(())
+    }
+
     /// A survey with x and y exchanged is the map's mirror image: no rigid
     /// motion fits it, though a few targets may happen to fit one (an
     /// isosceles three of them does). Its mirror fitting more is the mistake.
@@ -330,10 +379,11 @@ impl SurveyXy<'_> {
         let given = matched_as_given(m);
         if mm.matches.len() > given {
             return Err(NoFrame::Failed(Error::Input(format!(
-                "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. Check the order of the survey's columns (id,x,y: x east, y north) and run again",
+                "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm); as written, {}. Check the order of the survey's columns (id,x,y: x east, y north) and run again",
                 mm.matches.len(),
                 self.sur.len(),
-                mm.rms * 1e3
+                mm.rms * 1e3,
+                as_written(given)
             ))));
         }
         Ok(())
@@ -366,14 +416,25 @@ impl SurveyXy<'_> {
                 && sm.matches.len() > given
             {
                 return Err(NoFrame::Failed(Error::Input(format!(
-                    "the survey looks {what}: scaled by {factor}, {} of its {} targets fall on targets detected in the map (rms {:.0} mm), against {given} as given. mapgauge reads both files in metres: convert the survey, or the map (`mapgauge convert --scale`), and run again",
+                    "the survey looks {what}: scaled by {factor}, {} of its {} targets fall on targets detected in the map (rms {:.0} mm); as written, {}. mapgauge reads both files in metres: convert the survey, or the map (`mapgauge convert --scale`), and run again",
                     sm.matches.len(),
                     sur.len(),
-                    sm.rms * 1e3
+                    sm.rms * 1e3,
+                    as_written(given)
                 ))));
             }
         }
         Ok(())
+    }
+}
+
+/// How many targets the survey as written put on detections, in words.
+fn as_written(n: usize) -> String {
+    match n {
+        0 => "none does".into(),
+        1 => "only 1 does (no frame is fitted on fewer than 3)".into(),
+        2 => "only 2 do (no frame is fitted on fewer than 3)".into(),
+        n => format!("only {n} do"),
     }
 }
 

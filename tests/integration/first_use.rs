@@ -575,6 +575,42 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
     assert!(stderr(&bad).contains("--scale 0"), "{}", stderr(&bad));
 }
 
+/// A survey of latitude and longitude in each other's columns, at a
+/// latitude where both read as valid (48° N, 11° E): the mirror is stretched
+/// 1.5× one way, so the x/y exchange did not see it and the user was told
+/// the map might be in another frame. It is named; the same survey written
+/// the right way round is scored.
+#[test]
+fn a_survey_with_latitude_and_longitude_swapped_is_named() {
+    let dir = tempdir();
+    let cfg = dir.path().join("munich.toml");
+    std::fs::write(&cfg, "origin_llh = [48.137, 11.575, 520.0]\n").unwrap();
+    let scene = dir.path().join("scene");
+    stdout_ok(
+        bin()
+            .args(["synth", "--points", "1000000", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&scene),
+    );
+    let map = scene.join("map.ply");
+    let sw = dir.path().join("swapped_llh.csv");
+    edit_survey(&scene.join("survey_llh.csv"), &sw, |f| f.swap(1, 2));
+    let e = eval_refused(&map, &sw, &[]);
+    assert!(
+        e.contains("the survey's latitude and longitude look swapped: read the other way round, 5 of its 5 targets")
+            && e.contains("as written, only"),
+        "{e}"
+    );
+    stdout_ok(
+        bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(&map)
+            .arg("--survey")
+            .arg(scene.join("survey_llh.csv")),
+    );
+}
+
 /// Issue 31: a survey with x and y swapped is the map's mirror image. It was
 /// scored on the three targets (an isosceles three) that a rotation happened
 /// to fit, as if nothing were wrong; it is refused, naming the mistake. A
