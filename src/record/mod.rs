@@ -350,6 +350,18 @@ fn local() -> SurveyFrame {
 }
 
 impl ResultFile {
+    /// Targets the map showed (scored, or excluded as a gross error: it
+    /// was found, and its error judged), and of them the excluded.
+    pub fn found(&self) -> (usize, usize) {
+        let excluded = self
+            .targets
+            .iter()
+            .filter(|t| t.status == "excluded")
+            .count();
+        let ok = self.targets.iter().filter(|t| t.status == "ok").count();
+        (ok + excluded, excluded)
+    }
+
     /// Every caveat of the result, signal first: the ranked warnings (what
     /// may make a number wrong leads), then the accuracy standard's stock
     /// ones (NSSDA/ASPRS), as the report lists them (eval's terminal summary

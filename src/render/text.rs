@@ -81,11 +81,16 @@ pub fn render_text(r: &ResultFile, verbose: bool) -> String {
 fn headline(o: &mut String, r: &ResultFile) {
     let dim = r.dim.label();
     let n = r.targets.len();
-    let found = r.targets.iter().filter(|t| t.status == "ok").count();
+    let (found, excluded) = r.found();
     let a = &r.alignment;
+    let apart = match excluded {
+        0 => String::new(),
+        1 => " (1 excluded as a gross error)".into(),
+        k => format!(" ({k} excluded as gross errors)"),
+    };
     let _ = writeln!(
         o,
-        "Found {found} of {n} targets; {dim} errors after {} alignment on {} targets",
+        "Found {found} of {n} targets{apart}; {dim} errors after {} alignment on {} targets",
         a.method, a.n_used
     );
     let _ = writeln!(
@@ -453,6 +458,14 @@ mod tests {
         assert!(!t.contains("t1 & t2"), "no Table I for 12 targets");
         let v = render_text(&r, true);
         assert!(v.lines().count() > t.lines().count() + 50);
+        // A target excluded as a gross error was found: counted, said apart.
+        let mut r = r;
+        r.targets[7].status = "excluded".into();
+        let t = render_text(&r, false);
+        assert!(
+            t.starts_with("Found 11 of 12 targets (1 excluded as a gross error);"),
+            "{t}"
+        );
     }
 }
 

@@ -116,7 +116,7 @@ fn gates_section(o: &mut String, r: &ResultFile) {
 
 /// The headline numbers as cards, then every caveat and failed target.
 fn summary_section(o: &mut String, r: &ResultFile, dim: &str) {
-    let n_ok = r.targets.iter().filter(|t| t.status == "ok").count();
+    let (n_found, excluded) = r.found();
     o.push_str("<section id=\"summary\"><h2>Summary</h2><div class=\"cards\">");
     card(
         o,
@@ -211,11 +211,12 @@ fn summary_section(o: &mut String, r: &ResultFile, dim: &str) {
     card(
         o,
         "Targets found",
-        &format!("{n_ok} / {}", r.targets.len()),
-        if n_ok == r.targets.len() {
-            "all located"
-        } else {
-            "see the failed panels below"
+        &format!("{n_found} / {}", r.targets.len()),
+        &match (n_found == r.targets.len(), excluded) {
+            (true, 0) => "all located".to_string(),
+            (true, k) => format!("all located; {k} excluded as gross errors"),
+            (false, 0) => "see the failed panels below".to_string(),
+            (false, k) => format!("{k} excluded as gross errors; see the failed panels below"),
         },
     );
     o.push_str("</div>");

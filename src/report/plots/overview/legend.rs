@@ -151,10 +151,15 @@ fn backdrop(f: &mut Figure, key: &Legend) {
 
 /// How many targets were found, and the alignment that placed them.
 fn run_facts(f: &mut Figure, r: &ResultFile) {
-    let n_ok = r.targets.iter().filter(|t| t.status == "ok").count();
+    let (n_found, excluded) = r.found();
+    let apart = if excluded > 0 {
+        format!(" ({excluded} excluded)")
+    } else {
+        String::new()
+    };
     f.text(
         (LX, 252.0),
-        &format!("{n_ok} of {} targets found", r.targets.len()),
+        &format!("{n_found} of {} targets found{apart}", r.targets.len()),
         11.0,
         palette::INK,
         Anchor::Start,
