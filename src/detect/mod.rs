@@ -555,7 +555,7 @@ const NOT_A_SPHERE: &str = "a round object, not a sphere target";
 /// be counted.
 fn short_reason(e: &str) -> String {
     let kinds = [
-        (" m L (plates", L_OF_ANOTHER_SIZE),
+        ("m wide plates expected", L_OF_ANOTHER_SIZE),
         ("continuing", "a plane going on past the corner"),
         ("tall", "an L taller than a plate"),
         ("T or a cross", "a T or a cross"),

@@ -175,7 +175,8 @@ impl std::fmt::Display for Warning {
             } => heights_uncertain(f, ids, *seen_m, *plate_height_m, *sigma_m, *every),
             Warning::WrongObjects(ids) => write!(
                 f,
-                "objects located for {} are not those targets (far from where the other targets place them, or another target's object): reported as not found, each with its reason",
+                "{} {}: the object located there is not that target (far from where the other targets place it, or another target's object); reported as not found, each with its reason",
+                if ids.len() == 1 { "target" } else { "targets" },
                 ids.join(", ")
             ),
             Warning::DetectionFailed(e) => write!(

@@ -245,7 +245,6 @@ fn check_size(
     let slack = |k: usize| 0.22 * w / (plates[k].count.max(1) as f64).sqrt();
     let short = (0..2).any(|k| width[k] < MIN_WIDTH_SHARE * w - slack(k));
     let long = (0..2).any(|k| width[k] > MAX_WIDTH_SHARE * w + slack(k));
-    let narrow = width[0].min(width[1]);
     let tall = hi - lo;
     let low = tall < MIN_HEIGHT_SHARE * p.plate_height - 0.02;
     if short || long || low {
@@ -253,11 +252,10 @@ fn check_size(
     }
     if short || long {
         return Err(format!(
-            "a {:.2} × {:.2} m L (plates {:.2} and {:.2} m wide, {} m expected)",
-            narrow,
-            hi - lo,
+            "an L of plates {:.2} and {:.2} m wide, {:.2} m tall ({} m wide plates expected)",
             width[0],
             width[1],
+            hi - lo,
             w
         ));
     }
