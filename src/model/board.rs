@@ -216,102 +216,18 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             pct(&mut all_i, 0.95) - pct(&mut all_i, 0.05)
         }
     };
-    let grid = Grid::new(&v, side / 2.0);
-    let mut cands: Vec<Candidate> = Vec::new();
-    let mut refused: Vec<(usize, String, f64)> = Vec::new();
-    // Planes of faces refused as walls (flat well beyond twice a board): a
-    // wall or a van's side seeds a plane in every cell it crosses, each
-    // judged the same. A face refused as wider only because its reach took
-    // in a sign or a panel beside the board is not one: the board's own
-    // seeds are still judged.
-    let mut wide: Vec<Plane> = Vec::new();
-    // The faces refused: where they were seeded, and their planes.
-    let mut seen: Vec<(Vector3<f64>, Plane)> = Vec::new();
-    for seed_plane in plane_seeds(&v, &grid, side, p.seed) {
-        if cands.len() + refused.len() >= CANDIDATES {
-            break;
-        }
-        let sp = &seed_plane.plane;
-        let on = |w: &Plane| {
-            w.normal.dot(&sp.normal).abs() > 0.9
-                && (w.normal.dot(&seed_plane.at) - w.offset).abs() < 0.03
-        };
-        let judged = cands
-            .iter()
-            .map(|c| {
-                (
-                    c.centre,
-                    Plane {
-                        normal: c.normal,
-                        offset: c.normal.dot(&c.centre),
-                    },
-                )
-            })
-            .chain(seen.iter().copied())
-            .any(|(at, w)| (at - seed_plane.at).norm() < 0.5 * side && on(&w))
-            || wide.iter().any(|w| {
-                w.normal.dot(&sp.normal).abs() > 0.98
-                    && (w.normal.dot(&seed_plane.at) - w.offset).abs() < 0.03
-            });
-        if judged {
-            continue;
-        }
-        match judge(&v, &inten, &grid, &seed_plane, side, &up, spread, p) {
-            Ok(c) => cands.push(c),
-            Err(r) => {
-                wide.extend(r.wider);
-                seen.push((seed_plane.at, *sp));
-                refused.push((r.points, r.why, r.from))
-            }
-        }
-    }
-    // Nothing standing: a board lying on the ground (or flush with a
-    // larger level surface) is told by its print alone.
-    if cands.is_empty() && s.on_surfaces {
-        let mut is_above = vec![false; all.len()];
-        for &k in &above {
-            is_above[k] = true;
-        }
-        let low: Vec<usize> = (0..all.len()).filter(|&k| !is_above[k]).collect();
-        let g: Vec<Vector3<f64>> = low.iter().map(|&k| all[k]).collect();
-        let gi: Vec<f64> = low
-            .iter()
-            .map(|&k| f64::from(s.intensity[idx[k]]))
-            .collect();
-        let (found, flat_refused) =
-            flat::flat_prints(&g, &gi, &up, side, (p.search_radius_m, spread), p);
-        cands = found;
-        refused.extend(flat_refused.into_iter().map(|r| (r.points, r.why, r.from)));
-    }
-    // Nor lying: a board hung on a wall (or a panel, a façade) is told by its
-    // print on the wall's plane, searched as the ground is. The wall's
-    // points within `ON_WALL` of its plane: a board mounted proud of it
-    // stands that far off, and its own face is fitted again.
-    if cands.is_empty() && s.on_surfaces {
-        for w in walls(&wide, &up, p.search_radius_m) {
-            let on: Vec<usize> = (0..v.len())
-                .filter(|&i| (w.normal.dot(&v[i]) - w.offset).abs() < ON_WALL)
-                .collect();
-            if on.len() < p.min_points {
-                continue;
-            }
-            let g: Vec<Vector3<f64>> = on.iter().map(|&i| v[i]).collect();
-            let gi: Vec<f64> = on.iter().map(|&i| inten[i]).collect();
-            let (found, wall_refused) =
-                flat::flat_prints(&g, &gi, &w.normal, side, (p.search_radius_m, spread), p);
-            refused.extend(wall_refused.into_iter().map(|r| (r.points, r.why, r.from)));
-            // The best-supported wall with a print is the board's: its plane
-            // is the best fitted. (A wall seen from both sides, or fitted
-            // within a board's reach about its edge, is also a plane a few
-            // centimetres off and leaning; gathered about such a plane the
-            // board's points beyond the band are cut, and its crossing was
-            // read 8-13 mm off along the normal.)
-            if !found.is_empty() {
-                cands = found;
-                break;
-            }
-        }
-    }
+    let look = Looked {
+        all: &all,
+        above: &above,
+        v: &v,
+        inten: &inten,
+        intensity: &s.intensity,
+        idx: &idx,
+        spread,
+        up,
+        on_surfaces: s.on_surfaces,
+    };
+    let (cands, refused) = faces_of(&look, side, p);
     let others: Vec<Vector3<f64>> = s.others.iter().map(|q| q - o).collect();
     let Some(best) = choose(&cands, &others) else {
         let refused: Vec<&(usize, String, f64)> =
@@ -319,6 +235,16 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
         let seen = super::at_same_place(&refused, |r| r.2, |r| r.0).map(|(n, why, at)| {
             format!("{why} ({n} points, {at:.2} m from the expected position)")
         });
+        // Where a survey places a board, one of a size it mistakes for
+        // this one standing there is named (detection map-wide asks none).
+        let hint = s
+            .on_surfaces
+            .then(|| other_side(&look, side, p, &others))
+            .flatten();
+        let seen = match (seen, hint) {
+            (Some(s), Some(h)) => Some(format!("{s}; {h}")),
+            (s, h) => s.or(h),
+        };
         return Err(BoardError::NoBoard {
             radius: p.search_radius_m,
             side_mm: side * 1e3,
@@ -351,6 +277,151 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     };
     let near = c.pts3.iter().map(|v| o + v).collect();
     Ok((fit, near))
+}
+
+/// The board's search area, read once: its points (`all`, about the
+/// expected position), those above the ground (`above`, their indices in
+/// `all`; `v`, `inten`), the map's intensities and the crop's indices of
+/// `all` (`intensity`, `idx`), what the intensity spans there, and whether
+/// a board lying or hung may be it.
+struct Looked<'a> {
+    all: &'a [Vector3<f64>],
+    above: &'a [usize],
+    v: &'a [Vector3<f64>],
+    inten: &'a [f64],
+    intensity: &'a [f32],
+    idx: &'a [usize],
+    spread: f64,
+    up: Vector3<f64>,
+    on_surfaces: bool,
+}
+
+/// The boards of `side` in the search area, and the faces refused (points,
+/// why, distance from the expected position): standing first, then lying,
+/// then hung on a wall.
+fn faces_of(l: &Looked, side: f64, p: &BoardParams) -> (Vec<Candidate>, Vec<(usize, String, f64)>) {
+    let (all, above, v, inten, spread, up) = (l.all, l.above, l.v, l.inten, l.spread, l.up);
+    let grid = Grid::new(v, side / 2.0);
+    let mut cands: Vec<Candidate> = Vec::new();
+    let mut refused: Vec<(usize, String, f64)> = Vec::new();
+    // Planes of faces refused as walls (flat well beyond twice a board): a
+    // wall or a van's side seeds a plane in every cell it crosses, each
+    // judged the same. A face refused as wider only because its reach took
+    // in a sign or a panel beside the board is not one: the board's own
+    // seeds are still judged.
+    let mut wide: Vec<Plane> = Vec::new();
+    // The faces refused: where they were seeded, and their planes.
+    let mut seen: Vec<(Vector3<f64>, Plane)> = Vec::new();
+    for seed_plane in plane_seeds(v, &grid, side, p.seed) {
+        if cands.len() + refused.len() >= CANDIDATES {
+            break;
+        }
+        let sp = &seed_plane.plane;
+        let on = |w: &Plane| {
+            w.normal.dot(&sp.normal).abs() > 0.9
+                && (w.normal.dot(&seed_plane.at) - w.offset).abs() < 0.03
+        };
+        let judged = cands
+            .iter()
+            .map(|c| {
+                (
+                    c.centre,
+                    Plane {
+                        normal: c.normal,
+                        offset: c.normal.dot(&c.centre),
+                    },
+                )
+            })
+            .chain(seen.iter().copied())
+            .any(|(at, w)| (at - seed_plane.at).norm() < 0.5 * side && on(&w))
+            || wide.iter().any(|w| {
+                w.normal.dot(&sp.normal).abs() > 0.98
+                    && (w.normal.dot(&seed_plane.at) - w.offset).abs() < 0.03
+            });
+        if judged {
+            continue;
+        }
+        match judge(v, inten, &grid, &seed_plane, side, &up, spread, p) {
+            Ok(c) => cands.push(c),
+            Err(r) => {
+                wide.extend(r.wider);
+                seen.push((seed_plane.at, *sp));
+                refused.push((r.points, r.why, r.from))
+            }
+        }
+    }
+    // Nothing standing: a board lying on the ground (or flush with a
+    // larger level surface) is told by its print alone.
+    if cands.is_empty() && l.on_surfaces {
+        let mut is_above = vec![false; all.len()];
+        for &k in above {
+            is_above[k] = true;
+        }
+        let low: Vec<usize> = (0..all.len()).filter(|&k| !is_above[k]).collect();
+        let g: Vec<Vector3<f64>> = low.iter().map(|&k| all[k]).collect();
+        let gi: Vec<f64> = low
+            .iter()
+            .map(|&k| f64::from(l.intensity[l.idx[k]]))
+            .collect();
+        let (found, flat_refused) =
+            flat::flat_prints(&g, &gi, &up, side, (p.search_radius_m, spread), p);
+        cands = found;
+        refused.extend(flat_refused.into_iter().map(|r| (r.points, r.why, r.from)));
+    }
+    // Nor lying: a board hung on a wall (or a panel, a façade) is told by its
+    // print on the wall's plane, searched as the ground is. The wall's
+    // points within `ON_WALL` of its plane: a board mounted proud of it
+    // stands that far off, and its own face is fitted again.
+    if cands.is_empty() && l.on_surfaces {
+        for w in walls(&wide, &up, p.search_radius_m) {
+            let on: Vec<usize> = (0..v.len())
+                .filter(|&i| (w.normal.dot(&v[i]) - w.offset).abs() < ON_WALL)
+                .collect();
+            if on.len() < p.min_points {
+                continue;
+            }
+            let g: Vec<Vector3<f64>> = on.iter().map(|&i| v[i]).collect();
+            let gi: Vec<f64> = on.iter().map(|&i| inten[i]).collect();
+            let (found, wall_refused) =
+                flat::flat_prints(&g, &gi, &w.normal, side, (p.search_radius_m, spread), p);
+            refused.extend(wall_refused.into_iter().map(|r| (r.points, r.why, r.from)));
+            // The best-supported wall with a print is the board's: its plane
+            // is the best fitted. (A wall seen from both sides, or fitted
+            // within a board's reach about its edge, is also a plane a few
+            // centimetres off and leaning; gathered about such a plane the
+            // board's points beyond the band are cut, and its crossing was
+            // read 8-13 mm off along the normal.)
+            if !found.is_empty() {
+                cands = found;
+                break;
+            }
+        }
+    }
+    (cands, refused)
+}
+
+/// When no board of `side` was taken: a board of a size a survey mistakes
+/// for it (twice or half it; the configured side) that would be taken
+/// here, named as a hint. The largest first: a board's middle is a smaller
+/// board's pattern too (on its own face, taken as a wall). Looked for only
+/// on failure.
+fn other_side(l: &Looked, side: f64, p: &BoardParams, others: &[Vector3<f64>]) -> Option<String> {
+    let mut sides = vec![2.0 * side, 0.5 * side, p.side_m];
+    sides.retain(|&x| (x - side).abs() > 0.15 * side && (0.1..=3.0).contains(&x));
+    sides.sort_by(|a, b| b.total_cmp(a));
+    sides.dedup_by(|a, b| (*a - *b).abs() < 0.1 * *b);
+    for other in sides {
+        let (cands, _) = faces_of(l, other, p);
+        if let Some(i) = choose(&cands, others) {
+            return Some(format!(
+                "a board of {:.0} mm stands {:.2} m from the expected position: is the survey's size ({:.0} mm) right?",
+                other * 1e3,
+                cands[i].centre.xy().norm(),
+                side * 1e3
+            ));
+        }
+    }
+    None
 }
 
 /// A board's squares differ by at least this share of what the map's

@@ -491,3 +491,35 @@ fn a_board_whose_intensity_falls_off_across_it_is_still_one() {
         );
     }
 }
+
+/// A survey giving half the board's side (a 0.6 m board written 0.3):
+/// refused, and the board of the right size standing there named, as for
+/// spheres; detection map-wide (no survey place) asks no such question.
+#[test]
+fn a_board_surveyed_at_half_its_size_is_named_with_its_size() {
+    let sc = scene(1, BOARD, |_, _, _| {});
+    let at = Point::new(1.0, -1.0, 0.5);
+    let half = Search {
+        side: 0.3,
+        ..search(&sc, at)
+    };
+    match locate(&half, &BoardParams::default()) {
+        Err(BoardError::NoBoard {
+            seen: Some(why), ..
+        }) => {
+            assert!(why.contains("a board of 600 mm stands"), "{why}");
+            assert!(why.contains("survey's size (300 mm) right?"), "{why}");
+        }
+        other => panic!("{:?}", other.map(|f| f.0.centre)),
+    }
+    let detecting = Search {
+        on_surfaces: false,
+        ..half
+    };
+    match locate(&detecting, &BoardParams::default()) {
+        Err(BoardError::NoBoard { seen, .. }) => {
+            assert!(!seen.unwrap_or_default().contains("stands"))
+        }
+        other => panic!("{:?}", other.map(|f| f.0.centre)),
+    }
+}
