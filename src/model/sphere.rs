@@ -149,6 +149,11 @@ pub struct Search<'a> {
     pub radius: f64,
     /// The vertical (a post goes on along it below a bollard's round top).
     pub up: Vector3<f64>,
+    /// Whether a failure names a sphere of another size standing there
+    /// (where a survey places a sphere: its size may be mistaken; detection
+    /// map-wide keeps no reason, and would pay four more searches for each
+    /// round thing it refuses).
+    pub other_sizes: bool,
 }
 
 /// Finds and locates the sphere of `s`; also returns the points near it (its
@@ -191,7 +196,11 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         // A survey that gives the wrong size (a radius for a diameter, the
         // other common sphere) leaves the sphere itself unnamed: say so when
         // one of those sizes stands where this one should.
-        let seen = match (seen, other_size(&local, r, &up, p, &others)) {
+        let hint = s
+            .other_sizes
+            .then(|| other_size(&local, r, &up, p, &others))
+            .flatten();
+        let seen = match (seen, hint) {
             (Some(s), Some(hint)) => Some(format!("{s}; {hint}")),
             (s, hint) => s.or(hint),
         };

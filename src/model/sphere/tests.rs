@@ -78,6 +78,7 @@ fn search<'a>(points: &'a [Point], expected: Point) -> Search<'a> {
         others: &[],
         radius: R,
         up: Vector3::z(),
+        other_sizes: true,
     }
 }
 
