@@ -445,7 +445,8 @@ pub fn read_all(path: &Path) -> Result<Vec<Point>> {
 )]
 #[serde(rename_all = "lowercase")]
 pub enum OutFormat {
-    /// Binary little-endian PLY with double x, y, z.
+    /// Binary little-endian PLY with double x, y, z, and a float intensity
+    /// when the source has one (synth: with boards).
     Ply,
     /// Binary PCD v0.7 with double x, y, z.
     Pcd,
@@ -496,7 +497,8 @@ impl OutFormat {
     pub fn holds_intensity(self) -> bool {
         matches!(
             self,
-            OutFormat::PcdXyzi
+            OutFormat::Ply
+                | OutFormat::PcdXyzi
                 | OutFormat::PcdFastlio
                 | OutFormat::PcdCompressed
                 | OutFormat::PlyF32
@@ -546,11 +548,11 @@ impl CloudWriter {
     }
 
     /// Starts writing `path` in `format`, with an intensity field where the
-    /// format has an optional one (`ply-f32`, `xyz`) when `intensity`; give
+    /// format has an optional one (`ply`, `ply-f32`, `xyz`) when `intensity`; give
     /// the values with [`CloudWriter::write_intensity`].
     pub fn create_with(path: &Path, format: OutFormat, intensity: bool) -> Result<Self> {
         let sink: Box<dyn Sink> = match format {
-            OutFormat::Ply => write::ply_sink(path)?,
+            OutFormat::Ply => write::ply_sink(path, intensity)?,
             OutFormat::Pcd => write::pcd_sink(path)?,
             OutFormat::Las => las::las_sink(path, false)?,
             OutFormat::Laz => las::las_sink(path, true)?,

@@ -23,7 +23,11 @@ const COUNT_WIDTH: usize = 20;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Kind {
-    Ply,
+    /// Binary little-endian PLY, double x y z, and float intensity when
+    /// the writer was created with intensity.
+    Ply {
+        intensity: bool,
+    },
     Pcd,
     PcdAscii,
     /// Binary PCD with float (f32) x, y, z.
@@ -56,7 +60,7 @@ impl Kind {
             Kind::PcdF32 | Kind::PlyF32 { intensity: false } => Some(3),
             Kind::PcdXyzi | Kind::PlyF32 { intensity: true } => Some(4),
             Kind::PcdFastlio => Some(8),
-            Kind::Ply | Kind::Pcd | Kind::PcdAscii | Kind::Xyz { .. } => None,
+            Kind::Ply { .. } | Kind::Pcd | Kind::PcdAscii | Kind::Xyz { .. } => None,
         }
     }
 }
@@ -73,9 +77,14 @@ pub(super) const F32_LIMIT: f64 = 32768.0;
 fn header(kind: Kind, n: u64, pad: usize) -> Vec<u8> {
     let pad = " ".repeat(pad);
     let s = match kind {
-        Kind::Ply => format!(
+        Kind::Ply { intensity } => format!(
             "ply\nformat binary_little_endian 1.0\ncomment written by mapgauge{pad}\n\
-             element vertex {n}\nproperty double x\nproperty double y\nproperty double z\nend_header\n"
+             element vertex {n}\nproperty double x\nproperty double y\nproperty double z\n{}end_header\n",
+            if intensity {
+                "property float intensity\n"
+            } else {
+                ""
+            }
         ),
         Kind::Pcd => pcd_header(n, &pad, 8, "binary"),
         Kind::PcdAscii => pcd_header(n, &pad, 8, "ascii"),
@@ -137,7 +146,7 @@ fn pcd_header(n: u64, pad: &str, size: u8, data: &str) -> String {
 /// The header for `n` points, padded to the length reserved at creation.
 fn fixed_header(kind: Kind, n: u64) -> Vec<u8> {
     let digits = n.to_string().len();
-    let per_count = if matches!(kind, Kind::Ply | Kind::PlyF32 { .. }) {
+    let per_count = if matches!(kind, Kind::Ply { .. } | Kind::PlyF32 { .. }) {
         1
     } else {
         2
@@ -268,6 +277,23 @@ impl Sink for XyzSink {
                 // `count` advances per block, so a refusal names the right point.
                 self.count += block.len() as u64;
                 len
+            } else if self.kind == (Kind::Ply { intensity: true }) {
+                let inten = intensity.map(|i| &i[b * SINK_BLOCK..b * SINK_BLOCK + block.len()]);
+                let len = 28 * block.len();
+                if self.scratch.len() < len {
+                    self.scratch.resize(len, 0);
+                }
+                for (j, (r, p)) in self.scratch[..len]
+                    .chunks_exact_mut(28)
+                    .zip(block)
+                    .enumerate()
+                {
+                    r[..8].copy_from_slice(&p.x.to_le_bytes());
+                    r[8..16].copy_from_slice(&p.y.to_le_bytes());
+                    r[16..24].copy_from_slice(&p.z.to_le_bytes());
+                    r[24..].copy_from_slice(&inten.map_or(0.0, |i| i[j]).to_le_bytes());
+                }
+                len
             } else {
                 // Filled record by record: the crop writer's inner loop (a
                 // push per coordinate cost a capacity check each).
@@ -321,9 +347,10 @@ impl Drop for XyzSink {
     }
 }
 
-/// Starts a binary PLY writer.
-pub(super) fn ply_sink(path: &Path) -> Result<Box<dyn Sink>> {
-    Ok(Box::new(XyzSink::create(path, Kind::Ply)?))
+/// Starts a binary PLY writer (double x y z, plus float intensity if
+/// `intensity`).
+pub(super) fn ply_sink(path: &Path, intensity: bool) -> Result<Box<dyn Sink>> {
+    Ok(Box::new(XyzSink::create(path, Kind::Ply { intensity })?))
 }
 
 /// Starts a binary PCD writer.
@@ -592,7 +619,8 @@ mod tests {
     #[test]
     fn header_length_is_fixed_for_every_count() {
         for kind in [
-            Kind::Ply,
+            Kind::Ply { intensity: false },
+            Kind::Ply { intensity: true },
             Kind::Pcd,
             Kind::PcdAscii,
             Kind::PcdF32,

@@ -90,7 +90,7 @@ pub struct Args {
     /// (i mod count)-th (l, sphere, board; a sphere stands on a pole, 145 mm,
     /// its centre 1.3 m up; a board is a 0.6 m checkerboard on two legs, its
     /// centre 1.2 m up, printed in the intensity of the formats that have
-    /// one: pcd-xyzi, pcd-fastlio, pcd-compressed, ply-f32, xyz, las, laz)
+    /// one: ply, pcd-xyzi, pcd-fastlio, pcd-compressed, ply-f32, xyz, las, laz)
     /// [default: l].
     #[arg(long, value_delimiter = ',')]
     models: Option<Vec<mapgauge::model::ModelKind>>,
@@ -198,7 +198,7 @@ pub fn run(a: Args) -> Result<()> {
     if p.models.contains(&mapgauge::model::ModelKind::Board) && !a.format.holds_intensity() {
         eprintln!(
             "synth: warning: --format {} holds no intensity, where boards print their \
-             squares: eval will find none of them (formats with intensity: pcd-xyzi, \
+             squares: eval will find none of them (formats with intensity: ply, pcd-xyzi, \
              pcd-fastlio, pcd-compressed, ply-f32, xyz, las, laz)",
             clap::ValueEnum::to_possible_value(&a.format)
                 .map_or("?".into(), |v| v.get_name().to_string())

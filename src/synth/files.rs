@@ -173,12 +173,13 @@ fn write_map(
 ) -> Result<Truth> {
     // Boards print their squares in the intensity; the rest is a stand-in.
     let faces = super::print::board_faces(params);
-    // LAS, LAZ and binary_compressed PCD carry it only when boards print
-    // in it: without, LAS holds 0, as SLAM software's LAS exports do, and
-    // the compressed PCD x, y, z alone (as synth's always did).
+    // LAS, LAZ, binary_compressed PCD and double PLY carry it only when
+    // boards print in it: without, LAS holds 0, as SLAM software's LAS
+    // exports do, and the compressed PCD and the PLY x, y, z alone (as
+    // synth's always did).
     let only_boards = matches!(
         format,
-        OutFormat::Las | OutFormat::Laz | OutFormat::PcdCompressed
+        OutFormat::Las | OutFormat::Laz | OutFormat::PcdCompressed | OutFormat::Ply
     );
     let with = format.holds_intensity() && !(only_boards && faces.is_empty());
     let mut writer = CloudWriter::create_with(path, format, with)?;

@@ -284,7 +284,23 @@ fn convert_keeps_intensity_where_the_output_holds_it() {
     );
     let body = &ply[text.find("end_header\n").unwrap() + 11..];
     assert_eq!(body, &bytes[head..]);
-    // Double PLY has no intensity field: dropped, and said so by omission.
-    let said = convert(&dir.path().join("d.ply"), &[]);
+    // Double PLY: the same property after double x, y, z.
+    let out = dir.path().join("d.ply");
+    convert(&out, &[]);
+    let ply = std::fs::read(&out).unwrap();
+    let text = String::from_utf8_lossy(&ply[..400]);
+    assert!(
+        text.contains("property double z\nproperty float intensity\nend_header\n"),
+        "{text}"
+    );
+    let body = &ply[text.find("end_header\n").unwrap() + 11..];
+    assert_eq!(body.len(), 28 * n);
+    for k in [0, 1, n / 2, n - 1] {
+        let r = &body[28 * k..28 * k + 28];
+        let i = f32::from_le_bytes(r[24..].try_into().unwrap());
+        assert_eq!(i, f(k, 3), "intensity of point {k}");
+    }
+    // A format without an intensity field drops it, said by omission.
+    let said = convert(&dir.path().join("d.pcd"), &["--format", "pcd"]);
     assert!(!said.contains("intensity"), "{said}");
 }

@@ -35,10 +35,15 @@ fn synth_scene(scene: &Path, args: &[&str]) -> Value {
 }
 
 fn eval(scene: &Path, survey: &Path, out: &Path) -> std::process::Output {
+    // A scene written as a double PCD (no intensity) has no map.ply.
+    let map = match scene.join("map.ply") {
+        ply if ply.exists() => ply,
+        _ => scene.join("map.pcd"),
+    };
     bin()
         .arg("eval")
         .arg("--map")
-        .arg(scene.join("map.ply"))
+        .arg(map)
         .arg("--survey")
         .arg(survey)
         .arg("--out")
@@ -553,6 +558,7 @@ fn a_survey_of_boards_alone_that_finds_none_says_why() {
         .arg("--out")
         .arg(&scene)
         .args(["--points", "1000000", "--seed", "4", "--models", "board"])
+        .args(["--format", "pcd"])
         .output()
         .unwrap();
     assert!(o.status.success(), "synth: {}", stderr(&o));
@@ -745,13 +751,15 @@ fn boards_alone_give_the_maps_frame() {
     }
     let ls_only = detect(&map, &[]);
     assert!(count(&ls_only, 0), "{ls_only}");
-    // The same scene as a PLY of doubles: no intensity, no board looked for.
-    let ply = dir.path().join("ply");
+    // The same scene as a PCD of doubles: no intensity, no board looked for.
+    let pcd = dir.path().join("pcd");
     synth_scene(
-        &ply,
-        &["--points", "300000", "--seed", "1", "--models", "board"],
+        &pcd,
+        &[
+            "--points", "300000", "--seed", "1", "--models", "board", "--format", "pcd",
+        ],
     );
-    let said = detect(&ply.join("map.ply"), &["--board-side", "0.6"]);
+    let said = detect(&pcd.join("map.pcd"), &["--board-side", "0.6"]);
     assert!(
         said.contains("boards: not looked for:") && said.contains("has no intensity"),
         "{said}"
