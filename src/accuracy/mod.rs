@@ -5,6 +5,7 @@
 //! sentences. `record` turns it into `result.json`, `render` into tables.
 
 mod asprs;
+mod blunder;
 mod distances;
 pub mod intervals;
 pub(crate) use distances::misfit_by_distances;
@@ -247,20 +248,20 @@ pub enum Warning {
         /// (error − median) / (1.4826 · MAD) over the scored targets.
         robust_z: f64,
     },
-    /// A target whose distances to the others disagree with the survey's
-    /// (median misfit over 5 × the other pairs' and over
-    /// [`score::BLUNDER_M`]; five targets or more), not flagged as a
+    /// A target a rigid fit on the other targets places over
+    /// [`score::BLUNDER_M`] and over 5 × their own rms residual from its
+    /// survey position (five targets or more), not flagged as a
     /// [`Warning::GrossError`]: a blunder of a few decimetres pulls a fit of
-    /// five targets so far that its own error no longer stands out, but its
-    /// distances need no fit. A warning only: it cannot tell a survey typo
+    /// five targets so far that its own error no longer stands out; left
+    /// out, it shows whole. A warning only: it cannot tell a survey typo
     /// from the map distorted there, so `--exclude-outliers` keeps it.
     LayoutMisfit {
         /// Target id.
         id: String,
-        /// Median |map distance − survey distance| over its pairs (m).
-        misfit: f64,
-        /// The same median over the pairs without it (m).
-        others: f64,
+        /// Horizontal distance from where the others' fit places it (m).
+        off: f64,
+        /// The others' rms residual in that fit (m).
+        others_rms: f64,
     },
     /// Too few scored targets for confidence intervals.
     TooFewForIntervals {
@@ -332,10 +333,10 @@ mod tests {
 
     /// A 20 cm survey blunder among five targets pulls the fit so far that
     /// its error is no robust outlier (a user's trial: errors 19-159 mm, no
-    /// warning); its distances to the others still single it out. A 3 cm
-    /// one, within what an RTK survey's noise gives a pair, is not called one.
+    /// warning); a fit on the other four places it its whole size off. A
+    /// 3 cm one, within what an RTK survey's noise gives, is not called one.
     #[test]
-    fn a_blunder_among_five_is_flagged_by_its_distances() {
+    fn a_blunder_among_five_is_flagged_by_the_others_fit() {
         let s = survey(&[
             (0.0, 0.0, 0.0),
             (24.0, 8.0, 0.0),
@@ -359,7 +360,7 @@ mod tests {
             r.warnings
                 .iter()
                 .filter_map(|w| match w {
-                    Warning::LayoutMisfit { id, misfit, .. } => Some((id.clone(), *misfit)),
+                    Warning::LayoutMisfit { id, off, .. } => Some((id.clone(), *off)),
                     Warning::GrossError { id, .. } => Some((format!("gross {id}"), 0.0)),
                     _ => None,
                 })
@@ -368,8 +369,8 @@ mod tests {
         let flagged = run(0.2);
         assert_eq!(flagged.len(), 1, "{flagged:?}");
         assert_eq!(flagged[0].0, "t3");
-        // The median of its pairs: the blunder along each pair, at most 0.2 m.
-        assert!(flagged[0].1 > 0.1 && flagged[0].1 <= 0.2, "{flagged:?}");
+        // Its whole size, within the others' few millimetres.
+        assert!((flagged[0].1 - 0.2).abs() < 0.01, "{flagged:?}");
         assert!(run(0.03).is_empty());
         assert!(run(0.0).is_empty());
     }

@@ -69,17 +69,10 @@ pub fn score_with_covariances(
     }
     let intervals = m.intervals(covariances, opts, !asprs.independent, &mut warnings);
     let gross = gross_errors(&m.ids, &abs, &residuals, &m.survey_covariances(&al));
-    // Distances in 3D only where the errors are: a 2D run leaves heights
-    // unscored. Of the aligned positions: a fitted scale or a 3D fit's
-    // tilt is the alignment's, not a misfit (a rigid fit keeps every
-    // distance). Five targets at least: four give the others three pairs.
-    let d3 = dim == Dim::D3 && all_z;
-    let surveyed: Vec<(Point, bool)> = m.survey.iter().map(|p| (*p, d3)).collect();
-    let misfits = if aligned.len() >= 5 {
-        super::misfit_by_distances(&aligned, &surveyed, BLUNDER_M)
-    } else {
-        Vec::new()
-    };
+    // Of the aligned positions: a fitted scale or a 3D fit's tilt is the
+    // alignment's, not a misfit. Horizontal, as the blunders the survey's
+    // rows make (and a 2D run's errors) are.
+    let misfits = super::blunder::left_out_misfits(&aligned, &m.survey, BLUNDER_M, BLUNDER_RATIO);
     let flagged = |id: &str| {
         gross
             .iter()
@@ -88,10 +81,10 @@ pub fn score_with_covariances(
     let layout: Vec<Warning> = misfits
         .into_iter()
         .filter(|&(k, ..)| !flagged(&m.ids[k]))
-        .map(|(k, misfit, others)| Warning::LayoutMisfit {
+        .map(|(k, off, others_rms)| Warning::LayoutMisfit {
             id: m.ids[k].clone(),
-            misfit,
-            others,
+            off,
+            others_rms,
         })
         .collect();
     warnings.extend(gross);
@@ -424,16 +417,19 @@ fn sigma_hat(aligned: &[Point], survey: &[Point], method: AlignMethod) -> Option
     })
 }
 
-/// Least misfit of a target's distances (m) called a blunder; it must also
-/// be over 5 × the other pairs' (the map's own distortion at this scale).
-/// An RTK survey's ±2 cm and a SLAM map's ±2 cm per axis put a pair's
-/// distance within ±4 cm (1σ): a Monte Carlo of 5-8 targets over 100 m
-/// named a target with no blunder 0.0-0.4 % of the time at 2 cm per axis,
-/// 0.5-2.9 % at 3 cm (at 5 cm it had been 2-7 % at 2 cm), and found a 20 cm
-/// blunder 56-70 % of the time at 2 cm, 59-78 % at 0.5 cm
-/// (`bench/blunder_mc.py`). A warning only:
+/// Least distance (m) from where a fit on the other targets places a
+/// target called a blunder; it must also be over [`BLUNDER_RATIO`] × their
+/// rms residual. An RTK survey's ±2 cm and a SLAM map's ±2 cm per axis:
+/// a Monte Carlo of 5-8 targets over 100 m named a target with no blunder
+/// 0.0-0.3 % of the time at 2 cm per axis, 0.3-2.9 % at 3 cm, and found a
+/// 20 cm blunder 98-99 % of the time at 2 cm, 65-75 % at 3 cm, 100 % at
+/// 5 mm; a 12 cm one 50-57 % at 2 cm (`bench/blunder_mc.py`; the
+/// distances' test this replaced found 20 cm 56-78 %). A warning only:
 /// `--exclude-outliers` leaves out what the covariance test names.
 pub(crate) const BLUNDER_M: f64 = 0.10;
+
+/// How many times the others' rms residual a blunder stands off.
+const BLUNDER_RATIO: f64 = 5.0;
 
 /// χ²₂ 99.9 % quantile: −2 ln(0.001).
 const CHI2_2_999: f64 = 13.815_510_557_964_274;

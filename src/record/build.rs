@@ -125,10 +125,14 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             error * 1000.0,
             sigma * 1000.0
         ),
-        Warning::LayoutMisfit { id, misfit, others } => format!(
-            "target {id}: its distances to the other targets differ from the survey's by {:.0} mm (median), the other pairs' by {:.0} mm: a survey blunder or a wrong corner? (or the map distorted there; check its survey row and its panel)",
-            misfit * 1000.0,
-            others * 1000.0
+        Warning::LayoutMisfit {
+            id,
+            off,
+            others_rms,
+        } => format!(
+            "target {id}: a fit on the other targets, which agree with their survey to {:.0} mm (rms), places it {:.0} mm from its own: a survey blunder or a wrong corner? (or the map distorted there; check its survey row and its panel)",
+            others_rms * 1000.0,
+            off * 1000.0
         ),
         Warning::TooFewForIntervals { n } => format!(
             "only {n} target(s) scored: no confidence intervals (need at least {})",
