@@ -60,7 +60,9 @@ pub enum Statistic {
     NssdaV,
     /// The map's scale error, absolute (ppm).
     ScalePpm,
-    /// Fraction of the surveyed targets located and scored (0–1).
+    /// Fraction of the surveyed targets located (0–1): scored, or excluded
+    /// as a gross error (found, and its error judged), as the summary's
+    /// "Found" counts them.
     Found,
 }
 
@@ -157,8 +159,8 @@ impl Statistic {
                 None => return Err("not computed: the scale needs 3 or more targets".into()),
             },
             Statistic::Found => {
-                let ok = r.targets.iter().filter(|t| t.status == "ok").count();
-                (ok as f64 / r.targets.len().max(1) as f64, None)
+                let (found, _) = r.found();
+                (found as f64 / r.targets.len().max(1) as f64, None)
             }
         })
     }

@@ -11,14 +11,17 @@
 
 use crate::Point;
 use crate::align::{AlignMethod, fit};
+use nalgebra::Vector3;
 
 /// Fewest targets the test runs on: four left to fit (three parameters,
 /// eight coordinates) when one is left out.
 pub(crate) const MIN_TARGETS: usize = 5;
 
-/// The targets (index, horizontal distance from where a rigid 2D fit on the
-/// others places it, those others' rms residual; m) that stand out: over
-/// `floor` and over `ratio` × the others' rms. `aligned` are the map's
+/// The targets (index, distance from where a rigid fit on the others places
+/// it, those others' rms residual; m) that stand out: over `floor` and over
+/// `ratio` × the others' rms. Horizontal, or in 3D with `d3` (a run that
+/// scores heights: an antenna height's typo is a blunder too; the fit then
+/// takes a height offset as well). `aligned` are the map's
 /// positions already in the survey's frame, so the fit only takes up what
 /// the blunder pulled. The suspect is the target whose leaving out lets the
 /// others fit each other best; once one is named it is set aside and the
@@ -26,13 +29,14 @@ pub(crate) const MIN_TARGETS: usize = 5;
 pub(crate) fn left_out_misfits(
     aligned: &[Point],
     survey: &[Point],
+    d3: bool,
     floor: f64,
     ratio: f64,
 ) -> Vec<(usize, f64, f64)> {
     let mut left: Vec<usize> = (0..aligned.len().min(survey.len())).collect();
     let mut out = Vec::new();
     while left.len() >= MIN_TARGETS {
-        let Some((k, off, rms)) = suspect(aligned, survey, &left) else {
+        let Some((k, off, rms)) = suspect(aligned, survey, &left, d3) else {
             break;
         };
         if !(off > floor && off > ratio * rms) {
@@ -46,22 +50,32 @@ pub(crate) fn left_out_misfits(
 
 /// Of `left`, the one (its place in `left`) whose leaving out lets the
 /// others fit best: with its distance from the others' fit and their rms.
-fn suspect(aligned: &[Point], survey: &[Point], left: &[usize]) -> Option<(usize, f64, f64)> {
+fn suspect(
+    aligned: &[Point],
+    survey: &[Point],
+    left: &[usize],
+    d3: bool,
+) -> Option<(usize, f64, f64)> {
+    let (method, norm): (AlignMethod, fn(Vector3<f64>) -> f64) = if d3 {
+        (AlignMethod::Rigid2dZ, |d| d.norm())
+    } else {
+        (AlignMethod::Rigid2d, |d| d.xy().norm())
+    };
     let mut best: Option<(usize, f64, f64)> = None;
     for (k, &i) in left.iter().enumerate() {
         let rest: Vec<usize> = left.iter().copied().filter(|&j| j != i).collect();
         let src: Vec<Point> = rest.iter().map(|&j| aligned[j]).collect();
         let dst: Vec<Point> = rest.iter().map(|&j| survey[j]).collect();
-        let Ok(a) = fit(AlignMethod::Rigid2d, &src, &dst) else {
+        let Ok(a) = fit(method, &src, &dst) else {
             continue;
         };
         let sse: f64 = src
             .iter()
             .zip(&dst)
-            .map(|(p, q)| (a.apply(p) - q).xy().norm_squared())
+            .map(|(p, q)| norm(a.apply(p) - q).powi(2))
             .sum();
         let rms = (sse / rest.len() as f64).sqrt();
-        let off = (a.apply(&aligned[i]) - survey[i]).xy().norm();
+        let off = norm(a.apply(&aligned[i]) - survey[i]);
         if best.is_none_or(|b| rms < b.2) {
             best = Some((k, off, rms));
         }
@@ -109,15 +123,22 @@ mod tests {
                 })
                 .collect()
         };
-        let found = left_out_misfits(&moved(0.2), &survey, 0.10, 5.0);
+        let found = left_out_misfits(&moved(0.2), &survey, false, 0.10, 5.0);
         assert_eq!(found.len(), 1, "{found:?}");
         assert_eq!(found[0].0, 1);
         assert!((found[0].1 - 0.2).abs() < 0.05, "{found:?}");
         assert!(found[0].2 < 0.03, "{found:?}");
         for b in [0.0, 0.03] {
-            assert!(left_out_misfits(&moved(b), &survey, 0.10, 5.0).is_empty());
+            assert!(left_out_misfits(&moved(b), &survey, false, 0.10, 5.0).is_empty());
         }
         // Four targets: nothing to tell a blunder by.
-        assert!(left_out_misfits(&moved(0.2)[..4], &survey[..4], 0.10, 5.0).is_empty());
+        assert!(left_out_misfits(&moved(0.2)[..4], &survey[..4], false, 0.10, 5.0).is_empty());
+        // An antenna height typed 25 cm off: seen only in 3D.
+        let mut high = moved(0.0);
+        high[4].z += 0.25;
+        assert!(left_out_misfits(&high, &survey, false, 0.10, 5.0).is_empty());
+        let found = left_out_misfits(&high, &survey, true, 0.10, 5.0);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].0, 4);
     }
 }

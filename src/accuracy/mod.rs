@@ -258,7 +258,8 @@ pub enum Warning {
     LayoutMisfit {
         /// Target id.
         id: String,
-        /// Horizontal distance from where the others' fit places it (m).
+        /// Distance from where the others' fit places it (m; 3D in a run
+        /// that scores heights).
         off: f64,
         /// The others' rms residual in that fit (m).
         others_rms: f64,

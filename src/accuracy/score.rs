@@ -70,9 +70,11 @@ pub fn score_with_covariances(
     let intervals = m.intervals(covariances, opts, !asprs.independent, &mut warnings);
     let gross = gross_errors(&m.ids, &abs, &residuals, &m.survey_covariances(&al));
     // Of the aligned positions: a fitted scale or a 3D fit's tilt is the
-    // alignment's, not a misfit. Horizontal, as the blunders the survey's
-    // rows make (and a 2D run's errors) are.
-    let misfits = super::blunder::left_out_misfits(&aligned, &m.survey, BLUNDER_M, BLUNDER_RATIO);
+    // alignment's, not a misfit. Heights only where the errors are: a 2D
+    // run leaves them unscored.
+    let d3 = dim == Dim::D3 && all_z;
+    let misfits =
+        super::blunder::left_out_misfits(&aligned, &m.survey, d3, BLUNDER_M, BLUNDER_RATIO);
     let flagged = |id: &str| {
         gross
             .iter()

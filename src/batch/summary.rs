@@ -146,10 +146,7 @@ fn run_line(r: &RunRecord) -> RunLine {
         dir: format!("{}/{}", r.sequence, r.method),
         e_abs: res.map(|r| r.absolute.mean),
         e_rel: res.map(|r| r.relative.mean),
-        found: res.map(|r| {
-            let ok = r.targets.iter().filter(|t| t.status == "ok").count();
-            [ok, r.targets.len()]
-        }),
+        found: res.map(|r| [r.found().0, r.targets.len()]),
         // Report-only gates decide nothing: not counted as passes.
         gates: res
             .and_then(|r| r.gate_outcome)

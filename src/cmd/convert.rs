@@ -20,7 +20,7 @@ pub struct Args {
     /// `pcd-f32` is for readers that misread double PCD (Open3D 0.20); it and
     /// the other float32 layouts refuse coordinates beyond ±32 768 m, where
     /// f32 rounds by over 1 mm. The input's intensity (binary PCD, binary PLY,
-    /// LAS, LAZ, COPC, E57) is kept by `pcd-xyzi`, `pcd-fastlio`, `ply-f32`,
+    /// LAS, LAZ, COPC, E57) is kept by `ply`, `pcd-xyzi`, `pcd-fastlio`, `ply-f32`,
     /// `xyz` (under an `x y z intensity` header line), `las` and `laz` (the
     /// last two as whole numbers 0–65535).
     #[arg(long, visible_alias = "to", value_enum)]

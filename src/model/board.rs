@@ -414,7 +414,7 @@ fn other_side(l: &Looked, side: f64, p: &BoardParams, others: &[Vector3<f64>]) -
         let (cands, _) = faces_of(l, other, p);
         if let Some(i) = choose(&cands, others) {
             return Some(format!(
-                "a board of {:.0} mm stands {:.2} m from the expected position: is the survey's size ({:.0} mm) right?",
+                "a board of {:.0} mm stands {:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[board] side_m`) right?",
                 other * 1e3,
                 cands[i].centre.xy().norm(),
                 side * 1e3

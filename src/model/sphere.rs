@@ -150,9 +150,10 @@ pub struct Search<'a> {
     /// The vertical (a post goes on along it below a bollard's round top).
     pub up: Vector3<f64>,
     /// Whether a failure names a sphere of another size standing there
-    /// (where a survey places a sphere: its size may be mistaken; detection
-    /// map-wide keeps no reason, and would pay four more searches for each
-    /// round thing it refuses).
+    /// where something else was refused too (where a survey places a
+    /// sphere: its size may be mistaken). Detection map-wide keeps only
+    /// whether something round stood there, so it asks other sizes only
+    /// where nothing was refused, not four more searches per round thing.
     pub other_sizes: bool,
 }
 
@@ -196,8 +197,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         // A survey that gives the wrong size (a radius for a diameter, the
         // other common sphere) leaves the sphere itself unnamed: say so when
         // one of those sizes stands where this one should.
-        let hint = s
-            .other_sizes
+        let hint = (s.other_sizes || seen.is_none())
             .then(|| other_size(&local, r, &up, p, &others))
             .flatten();
         let seen = match (seen, hint) {
@@ -294,7 +294,7 @@ fn other_size(
         let (_, cands) = judged(local, other, up, p);
         if let Some(i) = choose(&cands, others) {
             return Some(format!(
-                "a sphere of {:.0} mm stands {:.2} m from the expected position: is the survey's size ({:.0} mm) right?",
+                "a sphere of {:.0} mm stands {:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[sphere] diameter_m`) right?",
                 2e3 * other,
                 cands[i].centre.xy().norm(),
                 2e3 * r

@@ -339,7 +339,12 @@ impl SurveyXy<'_> {
             lon: g.lat,
             alt: g.alt,
         };
-        let o2 = swap(o);
+        // About the first target read the other way round: an `--origin`
+        // given right must not be exchanged with the rows.
+        let Some(first) = self.sur.first() else {
+            return Ok(());
+        };
+        let o2 = swap(o.geodetic_of(first));
         if !(o2.lat.abs() < 90.0) {
             return Ok(());
         }

@@ -214,8 +214,10 @@ fn summary_section(o: &mut String, r: &ResultFile, dim: &str) {
         &format!("{n_found} / {}", r.targets.len()),
         &match (n_found == r.targets.len(), excluded) {
             (true, 0) => "all located".to_string(),
+            (true, 1) => "all located; 1 excluded as a gross error".to_string(),
             (true, k) => format!("all located; {k} excluded as gross errors"),
             (false, 0) => "see the failed panels below".to_string(),
+            (false, 1) => "1 excluded as a gross error; see the failed panels below".to_string(),
             (false, k) => format!("{k} excluded as gross errors; see the failed panels below"),
         },
     );

@@ -602,6 +602,12 @@ fn a_survey_with_latitude_and_longitude_swapped_is_named() {
             && e.contains("as written, only"),
         "{e}"
     );
+    // With the right origin given: it is not exchanged with the rows.
+    let e = eval_refused(&map, &sw, &["--origin", "48.137,11.575,520"]);
+    assert!(
+        e.contains("the survey's latitude and longitude look swapped"),
+        "{e}"
+    );
     stdout_ok(
         bin()
             .args(["eval", "--no-report", "--map"])

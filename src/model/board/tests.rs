@@ -508,7 +508,10 @@ fn a_board_surveyed_at_half_its_size_is_named_with_its_size() {
             seen: Some(why), ..
         }) => {
             assert!(why.contains("a board of 600 mm stands"), "{why}");
-            assert!(why.contains("survey's size (300 mm) right?"), "{why}");
+            assert!(
+                why.contains("size given (300 mm: the survey's `size`"),
+                "{why}"
+            );
         }
         other => panic!("{:?}", other.map(|f| f.0.centre)),
     }

@@ -691,7 +691,10 @@ fn a_sphere_surveyed_at_half_its_size_is_named_with_its_size() {
             seen: Some(why), ..
         }) => {
             assert!(why.contains("a sphere of 145 mm stands 0.11 m"), "{why}");
-            assert!(why.contains("survey's size (72 mm)"), "{why}");
+            assert!(
+                why.contains("size given (72 mm: the survey's `size`"),
+                "{why}"
+            );
         }
         other => panic!("{other:?}"),
     }
