@@ -241,10 +241,7 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             .on_surfaces
             .then(|| other_side(&look, side, p, &others))
             .flatten();
-        let seen = match (seen, hint) {
-            (Some(s), Some(h)) => Some(format!("{s}; {h}")),
-            (s, h) => s.or(h),
-        };
+        let seen = super::with_hint(seen, hint);
         return Err(BoardError::NoBoard {
             radius: p.search_radius_m,
             side_mm: side * 1e3,

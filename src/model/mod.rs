@@ -35,6 +35,15 @@ use serde::{Deserialize, Serialize};
 /// horizontally) of the nearest one, the best supported.
 pub(crate) const SAME_PLACE_M: f64 = 1.0;
 
+/// A `not_found` reason's "closest thing seen" with the hint of a target
+/// of another size standing there, either or both.
+pub(crate) fn with_hint(seen: Option<String>, hint: Option<String>) -> Option<String> {
+    match (seen, hint) {
+        (Some(s), Some(h)) => Some(format!("{s}; {h}")),
+        (s, h) => s.or(h),
+    }
+}
+
 /// What a `not_found` reason names of `refused`: of those within
 /// [`SAME_PLACE_M`] of the nearest (`from`: horizontal distance from the
 /// expected position), the best supported. The target itself when it was

@@ -200,10 +200,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
         let hint = (s.other_sizes || seen.is_none())
             .then(|| other_size(&local, r, &up, p, &others))
             .flatten();
-        let seen = match (seen, hint) {
-            (Some(s), Some(hint)) => Some(format!("{s}; {hint}")),
-            (s, hint) => s.or(hint),
-        };
+        let seen = super::with_hint(seen, hint);
         return Err(SphereError::NoSphere {
             radius: p.search_radius_m,
             diameter_mm: 2e3 * r,

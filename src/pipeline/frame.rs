@@ -353,21 +353,12 @@ impl SurveyXy<'_> {
             .iter()
             .map(|p| o2.enu_of(&swap(o.geodetic_of(p))))
             .collect();
-        let Ok(mm) = match_frame(self.cands, &exchanged, self.kinds, self.has_z, self.params)
-        else {
-            return Ok(());
-        };
-        let given = matched_as_given(m);
-        if mm.matches.len() > given {
-            return Err(NoFrame::Failed(Error::Input(format!(
-                "the survey's latitude and longitude look swapped: read the other way round, {} of its {} targets fall on targets detected in the map (rms {:.0} mm); as written, {}. Check the order of the survey's columns (id,lat,lon: latitude first) and run again",
-                mm.matches.len(),
-                self.sur.len(),
-                mm.rms * 1e3,
-                as_written(given)
-            ))));
-        }
-        Ok(())
+        self.fits_better(
+            m,
+            &exchanged,
+            "the survey's latitude and longitude look swapped: read the other way round",
+            "Check the order of the survey's columns (id,lat,lon: latitude first) and run again",
+        )
     }
 
     /// A survey with x and y exchanged is the map's mirror image: no rigid
@@ -378,20 +369,12 @@ impl SurveyXy<'_> {
         m: &std::result::Result<FrameMatch, MatchError>,
     ) -> std::result::Result<(), NoFrame> {
         let mirrored: Vec<Point> = self.sur.iter().map(|p| Point::new(p.y, p.x, p.z)).collect();
-        let Ok(mm) = match_frame(self.cands, &mirrored, self.kinds, self.has_z, self.params) else {
-            return Ok(());
-        };
-        let given = matched_as_given(m);
-        if mm.matches.len() > given {
-            return Err(NoFrame::Failed(Error::Input(format!(
-                "the survey's x and y look swapped: with them exchanged, {} of its {} targets fall on targets detected in the map (rms {:.0} mm); as written, {}. Check the order of the survey's columns (id,x,y: x east, y north) and run again",
-                mm.matches.len(),
-                self.sur.len(),
-                mm.rms * 1e3,
-                as_written(given)
-            ))));
-        }
-        Ok(())
+        self.fits_better(
+            m,
+            &mirrored,
+            "the survey's x and y look swapped: with them exchanged",
+            "Check the order of the survey's columns (id,x,y: x east, y north) and run again",
+        )
     }
 
     /// A survey in another unit than the map (feet, millimetres) is the
@@ -411,25 +394,45 @@ impl SurveyXy<'_> {
             .iter()
             .fold(nalgebra::Vector3::zeros(), |a, p| a + p.coords)
             / n;
-        let given = matched_as_given(m);
         for (factor, what) in UNITS {
             let scaled: Vec<Point> = sur
                 .iter()
                 .map(|p| Point::from(c + (p.coords - c) * factor))
                 .collect();
-            if let Ok(sm) = match_frame(self.cands, &scaled, self.kinds, self.has_z, self.params)
-                && sm.matches.len() > given
-            {
-                return Err(NoFrame::Failed(Error::Input(format!(
-                    "the survey looks {what}: scaled by {factor}, {} of its {} targets fall on targets detected in the map (rms {:.0} mm); as written, {}. mapgauge reads both files in metres: convert the survey, or the map (`mapgauge convert --scale`), and run again",
-                    sm.matches.len(),
-                    sur.len(),
-                    sm.rms * 1e3,
-                    as_written(given)
-                ))));
-            }
+            self.fits_better(
+                m,
+                &scaled,
+                &format!("the survey looks {what}: scaled by {factor}"),
+                "mapgauge reads both files in metres: convert the survey, or the map (`mapgauge convert --scale`), and run again",
+            )?;
         }
         Ok(())
+    }
+
+    /// The survey read another way (`read`) puts more of its targets on
+    /// detections than as written (`m`): the mistake, refused as `how` it
+    /// was read, and `fix`.
+    fn fits_better(
+        &self,
+        m: &std::result::Result<FrameMatch, MatchError>,
+        read: &[Point],
+        how: &str,
+        fix: &str,
+    ) -> std::result::Result<(), NoFrame> {
+        let Ok(mm) = match_frame(self.cands, read, self.kinds, self.has_z, self.params) else {
+            return Ok(());
+        };
+        let given = matched_as_given(m);
+        if mm.matches.len() <= given {
+            return Ok(());
+        }
+        Err(NoFrame::Failed(Error::Input(format!(
+            "{how}, {} of its {} targets fall on targets detected in the map (rms {:.0} mm); as written, {}. {fix}",
+            mm.matches.len(),
+            self.sur.len(),
+            mm.rms * 1e3,
+            as_written(given)
+        ))))
     }
 }
 
