@@ -485,8 +485,9 @@ pub enum OutFormat {
     /// the source has it (GLIM's maps). Float32 limits as for `pcd-f32`.
     #[serde(rename = "ply-f32")]
     PlyF32,
-    /// XYZ text: `x y z` lines to the micrometre (6 decimals), plus the
-    /// intensity when the source has it; no header.
+    /// XYZ text: `x y z` lines to the micrometre (6 decimals), no header;
+    /// with the source's intensity, `x y z intensity` lines under that
+    /// header line.
     Xyz,
 }
 

@@ -130,7 +130,7 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             off,
             others_rms,
         } => format!(
-            "target {id}: a fit on the other targets, which agree with their survey to {:.0} mm (rms), places it {:.0} mm from its own: a survey blunder or a wrong corner? (or the map distorted there; check its survey row and its panel)",
+            "target {id}: a fit on the other targets, which agree with their survey to {:.0} mm (rms), places it {:.0} mm from its own: a survey blunder or a wrong corner? (or the map distorted there; check its survey row and its panel). It stays in the numbers, --exclude-outliers too: this test cannot tell a survey typo from the map bent there; remove its row to score without it",
             others_rms * 1000.0,
             off * 1000.0
         ),
