@@ -1,7 +1,7 @@
 //! Which position disagrees with the others' layout: the distances between
 //! positions need no alignment, so one bad position cannot hide by pulling
-//! the fit (a wrong object in `pipeline::layout`, a survey blunder in
-//! [`super::score`]).
+//! the fit (a wrong object in `pipeline::layout`; a survey blunder is
+//! [`super::blunder`]'s, which also sees one across the lines to the others).
 
 use crate::Point;
 
