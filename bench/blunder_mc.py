@@ -8,7 +8,8 @@ errors per axis (map and survey together), one target moved by 20 cm (and
 one, rewritten: each target left out in turn, a rigid 2D fit on the
 others; the suspect is the one whose leaving out lets the others fit best;
 named when its distance from where that fit places it is over FLOOR and
-over RATIO x the others' rms residual. Beside it, the rule it replaced
+over RATIO x the others' rms residual (with four targets, the distance
+weighed by its leverage is held against FLOOR). Beside it, the rule it replaced
 (distances: each target's median pair misfit against the other pairs'),
 for comparison. (One round only: later rounds need a first blunder.)
 
@@ -55,10 +56,18 @@ def left_out(m, s):
         t = fit2d(mo, so)
         rms = math.sqrt(sum(math.dist(t(p), q) ** 2 for p, q in zip(mo, so)) / len(mo))
         off = math.dist(t(m[k]), s[k])
+        weighed = off
+        if n < 5:
+            # Three left extrapolate to the fourth: weigh by its leverage.
+            cx = sum(p[0] for p in so) / len(so)
+            cy = sum(p[1] for p in so) / len(so)
+            spread = sum((p[0] - cx) ** 2 + (p[1] - cy) ** 2 for p in so)
+            d2 = (s[k][0] - cx) ** 2 + (s[k][1] - cy) ** 2
+            weighed = off / math.sqrt(1 + 1 / len(so) + d2 / (2 * spread))
         if best is None or rms < best[0]:
-            best = (rms, k, off)
-    rms, k, off = best
-    return k if off > floor and off > ratio * rms else None
+            best = (rms, k, off, weighed)
+    rms, k, off, weighed = best
+    return k if weighed > floor and off > ratio * rms else None
 
 
 def by_distances(m, s):
@@ -100,7 +109,7 @@ print("| error per axis | targets | false alarms | 20 cm blunder found | 12 cm f
       "| by distances: false alarms | 20 cm found |")
 print("|---|---|---|---|---|---|---|")
 for sigma in (0.005, 0.02, 0.03):
-    for n in (5, 6, 8):
+    for n in (4, 5, 6, 8):
         row = []
         for rule in (left_out, by_distances):
             rng = random.Random(3)

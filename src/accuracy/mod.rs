@@ -5,7 +5,7 @@
 //! sentences. `record` turns it into `result.json`, `render` into tables.
 
 mod asprs;
-mod blunder;
+pub(crate) mod blunder;
 mod distances;
 pub mod intervals;
 pub(crate) use distances::misfit_by_distances;

@@ -135,8 +135,8 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             off * 1000.0
         ),
         Warning::TooFewForIntervals { n } => format!(
-            "only {n} target(s) scored: no confidence intervals (need at least {})",
-            accuracy::intervals::MIN_TARGETS
+            "only {n} target(s) scored: no confidence intervals, and a survey blunder cannot be told from an error of the map (each needs at least {}; 5 or more are better)",
+            accuracy::intervals::MIN_TARGETS.max(accuracy::blunder::MIN_TARGETS)
         ),
         Warning::VerticalNotReported => {
             "vertical accuracy not reported: choose an alignment that fits z (rigid2d+z, rigid3d)"
