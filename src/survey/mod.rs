@@ -279,10 +279,20 @@ impl Columns {
             let c = t.opt_number(line, rec, self.height, self.names[2])?;
             if self.geodetic {
                 if !(-90.0..=90.0).contains(&a) {
+                    // A longitude where the latitude goes (127.36, 36.37 at
+                    // Daejeon) is the likely slip: say so.
+                    let swapped = if (-90.0..=90.0).contains(&b) {
+                        format!(
+                            " (its longitude {b} would be a latitude: are the {} and {} columns swapped?)",
+                            t.headers[self.at[0]], t.headers[self.at[1]]
+                        )
+                    } else {
+                        String::new()
+                    };
                     return Err(Error::table(
                         path,
                         line,
-                        format!("latitude {a} is outside -90..90"),
+                        format!("latitude {a} is outside -90..90{swapped}"),
                     ));
                 }
                 if !(-360.0..=360.0).contains(&b) {
@@ -322,7 +332,24 @@ impl Columns {
                     path,
                     line,
                     format!(
-                        "antenna_height {antenna_height} is more than {MAX_ANTENNA_M} m: is it in centimetres or millimetres? (metres from the surveyed point down to the target's reference height)"
+                        "antenna_height {antenna_height} is more than {MAX_ANTENNA_M} m: is it in centimetres or millimetres? (metres from the surveyed point down to the target's reference height; mapgauge reads every column of a survey in metres: if the survey was written in another unit, convert its {} too)",
+                        if self.geodetic {
+                            format!(
+                                "{} (heights)",
+                                t.headers
+                                    .get(self.height.unwrap_or(usize::MAX))
+                                    .map_or("alt", |h| h.as_str())
+                            )
+                        } else {
+                            format!(
+                                "{}, {} and {}",
+                                t.headers[self.at[0]],
+                                t.headers[self.at[1]],
+                                t.headers
+                                    .get(self.height.unwrap_or(usize::MAX))
+                                    .map_or("z", |h| h.as_str())
+                            )
+                        }
                     ),
                 ));
             }

@@ -92,8 +92,34 @@ fn an_antenna_height_in_centimetres_is_refused_with_its_line() {
         e.contains(":3") && e.contains("antenna_height 42") && e.contains("centimetres"),
         "{e}"
     );
+    // A survey written in millimetres throughout: its positions are named
+    // too, so the next run does not stop on them.
+    let f = file("id,x,y,z,antenna_height\nT1,0,0,1000,420\n");
+    let e = read_survey(f.path(), &SurveyOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("convert its x, y and z too"), "{e}");
     let f = file("id,x,y,z,antenna_height\nT1,0,0,1,-0.3\nT2,10,0,1,2.5\n");
     assert!(read_survey(f.path(), &SurveyOptions::default()).is_ok());
+}
+
+/// Latitude and longitude exchanged at 127° E: the range error says so.
+#[test]
+fn a_latitude_past_90_names_the_likely_swap() {
+    let f = file("id,lat,lon,alt\na,127.36,36.37,50\n");
+    let e = read_survey(f.path(), &SurveyOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("latitude 127.36 is outside -90..90")
+            && e.contains("lat and lon columns swapped"),
+        "{e}"
+    );
+    let f = file("id,lat,lon,alt\na,127.36,136.37,50\n");
+    let e = read_survey(f.path(), &SurveyOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(!e.contains("swapped"), "{e}");
 }
 
 #[test]
