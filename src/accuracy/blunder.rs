@@ -25,11 +25,36 @@ pub(crate) const MIN_TARGETS: usize = 4;
 /// leverage (see [`MIN_TARGETS`]); from five on, the test as measured.
 const WEIGH_BELOW: usize = 5;
 
+/// One target the others' fit does not place.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Misfit {
+    /// Its index.
+    pub k: usize,
+    /// Its distance from where the others' fit places it (m).
+    pub off: f64,
+    /// The others' rms residual in that fit (m).
+    pub others_rms: f64,
+    /// The height part of that distance (m, map less survey), in 3D.
+    pub dz: Option<f64>,
+}
+
+/// How the left-out test fits and measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Test {
+    /// Horizontal: a rigid 2D fit, horizontal distances.
+    Horizontal,
+    /// A run that scores heights (an antenna height's typo is a blunder
+    /// too): yaw and a 3D shift, 3D distances.
+    Heights,
+    /// Heights, in a run whose alignment tilts (rigid3d, similarity3d):
+    /// a blunder's pull on that tilt is the others' to undo, so their fit
+    /// tilts too.
+    HeightsTilted,
+}
+
 /// The targets (index, distance from where a rigid fit on the others places
 /// it, those others' rms residual; m) that stand out: over `floor` and over
-/// `ratio` × the others' rms. Horizontal, or in 3D with `d3` (a run that
-/// scores heights: an antenna height's typo is a blunder too; the fit then
-/// takes a height offset as well). `aligned` are the map's
+/// `ratio` × the others' rms, measured as `test` says. `aligned` are the map's
 /// positions already in the survey's frame, so the fit only takes up what
 /// the blunder pulled. The suspect is the target whose leaving out lets the
 /// others fit each other best; once one is named it is set aside and the
@@ -37,14 +62,14 @@ const WEIGH_BELOW: usize = 5;
 pub(crate) fn left_out_misfits(
     aligned: &[Point],
     survey: &[Point],
-    d3: bool,
+    test: Test,
     floor: f64,
     ratio: f64,
-) -> Vec<(usize, f64, f64)> {
+) -> Vec<Misfit> {
     let mut left: Vec<usize> = (0..aligned.len().min(survey.len())).collect();
     let mut out = Vec::new();
     while left.len() >= MIN_TARGETS {
-        let Some((k, off, rms)) = suspect(aligned, survey, &left, d3) else {
+        let Some((k, off, rms, dz)) = suspect(aligned, survey, &left, test) else {
             break;
         };
         let weighed = if left.len() < WEIGH_BELOW {
@@ -55,9 +80,14 @@ pub(crate) fn left_out_misfits(
         if !(weighed > floor && off > ratio * rms) {
             break;
         }
-        out.push((left.remove(k), off, rms));
+        out.push(Misfit {
+            k: left.remove(k),
+            off,
+            others_rms: rms,
+            dz: (test != Test::Horizontal).then_some(dz),
+        });
     }
-    out.sort_by_key(|f| f.0);
+    out.sort_by_key(|f| f.k);
     out
 }
 
@@ -92,19 +122,20 @@ fn leverage(survey: &[Point], left: &[usize], k: usize) -> f64 {
 }
 
 /// Of `left`, the one (its place in `left`) whose leaving out lets the
-/// others fit best: with its distance from the others' fit and their rms.
+/// others fit best: with its distance from the others' fit, their rms and
+/// its height part.
 fn suspect(
     aligned: &[Point],
     survey: &[Point],
     left: &[usize],
-    d3: bool,
-) -> Option<(usize, f64, f64)> {
-    let (method, norm): (AlignMethod, fn(Vector3<f64>) -> f64) = if d3 {
-        (AlignMethod::Rigid2dZ, |d| d.norm())
-    } else {
-        (AlignMethod::Rigid2d, |d| d.xy().norm())
+    test: Test,
+) -> Option<(usize, f64, f64, f64)> {
+    let (method, norm): (AlignMethod, fn(Vector3<f64>) -> f64) = match test {
+        Test::Horizontal => (AlignMethod::Rigid2d, |d| d.xy().norm()),
+        Test::Heights => (AlignMethod::Rigid2dZ, |d| d.norm()),
+        Test::HeightsTilted => (AlignMethod::Rigid3d, |d| d.norm()),
     };
-    let mut best: Option<(usize, f64, f64)> = None;
+    let mut best: Option<(usize, f64, f64, f64)> = None;
     for (k, &i) in left.iter().enumerate() {
         let rest: Vec<usize> = left.iter().copied().filter(|&j| j != i).collect();
         let src: Vec<Point> = rest.iter().map(|&j| aligned[j]).collect();
@@ -118,9 +149,9 @@ fn suspect(
             .map(|(p, q)| norm(a.apply(p) - q).powi(2))
             .sum();
         let rms = (sse / rest.len() as f64).sqrt();
-        let off = norm(a.apply(&aligned[i]) - survey[i]);
+        let d = a.apply(&aligned[i]) - survey[i];
         if best.is_none_or(|b| rms < b.2) {
-            best = Some((k, off, rms));
+            best = Some((k, norm(d), rms, d.z));
         }
     }
     best
@@ -166,27 +197,42 @@ mod tests {
                 })
                 .collect()
         };
-        let found = left_out_misfits(&moved(0.2), &survey, false, 0.10, 5.0);
+        let found = left_out_misfits(&moved(0.2), &survey, Test::Horizontal, 0.10, 5.0);
         assert_eq!(found.len(), 1, "{found:?}");
-        assert_eq!(found[0].0, 1);
-        assert!((found[0].1 - 0.2).abs() < 0.05, "{found:?}");
-        assert!(found[0].2 < 0.03, "{found:?}");
+        assert_eq!(found[0].k, 1);
+        assert!((found[0].off - 0.2).abs() < 0.05, "{found:?}");
+        assert!(found[0].others_rms < 0.03, "{found:?}");
         for b in [0.0, 0.03] {
-            assert!(left_out_misfits(&moved(b), &survey, false, 0.10, 5.0).is_empty());
+            assert!(left_out_misfits(&moved(b), &survey, Test::Horizontal, 0.10, 5.0).is_empty());
         }
         // Four targets: the three left extrapolate, and still name it;
         // three: nothing to tell a blunder by.
-        let found = left_out_misfits(&moved(0.25)[..4], &survey[..4], false, 0.10, 5.0);
+        let found = left_out_misfits(&moved(0.25)[..4], &survey[..4], Test::Horizontal, 0.10, 5.0);
         assert_eq!(found.len(), 1, "{found:?}");
-        assert_eq!(found[0].0, 1);
-        assert!(left_out_misfits(&moved(0.03)[..4], &survey[..4], false, 0.10, 5.0).is_empty());
-        assert!(left_out_misfits(&moved(0.25)[..3], &survey[..3], false, 0.10, 5.0).is_empty());
+        assert_eq!(found[0].k, 1);
+        assert!(
+            left_out_misfits(&moved(0.03)[..4], &survey[..4], Test::Horizontal, 0.10, 5.0)
+                .is_empty()
+        );
+        assert!(
+            left_out_misfits(&moved(0.25)[..3], &survey[..3], Test::Horizontal, 0.10, 5.0)
+                .is_empty()
+        );
         // An antenna height typed 25 cm off: seen only in 3D.
         let mut high = moved(0.0);
         high[4].z += 0.25;
-        assert!(left_out_misfits(&high, &survey, false, 0.10, 5.0).is_empty());
-        let found = left_out_misfits(&high, &survey, true, 0.10, 5.0);
+        assert!(left_out_misfits(&high, &survey, Test::Horizontal, 0.10, 5.0).is_empty());
+        let found = left_out_misfits(&high, &survey, Test::Heights, 0.10, 5.0);
         assert_eq!(found.len(), 1, "{found:?}");
-        assert_eq!(found[0].0, 4);
+        assert_eq!(found[0].k, 4);
+        assert!((found[0].dz.unwrap() - 0.25).abs() < 0.03, "{found:?}");
+        // Under a rigid3d alignment the blunder tilts the fit on all six;
+        // the others' fit tilts back and still names it.
+        let al = fit(AlignMethod::Rigid3d, &high, &survey).unwrap();
+        let tilted: Vec<Point> = high.iter().map(|p| al.apply(p)).collect();
+        let found = left_out_misfits(&tilted, &survey, Test::HeightsTilted, 0.10, 5.0);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].k, 4);
+        assert!((found[0].off - 0.25).abs() < 0.03, "{found:?}");
     }
 }

@@ -247,10 +247,15 @@ pub enum Warning {
         sigma: f64,
         /// (error − median) / (1.4826 · MAD) over the scored targets.
         robust_z: f64,
+        /// Where the error is scored in 3D: its height part (m, map less
+        /// survey, less the scored targets' median: a datum no fit
+        /// corrected is theirs too), that height's 1-σ and its horizontal
+        /// error (m); `None` in 2D.
+        height: Option<(f64, f64, f64)>,
     },
     /// A target a rigid fit on the other targets places over
     /// [`score::BLUNDER_M`] and over 5 × their own rms residual from its
-    /// survey position (five targets or more), not flagged as a
+    /// survey position (four targets or more), not flagged as a
     /// [`Warning::GrossError`]: a blunder of a few decimetres pulls a fit of
     /// five targets so far that its own error no longer stands out; left
     /// out, it shows whole. A warning only: it cannot tell a survey typo
@@ -263,6 +268,8 @@ pub enum Warning {
         off: f64,
         /// The others' rms residual in that fit (m).
         others_rms: f64,
+        /// Its height part (m, map less survey) where the test is 3D.
+        dz: Option<f64>,
     },
     /// Too few scored targets for confidence intervals.
     TooFewForIntervals {

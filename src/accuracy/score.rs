@@ -68,13 +68,31 @@ pub fn score_with_covariances(
         warnings.push(Warning::VerticalNotReported);
     }
     let intervals = m.intervals(covariances, opts, !asprs.independent, &mut warnings);
-    let gross = gross_errors(&m.ids, &abs, &residuals, &m.survey_covariances(&al));
+    let gross = gross_errors(
+        &m.ids,
+        &abs,
+        &residuals,
+        &m.survey_covariances(&al),
+        dim == Dim::D3 && all_z,
+    );
     // Of the aligned positions: a fitted scale or a 3D fit's tilt is the
     // alignment's, not a misfit. Heights only where the errors are: a 2D
     // run leaves them unscored.
-    let d3 = dim == Dim::D3 && all_z;
+    // Heights are tested wherever the run reports them (RMSE_V under a 2D
+    // dim too); an alignment that tilts leaves the others' fit to tilt.
+    use super::blunder::Test;
+    let test = if !(vertical || (dim == Dim::D3 && all_z)) {
+        Test::Horizontal
+    } else if matches!(
+        opts.method,
+        AlignMethod::Rigid3d | AlignMethod::Similarity3d
+    ) {
+        Test::HeightsTilted
+    } else {
+        Test::Heights
+    };
     let misfits =
-        super::blunder::left_out_misfits(&aligned, &m.survey, d3, BLUNDER_M, BLUNDER_RATIO);
+        super::blunder::left_out_misfits(&aligned, &m.survey, test, BLUNDER_M, BLUNDER_RATIO);
     let flagged = |id: &str| {
         gross
             .iter()
@@ -82,11 +100,12 @@ pub fn score_with_covariances(
     };
     let layout: Vec<Warning> = misfits
         .into_iter()
-        .filter(|&(k, ..)| !flagged(&m.ids[k]))
-        .map(|(k, off, others_rms)| Warning::LayoutMisfit {
-            id: m.ids[k].clone(),
-            off,
-            others_rms,
+        .filter(|f| !flagged(&m.ids[f.k]))
+        .map(|f| Warning::LayoutMisfit {
+            id: m.ids[f.k].clone(),
+            off: f.off,
+            others_rms: f.others_rms,
+            dz: f.dz,
         })
         .collect();
     warnings.extend(gross);
@@ -446,6 +465,7 @@ fn gross_errors(
     errors: &[f64],
     residuals: &[Vector3<f64>],
     covs: &[Option<Matrix3<f64>>],
+    d3: bool,
 ) -> Vec<Warning> {
     let n = errors.len();
     if n < 5 {
@@ -464,6 +484,8 @@ fn gross_errors(
     let mad = 1.4826 * median(&mut errors.iter().map(|e| (e - med).abs()).collect());
     // A floor of 1 mm: identical errors would make any difference "infinitely" far.
     let scale = mad.max(1e-3);
+    // Heights against the others': a datum no fit corrected is theirs too.
+    let med_z = median(&mut residuals.iter().map(|r| r.z).collect());
     let mut out = Vec::new();
     for j in 0..n {
         let z = (errors[j] - med) / scale;
@@ -480,6 +502,7 @@ fn gross_errors(
                 error: errors[j],
                 sigma: ((c2[(0, 0)] + c2[(1, 1)]) / 2.0).max(0.0).sqrt(),
                 robust_z: z,
+                height: d3.then(|| (residuals[j].z - med_z, c[(2, 2)].max(0.0).sqrt(), r.norm())),
             });
         }
     }

@@ -120,20 +120,48 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             error,
             sigma,
             robust_z,
-        } => format!(
-            "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it, or drop it from the survey)",
-            error * 1000.0,
-            sigma * 1000.0
-        ),
+            height,
+        } => match height {
+            Some((dz, sigma_z, horizontal)) if dz.abs() > *horizontal => format!(
+                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm horizontal, {:.1} mm in height) and with the other targets (robust z {robust_z:.1}), and it is mostly in height: {:.0} mm {} the others' against the survey, {:.0} mm horizontally. A gross error? ({}, a wrong corner or a survey blunder; check it, or drop it from the survey)",
+                error * 1000.0,
+                sigma * 1000.0,
+                sigma_z * 1000.0,
+                dz.abs() * 1000.0,
+                if *dz > 0.0 { "above" } else { "below" },
+                horizontal * 1000.0,
+                antenna_hint(*dz)
+            ),
+            _ => format!(
+                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm{}) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it, or drop it from the survey)",
+                error * 1000.0,
+                sigma * 1000.0,
+                height.map_or(String::new(), |(_, sz, _)| format!(
+                    " horizontal, {:.1} mm in height",
+                    sz * 1000.0
+                ))
+            ),
+        },
         Warning::LayoutMisfit {
             id,
             off,
             others_rms,
-        } => format!(
-            "target {id}: a fit on the other targets, which agree with their survey to {:.0} mm (rms), places it {:.0} mm from its own: a survey blunder or a wrong corner? (or the map distorted there; check its survey row and its panel). It stays in the numbers, --exclude-outliers too: this test cannot tell a survey typo from the map bent there; remove its row to score without it",
-            others_rms * 1000.0,
-            off * 1000.0
-        ),
+            dz,
+        } => {
+            let what = match dz {
+                Some(dz) if mostly_height(*off, *dz) => format!(
+                    ", {:.0} mm of it in height: {}, a survey blunder or a wrong corner?",
+                    dz.abs() * 1000.0,
+                    antenna_hint(*dz)
+                ),
+                _ => ": a survey blunder or a wrong corner?".into(),
+            };
+            format!(
+                "target {id}: a fit on the other targets, which agree with their survey to {:.0} mm (rms), places it {:.0} mm from its own{what} (or the map distorted there; check its survey row and its panel). It stays in the numbers, --exclude-outliers too: this test cannot tell a survey typo from the map bent there; remove its row to score without it",
+                others_rms * 1000.0,
+                off * 1000.0
+            )
+        }
         Warning::TooFewForIntervals { n } => format!(
             "only {n} target(s) scored: no confidence intervals, and a survey blunder cannot be told from an error of the map (each needs at least {}; 5 or more are better)",
             accuracy::intervals::MIN_TARGETS.max(accuracy::blunder::MIN_TARGETS)
@@ -143,6 +171,22 @@ pub(crate) fn warning_text(w: &Warning) -> String {
                 .into()
         }
     }
+}
+
+/// Whether most of an error of `total` (m) is its height part `dz`.
+fn mostly_height(total: f64, dz: f64) -> bool {
+    dz.abs() > total / std::f64::consts::SQRT_2
+}
+
+/// A height error (map less survey) read as the antenna height it would
+/// take: the survey's height is its point's less `antenna_height`, so one
+/// too large puts the survey below the map.
+fn antenna_hint(dz: f64) -> String {
+    format!(
+        "its antenna_height {:.2} m too {}, or its surveyed height typed wrong",
+        dz.abs(),
+        if dz > 0.0 { "large" } else { "small" }
+    )
 }
 
 fn caveat_text(c: &AsprsCaveat) -> String {

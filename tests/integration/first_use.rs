@@ -409,7 +409,7 @@ fn table_warns_about_different_surveys() {
     let table = |r: &[&std::path::PathBuf]| {
         let o = bin().arg("table").args(r).output().unwrap();
         assert!(o.status.success(), "{}", stderr(&o));
-        stderr(&o)
+        String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o)
     };
     assert_eq!(
         table(&[&results[0], &results[0]]),
@@ -1004,4 +1004,65 @@ fn a_wrong_init_is_named_not_asked_for() {
     let e = eval_refused(&map, &survey, &["--init", "500,0,90", "--frame", "survey"]);
     assert!(e.contains("The --init given (500, 0, 90°)"), "{e}");
     assert!(!e.contains("If not, give --init"), "{e}");
+}
+
+/// A new user's trial: an antenna height typed 0.5 m too large on one
+/// target went unseen under `rigid2d+z`, which reports RMSE_V (the blunder
+/// test looked only across); with `--dim 3d` the gross-error warning
+/// quoted the horizontal σ for a height error. Both now say it is in
+/// height and what antenna height would explain it. A 25 cm blunder among
+/// four targets is named too (the test asked for five).
+#[test]
+fn an_antenna_height_typed_wrong_and_a_blunder_among_four_are_named() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let ah = dir.path().join("antenna.csv");
+    edit_survey(&survey, &ah, |f| {
+        if f[0] == "3" {
+            add_to(&mut f[4], 0.5);
+        }
+    });
+    let run = |s: &Path, extra: &[&str]| {
+        let o = bin()
+            .args(["eval", "--no-report"])
+            .args(extra)
+            .arg("--map")
+            .arg(&map)
+            .arg("--survey")
+            .arg(s)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o)
+    };
+    for extra in [
+        &["--align", "rigid2d+z"][..],
+        &["--align", "rigid2d+z", "--dim", "3d"],
+        &["--align", "rigid3d"],
+    ] {
+        let e = run(&ah, extra);
+        let w = e
+            .lines()
+            .find(|l| l.contains("target 3:"))
+            .unwrap_or_else(|| panic!("{extra:?}: no warning for target 3 in {e}"));
+        assert!(
+            w.contains("in height") && w.contains("antenna_height 0.") && w.contains("too large"),
+            "{extra:?}: {w}"
+        );
+    }
+    assert!(!run(&survey, &["--align", "rigid2d+z"]).contains("target 3:"));
+    // Four targets, one 25 cm off across the line.
+    let text = std::fs::read_to_string(&survey).unwrap();
+    let four: Vec<&str> = text.lines().take(5).collect();
+    let four_csv = dir.path().join("four.csv");
+    std::fs::write(&four_csv, four.join("\n") + "\n").unwrap();
+    let blunder = dir.path().join("four_blunder.csv");
+    edit_survey(&four_csv, &blunder, |f| {
+        if f[0] == "3" {
+            add_to(&mut f[2], 0.25);
+        }
+    });
+    let e = run(&blunder, &[]);
+    assert!(e.contains("target 3: a fit on the other targets"), "{e}");
+    assert!(!run(&four_csv, &[]).contains("a fit on the other targets"));
 }
