@@ -329,7 +329,10 @@ fn board_at(
         crate::model::BoardError::NoBoard { seen: Some(s), .. } => Some(
             if s.contains("fewer than") {
                 "a board-sized face with too few points to read a print"
-            } else if s.contains("wider than a board") || s.contains("smaller than a") {
+            } else if ["wider than a ", "smaller than a ", "narrower than a "]
+                .iter()
+                .any(|k| s.contains(k))
+            {
                 "a flat face of another size than a board"
             } else {
                 "a flat face without a board's print"

@@ -770,10 +770,11 @@ fn judge(
         return Err(Refusal {
             points: ids.len(),
             why: format!(
-                "a flat face wider than a board ({:.2} × {:.2} m seen of a {:.2} m board's reach)",
+                "a flat face wider than a {:.2} m board ({:.2} × {:.2} m seen within {:.2} m of its middle)",
+                side,
                 extent[0],
                 extent[1],
-                1.5 * side
+                0.75 * side
             ),
             from: at.xy().norm(),
             wider: wall.then_some(Plane {
@@ -1041,6 +1042,10 @@ fn read_print(
         || (extent[1] > 0.9 * side && (x[1] - mid[1]).abs() > 0.15 * side)
     {
         Some("a pattern whose crossing is not the board's middle".into())
+    } else if let Some(w) = narrower(extent, ids.len(), x[0] - mid[0], side) {
+        Some(format!(
+            "a board {w:.2} m wide, its print centred in it: narrower than a {side:.2} m board"
+        ))
     } else {
         None
     };
@@ -1063,6 +1068,22 @@ fn read_print(
         face_points: n_face,
     })
 }
+
+/// A face `extent` (m, along its axes, horizontal first) of `n` points,
+/// whose print's crossing lies `off` from its horizontal middle: its width
+/// when it is a whole board narrower than `side` (a 0.6 m board surveyed as
+/// 0.8 m, or one tried at twice its size for a hint). Horizontal only: a
+/// standing board's legs lengthen it upright, and scan lines thin it there.
+/// A board hidden in part is seen narrower too, but off its print's middle;
+/// the points' spacing is added back (a far board's few points per scan
+/// line span less than its width).
+fn narrower(extent: [f64; 2], n: usize, off: f64, side: f64) -> Option<f64> {
+    let spacing = (extent[0] * extent[1] / n.max(1) as f64).sqrt();
+    (extent[0] + spacing < NARROWEST * side && off.abs() < 0.1 * side).then_some(extent[0])
+}
+
+/// A whole board is seen at least this share of its side wide.
+const NARROWEST: f64 = 0.8;
 
 /// The coarse pattern: lines' angle θ (from the face's first axis), their
 /// crossing `c` in the face, and which diagonal is bright (`phase`: the

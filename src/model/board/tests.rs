@@ -241,7 +241,7 @@ fn a_patterned_wall_is_not_a_board() {
         truth: c,
     };
     let e = locate(&search(&sc, c), &BoardParams::default()).unwrap_err();
-    assert!(e.to_string().contains("wider than a board"), "{e}");
+    assert!(e.to_string().contains("wider than a 0.60 m board"), "{e}");
 }
 
 /// The stated covariance holds: over scenes of several seeds, the crossing
@@ -525,4 +525,33 @@ fn a_board_surveyed_at_half_its_size_is_named_with_its_size() {
         }
         other => panic!("{:?}", other.map(|f| f.0.centre)),
     }
+}
+
+/// A 0.6 m board surveyed as 0.8 m was taken (its print's crossing is the
+/// same): it is seen whole and 0.6 m wide, so it is refused as narrower,
+/// with the size it is named. Surveyed as 0.7 m it is still taken (a
+/// board's width as seen is within 20 % of its side).
+#[test]
+fn a_board_surveyed_larger_than_it_is_is_named_with_its_size() {
+    let sc = scene(1, BOARD, |_, _, _| {});
+    let at = Point::new(1.0, -1.0, 0.5);
+    let large = Search {
+        side: 0.8,
+        ..search(&sc, at)
+    };
+    match locate(&large, &BoardParams::default()) {
+        Err(BoardError::NoBoard {
+            seen: Some(why), ..
+        }) => {
+            assert!(why.contains("narrower than a 0.80 m board"), "{why}");
+            assert!(why.contains("a board of 600 mm stands"), "{why}");
+        }
+        other => panic!("{:?}", other.map(|f| f.0.centre)),
+    }
+    let near = Search {
+        side: 0.7,
+        ..search(&sc, at)
+    };
+    let (fit, _) = locate(&near, &BoardParams::default()).expect("a 0.6 m board as 0.7 m");
+    assert!((fit.centre - sc.truth).norm() < 0.005, "{fit:?}");
 }
