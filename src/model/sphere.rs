@@ -714,9 +714,13 @@ fn judge(
         ));
     }
     if !(free - r).abs().is_finite() || (free - r).abs() > (3.0 * sigma).max(0.1 * r) {
+        // With its ± : fitted on points chosen for the size given, it leans
+        // toward it, and a hint fitted at the size standing there may name
+        // another number.
         return Some(format!(
-            "a sphere of {:.0} mm, not the {:.0} mm surveyed",
+            "a sphere of {:.0} ± {:.0} mm (free fit), not the {:.0} mm given",
             2e3 * free,
+            2e3 * sigma,
             2e3 * r
         ));
     }

@@ -227,7 +227,7 @@ fn poles_bollards_bushes_and_wrong_sizes_are_not_spheres() {
         0.001,
     ));
     let why = refused(big);
-    assert!(why.contains("not the 145 mm surveyed"), "{why}");
+    assert!(why.contains("not the 145 mm given"), "{why}");
 }
 
 /// A wall panel seen from the sensor's side (the plane `y = y0`, 0.6 m
