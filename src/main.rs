@@ -71,7 +71,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            eprintln!("error: {e}");
+            cmd::write_stderr(format_args!("error: {e}\n"));
             ExitCode::from(COULD_NOT_EVALUATE)
         }
     }

@@ -59,7 +59,7 @@ pub fn run(a: Args) -> Result<u8> {
                 pb.println(&line);
                 pb.inc(1);
             }
-            None => eprintln!("{line}"),
+            None => errln!("{line}"),
         }
     });
     if let Some(pb) = pb {
@@ -83,7 +83,7 @@ pub fn run(a: Args) -> Result<u8> {
     for v in &summary.comparisons {
         outln!("{} on {}: {}", v.method, v.sequence, v.verdict);
     }
-    eprintln!(
+    errln!(
         "summary written to {} (index.html, batch.json, leaderboard.csv)",
         out.display()
     );

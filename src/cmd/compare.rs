@@ -71,7 +71,7 @@ pub fn run(a: Args) -> Result<()> {
                 "{what}; their errors do not compare (--force compares them anyway)"
             )));
         }
-        eprintln!("warning: {what}: the differences below are the surveys' as much as the maps'");
+        errln!("warning: {what}: the differences below are the surveys' as much as the maps'");
     }
     let c = compare::compare(&ra, &rb, names)?;
     match a.format {

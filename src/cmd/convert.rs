@@ -96,7 +96,7 @@ pub fn run(a: Args) -> Result<()> {
         .map_or(String::new(), |s| format!(", coordinates × {s}"));
     outln!("{n} points written to {}{with}{scaled}", a.out.display());
     if st.skipped_nonfinite > 0 {
-        eprintln!("{} non-finite points skipped", st.skipped_nonfinite);
+        errln!("{} non-finite points skipped", st.skipped_nonfinite);
     }
     Ok(())
 }

@@ -69,7 +69,7 @@ pub fn run(a: Args) -> Result<()> {
         .collect();
     let mut shape = a.shape;
     if shape == Shape::Sphere && !survey.has_z() {
-        eprintln!("warning: the survey has no heights; cropping with a vertical cylinder");
+        errln!("warning: the survey has no heights; cropping with a vertical cylinder");
         shape = Shape::Cylinder;
     }
     if a.tight {
@@ -132,7 +132,7 @@ fn write_loose(
     if empty > 0 {
         frame_hint();
     }
-    eprintln!(
+    errln!(
         "{} points read{}; {} of {} targets have points",
         map_points,
         if skipped > 0 {
@@ -155,7 +155,7 @@ fn write_loose(
     }
     // `locate` and `eval --crops` refuse these (ground included): say so here,
     // where the user decides what to do with them.
-    eprintln!(
+    errln!(
         "these are loose crops (ground and surroundings included), for inspection or hand editing; \
          `mapgauge locate` and `eval --crops` want tight crops: `mapgauge crop --tight`"
     );
@@ -197,9 +197,10 @@ fn list_files(
         outln!("{:<12} {:>10}  {}", t.id, n, path.display());
         if n == 0 {
             empty += 1;
-            eprintln!(
+            errln!(
                 "warning: target {} has no map points within {} m (outside the map, or wrong frame?)",
-                t.id, a.radius
+                t.id,
+                a.radius
             );
         }
     }
@@ -209,7 +210,7 @@ fn list_files(
 /// crop looks where the survey (or `--init`) puts the targets; it does not
 /// search the map for them as eval does: say how to get the frame.
 fn frame_hint() {
-    eprintln!(
+    errln!(
         "a map in another frame needs --init X,Y,YAW_DEG: `mapgauge eval` finds the frame by itself and writes it to result.json as eval.frame.init (for a map that leans and that eval levels, that frame is the levelled one: take the crops from `eval --save-crops` instead)"
     );
 }
@@ -258,11 +259,11 @@ fn write_tight(
             }
             Err(e) => {
                 outln!("{:<12} {:>10}  -", t.id, 0);
-                eprintln!("warning: target {}: no tight crop: {e}", t.id);
+                errln!("warning: target {}: no tight crop: {e}", t.id);
             }
         }
     }
-    eprintln!(
+    errln!(
         "{} of {} targets have a tight crop",
         written,
         survey.targets.len()

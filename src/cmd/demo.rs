@@ -56,9 +56,10 @@ pub fn run(a: Args) -> Result<()> {
     params.validate()?;
     super::check_out_dir(&a.out)?;
     let t0 = std::time::Instant::now();
-    eprintln!(
+    errln!(
         "demo: synthesising a {}-target scene of about {} points...",
-        a.targets, params.points
+        a.targets,
+        params.points
     );
     // A board is told by its print: the map must carry intensity.
     let format = if a.models.contains(&mapgauge::model::ModelKind::Board) {
@@ -68,7 +69,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     let (files, truth, expected) = write_scene(&a.out.join("scene"), &params, format)?;
     let t1 = std::time::Instant::now();
-    eprintln!(
+    errln!(
         "demo: {} points in {:.1} s; evaluating...",
         truth.points,
         (t1 - t0).as_secs_f64()

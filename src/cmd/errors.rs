@@ -91,13 +91,13 @@ pub fn run(a: Args) -> Result<u8> {
     if let Some(dir) = &a.out {
         mapgauge::render::refuse_overwriting_inputs(dir, &[&a.survey, &a.estimates])?;
         write_outputs(&result, dir)?;
-        eprintln!("wrote {}", dir.join("result.json").display());
+        errln!("wrote {}", dir.join("result.json").display());
     }
     super::eval::print_result(&result, a.format, a.verbose);
     a.checkpoints.write(&result)?;
     if a.format != OutputFormat::Table(mapgauge::render::TableFormat::Text) {
         for line in mapgauge::render::gate_lines(&result) {
-            eprintln!("{line}");
+            errln!("{line}");
         }
     }
     a.gates.write_junit(&result, "mapgauge errors")?;

@@ -240,7 +240,7 @@ fn run_eval(a: &Args) -> Result<u8> {
         _ => None,
     };
     if route.is_some() && html.is_none() && a.plots.is_none() {
-        eprintln!(
+        errln!(
             "warning: --trajectory is drawn in the report: it needs --out (without --no-report) or --plots"
         );
     }
@@ -280,14 +280,14 @@ fn run_eval(a: &Args) -> Result<u8> {
     }
     if let Some(out) = &a.out {
         write_outputs(&ev, &result, out, a.save_crops, &[map, survey_path])?;
-        eprintln!("results written to {}", out.display());
+        errln!("results written to {}", out.display());
     }
     a.checkpoints.write(&result)?;
     let in_paths: Vec<&Path> = inputs.iter().map(|i| i.1).collect();
     if let Some(e) = hash_error {
         return Err(e);
     }
-    eprintln!("{}", provenance(&cfg, hashed.as_ref()));
+    errln!("{}", provenance(&cfg, hashed.as_ref()));
     write_report(
         &ev,
         &result,
@@ -372,7 +372,7 @@ fn warn_off_route(route: &mapgauge::trajectory::Trajectory, ev: &Evaluation, res
         .map(|(_, s)| s.off)
         .fold(0.0, f64::max);
     if far > report::ROUTE_FAR_M {
-        eprintln!(
+        errln!(
             "warning: a located target is {far:.0} m from the trajectory ({} poses, {:.0} m): is it in the map's frame, and of this run? (the report's error-against-distance figure assumes so)",
             route.positions.len(),
             route.length()
@@ -423,13 +423,13 @@ pub fn write_report(
     let t_hash = hashed.as_ref().map_or(0.0, |h| h.seconds);
     let w = report::write_report(ev, result, cfg, hashed, in_paths, html, plots, route)?;
     if let (Some(h), Some(secs)) = (html, w.html_seconds) {
-        eprintln!(
+        errln!(
             "report written to {} in {secs:.2} s (hashing the inputs took {t_hash:.2} s)",
             h.display(),
         );
     }
     if let (Some(dir), Some((files, secs))) = (plots, w.plots) {
-        eprintln!(
+        errln!(
             "{} figure files written to {} in {secs:.2} s",
             files.len(),
             dir.display(),
@@ -493,7 +493,7 @@ pub fn evaluate(
                     cfg,
                     &[map, survey_path],
                 ) {
-                    Ok(()) => eprintln!(
+                    Ok(()) => errln!(
                         "what each surveyed place showed, and why no target was taken there: {}{}{}",
                         out.join("failed.csv").display(),
                         page.map(|p| format!(", {} (its crops drawn)", p.display()))
@@ -504,7 +504,7 @@ pub fn evaluate(
                             "; `--save-crops` also writes the crops to open in a viewer".into()
                         }
                     ),
-                    Err(e) => eprintln!("warning: what each place showed could not be saved: {e}"),
+                    Err(e) => errln!("warning: what each place showed could not be saved: {e}"),
                 }
             }
             return Err(f.error);
@@ -518,14 +518,14 @@ pub fn evaluate(
     // summary's order.
     if a.format != OutputFormat::Table(TableFormat::Text) {
         for line in render::gate_lines(&result) {
-            eprintln!("{line}");
+            errln!("{line}");
         }
         for w in result.caveats() {
-            eprintln!("warning: {w}");
+            errln!("warning: {w}");
         }
         for t in &result.targets {
             if let Some(r) = &t.reason {
-                eprintln!("warning: target {} {}: {r}", t.id, t.status);
+                errln!("warning: target {} {}: {r}", t.id, t.status);
             }
         }
     }
@@ -538,7 +538,7 @@ pub fn evaluate(
         } else {
             " (a frame of the levelled map: the map as stored differs from it by the tilt, height × angle, which the crops' few metres absorb on most sites)"
         };
-        eprintln!(
+        errln!(
             "frame: the map is not in the survey frame; it was found by detecting the targets map-wide ({} matched, rms {:.0} mm). Next time `--init {x:.3},{y:.3},{yaw:.4}` skips the detection{level}",
             matched.len(),
             rms * 1e3

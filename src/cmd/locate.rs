@@ -153,7 +153,7 @@ pub fn run(args: Args) -> mapgauge::Result<()> {
                 located: Some(l),
             },
             Err(reason) => {
-                eprintln!("warning: {reason}");
+                errln!("warning: {reason}");
                 Row {
                     id,
                     file: path.display().to_string(),

@@ -14,6 +14,13 @@ macro_rules! outln {
     ($($arg:tt)*) => {{ out!($($arg)*); out!("\n") }};
 }
 
+/// `eprintln!` that survives a closed stderr (`mapgauge eval … 2>&1 | head
+/// -1` panicked with exit 101): the message is dropped, the run goes on
+/// and writes its files.
+macro_rules! errln {
+    ($($arg:tt)*) => { $crate::cmd::write_stderr(format_args!("{}\n", format_args!($($arg)*))) };
+}
+
 pub mod batch;
 pub mod compare;
 pub mod convert;
@@ -44,11 +51,16 @@ pub fn write_stdout(args: std::fmt::Arguments) {
     if let Err(e) = std::io::stdout().lock().write_fmt(args) {
         STDOUT_GONE.store(true, Ordering::Relaxed);
         if e.kind() != std::io::ErrorKind::BrokenPipe {
-            eprintln!(
-                "warning: cannot write to stdout ({e}); the rest of the output is not printed"
-            );
+            errln!("warning: cannot write to stdout ({e}); the rest of the output is not printed");
         }
     }
+}
+
+/// What [`errln!`] does: one formatted write to the locked stderr, its
+/// failure ignored (there is nowhere left to say it).
+pub fn write_stderr(args: std::fmt::Arguments) {
+    use std::io::Write;
+    let _ = std::io::stderr().lock().write_fmt(args);
 }
 
 /// A byte progress bar on stderr, or `None` when stderr is not a terminal.
@@ -175,7 +187,7 @@ pub fn check_origin_used(
 /// opened, on stderr.
 pub fn print_tile_stats(reader: &dyn mapgauge::cloud::PointReader) {
     if let Some(t) = reader.tile_stats() {
-        eprintln!(
+        errln!(
             "{}: {} of {} opened ({:.1} of {:.1} MB)",
             if t.copc { "COPC nodes" } else { "tiles" },
             t.opened,
@@ -189,7 +201,7 @@ pub fn print_tile_stats(reader: &dyn mapgauge::cloud::PointReader) {
 /// Says on stderr when a WGS84 survey was placed by the map's projection.
 pub fn say_projected(survey: &mapgauge::survey::Survey, projector: Option<&std::path::Path>) {
     if let (mapgauge::survey::SurveyFrame::Wgs84Map, Some(p)) = (survey.frame, projector) {
-        eprintln!(
+        errln!(
             "the WGS84 survey is placed in the map frame by {}",
             p.display()
         );
@@ -282,7 +294,7 @@ impl CheckpointArgs {
                 std::fs::create_dir_all(dir).map_err(|e| mapgauge::Error::io(dir, e))?;
             }
             let crs = mapgauge::checkpoints::write(f, result, self.checkpoints_crs)?;
-            eprintln!("checkpoints written to {} ({})", f.display(), crs.label());
+            errln!("checkpoints written to {} ({})", f.display(), crs.label());
         }
         Ok(())
     }
@@ -331,7 +343,7 @@ impl GateArgs {
             }
             let xml = mapgauge::render::junit_error(suite, &e.to_string());
             if let Err(w) = mapgauge::record::write_atomic(j, xml.as_bytes()) {
-                eprintln!("warning: the JUnit report could not be written: {w}");
+                errln!("warning: the JUnit report could not be written: {w}");
             }
         }
     }
@@ -343,7 +355,7 @@ impl GateArgs {
             }
             let xml = mapgauge::render::junit_xml(result, suite);
             mapgauge::record::write_atomic(j, xml.as_bytes())?;
-            eprintln!("JUnit report written to {}", j.display());
+            errln!("JUnit report written to {}", j.display());
         }
         Ok(())
     }

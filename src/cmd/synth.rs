@@ -188,15 +188,17 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     let start = std::time::Instant::now();
-    eprintln!(
+    errln!(
         "synth: about {} points, {} targets, seed {}",
-        p.points, p.targets, p.seed
+        p.points,
+        p.targets,
+        p.seed
     );
     // A board is told by its print in the intensity: a format without one
     // writes boards that eval cannot locate (said, not refused: a test of
     // that very message needs such a map).
     if p.models.contains(&mapgauge::model::ModelKind::Board) && !a.format.holds_intensity() {
-        eprintln!(
+        errln!(
             "synth: warning: --format {} holds no intensity, where boards print their \
              squares: eval will find none of them (formats with intensity: ply, pcd-xyzi, \
              pcd-fastlio, pcd-compressed, ply-f32, xyz, las, laz)",
@@ -217,7 +219,7 @@ pub fn run(a: Args) -> Result<()> {
         synth::write_scene(&dir, &p, a.format)?
     };
     let secs = start.elapsed().as_secs_f64();
-    eprintln!(
+    errln!(
         "synth: {} points in {} scans, {:.1} s ({:.2} M points/s)",
         truth.points,
         truth.scans,

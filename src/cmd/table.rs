@@ -66,7 +66,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     let runs: Vec<(String, &ResultFile)> = names.into_iter().zip(results.iter()).collect();
     for w in survey_mismatches(&runs) {
-        eprintln!("warning: {w}");
+        errln!("warning: {w}");
     }
     let which: Which = a.which.parse()?;
     let scores = if a.score.is_empty() {

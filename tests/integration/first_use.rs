@@ -1066,3 +1066,30 @@ fn an_antenna_height_typed_wrong_and_a_blunder_among_four_are_named() {
     assert!(e.contains("target 3: a fit on the other targets"), "{e}");
     assert!(!run(&four_csv, &[]).contains("a fit on the other targets"));
 }
+
+/// `eval … 2>&1 | head -1` exited 101 (a panic writing to the closed
+/// stderr): with both pipes closed before it writes, the run still ends
+/// well and writes its files.
+#[test]
+fn closed_stdout_and_stderr_do_not_stop_the_run() {
+    use std::process::Stdio;
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let out = dir.path().join("out");
+    let mut child = bin()
+        .args(["eval", "--map"])
+        .arg(&map)
+        .arg("--survey")
+        .arg(&survey)
+        .arg("--out")
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+    assert!(out.join("result.json").is_file());
+}

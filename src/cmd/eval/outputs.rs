@@ -98,7 +98,7 @@ pub(super) fn save_failure(
     // An earlier run's result beside this run's failure would read as this
     // run's: said, not deleted (it is the user's).
     if out.join("result.json").exists() {
-        eprintln!(
+        errln!(
             "warning: {} (and its targets.csv, pairs.csv) is from an earlier run: this run did not score",
             out.join("result.json").display()
         );
