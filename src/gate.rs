@@ -277,7 +277,22 @@ impl Gate {
             Ok((v, ci)) => (Some(v), ci, None),
             Err(why) => (None, None, Some(why)),
         };
-        let verdict = self.verdict(value, ci95);
+        let mut verdict = self.verdict(value, ci95);
+        // A fit on fewer targets than an interval needs takes up the map's
+        // error (two targets under rigid2d leave one coordinate of doubt):
+        // its errors pass any threshold, so they are not judged.
+        let scored = r.absolute.n;
+        let too_few = self.statistic != Statistic::Found
+            && value.is_some()
+            && scored < crate::accuracy::intervals::MIN_TARGETS;
+        let note = if too_few {
+            verdict = Verdict::Undecided;
+            Some(format!(
+                "not judged: only {scored} target(s) scored, and a fit on so few takes up the map's error (4 or more)"
+            ))
+        } else {
+            note
+        };
         GateVerdict {
             gate: self.to_string(),
             statistic: self.statistic.name().to_string(),
@@ -286,6 +301,7 @@ impl Gate {
             value,
             ci95,
             basis: match (value, ci95) {
+                _ if too_few => "too_few",
                 (None, _) => "missing",
                 (Some(_), Some(_)) => "ci95",
                 (Some(_), None) => "value",
@@ -338,6 +354,9 @@ impl FromStr for Gate {
             _ if rest.starts_with('<') => (Op::Lt, &rest[1..]),
             _ => (Op::Gt, &rest[1..]),
         };
+        if name.trim_end().ends_with(['=', '!']) {
+            return Err(bad("the comparison is written `<=`, `<`, `>=` or `>`"));
+        }
         let statistic = Statistic::parse(name.trim()).ok_or_else(|| bad("unknown statistic"))?;
         let threshold = threshold(number.trim(), statistic.unit()).map_err(|w| bad(&w))?;
         Ok(Gate {
@@ -357,10 +376,10 @@ fn threshold(s: &str, unit: Unit) -> std::result::Result<f64, String> {
         Unit::Ppm => &[("ppm", 1.0)],
         Unit::Fraction => &[("%", 100.0)],
     };
-    let (num, div) = units
+    let given = units
         .iter()
-        .find_map(|(u, d)| s.strip_suffix(u).map(|n| (n, *d)))
-        .unwrap_or((s, 1.0));
+        .find_map(|(u, d)| s.strip_suffix(u).map(|n| (n, *d)));
+    let (num, div) = given.unwrap_or((s, 1.0));
     let v: f64 = num.trim().parse().map_err(|_| {
         if num
             .trim()
@@ -374,6 +393,13 @@ fn threshold(s: &str, unit: Unit) -> std::result::Result<f64, String> {
     let t = v / div;
     if !t.is_finite() || t < 0.0 {
         return Err("the threshold must be a finite number ≥ 0".into());
+    }
+    // `E_abs<=5` is a 5 m gate every map passes: a unit was meant (1 m and
+    // under are read as written).
+    if unit == Unit::Metres && given.is_none() && t > 1.0 {
+        return Err(format!(
+            "`{s}` would be {t} m: give its unit (`{s}cm`, `{s}mm`, or `{s}m` if metres are meant)"
+        ));
     }
     if unit == Unit::Fraction && t > 1.0 {
         return Err("`found` is a fraction of the surveyed targets, 0–1 (or 0–100 %)".into());

@@ -53,6 +53,52 @@ fn refuses_what_it_cannot_read() {
         let e = bad.parse::<Gate>().expect_err(bad).to_string();
         assert!(e.contains(bad) && e.contains("E_abs<=0.05"), "{bad}: {e}");
     }
+    // A new user's slips: the operator written backwards, a length
+    // without its unit that would be metres (a 5 m gate every map passes).
+    let e = "E_abs=<5cm".parse::<Gate>().unwrap_err().to_string();
+    assert!(e.contains("the comparison is written `<=`"), "{e}");
+    let e = "E_abs<=5".parse::<Gate>().unwrap_err().to_string();
+    assert!(e.contains("would be 5 m: give its unit"), "{e}");
+    assert_eq!(gate("E_abs<=5m").threshold, 5.0);
+    assert_eq!(gate("E_abs<=0.5").threshold, 0.5);
+}
+
+/// A fit on two or three targets takes up the map's error: a strict gate
+/// on its errors passed at 3 mm where the map was 20 mm off. Undecided,
+/// saying why; `found` is still judged.
+#[test]
+fn a_result_of_too_few_targets_is_not_judged() {
+    let truth = [(0.0, 0.0), (50.0, 5.0), (100.0, -3.0)];
+    let survey = Survey::local(&truth.map(|(x, y)| (x, y, 0.0)), false);
+    let estimates: Vec<Estimate> = truth
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| {
+            Estimate::found(
+                format!("t{}", i + 1),
+                Point::new(x + 0.02, y - 0.01 * i as f64, 0.0),
+            )
+        })
+        .collect();
+    let acc = score(&survey, &estimates, &ScoreOptions::default()).expect("score");
+    let mut r = ResultFile::from_accuracy(&acc, &survey);
+    let gates = [gate("E_abs<=5cm"), gate("max_abs<=5cm"), gate("found>=1")];
+    let o = judge(&gates, Policy::Strict, &mut r).expect("gates");
+    let words: Vec<&str> = r.gates.iter().map(|v| v.verdict.word()).collect();
+    assert_eq!(words, ["undecided", "undecided", "pass"]);
+    assert_eq!(r.gates[0].basis, "too_few");
+    assert!(
+        r.gates[0]
+            .note
+            .as_deref()
+            .is_some_and(|n| n.contains("only 3 target(s) scored"))
+    );
+    assert_eq!(o.exit_code, 3);
+    // On its values, as the point policy asks.
+    assert_eq!(
+        judge(&gates, Policy::Point, &mut r).map(|o| o.exit_code),
+        Some(0)
+    );
 }
 
 #[test]

@@ -28,6 +28,11 @@ fn interval(statistic: &str, [lo, hi]: [f64; 2]) -> String {
 pub(crate) fn evidence(v: &GateVerdict) -> String {
     match (v.value, v.ci95) {
         (None, _) => v.note.clone().unwrap_or_else(|| "not computed".into()),
+        (Some(x), _) if v.basis == "too_few" => format!(
+            "{} ({})",
+            amount(&v.statistic, x),
+            v.note.as_deref().unwrap_or("too few targets")
+        ),
         (Some(x), Some(ci)) => format!(
             "{}, 95 % {}",
             amount(&v.statistic, x),
