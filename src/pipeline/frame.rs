@@ -361,8 +361,9 @@ impl SurveyXy<'_> {
         )
     }
 
-    /// A survey with x and y exchanged is the map's mirror image: no rigid
-    /// motion fits it, though a few targets may happen to fit one (an
+    /// A survey with x and y exchanged is the map's mirror image (as is one
+    /// with an axis reversed: every mirror is any other turned, so the two
+    /// cannot be told apart): no rigid motion fits it, though a few targets may happen to fit one (an
     /// isosceles three of them does). Its mirror fitting more is the mistake.
     fn not_swapped(
         &self,
@@ -372,8 +373,8 @@ impl SurveyXy<'_> {
         self.fits_better(
             m,
             &mirrored,
-            "the survey's x and y look swapped: with them exchanged",
-            "Check the order of the survey's columns (id,x,y: x east, y north) and run again",
+            "the survey is the map's mirror image: with its x and y exchanged",
+            "Any mirror fits once turned, so this cannot tell which: the survey's x and y swapped (check the order of its columns: id,x,y, x east, y north), or one axis reversed in the survey or the map (north-east-down against east-north-up, a left-handed frame). Fix the one that is wrong and run again",
         )
     }
 

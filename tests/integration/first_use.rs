@@ -6,6 +6,11 @@ use crate::util::{add_to, bin, edit_survey, stderr, stdout_ok, tempdir};
 use std::path::Path;
 use std::process::Command;
 
+/// Negates a CSV field holding a number.
+fn add_to_neg(field: &mut String) {
+    *field = format!("{:.4}", -field.parse::<f64>().expect("a number"));
+}
+
 fn scene(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     let scene = dir.join("scene");
     stdout_ok(
@@ -637,10 +642,19 @@ fn a_swapped_survey_a_wrong_plate_size_and_an_empty_map_get_their_own_diagnosis(
         .unwrap();
     assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(
-        stderr(&o)
-            .contains("the survey's x and y look swapped: with them exchanged, 5 of its 5 targets"),
+        stderr(&o).contains(
+            "the survey is the map's mirror image: with its x and y exchanged, 5 of its 5 targets"
+        ),
         "{}",
         stderr(&o)
+    );
+    // One axis reversed (north-east-down) is a mirror too, named as one.
+    let neg = dir.path().join("y_reversed.csv");
+    edit_survey(&survey, &neg, |f| add_to_neg(&mut f[2]));
+    let e = eval_refused(&map, &neg, &[]);
+    assert!(
+        e.contains("the survey is the map's mirror image") && e.contains("one axis reversed"),
+        "{e}"
     );
     // Plates of another size than --plate-size: said so, with the size seen,
     // instead of "the map is not in the survey frame".
