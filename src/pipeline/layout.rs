@@ -164,10 +164,12 @@ pub(super) fn off_layout(
 }
 
 /// Found targets far from where the others place them: (index, error, the
-/// targets' median of it, which error). Two measures, each > 5 × the median
-/// and > 0.3 m: the error under a fit without the target, and (with 4 or
-/// more found) the median misfit of its distances to the others against the
-/// survey's. The second needs no alignment, so a wrong object that pulls
+/// targets' median of it, which error). Three measures, each > 5 × the
+/// median (the others' rms for the second) and > 0.3 m: the error under a
+/// fit without the target, the distance from where a fit on the others
+/// alone places it (the one whose leaving out lets them fit best), and
+/// (with 4 or more found) the median misfit of its distances to the others
+/// against the survey's. The second needs no alignment, so a wrong object that pulls
 /// every fit it enters (4 targets, each 1-2 m off) is still singled out.
 pub(super) fn far_from_others(
     found: &[TargetRun],
@@ -193,6 +195,26 @@ pub(super) fn far_from_others(
     // More than 0.3 m off is no map's error: a wrong object.
     for (k, e, median) in crate::accuracy::misfit_by_distances(&map, &surveyed, 0.3) {
         far.push((corners[k].0, e, median, FarBy::Distances));
+    }
+    // The target a fit on the others places far from its survey position
+    // (the survey-blunder test with a wrong object's floor): a 0.5-1 m
+    // survey typo among six pulls every fit it enters, so its own
+    // leave-one-out error (984 mm) stayed under 5 × the others' (which it
+    // inflates), and it stayed in the numbers as `ok`.
+    {
+        use crate::accuracy::blunder::{Test, left_out_misfits};
+        let test = if d3 && surveyed.iter().all(|s| s.1) {
+            Test::Heights
+        } else {
+            Test::Horizontal
+        };
+        let refs: Vec<Point> = surveyed.iter().map(|s| s.0).collect();
+        for m in left_out_misfits(&map, &refs, test, 0.3, 5.0) {
+            let i = corners[m.k].0;
+            if !far.iter().any(|f| f.0 == i) {
+                far.push((i, m.off, m.others_rms, FarBy::OthersFit));
+            }
+        }
     }
     if let Ok(acc) = crate::accuracy::score(survey, &super::estimates(found), opts) {
         let errs: Vec<(usize, f64)> = acc

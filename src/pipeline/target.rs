@@ -128,6 +128,9 @@ impl Failure {
 pub enum FarBy {
     /// Its error under an alignment of the other targets.
     LeaveOneOut,
+    /// Where a fit on the others alone places it (the one whose leaving out
+    /// lets them fit best): a blunder cannot pull that fit.
+    OthersFit,
     /// Its distances to the other targets against the survey's, which no
     /// alignment enters: one wrong object among four pulls every
     /// leave-one-out fit that includes it, but not the others' distances.
@@ -161,6 +164,11 @@ impl std::fmt::Display for Failure {
                     FarBy::LeaveOneOut => write!(
                         f,
                         "from where the other targets place it (their median {:.0} mm)",
+                        median * 1e3
+                    )?,
+                    FarBy::OthersFit => write!(
+                        f,
+                        "from where a fit on the other targets places it (they agree with their survey to {:.0} mm rms)",
                         median * 1e3
                     )?,
                     FarBy::Distances => write!(
