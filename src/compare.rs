@@ -332,7 +332,12 @@ fn percentile95(v: Vec<f64>) -> Option<[f64; 2]> {
 /// 12 mm, 95 % CI [4, 20] mm", "no significant difference …", or why nothing
 /// can be said.
 pub fn verdict(c: &Comparison, d: &Difference, what: &str) -> String {
-    let mm = |v: f64| v * 1000.0;
+    // Rounded to whole millimetres here, so a -0.3 mm difference reads 0,
+    // not "-0".
+    let mm = |v: f64| {
+        let r = (v * 1000.0).round();
+        if r == 0.0 { 0.0 } else { r }
+    };
     let [a, b] = &c.names;
     match d.ci95 {
         None => format!(

@@ -216,6 +216,14 @@ pub enum Warning {
     EstimatesOnly(Vec<String>),
     /// 3D errors with an alignment that does not fit heights.
     HeightDatumNotCorrected(AlignMethod),
+    /// Heights compared as they are (no alignment) share one offset of a
+    /// metre or more: another height datum, not the map's error.
+    HeightOffset {
+        /// The targets' median height error (m, map less survey).
+        dz: f64,
+        /// Its robust spread over the targets (1.4826 · MAD, m).
+        spread: f64,
+    },
     /// Too few targets for leave-one-out errors.
     LeaveOneOutTooFew {
         /// The alignment.
@@ -287,7 +295,8 @@ impl Warning {
             // A gross error, or every 3D number biased by the height datum.
             Warning::GrossError { .. }
             | Warning::LayoutMisfit { .. }
-            | Warning::HeightDatumNotCorrected(_) => 0,
+            | Warning::HeightDatumNotCorrected(_)
+            | Warning::HeightOffset { .. } => 0,
             Warning::VerticalNotReported => 3,
             _ => 2,
         }
@@ -618,5 +627,49 @@ mod tests {
         let mut no_z = est.clone();
         no_z[0].has_z = false;
         assert!(score(&s, &no_z, &opts).is_err());
+    }
+
+    /// Heights compared as they are, all 30.2 m off (ellipsoidal against
+    /// orthometric): named as a datum's offset; a few centimetres, or
+    /// scattered metres, are not.
+    #[test]
+    fn a_shared_height_offset_is_named_as_a_datum() {
+        let s = survey(&[
+            (0.0, 0.0, 1.0),
+            (30.0, 0.0, 2.0),
+            (0.0, 30.0, 0.0),
+            (30.0, 30.0, 1.5),
+            (60.0, 10.0, 1.2),
+        ]);
+        let run = |dz: &dyn Fn(usize) -> f64| {
+            let est: Vec<Estimate> = s
+                .targets
+                .iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    Estimate::found(
+                        t.id.clone(),
+                        t.position + Vector3::new(0.01 * i as f64, -0.01, dz(i)),
+                    )
+                })
+                .collect();
+            let opts = ScoreOptions {
+                method: AlignMethod::None,
+                dim: Dim::D3,
+                ..ScoreOptions::default()
+            };
+            score(&s, &est, &opts)
+                .unwrap()
+                .warnings
+                .into_iter()
+                .find_map(|w| match w {
+                    Warning::HeightOffset { dz, .. } => Some(dz),
+                    _ => None,
+                })
+        };
+        let dz = run(&|i| 30.2 + 0.01 * i as f64).expect("named");
+        assert!((dz - 30.22).abs() < 0.01, "{dz}");
+        assert!(run(&|i| 0.03 * i as f64).is_none());
+        assert!(run(&|i| [0.0, 3.0, -2.0, 5.0, 1.0][i]).is_none());
     }
 }

@@ -67,6 +67,9 @@ pub fn score_with_covariances(
     if all_z && !vertical {
         warnings.push(Warning::VerticalNotReported);
     }
+    if vertical && opts.method == AlignMethod::None {
+        warnings.extend(height_offset(&residuals));
+    }
     let intervals = m.intervals(covariances, opts, !asprs.independent, &mut warnings);
     let gross = gross_errors(
         &m.ids,
@@ -451,6 +454,28 @@ pub(crate) const BLUNDER_M: f64 = 0.10;
 
 /// How many times the others' rms residual a blunder stands off.
 const BLUNDER_RATIO: f64 = 5.0;
+
+/// Heights compared as they are, all off by one amount of a metre or more
+/// (their spread under a quarter of it): a datum's offset (ellipsoidal
+/// against orthometric heights, 20-50 m in most places; a map's own zero),
+/// which no map's error is.
+fn height_offset(residuals: &[Vector3<f64>]) -> Option<Warning> {
+    if residuals.len() < 2 {
+        return None;
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        let m = v.len() / 2;
+        if v.len() % 2 == 1 {
+            v[m]
+        } else {
+            (v[m - 1] + v[m]) / 2.0
+        }
+    };
+    let dz = median(residuals.iter().map(|r| r.z).collect());
+    let spread = 1.4826 * median(residuals.iter().map(|r| (r.z - dz).abs()).collect());
+    (dz.abs() >= 1.0 && spread < 0.25 * dz.abs()).then_some(Warning::HeightOffset { dz, spread })
+}
 
 /// χ²₂ 99.9 % quantile: −2 ln(0.001).
 const CHI2_2_999: f64 = 13.815_510_557_964_274;

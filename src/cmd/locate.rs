@@ -141,7 +141,7 @@ pub fn run(args: Args) -> mapgauge::Result<()> {
                     path.display(),
                     mapgauge::crop::loose_crop_message(span)
                 )),
-                None => locate::locate(&pts, Some(args.up), &params)
+                None => locate::locate_either(&pts, Some(args.up), &params)
                     .map_err(|e| format!("{}: {e}", path.display())),
             });
         let row = match result {

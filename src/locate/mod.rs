@@ -65,6 +65,20 @@ pub(crate) const MIN_POINTS: usize = 20;
 /// set of attempts looked at never depends on the machine.
 const BATCH: usize = 32;
 
+/// [`locate`] with the configured draws, then the other kind (plain draws
+/// and the refit fail on different crops: with the refit every attempt
+/// converges to the same planes, so when that one answer misses a gate
+/// every attempt does, while plain draws may pass a sparse, noisy crop).
+/// `eval` does the same, so `locate` on a crop `eval` accepts agrees with
+/// it. The second's error when both fail.
+pub fn locate_either(
+    points: &[Point],
+    up: Option<Vector3<f64>>,
+    params: &LocateParams,
+) -> Result<Located, LocateError> {
+    locate(points, up, params).or_else(|_| locate(points, up, &params.other_draws()))
+}
+
 /// Locates the corner of the L-target in a tight crop.
 ///
 /// `up` is the local vertical (the ground normal where one was estimated);

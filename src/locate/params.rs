@@ -83,6 +83,14 @@ impl Default for LocateParams {
 }
 
 impl LocateParams {
+    /// The same with the other kind of draws: the refit when plain draws
+    /// are configured, plain draws when the refit is.
+    pub fn other_draws(&self) -> LocateParams {
+        LocateParams {
+            refit_iterations: if self.refit_iterations > 0 { 0 } else { 1 },
+            ..self.clone()
+        }
+    }
     /// The reference implementation's algorithm: 3D k-means from random
     /// points, RANSAC + one SVD fit, no refit. For comparison and reproduction.
     pub fn paper() -> Self {

@@ -153,6 +153,10 @@ pub enum BoardError {
         /// What was refused where the board should be (of the faces within
         /// [`super::SAME_PLACE_M`] of the nearest, the best supported), and why.
         seen: Option<String>,
+        /// How far (m, horizontally) from the expected position the nearer
+        /// of those stood: whether something stood at the place at all.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        seen_from: Option<f64>,
     },
 }
 
@@ -232,7 +236,8 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
     let Some(best) = choose(&cands, &others) else {
         let refused: Vec<&(usize, String, f64)> =
             refused.iter().filter(|r| r.0 >= p.min_points / 2).collect();
-        let seen = super::at_same_place(&refused, |r| r.2, |r| r.0).map(|(n, why, at)| {
+        let named = super::at_same_place(&refused, |r| r.2, |r| r.0);
+        let seen = named.map(|(n, why, at)| {
             format!("{why} ({n} points, {at:.2} m from the expected position)")
         });
         // Where a survey places a board, one of a size it mistakes for
@@ -241,12 +246,17 @@ pub fn locate(s: &Search, p: &BoardParams) -> Result<(BoardFit, Vec<Point>), Boa
             .on_surfaces
             .then(|| other_side(&look, side, p, &others))
             .flatten();
-        let seen = super::with_hint(seen, hint);
+        let seen_from = [named.map(|r| r.2), hint.as_ref().map(|h| h.1)]
+            .into_iter()
+            .flatten()
+            .reduce(f64::min);
+        let seen = super::with_hint(seen, hint.map(|h| h.0));
         return Err(BoardError::NoBoard {
             radius: p.search_radius_m,
             side_mm: side * 1e3,
             points: all.len(),
             seen,
+            seen_from,
         });
     };
     let c = &cands[best];
@@ -402,7 +412,12 @@ fn faces_of(l: &Looked, side: f64, p: &BoardParams) -> (Vec<Candidate>, Vec<(usi
 /// here, named as a hint. The largest first: a board's middle is a smaller
 /// board's pattern too (on its own face, taken as a wall). Looked for only
 /// on failure.
-fn other_side(l: &Looked, side: f64, p: &BoardParams, others: &[Vector3<f64>]) -> Option<String> {
+fn other_side(
+    l: &Looked,
+    side: f64,
+    p: &BoardParams,
+    others: &[Vector3<f64>],
+) -> Option<(String, f64)> {
     let mut sides = vec![2.0 * side, 0.5 * side, p.side_m];
     sides.retain(|&x| (x - side).abs() > 0.15 * side && (0.1..=3.0).contains(&x));
     sides.sort_by(|a, b| b.total_cmp(a));
@@ -410,11 +425,14 @@ fn other_side(l: &Looked, side: f64, p: &BoardParams, others: &[Vector3<f64>]) -
     for other in sides {
         let (cands, _) = faces_of(l, other, p);
         if let Some(i) = choose(&cands, others) {
-            return Some(format!(
-                "a board of {:.0} mm stands {:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[board] side_m`) right?",
-                other * 1e3,
-                cands[i].centre.xy().norm(),
-                side * 1e3
+            let from = cands[i].centre.xy().norm();
+            return Some((
+                format!(
+                    "a board of {:.0} mm stands {from:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[board] side_m`) right?",
+                    other * 1e3,
+                    side * 1e3
+                ),
+                from,
             ));
         }
     }

@@ -133,6 +133,10 @@ pub enum SphereError {
         /// within [`super::SAME_PLACE_M`] of the nearest, the best
         /// supported), and why; a sphere of another size standing there.
         seen: Option<String>,
+        /// How far (m, horizontally) from the expected position the nearer
+        /// of those stood: whether something stood at the place at all.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        seen_from: Option<f64>,
     },
 }
 
@@ -185,27 +189,35 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
             .iter()
             .filter(|c| c.refusal.is_some() && c.inliers.len() >= p.min_points / 2)
             .collect();
-        let seen = super::at_same_place(&refused, |c| c.centre.xy().norm(), |c| c.inliers.len())
-            .map(|c| {
-                format!(
-                    "{} ({} points, centre {:.2} m from the expected position)",
-                    c.refusal.as_deref().unwrap_or(""),
-                    c.inliers.len(),
-                    c.centre.xy().norm()
-                )
-            });
+        let named = super::at_same_place(&refused, |c| c.centre.xy().norm(), |c| c.inliers.len());
+        let seen = named.map(|c| {
+            format!(
+                "{} ({} points, centre {:.2} m from the expected position)",
+                c.refusal.as_deref().unwrap_or(""),
+                c.inliers.len(),
+                c.centre.xy().norm()
+            )
+        });
         // A survey that gives the wrong size (a radius for a diameter, the
         // other common sphere) leaves the sphere itself unnamed: say so when
         // one of those sizes stands where this one should.
         let hint = (s.other_sizes || seen.is_none())
             .then(|| other_size(&local, r, &up, p, &others))
             .flatten();
-        let seen = super::with_hint(seen, hint);
+        let seen_from = [
+            named.map(|c| c.centre.xy().norm()),
+            hint.as_ref().map(|h| h.1),
+        ]
+        .into_iter()
+        .flatten()
+        .reduce(f64::min);
+        let seen = super::with_hint(seen, hint.map(|h| h.0));
         return Err(SphereError::NoSphere {
             radius: p.search_radius_m,
             diameter_mm: 2e3 * r,
             points: local.len(),
             seen,
+            seen_from,
         });
     };
     let c = &cands[best];
@@ -282,7 +294,7 @@ fn other_size(
     up: &Vector3<f64>,
     p: &SphereParams,
     others: &[Vector3<f64>],
-) -> Option<String> {
+) -> Option<(String, f64)> {
     let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
     sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
     sizes.sort_by(f64::total_cmp);
@@ -290,11 +302,14 @@ fn other_size(
     for other in sizes {
         let (_, cands) = judged(local, other, up, p);
         if let Some(i) = choose(&cands, others) {
-            return Some(format!(
-                "a sphere of {:.0} mm stands {:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[sphere] diameter_m`) right?",
-                2e3 * other,
-                cands[i].centre.xy().norm(),
-                2e3 * r
+            let from = cands[i].centre.xy().norm();
+            return Some((
+                format!(
+                    "a sphere of {:.0} mm stands {from:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[sphere] diameter_m`) right?",
+                    2e3 * other,
+                    2e3 * r
+                ),
+                from,
             ));
         }
     }

@@ -55,6 +55,12 @@ pub(super) fn places_seen(found: &[TargetRun]) -> String {
                 "no target-shaped object"
             }
             Err(Failure::Locate(_)) => "a target-shaped object that could not be located",
+            Err(_) if refused_there(&r.outcome) => "an object refused by the checks",
+            Err(Failure::Sphere(_)) => "no sphere of the size given standing there",
+            Err(Failure::Board(crate::model::BoardError::NoIntensity { .. })) => {
+                "a board, in a map without intensity to read it by"
+            }
+            Err(Failure::Board(_)) => "no board of the size given standing there",
             Err(_) => "an object refused by the checks",
         };
         match kinds.iter_mut().find(|k| k.0 == kind) {
@@ -86,6 +92,33 @@ pub(super) fn not_there(
 ) -> Error {
     let places = places_seen(found);
     let n = found.len();
+    // Spheres or boards of another size near the places: detection looked
+    // for the size given, so found none; the size is the first suspect.
+    let other_size: Vec<String> = found
+        .iter()
+        .filter_map(|r| {
+            let e = r.outcome.as_ref().err()?.to_string();
+            let at = e
+                .find("; a sphere of ")
+                .or_else(|| e.find("; a board of "))?;
+            let said = &e[at + 2..];
+            Some(format!(
+                "{}: {}",
+                r.id,
+                said.split(':').next().unwrap_or(said)
+            ))
+        })
+        .collect();
+    if other_size.len() >= 2 {
+        return Error::FrameNotFound {
+            detections,
+            msg: format!(
+                "{map}: no target where the survey places them (of its {n} places: {places}), but near {} of them a target of another size than given stands ({}): is the size given right (the survey's `size` column, or the config's `[sphere] diameter_m` / `[board] side_m`)? Detection map-wide looks for the size given too, so it found no frame",
+                other_size.len(),
+                other_size.join("; ")
+            ),
+        };
+    }
     if detections == 0 {
         use crate::model::ModelKind;
         // The remedies that fit the survey's models: a plate size only for
@@ -108,14 +141,70 @@ pub(super) fn not_there(
             ),
         };
     }
+    // Objects stand at most of the surveyed places and were refused there:
+    // the map is in the survey's frame, and the checks are the story (a
+    // 2 M-point scene of spheres at 2 cm of noise: each refused for its
+    // size, told "the map is in another frame").
+    let refused: Vec<String> = found
+        .iter()
+        .filter(|r| refused_there(&r.outcome))
+        .filter_map(|r| r.outcome.as_ref().err().map(|e| format!("{}: {e}", r.id)))
+        .collect();
+    if refused.len() >= 3 && 2 * refused.len() >= n {
+        let mut listed = refused[..refused.len().min(5)].join("; ");
+        if refused.len() > 5 {
+            listed += "; ...";
+        }
+        return Error::FrameNotFound {
+            detections,
+            msg: format!(
+                "{map}: no target accepted where the survey places them, though at {} of its {n} places an object stands there that the checks refused: the map looks to be in the survey's frame, and its targets not seen well enough, or not as the survey describes them (model, size). {listed}. (Detection map-wide found {detections} target-shaped object(s), but {why}; if the map is in another frame after all: {})",
+                refused.len(),
+                frame::NoFrame::remedy(why)
+            ),
+        };
+    }
+    // Spheres missing at every place may be there and too noisy to fit:
+    // the frame is then not the only suspect.
+    let spheres = found
+        .iter()
+        .all(|r| matches!(r.outcome, Err(Failure::Sphere(_))));
+    let sphere_hint = if spheres {
+        format!(
+            " Or the spheres stand there but show too few points on their surface to fit: a sphere needs {} or more within about 15 % of its radius of it, and a map whose noise is a good share of the radius (2 cm against a 145 mm sphere's 72 mm) leaves too few (failed.csv, with --out, gives each place's closest candidate)",
+            cfg.sphere.min_points
+        )
+    } else {
+        String::new()
+    };
     Error::FrameNotFound {
         detections,
         msg: format!(
-            "{map}: no target where the survey places them (of its {n} places: {places}); detection map-wide found {detections} target-shaped object(s), but {why}. Either the map is in another frame than the survey ({}), or the survey does not describe the targets in this map (another site, another survey file)",
+            "{map}: no target where the survey places them (of its {n} places: {places}); detection map-wide found {detections} target-shaped object(s), but {why}. Either the map is in another frame than the survey ({}), or the survey does not describe the targets in this map (another site, another survey file).{sphere_hint}",
             frame::NoFrame::remedy(why)
         ),
     }
 }
+
+/// Whether a place's failure is an object standing there that the checks
+/// refused (a sphere or board judged and turned down within
+/// [`AT_PLACE_M`] of where the survey places it, an L that would not
+/// locate, a target mapped twice), not an empty place or a post metres off.
+fn refused_there(outcome: &std::result::Result<Found, Failure>) -> bool {
+    use crate::model::{BoardError, SphereError};
+    let near = |d: &Option<f64>| d.is_some_and(|d| d <= AT_PLACE_M);
+    match outcome {
+        Err(Failure::Locate(_) | Failure::Doubled(_)) => true,
+        Err(Failure::Sphere(SphereError::NoSphere { seen_from, .. }))
+        | Err(Failure::Board(BoardError::NoBoard { seen_from, .. })) => near(seen_from),
+        _ => false,
+    }
+}
+
+/// An object this close (m, horizontally) to where the survey places a
+/// target stands at its place: a map in the survey's frame is within a
+/// few decimetres of it.
+const AT_PLACE_M: f64 = 0.5;
 
 /// The error when too few targets were located to align: which were not and
 /// why, and the remedy that fits the survey's frame.

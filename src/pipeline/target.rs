@@ -3,7 +3,7 @@
 
 use super::Config;
 use crate::crop::{self, TightError};
-use crate::locate::{self, LocateError, LocateParams, Located};
+use crate::locate::{self, LocateError, Located};
 use crate::model::ModelKind;
 use crate::{Error, Point, Result};
 use nalgebra::Vector3;
@@ -601,15 +601,7 @@ pub fn locate_with(
     // a gate every attempt does, while plain draws may rarely pass a sparse,
     // noisy crop. Whichever is configured goes first, the other is the fallback;
     // both use the same gates.
-    let other = LocateParams {
-        refit_iterations: if cfg.locate.refit_iterations > 0 {
-            0
-        } else {
-            1
-        },
-        ..cfg.locate.clone()
-    };
-    let variants = [cfg.locate.clone(), other];
+    let variants = [cfg.locate.clone(), cfg.locate.other_draws()];
     let mut last_err = LocateError::BadUp;
     for (up, params) in ups
         .iter()

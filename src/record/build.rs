@@ -108,12 +108,19 @@ pub(crate) fn warning_text(w: &Warning) -> String {
         Warning::HeightDatumNotCorrected(m) => format!(
             "3D errors with {m} alignment: the map's height datum is not corrected (consider rigid2d+z)"
         ),
+        Warning::HeightOffset { dz, spread } => format!(
+            "every target's height is {:+.2} m off the survey's (spread {:.2} m): one offset for all is a height datum's, not the map's error — ellipsoidal against orthometric heights (the geoid lies 20-50 m from the ellipsoid in most places), or the map's own zero. The vertical numbers carry it; an alignment that fits heights (rigid2d+z) takes it out",
+            dz, spread
+        ),
         Warning::LeaveOneOutTooFew { method, n } => {
             format!("leave-one-out needs at least 3 targets for {method} (have {n})")
         }
         Warning::NoCheckTargets => "survey has roles but no located check targets".into(),
+        Warning::TooFewControls { n: 0, method } => format!(
+            "no located control targets (every target is role=check, or no control was located): {method} was fitted on all the targets, so the checkpoints are not independent; mark the targets that fit the map role=control"
+        ),
         Warning::TooFewControls { n, method } => format!(
-            "only {n} located control target(s): cannot fit {method} on control targets alone"
+            "only {n} located control target(s): cannot fit {method} on control targets alone; it was fitted on all the targets, so the checkpoints are not independent"
         ),
         Warning::GrossError {
             id,

@@ -88,11 +88,19 @@ fn headline(o: &mut String, r: &ResultFile) {
         1 => " (1 excluded as a gross error)".into(),
         k => format!(" ({k} excluded as gross errors)"),
     };
-    let _ = writeln!(
-        o,
-        "Found {found} of {n} targets{apart}; {dim} errors after {} alignment on {} targets",
-        a.method, a.n_used
-    );
+    if a.method == "none" {
+        let _ = writeln!(
+            o,
+            "Found {found} of {n} targets{apart}; {dim} errors of the map as it is (no alignment) on {} targets",
+            a.n_used
+        );
+    } else {
+        let _ = writeln!(
+            o,
+            "Found {found} of {n} targets{apart}; {dim} errors after {} alignment on {} targets",
+            a.method, a.n_used
+        );
+    }
     let _ = writeln!(
         o,
         "  E_abs  {:>7} mm   σ_abs {:>7} mm   RMSE {:>7} mm   max {:>7} mm",
@@ -154,6 +162,9 @@ fn headline(o: &mut String, r: &ResultFile) {
 fn unfitted_line(r: &ResultFile) -> Option<String> {
     let u = r.unfitted.as_ref()?;
     let a = &r.alignment;
+    if a.method == "none" {
+        return None;
+    }
     let shift = a.translation[0].hypot(a.translation[1]);
     let share = r.fit_absorbed.unwrap_or(0.0) * 100.0;
     let what = if share >= 0.0 {
@@ -248,7 +259,10 @@ fn alignment_line(o: &mut String, r: &ResultFile) {
         fixed(a.translation[1], 3),
         fixed(a.translation[2], 3),
         if a.method.starts_with("similarity") {
-            format!(", scale {:+.1} ppm", a.scale_ppm)
+            format!(
+                ", scale {:+.1} ppm (it shrinks the map's distances when the map is stretched)",
+                a.scale_ppm
+            )
         } else {
             String::new()
         }

@@ -167,11 +167,23 @@ impl Table {
         let s = self.field(line, rec, col, name)?;
         match s.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            _ => Err(Error::table(
-                &self.path,
-                line,
-                format!("column `{name}`: `{s}` is not a finite number"),
-            )),
+            _ => {
+                // A spreadsheet's decimal comma (`-0,2125`): say so.
+                let comma = s.contains(',') && s.replace(',', ".").parse::<f64>().is_ok();
+                let hint = if comma {
+                    format!(
+                        " (a decimal comma? numbers are read with a decimal point: `{}`)",
+                        s.replace(',', ".")
+                    )
+                } else {
+                    String::new()
+                };
+                Err(Error::table(
+                    &self.path,
+                    line,
+                    format!("column `{name}`: `{s}` is not a finite number{hint}"),
+                ))
+            }
         }
     }
 
@@ -205,7 +217,9 @@ impl Table {
     }
 }
 
-pub(super) const ID: &[&str] = &["id", "name", "target"];
+/// `point`: how survey controllers export a point's name (`Point,Easting,
+/// Northing,Elevation`).
+pub(super) const ID: &[&str] = &["id", "name", "target", "point", "point_id", "pt", "station"];
 pub(super) const X: &[&str] = &["x", "east", "easting", "e"];
 pub(super) const Y: &[&str] = &["y", "north", "northing", "n"];
 pub(super) const Z: &[&str] = &["z", "up", "u", "height"];

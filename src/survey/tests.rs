@@ -103,6 +103,23 @@ fn an_antenna_height_in_centimetres_is_refused_with_its_line() {
     assert!(read_survey(f.path(), &SurveyOptions::default()).is_ok());
 }
 
+/// A survey controller's export (`Point,Easting,Northing,…`) is read; a
+/// spreadsheet's decimal comma is named.
+#[test]
+fn a_controllers_point_column_and_a_decimal_comma() {
+    let f = file("Point,Easting,Northing,Z\nT1,0,0,1\nT2,10,0,1\n");
+    let s = read_survey(f.path(), &SurveyOptions::default()).unwrap();
+    assert_eq!(s.targets[1].id, "T2");
+    let f = file("id;x;y\nT1;0;0\nT2;-0,2125;1\n");
+    let e = read_survey(f.path(), &SurveyOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("a decimal comma?") && e.contains("`-0.2125`"),
+        "{e}"
+    );
+}
+
 /// Latitude and longitude exchanged at 127° E: the range error says so.
 #[test]
 fn a_latitude_past_90_names_the_likely_swap() {
