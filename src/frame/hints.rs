@@ -28,6 +28,12 @@ pub struct HintFrame {
 /// is taken at the centre of rotation's).
 pub fn read_hints(path: &Path, survey: &Survey, motion: &RigidMotion) -> Result<HintFrame> {
     let hints = read_survey(path, &SurveyOptions::default())?;
+    let ids: Vec<&str> = hints
+        .targets
+        .iter()
+        .filter(|h| survey.get(&h.id).is_some())
+        .map(|h| h.id.as_str())
+        .collect();
     let pairs: Vec<(Point, Point, bool)> = hints
         .targets
         .iter()
@@ -53,8 +59,9 @@ pub fn read_hints(path: &Path, survey: &Survey, motion: &RigidMotion) -> Result<
     let (init, worst) = fit2d(&map, &sur);
     if worst > 1.0 {
         return Err(Error::Input(format!(
-            "{}: the hints do not agree with the survey's layout: one is {worst:.1} m off the best fit of the others (hints should be within ±0.5 m)",
-            path.display()
+            "{}: the hints do not agree with the survey's layout: one is {worst:.1} m off the best fit of the others (hints should be within ±0.5 m){}",
+            path.display(),
+            which_hint(&map, &sur, &ids)
         )));
     }
     let mut dzs: Vec<f64> = pairs
@@ -69,6 +76,41 @@ pub fn read_hints(path: &Path, survey: &Survey, motion: &RigidMotion) -> Result<
         used: pairs.len(),
         worst,
     })
+}
+
+/// Of hints that disagree, the mistake that explains it, when one does:
+/// two ids exchanged (the rest then fit), or one hint off (the others fit
+/// without it). Needs three hints: two fit any layout of their distance.
+fn which_hint(map: &[Point], sur: &[Point], ids: &[&str]) -> String {
+    let n = map.len();
+    if n < 3 {
+        return String::new();
+    }
+    for i in 0..n {
+        for j in i + 1..n {
+            let mut swapped = sur.to_vec();
+            swapped.swap(i, j);
+            if fit2d(map, &swapped).1 <= 1.0 {
+                return format!(
+                    ": the hints for {} and {} look exchanged (with their ids swapped, all fit)",
+                    ids[i], ids[j]
+                );
+            }
+        }
+    }
+    if n >= 4 {
+        for k in 0..n {
+            let m: Vec<Point> = (0..n).filter(|&j| j != k).map(|j| map[j]).collect();
+            let s: Vec<Point> = (0..n).filter(|&j| j != k).map(|j| sur[j]).collect();
+            if fit2d(&m, &s).1 <= 1.0 {
+                return format!(
+                    ": the hint for {} is the one off (the others fit without it)",
+                    ids[k]
+                );
+            }
+        }
+    }
+    String::new()
 }
 
 /// 2D rigid least squares, map → survey: (the transform, worst residual).
@@ -104,6 +146,32 @@ pub(crate) fn fit2d(map: &[Point], sur: &[Point]) -> (super::MapToSurvey, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two hints' ids exchanged, or one hint metres off: named.
+    #[test]
+    fn exchanged_or_odd_hints_are_named() {
+        let init = crate::frame::MapToSurvey {
+            x: 352_123.0,
+            y: 4_026_456.0,
+            yaw_deg: 33.0,
+        };
+        let sur = [
+            Point::new(352_100.0, 4_026_400.0, 70.0),
+            Point::new(352_160.0, 4_026_430.0, 71.0),
+            Point::new(352_130.0, 4_026_480.0, 71.0),
+            Point::new(352_090.0, 4_026_450.0, 71.0),
+        ];
+        let ids = ["a", "b", "c", "d"];
+        let mut map: Vec<Point> = sur.iter().map(|p| init.to_map(p)).collect();
+        map.swap(1, 2);
+        assert!(fit2d(&map, &sur).1 > 1.0);
+        let said = which_hint(&map, &sur, &ids);
+        assert!(said.contains("for b and c look exchanged"), "{said}");
+        map.swap(1, 2);
+        map[3].x += 6.0;
+        let said = which_hint(&map, &sur, &ids);
+        assert!(said.contains("the hint for d is the one off"), "{said}");
+    }
 
     #[test]
     fn two_hints_fix_yaw_and_offset_in_utm_coordinates() {

@@ -519,7 +519,10 @@ fn stock_note(r: &ResultFile, vertical_text: &str) -> Option<String> {
         );
     }
     if r.warnings.iter().any(|w| w == vertical_text) {
-        parts.push("vertical not reported (an alignment that fits z: rigid2d+z, rigid3d)".into());
+        parts.push(
+            "vertical accuracy not reported (heights need an alignment that fits z: rigid2d+z, rigid3d)"
+                .into(),
+        );
     }
     (!parts.is_empty()).then(|| parts.join("; "))
 }
