@@ -498,7 +498,7 @@ fn in_mm(mut g: Grid) -> Grid {
 
 /// The caveats that every run with few targets or a 2D alignment carries,
 /// in one line: how many checkpoints against what the standards ask, whether
-/// they also fitted the alignment, and the vertical not reported.
+/// they also fitted the alignment, and the vertical accuracy not reported.
 fn stock_note(r: &ResultFile, vertical_text: &str) -> Option<String> {
     let a = &r.asprs;
     let mut parts = Vec::new();

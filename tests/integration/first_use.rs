@@ -992,7 +992,7 @@ fn the_summary_ranks_its_warnings_and_folds_the_stock_ones() {
         "5 checkpoints",
         "NSSDA asks for 20",
         "optimistic",
-        "vertical not reported",
+        "vertical accuracy not reported",
     ] {
         assert!(notes[0].contains(part), "{part}: {}", notes[0]);
     }
