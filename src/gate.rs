@@ -101,6 +101,14 @@ impl Statistic {
         let key = |n: &str| n.to_ascii_lowercase().replace(['_', '-'], "");
         NAMES.iter().find(|(_, n)| key(n) == key(s)).map(|n| n.0)
     }
+    /// Whether the statistic is of errors after the fit (which a fit on
+    /// too few targets takes up), not of pair distances or counts.
+    fn from_fit(self) -> bool {
+        !matches!(
+            self,
+            Statistic::ERel | Statistic::MaxRel | Statistic::ScalePpm | Statistic::Found
+        )
+    }
     fn unit(self) -> Unit {
         match self {
             Statistic::ScalePpm => Unit::Ppm,
@@ -281,9 +289,13 @@ impl Gate {
         // A fit on fewer targets than an interval needs takes up the map's
         // error (two targets under rigid2d leave one coordinate of doubt):
         // its errors pass any threshold, so they are not judged.
+        // Only a pass is in doubt (a fit can only make errors smaller), and
+        // only for what a fit makes: pair distances and `found` take none.
         let scored = r.absolute.n;
-        let too_few = self.statistic != Statistic::Found
-            && value.is_some()
+        let too_few = self.statistic.from_fit()
+            && matches!(self.op, Op::Le | Op::Lt)
+            && r.alignment.method != "none"
+            && value.is_some_and(|v| self.op.holds(v, self.threshold))
             && scored < crate::accuracy::intervals::MIN_TARGETS;
         let note = if too_few {
             verdict = Verdict::Undecided;

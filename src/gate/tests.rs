@@ -82,10 +82,18 @@ fn a_result_of_too_few_targets_is_not_judged() {
         .collect();
     let acc = score(&survey, &estimates, &ScoreOptions::default()).expect("score");
     let mut r = ResultFile::from_accuracy(&acc, &survey);
-    let gates = [gate("E_abs<=5cm"), gate("max_abs<=5cm"), gate("found>=1")];
+    let gates = [
+        gate("E_abs<=5cm"),
+        gate("max_abs<=5cm"),
+        gate("found>=1"),
+        gate("E_abs<=0.1mm"),
+        gate("max_rel<=5cm"),
+    ];
     let o = judge(&gates, Policy::Strict, &mut r).expect("gates");
     let words: Vec<&str> = r.gates.iter().map(|v| v.verdict.word()).collect();
-    assert_eq!(words, ["undecided", "undecided", "pass"]);
+    // A miss stays a fail (a fit only makes errors smaller); pair
+    // distances take no fit.
+    assert_eq!(words, ["undecided", "undecided", "pass", "fail", "pass"]);
     assert_eq!(r.gates[0].basis, "too_few");
     assert!(
         r.gates[0]
@@ -93,10 +101,14 @@ fn a_result_of_too_few_targets_is_not_judged() {
             .as_deref()
             .is_some_and(|n| n.contains("only 3 target(s) scored"))
     );
-    assert_eq!(o.exit_code, 3);
+    assert_eq!(o.exit_code, 1);
+    assert_eq!(
+        judge(&gates[..3], Policy::Strict, &mut r).map(|o| o.exit_code),
+        Some(3)
+    );
     // On its values, as the point policy asks.
     assert_eq!(
-        judge(&gates, Policy::Point, &mut r).map(|o| o.exit_code),
+        judge(&gates[..3], Policy::Point, &mut r).map(|o| o.exit_code),
         Some(0)
     );
 }

@@ -98,22 +98,30 @@ pub(super) fn not_there(
         .iter()
         .filter_map(|r| {
             let e = r.outcome.as_ref().err()?.to_string();
-            let at = e
-                .find("; a sphere of ")
-                .or_else(|| e.find("; a board of "))?;
-            let said = &e[at + 2..];
-            Some(format!(
-                "{}: {}",
-                r.id,
-                said.split(':').next().unwrap_or(said)
-            ))
+            let said = ["a sphere of ", "a board of "].iter().find_map(|k| {
+                e.match_indices(k).find_map(|(at, _)| {
+                    let said = e[at..].split(':').next()?;
+                    said.contains(" mm stands ").then_some(said.to_string())
+                })
+            })?;
+            Some(format!("{}: {said}", r.id))
         })
         .collect();
-    if other_size.len() >= 2 {
+    if !other_size.is_empty() {
+        // One such place may be chance in a map of another frame: the
+        // frame is then named too.
+        let frame_too = if other_size.len() < 2 {
+            format!(
+                ". If the size is right, the map may be in another frame than the survey ({})",
+                frame::NoFrame::remedy(why)
+            )
+        } else {
+            String::new()
+        };
         return Error::FrameNotFound {
             detections,
             msg: format!(
-                "{map}: no target where the survey places them (of its {n} places: {places}), but near {} of them a target of another size than given stands ({}): is the size given right (the survey's `size` column, or the config's `[sphere] diameter_m` / `[board] side_m`)? Detection map-wide looks for the size given too, so it found no frame",
+                "{map}: no target where the survey places them (of its {n} places: {places}), but near {} of them a target of another size than given stands ({}): is the size given right (the survey's `size` column, or the config's `[sphere] diameter_m` / `[board] side_m`)? Detection map-wide looks for the size given too, so it found no frame{frame_too}",
                 other_size.len(),
                 other_size.join("; ")
             ),

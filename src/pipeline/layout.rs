@@ -201,9 +201,16 @@ pub(super) fn far_from_others(
     // survey typo among six pulls every fit it enters, so its own
     // leave-one-out error (984 mm) stayed under 5 × the others' (which it
     // inflates), and it stayed in the numbers as `ok`.
-    {
+    // Not under a fitted scale: a stretched map's far end is the scale's.
+    // Heights only where the run fits a height offset and no tilt (a map
+    // left tilted, short of the levelling threshold, is rigid3d's to take).
+    use crate::align::AlignMethod;
+    if !matches!(
+        opts.method,
+        AlignMethod::Similarity2d | AlignMethod::Similarity3d
+    ) {
         use crate::accuracy::blunder::{Test, left_out_misfits};
-        let test = if d3 && surveyed.iter().all(|s| s.1) {
+        let test = if d3 && opts.method == AlignMethod::Rigid2dZ && surveyed.iter().all(|s| s.1) {
             Test::Heights
         } else {
             Test::Horizontal

@@ -218,8 +218,9 @@ impl Table {
 }
 
 /// `point`: how survey controllers export a point's name (`Point,Easting,
-/// Northing,Elevation`).
-pub(super) const ID: &[&str] = &["id", "name", "target", "point", "point_id", "pt", "station"];
+/// Northing,Elevation`). Not `station`: a total station's export names the
+/// instrument's station beside each point.
+pub(super) const ID: &[&str] = &["id", "name", "target", "point", "pt"];
 pub(super) const X: &[&str] = &["x", "east", "easting", "e"];
 pub(super) const Y: &[&str] = &["y", "north", "northing", "n"];
 pub(super) const Z: &[&str] = &["z", "up", "u", "height"];

@@ -110,6 +110,13 @@ fn a_controllers_point_column_and_a_decimal_comma() {
     let f = file("Point,Easting,Northing,Z\nT1,0,0,1\nT2,10,0,1\n");
     let s = read_survey(f.path(), &SurveyOptions::default()).unwrap();
     assert_eq!(s.targets[1].id, "T2");
+    // A total station's export: the instrument's station is not the id;
+    // a `section` column is not a misspelt one.
+    let f = file("station,point,x,y\nS1,T1,0,0\nS1,T2,10,0\n");
+    let s = read_survey(f.path(), &SurveyOptions::default()).unwrap();
+    assert_eq!(s.targets[1].id, "T2");
+    let f = file("id,section,x,y\nT1,a,0,0\nT2,b,10,0\n");
+    assert!(read_survey(f.path(), &SurveyOptions::default()).is_ok());
     let f = file("id;x;y\nT1;0;0\nT2;-0,2125;1\n");
     let e = read_survey(f.path(), &SurveyOptions::default())
         .unwrap_err()
