@@ -463,18 +463,20 @@ fn height_offset(residuals: &[Vector3<f64>]) -> Option<Warning> {
     if residuals.len() < 2 {
         return None;
     }
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        let m = v.len() / 2;
-        if v.len() % 2 == 1 {
-            v[m]
-        } else {
-            (v[m - 1] + v[m]) / 2.0
-        }
-    };
     let dz = median(residuals.iter().map(|r| r.z).collect());
     let spread = 1.4826 * median(residuals.iter().map(|r| (r.z - dz).abs()).collect());
     (dz.abs() >= 1.0 && spread < 0.25 * dz.abs()).then_some(Warning::HeightOffset { dz, spread })
+}
+
+/// The median of `v` (the mean of the middle two for an even count).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        (v[m - 1] + v[m]) / 2.0
+    }
 }
 
 /// χ²₂ 99.9 % quantile: −2 ln(0.001).
@@ -501,21 +503,12 @@ fn gross_errors(
     if n < 5 {
         return Vec::new();
     }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        let m = v.len() / 2;
-        if v.len() % 2 == 1 {
-            v[m]
-        } else {
-            (v[m - 1] + v[m]) / 2.0
-        }
-    };
-    let med = median(&mut errors.to_vec());
-    let mad = 1.4826 * median(&mut errors.iter().map(|e| (e - med).abs()).collect());
+    let med = median(errors.to_vec());
+    let mad = 1.4826 * median(errors.iter().map(|e| (e - med).abs()).collect());
     // A floor of 1 mm: identical errors would make any difference "infinitely" far.
     let scale = mad.max(1e-3);
     // Heights against the others': a datum no fit corrected is theirs too.
-    let med_z = median(&mut residuals.iter().map(|r| r.z).collect());
+    let med_z = median(residuals.iter().map(|r| r.z).collect());
     let mut out = Vec::new();
     for j in 0..n {
         let z = (errors[j] - med) / scale;
