@@ -596,19 +596,11 @@ pub fn locate_with(
     ups: &[Vector3<f64>],
     cfg: &Config,
 ) -> std::result::Result<Found, LocateError> {
-    // Paper-style draws and the refit fail on different crops: with the refit
-    // every attempt converges to the same planes, so when that one answer misses
-    // a gate every attempt does, while plain draws may rarely pass a sparse,
-    // noisy crop. Whichever is configured goes first, the other is the fallback;
-    // both use the same gates.
-    let variants = [cfg.locate.clone(), cfg.locate.other_draws()];
+    // Each up with both kinds of draws, in `locate_either`'s order.
     let mut last_err = LocateError::BadUp;
-    for (up, params) in ups
-        .iter()
-        .flat_map(|u| variants.iter().map(move |v| (*u, v)))
-    {
-        match locate::locate(points, Some(up), params) {
-            Ok(l) => return Ok(found(l, up)),
+    for up in ups {
+        match locate::locate_either(points, Some(*up), &cfg.locate) {
+            Ok(l) => return Ok(found(l, *up)),
             Err(e) => last_err = e,
         }
     }
