@@ -501,7 +501,7 @@ fn sphere_at(
         others: &[],
         radius: diameter / 2.0,
         up: nalgebra::Vector3::z(),
-        other_sizes: false,
+        surveyed: false,
     };
     let (fit, _) = crate::model::sphere::locate(&search, &p).map_err(|e| match e {
         // Counted as one kind (the sphere locator's reasons carry numbers;

@@ -508,7 +508,7 @@ fn sphere_target(
         others,
         radius: size.unwrap_or(p.diameter_m) / 2.0,
         up: Vector3::z(),
-        other_sizes: true,
+        surveyed: true,
     };
     match crate::model::sphere::locate(&search, &p) {
         Ok((fit, near)) => {
