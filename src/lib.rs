@@ -95,6 +95,7 @@
 //!         .collect(),
 //!     frame: SurveyFrame::Local,
 //!     origin: None,
+//!     exchanged: None,
 //! };
 //! // The map is shifted by (5, -3) m and stretched 1 cm between targets 2 and 3.
 //! let map = [(5.0, -3.0), (35.0, -3.0), (35.0, 37.01)];

@@ -158,6 +158,7 @@ pub(crate) fn _survey_from_arrays(
             targets,
             frame: SurveyFrame::Local,
             origin: None,
+            exchanged: None,
         },
         name: "<memory>".into(),
         path: None,

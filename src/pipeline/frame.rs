@@ -279,6 +279,14 @@ pub(super) fn detect_and_match(
         wgs84_origin: (survey.frame == crate::survey::SurveyFrame::Wgs84Enu)
             .then_some(survey.origin)
             .flatten(),
+        // As the layout is read: each target's reference point, its
+        // position moved alike.
+        exchanged: survey.exchanged.as_ref().map(|x| {
+            x.iter()
+                .zip(&survey.targets)
+                .map(|(p, t)| p + (t.reference() - t.position))
+                .collect()
+        }),
     };
     survey_xy.not_latlon_swapped(&m)?;
     survey_xy.not_swapped(&m)?;
@@ -319,6 +327,9 @@ struct SurveyXy<'a> {
     params: &'a MatchParams,
     /// The ENU origin of a survey read as latitude, longitude.
     wgs84_origin: Option<crate::survey::Geodetic>,
+    /// A survey of latitude, longitude placed by the map's projection, read
+    /// the other way round (reference points, as `sur`).
+    exchanged: Option<Vec<Point>>,
 }
 
 impl SurveyXy<'_> {
@@ -331,6 +342,15 @@ impl SurveyXy<'_> {
         &self,
         m: &std::result::Result<FrameMatch, MatchError>,
     ) -> std::result::Result<(), NoFrame> {
+        const HOW: &str =
+            "the survey's latitude and longitude look swapped: read the other way round";
+        const FIX: &str =
+            "Check the order of the survey's columns (id,lat,lon: latitude first) and run again";
+        // Placed by the map's projection, a swapped survey lands far off the
+        // map; read the other way round, it is on it.
+        if let Some(x) = &self.exchanged {
+            return self.fits_better(m, x, HOW, FIX);
+        }
         let Some(o) = self.wgs84_origin else {
             return Ok(());
         };
@@ -353,12 +373,7 @@ impl SurveyXy<'_> {
             .iter()
             .map(|p| o2.enu_of(&swap(o.geodetic_of(p))))
             .collect();
-        self.fits_better(
-            m,
-            &exchanged,
-            "the survey's latitude and longitude look swapped: read the other way round",
-            "Check the order of the survey's columns (id,lat,lon: latitude first) and run again",
-        )
+        self.fits_better(m, &exchanged, HOW, FIX)
     }
 
     /// A survey with x and y exchanged is the map's mirror image (as is one

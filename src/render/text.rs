@@ -444,6 +444,7 @@ mod tests {
                 .collect(),
             frame: SurveyFrame::Local,
             origin: None,
+            exchanged: None,
         };
         let est: Vec<Estimate> = survey
             .targets

@@ -91,6 +91,12 @@ pub struct Survey {
     pub frame: SurveyFrame,
     /// ENU origin, for [`SurveyFrame::Wgs84Enu`].
     pub origin: Option<Geodetic>,
+    /// For [`SurveyFrame::Wgs84Map`]: the positions with each row's latitude
+    /// and longitude read the other way round, placed by the same
+    /// projection, when every longitude could be a latitude (a swapped
+    /// survey lands thousands of kilometres off the map, and only this says
+    /// why); `None` otherwise.
+    pub exchanged: Option<Vec<Point>>,
 }
 
 impl Survey {
@@ -115,6 +121,7 @@ impl Survey {
                 .collect(),
             frame: SurveyFrame::Local,
             origin: None,
+            exchanged: None,
         }
     }
 
@@ -412,18 +419,40 @@ fn placed(
             )));
         }
         let proj = Projector::read(pf, targets.iter().any(|t| t.has_z))?;
-        for (t, g) in targets.iter_mut().zip(&geo) {
+        let place = |t: &SurveyTarget, g: &Geodetic| {
             let p = proj.forward(g);
-            t.position = if t.has_z {
+            if t.has_z {
                 p
             } else {
                 Point::new(p.x, p.y, 0.0)
-            };
+            }
+        };
+        let exchanged: Option<Vec<Point>> = geo
+            .iter()
+            .all(|g| g.lon.abs() <= 90.0)
+            .then(|| {
+                targets
+                    .iter()
+                    .zip(&geo)
+                    .map(|(t, g)| {
+                        let other = Geodetic {
+                            lat: g.lon,
+                            lon: g.lat,
+                            alt: g.alt,
+                        };
+                        place(t, &other)
+                    })
+                    .collect()
+            })
+            .filter(|v: &Vec<Point>| v.iter().all(|p| p.coords.iter().all(|c| c.is_finite())));
+        for (t, g) in targets.iter_mut().zip(&geo) {
+            t.position = place(t, g);
         }
         return Ok(Survey {
             targets,
             frame: SurveyFrame::Wgs84Map,
             origin: None,
+            exchanged,
         });
     }
     let (frame, origin) = if geodetic {
@@ -444,6 +473,7 @@ fn placed(
         targets,
         frame,
         origin,
+        exchanged: None,
     })
 }
 

@@ -319,6 +319,7 @@ impl Truth {
                 .collect(),
             frame: SurveyFrame::Local,
             origin: None,
+            exchanged: None,
         }
     }
 }

@@ -420,3 +420,73 @@ fn a_wgs84_survey_is_placed_by_the_maps_projector_info() {
         }
     }
 }
+
+/// A survey of latitude, longitude with the two columns exchanged, placed by
+/// the map's projection, lands thousands of kilometres off the map: in
+/// Europe or the Americas both values pass as latitudes, so nothing refuses
+/// the rows. Read the other way round it falls on the map's targets, and
+/// the run says so instead of "another frame or another site".
+#[test]
+fn a_wgs84_survey_with_latitude_and_longitude_swapped_is_named() {
+    let dir = tempdir();
+    let s = dir.path().join("scene");
+    stdout_ok(
+        bin()
+            .args([
+                "synth", "--points", "300000", "--format", "pcd", "--seed", "2",
+            ])
+            .args(["--yaw-deg", "0", "--offset-m", "0,0,0", "--out"])
+            .arg(&s),
+    );
+    let map = dir.path().join("map");
+    std::fs::create_dir(&map).unwrap();
+    std::fs::copy(s.join("map.pcd"), map.join("map.pcd")).unwrap();
+    let pf = map.join("map_projector_info.yaml");
+    std::fs::write(
+        &pf,
+        "projector_type: LocalCartesian\nmap_origin:\n  latitude: 48.1\n  longitude: 11.5\n  altitude: 500.0\n",
+    )
+    .unwrap();
+    let proj = Projector::read(&pf, true).unwrap();
+    let local = read_survey(&s.join("survey.csv"), &SurveyOptions::default()).unwrap();
+    let start = Geodetic {
+        lat: 48.1,
+        lon: 11.5,
+        alt: 500.0,
+    };
+    let (mut right, mut swapped) = (
+        String::from("id,lat,lon,alt,antenna_height\n"),
+        String::from("id,lat,lon,alt,antenna_height\n"),
+    );
+    for t in &local.targets {
+        let g = invert(&proj, &t.position, start);
+        let h = t.antenna_height;
+        right += &format!("{},{:.12},{:.12},{:.6},{h}\n", t.id, g.lat, g.lon, g.alt);
+        swapped += &format!("{},{:.12},{:.12},{:.6},{h}\n", t.id, g.lon, g.lat, g.alt);
+    }
+    let run = |name: &str, csv: &str| {
+        let survey = dir.path().join(format!("{name}.csv"));
+        std::fs::write(&survey, csv).unwrap();
+        bin()
+            .arg("eval")
+            .arg("--map")
+            .arg(&map)
+            .arg("--survey")
+            .arg(&survey)
+            .arg("--out")
+            .arg(dir.path().join(name))
+            .arg("--no-report")
+            .output()
+            .unwrap()
+    };
+    let o = run("right", &right);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run("swapped", &swapped);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("latitude and longitude look swapped")
+            && err.contains("id,lat,lon: latitude first"),
+        "{err}"
+    );
+}

@@ -27,6 +27,7 @@ pub(crate) fn result(ids: &[&str]) -> crate::record::ResultFile {
         targets,
         frame: SurveyFrame::Local,
         origin: None,
+        exchanged: None,
     };
     let est: Vec<Estimate> = survey
         .targets
@@ -110,6 +111,7 @@ fn many_targets_get_tables_that_fit() {
         targets,
         frame: SurveyFrame::Local,
         origin: None,
+        exchanged: None,
     };
     let est: Vec<Estimate> = survey
         .targets
