@@ -130,7 +130,7 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             height,
         } => match height {
             Some((dz, sigma_z, horizontal)) if dz.abs() > *horizontal => format!(
-                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm horizontal, {:.1} mm in height) and with the other targets (robust z {robust_z:.1}), and it is mostly in height: {:.0} mm {} the others' against the survey, {:.0} mm horizontally. A gross error? ({}, a wrong corner or a survey blunder; check it, or drop it from the survey)",
+                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm horizontal, {:.1} mm in height) and with the other targets (robust z {robust_z:.1}), and it is mostly in height: {:.0} mm {} the others' against the survey, {:.0} mm horizontally. A gross error? ({}, a wrong corner or a survey blunder; check it: --exclude-outliers scores the map without it, refitted)",
                 error * 1000.0,
                 sigma * 1000.0,
                 sigma_z * 1000.0,
@@ -140,7 +140,7 @@ pub(crate) fn warning_text(w: &Warning) -> String {
                 antenna_hint(*dz)
             ),
             _ => format!(
-                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm{}) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it, or drop it from the survey)",
+                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm{}) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it: --exclude-outliers scores the map without it, refitted)",
                 error * 1000.0,
                 sigma * 1000.0,
                 height.map_or(String::new(), |(_, sz, _)| format!(
