@@ -766,6 +766,21 @@ fn judge(
             2e3 * r
         ));
     }
+    // Told only loosely (a survey's word for it), the size must at least
+    // not be one a survey mistakes for it: a 200 mm ball surveyed as a
+    // 145 mm one, seen from one side by tens of points, passes a free fit
+    // drawn toward the size given.
+    if 3.0 * sigma > SIZE_TOLD * r
+        && let Some(other) = fits_as_well(v, grid, c, r, &up)
+    {
+        return Some(format!(
+            "round, but its points fit a sphere of {:.0} mm as well as the {:.0} mm given (free fit {:.0} ± {:.0} mm): too little of it seen to tell its size",
+            2e3 * other,
+            2e3 * r,
+            2e3 * free,
+            2e3 * sigma
+        ));
+    }
     if around.len() > most && mount.is_none() {
         return Some(format!(
             "a round surface not standing alone ({} points within {:.0} mm beyond it, not its mount: part of a larger object)",
@@ -774,6 +789,62 @@ fn judge(
         ));
     }
     None
+}
+
+/// A size a survey mistakes for radius `r` (as [`other_size`] tries) whose
+/// sphere fits candidate `c`'s neighbourhood as well as `r`'s: each fitted
+/// with its radius known, from `c`'s centre moved along the side seen by
+/// the radii's difference, and scored alike on the points within the larger
+/// sphere's reach of either centre (its mount's below left out), each point
+/// costing its squared distance from the surface up to (2.5 σ)², σ the
+/// noise `c`'s residuals show. One band for both, so neither size is judged
+/// on points chosen for it.
+fn fits_as_well(
+    v: &[Vector3<f64>],
+    grid: &Grid,
+    c: &Candidate,
+    r: f64,
+    up: &Vector3<f64>,
+) -> Option<f64> {
+    let noise = crate::locate::covariance::untruncate(c.rms * c.rms, c.band).sqrt();
+    let tau = (2.5 * noise).max(0.003);
+    let surface: Vec<Vector3<f64>> = c.inliers.iter().map(|&i| v[i as usize]).collect();
+    let seen = mean_direction(&directions(&surface, &c.centre))?;
+    let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
+    sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
+    sizes.into_iter().find(|&other| {
+        let reach = r.max(other) + tau;
+        let mut c2 = c.centre - seen * (other - r);
+        let near = |a: &Vector3<f64>, b: &Vector3<f64>| -> Vec<Vector3<f64>> {
+            let mut idx: Vec<usize> = grid
+                .near(v, a, reach)
+                .chain(grid.near(v, b, reach))
+                .filter(|&i| !on_mount(&(v[i] - a), r, up) && !on_mount(&(v[i] - b), other, up))
+                .collect();
+            idx.sort_unstable();
+            idx.dedup();
+            idx.into_iter().map(|i| v[i]).collect()
+        };
+        // The other size's fit, on the points within its band (twice over:
+        // the band moves with it).
+        for _ in 0..2 {
+            let pts: Vec<Vector3<f64>> = near(&c.centre, &c2)
+                .into_iter()
+                .filter(|q| ((q - c2).norm() - other).abs() < tau)
+                .collect();
+            if pts.len() < 4 {
+                return false;
+            }
+            c2 = known_radius_fit(&pts, c2, other, 5);
+        }
+        let pts = near(&c.centre, &c2);
+        let cost = |centre: &Vector3<f64>, rad: f64| -> f64 {
+            pts.iter()
+                .map(|q| ((q - centre).norm() - rad).powi(2).min(tau * tau))
+                .sum()
+        };
+        cost(&c2, other) <= cost(&c.centre, r)
+    })
 }
 
 /// The shell just outside a candidate's surface (from three RMS, at least
