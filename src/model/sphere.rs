@@ -411,10 +411,11 @@ struct Candidate {
 /// stands (detection map-wide, and the other sizes a failure hints at).
 pub const SIZE_TOLD: f64 = 0.1;
 
-/// The same where a survey places a sphere of that size: a size told to
-/// ±20 % still refuses the sizes a survey mistakes for it (200 mm for
-/// 145 mm is 38 % larger, 5.7 σ at the limit; a radius for a diameter
-/// 100 %). Measured on synth (8 M points, 2 cm of range noise, spheres
+/// The same where a survey places a sphere of that size, with each size a
+/// survey mistakes for it (200 mm for 145 mm is 38 % larger, 5.7 σ at the
+/// limit; a radius for a diameter 100 %) fitted against it where the size
+/// is told more loosely than [`SIZE_TOLD`] ([`fits_as_well`]): the free
+/// fit alone, drawn toward the size given, let some through. Measured on synth (8 M points, 2 cm of range noise, spheres
 /// 15-30 m from the road, 20 seeds): the spheres' free radii had σ of
 /// 1.6-4.5 mm from 30-90 surface points; told to r/10, 5 of 40 were found,
 /// to r/5, 18 (the other 22 had fewer than 30 points), 17 of them inside
@@ -771,7 +772,7 @@ fn judge(
     // 145 mm one, seen from one side by tens of points, passes a free fit
     // drawn toward the size given.
     if 3.0 * sigma > SIZE_TOLD * r
-        && let Some(other) = fits_as_well(v, grid, c, r, &up)
+        && let Some(other) = fits_as_well(v, grid, c, r, &up, mount)
     {
         return Some(format!(
             "round, but its points fit a sphere of {:.0} mm as well as the {:.0} mm given (free fit {:.0} ± {:.0} mm): too little of it seen to tell its size",
@@ -791,20 +792,25 @@ fn judge(
     None
 }
 
-/// A size a survey mistakes for radius `r` (as [`other_size`] tries) whose
-/// sphere fits candidate `c`'s neighbourhood as well as `r`'s: each fitted
-/// with its radius known, from `c`'s centre moved along the side seen by
-/// the radii's difference, and scored alike on the points within the larger
-/// sphere's reach of either centre (its mount's below left out), each point
-/// costing its squared distance from the surface up to (2.5 σ)², σ the
-/// noise `c`'s residuals show. One band for both, so neither size is judged
-/// on points chosen for it.
+/// A size a survey mistakes for radius `r` (as [`other_size`] tries) that
+/// candidate `c`'s points do not rule out: each size fitted with its radius
+/// known on the points within a band of its surface (the other from `c`'s
+/// centre moved along the side seen by the radii's difference), and both
+/// scored alike on the points within the larger sphere's reach of either
+/// centre (the pole below and a flat mount left out), each point costing
+/// its squared distance from the surface up to (2.5 σ)², σ the noise `c`'s
+/// residuals show. One band for both, so neither size is judged on points
+/// chosen for it; and the size given must win by [`SIZE_MARGIN`] σ²: with
+/// a few tens of points the two costs can come out equal to five decimals
+/// (a 145 mm sphere surveyed as 200 mm on its pole, 30 points: the given
+/// size survived by a hair, 46 mm off).
 fn fits_as_well(
     v: &[Vector3<f64>],
     grid: &Grid,
     c: &Candidate,
     r: f64,
     up: &Vector3<f64>,
+    mount: Option<(crate::geom::plane::Plane, f64)>,
 ) -> Option<f64> {
     let noise = crate::locate::covariance::untruncate(c.rms * c.rms, c.band).sqrt();
     let tau = (2.5 * noise).max(0.003);
@@ -812,40 +818,68 @@ fn fits_as_well(
     let seen = mean_direction(&directions(&surface, &c.centre))?;
     let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
     sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
+    // The mount is a plane about `c`'s centre.
+    let on_wall =
+        |q: &Vector3<f64>| mount.is_some_and(|(m, t)| m.distance(&(q - c.centre)).abs() < t);
     sizes.into_iter().find(|&other| {
         let reach = r.max(other) + tau;
-        let mut c2 = c.centre - seen * (other - r);
+        let c0 = c.centre;
+        let mut c2 = c0 - seen * (other - r);
+        // The points about the given size's centre `a` and the other's `b`.
         let near = |a: &Vector3<f64>, b: &Vector3<f64>| -> Vec<Vector3<f64>> {
             let mut idx: Vec<usize> = grid
                 .near(v, a, reach)
                 .chain(grid.near(v, b, reach))
-                .filter(|&i| !on_mount(&(v[i] - a), r, up) && !on_mount(&(v[i] - b), other, up))
+                .filter(|&i| {
+                    !on_mount(&(v[i] - a), r, up)
+                        && !on_mount(&(v[i] - b), other, up)
+                        && !on_wall(&v[i])
+                })
                 .collect();
             idx.sort_unstable();
             idx.dedup();
             idx.into_iter().map(|i| v[i]).collect()
         };
-        // The other size's fit, on the points within its band (twice over:
-        // the band moves with it).
-        for _ in 0..2 {
-            let pts: Vec<Vector3<f64>> = near(&c.centre, &c2)
-                .into_iter()
-                .filter(|q| ((q - c2).norm() - other).abs() < tau)
-                .collect();
-            if pts.len() < 4 {
-                return false;
+        // Each size's fit on the points within its band (twice over: the
+        // band moves with it).
+        let fitted = |mut at: Vector3<f64>, rad: f64, fixed: &Vector3<f64>| {
+            for _ in 0..2 {
+                let about = if rad == r {
+                    near(&at, fixed)
+                } else {
+                    near(fixed, &at)
+                };
+                let pts: Vec<Vector3<f64>> = about
+                    .into_iter()
+                    .filter(|q| ((q - at).norm() - rad).abs() < tau)
+                    .collect();
+                if pts.len() < 4 {
+                    return None;
+                }
+                at = known_radius_fit(&pts, at, rad, 5);
             }
-            c2 = known_radius_fit(&pts, c2, other, 5);
-        }
-        let pts = near(&c.centre, &c2);
+            Some(at)
+        };
+        let Some(c2f) = fitted(c2, other, &c0) else {
+            return false;
+        };
+        c2 = c2f;
+        let c1 = fitted(c0, r, &c2).unwrap_or(c0);
+        let pts = near(&c1, &c2);
         let cost = |centre: &Vector3<f64>, rad: f64| -> f64 {
             pts.iter()
                 .map(|q| ((q - centre).norm() - rad).powi(2).min(tau * tau))
                 .sum()
         };
-        cost(&c2, other) <= cost(&c.centre, r)
+        cost(&c2, other) < cost(&c1, r) + SIZE_MARGIN * noise * noise
     })
 }
+
+/// How much better (in σ² of the summed squared distances: twice the log
+/// of the likelihood ratio) the size given must fit than a size a survey
+/// mistakes for it, where the size is told only loosely: 4 is a ratio of
+/// e², about 7 to 1.
+const SIZE_MARGIN: f64 = 4.0;
 
 /// The shell just outside a candidate's surface (from three RMS, at least
 /// 2 cm, to 6 cm further), as distances from its centre.

@@ -281,12 +281,16 @@ pub(super) fn detect_and_match(
             .flatten(),
         // As the layout is read: each target's reference point, its
         // position moved alike.
-        exchanged: survey.exchanged.as_ref().map(|x| {
-            x.iter()
-                .zip(&survey.targets)
-                .map(|(p, t)| p + (t.reference() - t.position))
-                .collect()
-        }),
+        exchanged: survey
+            .exchanged
+            .as_ref()
+            .filter(|x| x.len() == survey.targets.len())
+            .map(|x| {
+                x.iter()
+                    .zip(&survey.targets)
+                    .map(|(p, t)| p + (t.reference() - t.position))
+                    .collect()
+            }),
     };
     survey_xy.not_latlon_swapped(&m)?;
     survey_xy.not_swapped(&m)?;
