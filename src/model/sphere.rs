@@ -305,8 +305,7 @@ fn other_size(
     p: &SphereParams,
     others: &[Vector3<f64>],
 ) -> Option<(String, f64)> {
-    let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
-    sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
+    let mut sizes = mistaken_sizes(r);
     sizes.sort_by(f64::total_cmp);
     sizes.dedup_by(|a, b| (*a - *b).abs() < 0.1 * *b);
     for other in sizes {
@@ -324,6 +323,15 @@ fn other_size(
         }
     }
     None
+}
+
+/// The radii a survey mistakes for radius `r`: twice or half it (a radius
+/// written for a diameter or the reverse) and the other common sizes, 145
+/// and 200 mm; those within 15 % of `r` or outside 2-50 cm left out.
+fn mistaken_sizes(r: f64) -> Vec<f64> {
+    let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
+    sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
+    sizes
 }
 
 /// Keeps at most `max` of `v`, chosen by a hash of each index (uniform,
@@ -816,8 +824,7 @@ fn fits_as_well(
     let tau = (2.5 * noise).max(0.003);
     let surface: Vec<Vector3<f64>> = c.inliers.iter().map(|&i| v[i as usize]).collect();
     let seen = mean_direction(&directions(&surface, &c.centre))?;
-    let mut sizes = vec![2.0 * r, 0.5 * r, 0.0725, 0.1];
-    sizes.retain(|&x| (x - r).abs() > 0.15 * r && x >= 0.02 && x <= 0.5);
+    let sizes = mistaken_sizes(r);
     // The mount is a plane about `c`'s centre.
     let on_wall =
         |q: &Vector3<f64>| mount.is_some_and(|(m, t)| m.distance(&(q - c.centre)).abs() < t);
