@@ -1,27 +1,36 @@
 //! How well a located corner's height is known, from how much of the plates
-//! the map shows (issue 30).
+//! the map shows, and where in what is seen the corner belongs (issue 30).
 //!
-//! The reference point is the corner at mid plate height, and the locator
-//! puts it at the mean height of the plates' inliers. That is the middle of
-//! the plate only when the plate is seen evenly from bottom to top. A barrier,
-//! grass or a parked car hides the lower plates from a sensor on the road;
-//! the mean then sits in the middle of what is left, tens of centimetres
-//! high, while the covariance (the heights' scatter over their count) says a
-//! few millimetres.
+//! The reference point is the corner at mid plate height. The locator (the
+//! paper's estimator) puts it at the mean height of the plates' inliers.
+//! That is the middle of the plate only when the plate is seen evenly from
+//! bottom to top. A barrier, grass or a parked car hides the lower plates
+//! from a sensor on the road, and the mean sits in the middle of what is
+//! left, tens of centimetres high. Far from the road a spinning LiDAR's scan
+//! lines cross a plate at a few fixed heights, one of them often holding
+//! most of the returns, and the mean leans toward it. The post and the GNSS
+//! antenna above the corner lie in both plates' planes and pull it up.
 //!
-//! The plates are `plate_height` tall. The inliers' heights span `seen` of it
-//! (their 1–99 % range, scaled to the whole for an even spread), from `lo` to
-//! `hi`. A plate that holds every seen point has its middle between
-//! `hi − H/2` (the top edge is the plate's) and `lo + H/2` (the bottom edge
-//! is), an interval `|H − seen|` wide centred on `(lo + hi)/2`; nothing in the
-//! points says which edge is the plate's. With the middle anywhere in it, the
-//! mean height's squared error is expected to be (its offset from the
-//! interval's centre)² + width²/12, added to the corner's covariance along
-//! the direction a height error moves the corner. (When one edge is the
-//! plate's, as with a barrier in front, the error is the whole half-width:
-//! √3 = 1.73 σ of that term, inside the 95 % interval but not well inside.)
-//! A span taller than the plates (plates taller than configured, noise at
-//! the edges) leaves no interval: only the offset counts.
+//! So the plates' height is read from their body: inliers more than a fifth
+//! of the plate width from the corner line (the post and the antenna are
+//! narrower), or all inliers when too few are that far. Their heights span
+//! `seen` of the plate (their 1–99 % range, scaled to the whole for an even
+//! spread), from `lo` to `hi`. A plate that holds every seen point has its
+//! middle between `hi − H/2` (the top edge is the plate's) and `lo + H/2`
+//! (the bottom edge is), an interval `|H − seen|` wide centred on
+//! `(lo + hi)/2`; nothing in the points says which edge is the plate's.
+//!
+//! Where the span fits in a plate, the corner is moved along the plates'
+//! line to the span's middle ([`HeightSeen::centre`]): the best guess of the
+//! plate's middle whatever the scan lines' densities, and its squared error
+//! is expected to be width²/12. (When one edge is the plate's, as with a
+//! barrier in front, the error is the whole half-width: √3 = 1.73 σ of that
+//! term, inside the 95 % interval but not well inside.) A span taller than
+//! the plates (plates taller than configured, something else in their
+//! planes) leaves no interval and no middle to trust: the mean is kept and
+//! its offset from the span's middle is the error added.
+//! [`HeightSeen::variance`] is added to the corner's covariance along the
+//! direction a height error moves the corner.
 
 use super::{Label, Located};
 use crate::Point;
@@ -45,24 +54,48 @@ const MIN_POINTS: usize = 20;
 /// Share of the heights between the quantiles the span is read from.
 const KEPT: f64 = 0.98;
 
+/// Inliers nearer the corner line than this share of the plate width are
+/// left out of the span: the post and the antenna stand there (a survey
+/// antenna is 15–25 cm across; the plates the paper uses are 0.6 m wide).
+const CORNER_STRIP: f64 = 0.2;
+
+/// A span up to this much taller than the plates still fits one (noise and
+/// mixed pixels at the edges).
+const FITS: f64 = 1.05;
+
 impl HeightSeen {
     /// The span of the located plates' inliers (`pts` the crop the target
-    /// was located in, `up` its vertical). `None` with too few inliers.
+    /// was located in, `up` its vertical), read away from the corner line.
+    /// `None` with too few inliers.
     pub fn of(
         pts: &[Point],
         located: &Located,
         up: &Vector3<f64>,
-        plate_height: f64,
+        plate: (f64, f64),
     ) -> Option<HeightSeen> {
         let o = located.corner;
-        let mut h: Vec<f64> = pts
-            .iter()
-            .zip(&located.labels)
-            .filter(|(_, l)| matches!(l, Label::Plate1 | Label::Plate2))
-            .map(|(p, _)| up.dot(&(p - o)))
-            .filter(|v| v.is_finite())
+        let n = located.plates.map(|p| Vector3::from(p.normal));
+        // A plate's inlier lies along that plate at its offset along the
+        // other plate's normal.
+        let inliers = || {
+            pts.iter()
+                .zip(&located.labels)
+                .filter_map(|(p, l)| match l {
+                    Label::Plate1 => Some((p - o, n[1])),
+                    Label::Plate2 => Some((p - o, n[0])),
+                    Label::Outlier => None,
+                })
+                .filter(|(d, _)| d.iter().all(|v| v.is_finite()))
+        };
+        let strip = CORNER_STRIP * plate.0;
+        let mut h: Vec<f64> = inliers()
+            .filter(|(d, along)| along.dot(d).abs() > strip)
+            .map(|(d, _)| up.dot(&d))
             .collect();
-        HeightSeen::from_heights(&mut h, plate_height)
+        if h.len() < MIN_POINTS {
+            h = inliers().map(|(d, _)| up.dot(&d)).collect();
+        }
+        HeightSeen::from_heights(&mut h, plate.1)
     }
 
     /// From the inliers' heights relative to the corner (reordered).
@@ -86,11 +119,17 @@ impl HeightSeen {
         (self.plate_height_m - self.seen_m).max(0.0)
     }
 
-    /// How far the corner's height can be from the plates' middle if the
-    /// plates are as seen (m): its offset from the span's middle, and half
-    /// the height not seen.
-    pub(crate) fn worst_m(&self) -> f64 {
-        self.off_centre_m.abs() + self.hidden_m() / 2.0
+    /// Whether the run should name this target: its height's σ from what
+    /// was seen is a twentieth of the plate height or more (3 cm for the
+    /// paper's plates, ten times what a corner's points give its height).
+    pub(crate) fn worth_naming(&self) -> bool {
+        self.variance().sqrt() >= 0.05 * self.plate_height_m
+    }
+
+    /// Whether the span fits in one plate, so its middle is where the
+    /// plate's is expected.
+    pub(crate) fn fits(&self) -> bool {
+        self.seen_m <= FITS * self.plate_height_m
     }
 
     /// Expected squared error of the corner's height (m²): its offset from
@@ -98,6 +137,29 @@ impl HeightSeen {
     pub fn variance(&self) -> f64 {
         let width = self.hidden_m();
         self.off_centre_m.powi(2) + width * width / 12.0
+    }
+
+    /// Moves `located`'s corner (and its samples, which the report plots
+    /// around it) along the plates' line to the span's middle, where the span
+    /// fits in a plate; the offset left is then none. `up` is the vertical
+    /// the heights were read along.
+    pub(crate) fn centre(&mut self, located: &mut Located, up: &Vector3<f64>) {
+        let normals = located.plates.map(|p| Vector3::from(p.normal));
+        let Some(g) = along_line(normals, up) else {
+            return;
+        };
+        if !self.fits() {
+            return;
+        }
+        let shift = g * -self.off_centre_m;
+        if !shift.iter().all(|v| v.is_finite()) {
+            return;
+        }
+        located.corner += shift;
+        for s in &mut located.samples {
+            *s += shift;
+        }
+        self.off_centre_m = 0.0;
     }
 
     /// `cov` with [`HeightSeen::variance`] added along the direction a height
@@ -109,12 +171,7 @@ impl HeightSeen {
         normals: [Vector3<f64>; 2],
         up: &Vector3<f64>,
     ) -> [[f64; 3]; 3] {
-        let m = Matrix3::from_rows(&[
-            normals[0].transpose(),
-            normals[1].transpose(),
-            up.transpose(),
-        ]);
-        let Some(g) = m.try_inverse().map(|inv| inv * Vector3::z()) else {
+        let Some(g) = along_line(normals, up) else {
             return *cov;
         };
         let w = Matrix3::from_fn(|i, j| cov[i][j]) + g * g.transpose() * self.variance();
@@ -123,6 +180,17 @@ impl HeightSeen {
         }
         [0, 1, 2].map(|i| [0, 1, 2].map(|j| w[(i, j)]))
     }
+}
+
+/// How the corner moves when its height (along `up`) rises by one: along
+/// the plates' line (`normals`), which leans where the plates do.
+fn along_line(normals: [Vector3<f64>; 2], up: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let m = Matrix3::from_rows(&[
+        normals[0].transpose(),
+        normals[1].transpose(),
+        up.transpose(),
+    ]);
+    m.try_inverse().map(|inv| inv * Vector3::z())
 }
 
 #[cfg(test)]
@@ -207,6 +275,85 @@ mod tests {
             off_centre_m: 0.01,
         };
         assert!((tall.variance() - 1e-4).abs() < 1e-12);
+    }
+
+    /// An L of plates along x (normal y) and along y (normal x), their
+    /// corner at `corner`: plate points every 2 cm along and at `heights`,
+    /// and a post with an antenna on the corner line up to 0.42 m.
+    fn l_with_antenna(corner: Point, heights: &[f64]) -> (Vec<Point>, Located) {
+        let mut pts = Vec::new();
+        let mut labels = Vec::new();
+        for &z in heights {
+            for k in 1..=30 {
+                let a = 0.02 * k as f64;
+                pts.push(Point::new(a, 0.0, z));
+                labels.push(Label::Plate1);
+                pts.push(Point::new(0.0, a, z));
+                labels.push(Label::Plate2);
+            }
+        }
+        for k in 0..40 {
+            let z = 0.3 + 0.003 * k as f64;
+            pts.push(Point::new(0.01, 0.005, z));
+            labels.push(if k % 2 == 0 {
+                Label::Plate1
+            } else {
+                Label::Plate2
+            });
+        }
+        let plate = |n: [f64; 3]| super::super::PlateFit {
+            normal: n,
+            inliers: 0,
+            tilt_deg: 0.0,
+        };
+        let mut l = Located::without_plates(
+            corner,
+            [[1e-6, 0.0, 0.0], [0.0, 1e-6, 0.0], [0.0, 0.0, 1e-6]],
+            vec![corner],
+        );
+        l.plates = [plate([0.0, 1.0, 0.0]), plate([1.0, 0.0, 0.0])];
+        l.labels = labels;
+        (pts, l)
+    }
+
+    /// Far scan lines: a dense one near the top pulls the mean 9 cm up, and
+    /// the antenna's returns lie in both plates' planes. The span read away
+    /// from the corner line puts the corner at the plates' middle, and what
+    /// the lines leave open between them is all that is added.
+    #[test]
+    fn a_dense_scan_line_and_the_antenna_do_not_lift_the_corner() {
+        let mut heights = vec![0.25; 12];
+        heights.extend([-0.28, -0.18, -0.08, 0.02, 0.12, 0.22, 0.28]);
+        let n = heights.len() as f64 * 60.0 + 40.0;
+        let mean = (heights.iter().sum::<f64>() * 60.0
+            + (0..40).map(|k| 0.3 + 0.003 * k as f64).sum::<f64>())
+            / n;
+        assert!(mean > 0.09, "{mean}");
+        let (pts, mut l) = l_with_antenna(Point::new(0.0, 0.0, mean), &heights);
+        let mut s = HeightSeen::of(&pts, &l, &Vector3::z(), (0.6, 0.6)).unwrap();
+        assert!(s.fits() && (s.seen_m - 0.57).abs() < 0.01, "{s:?}");
+        s.centre(&mut l, &Vector3::z());
+        assert!(
+            l.corner.z.abs() < 0.003 && l.samples[0] == l.corner,
+            "{:?}",
+            l.corner
+        );
+        assert!(l.corner.x == 0.0 && l.corner.y == 0.0);
+        assert!(s.off_centre_m == 0.0 && s.variance().sqrt() < 0.01, "{s:?}");
+        assert!(!s.worth_naming());
+    }
+
+    /// A span taller than the plates has no middle to trust: the corner
+    /// stays, and its offset from the span's middle is its error.
+    #[test]
+    fn a_span_taller_than_the_plates_keeps_the_mean() {
+        let heights: Vec<f64> = (0..10).map(|k| -0.4 + 0.09 * k as f64).collect();
+        let (pts, mut l) = l_with_antenna(Point::new(0.0, 0.0, 0.05), &heights);
+        let mut s = HeightSeen::of(&pts, &l, &Vector3::z(), (0.6, 0.6)).unwrap();
+        assert!(!s.fits(), "{s:?}");
+        s.centre(&mut l, &Vector3::z());
+        assert_eq!(l.corner.z, 0.05);
+        assert!((s.variance().sqrt() - s.off_centre_m.abs()).abs() < 1e-12);
     }
 
     #[test]

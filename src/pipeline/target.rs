@@ -730,28 +730,31 @@ pub(super) fn check_doubled(
     (ids, limit)
 }
 
-/// A located target whose plates were not seen evenly from bottom to top
-/// (a barrier or grass hides the lower plates from the road) has its height
-/// less well known than its points' scatter says: what the span seen leaves
-/// open is added to its covariance (`locate::HeightSeen`). Returns those
-/// whose height may be off by a tenth of the plate height or more, with what
-/// was seen and their vertical σ after.
+/// A located L's height is placed in the middle of the plates' span seen
+/// (the paper's mean height leans toward the densest scan line, and toward
+/// the post and antenna above the corner), and a target whose plates were
+/// not seen whole (a barrier or grass hides the lower plates from the road)
+/// has its height less well known than its points' scatter says: what the
+/// span leaves open is added to its covariance (`locate::HeightSeen`).
+/// Returns those whose height is uncertain by a twentieth of the plate
+/// height or more (1σ), with what was seen and their vertical σ after.
 pub(super) fn widen_heights(
     found: &mut [TargetRun],
 ) -> Vec<(String, crate::locate::HeightSeen, f64)> {
     let mut widened = Vec::new();
     for r in found.iter_mut() {
-        let plate_height = r.plates.1;
+        let plates = r.plates;
         let Some(f) = r.outcome.as_mut().ok().filter(|f| f.is_l()) else {
             continue;
         };
-        let Some(seen) = crate::locate::HeightSeen::of(&r.tight, &f.located, &f.up, plate_height)
+        let Some(mut seen) = crate::locate::HeightSeen::of(&r.tight, &f.located, &f.up, plates)
         else {
             continue;
         };
+        seen.centre(&mut f.located, &f.up);
         let normals = f.located.plates.map(|p| Vector3::from(p.normal));
         f.located.covariance = seen.widen(&f.located.covariance, normals, &f.up);
-        if seen.worst_m() >= 0.1 * plate_height {
+        if seen.worth_naming() {
             widened.push((r.id.clone(), seen, f.located.sigma()[2]));
         }
     }

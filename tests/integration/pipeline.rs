@@ -274,7 +274,9 @@ fn a_dense_target_is_searched_where_the_others_put_it() {
     let whole = mapgauge::crop::tight_crop(&t.loose, &first_guess, &cfg.tight).unwrap();
     let up = nalgebra::Vector3::from(whole.up);
     let alone = pipeline::locate_with(&whole.points, &[up], &cfg).unwrap();
-    assert!((alone.located.corner - at).norm() < 3e-4);
+    // (Its height is the paper's mean; the run's is moved to the middle of
+    // the plates seen, along the plates' line.)
+    assert!((alone.located.corner - at).xy().norm() < 3e-4);
 
     // The report says where it was searched.
     let out = dir.path().join("out");
