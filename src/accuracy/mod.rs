@@ -260,6 +260,10 @@ pub enum Warning {
         /// corrected is theirs too), that height's 1-σ and its horizontal
         /// error (m); `None` in 2D.
         height: Option<(f64, f64, f64)>,
+        /// Found after the first round's gross errors were set aside and
+        /// the rest refitted (`metrics.exclude_outliers`): it stays in the
+        /// numbers.
+        after_exclusion: bool,
     },
     /// A target a rigid fit on the other targets places over
     /// [`score::BLUNDER_M`] and over 5 × their own rms residual from its

@@ -526,6 +526,7 @@ fn gross_errors(
                 sigma: ((c2[(0, 0)] + c2[(1, 1)]) / 2.0).max(0.0).sqrt(),
                 robust_z: z,
                 height: d3.then(|| (residuals[j].z - med_z, c[(2, 2)].max(0.0).sqrt(), r.norm())),
+                after_exclusion: false,
             });
         }
     }

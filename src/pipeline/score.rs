@@ -136,6 +136,15 @@ pub(super) fn score(
                 }
             }
             accuracy = accuracy::score_with_covariances(survey, &est, &covariances, opts)?;
+            // One round only: what the refit condemns stays, and says so.
+            for w in &mut accuracy.warnings {
+                if let accuracy::Warning::GrossError {
+                    after_exclusion, ..
+                } = w
+                {
+                    *after_exclusion = true;
+                }
+            }
             warnings.push(Warning::OutliersExcluded(
                 gross.into_iter().map(|g| g.0).collect(),
             ));

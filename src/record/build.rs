@@ -96,6 +96,16 @@ fn ranked(w: impl Iterator<Item = (u8, String)>) -> Vec<String> {
     w.into_iter().map(|x| x.1).collect()
 }
 
+/// What to do about a gross error: score without it, or, when it was found
+/// with the first round already set aside, that it is in these numbers.
+fn gross_hint(after_exclusion: bool) -> &'static str {
+    if after_exclusion {
+        "it stays in these numbers, as --exclude-outliers sets aside one round of gross errors only; remove its row to score without it"
+    } else {
+        "--exclude-outliers scores the map without it, refitted"
+    }
+}
+
 /// The sentence a reader sees for a warning.
 pub(crate) fn warning_text(w: &Warning) -> String {
     match w {
@@ -128,25 +138,28 @@ pub(crate) fn warning_text(w: &Warning) -> String {
             sigma,
             robust_z,
             height,
+            after_exclusion,
         } => match height {
             Some((dz, sigma_z, horizontal)) if dz.abs() > *horizontal => format!(
-                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm horizontal, {:.1} mm in height) and with the other targets (robust z {robust_z:.1}), and it is mostly in height: {:.0} mm {} the others' against the survey, {:.0} mm horizontally. A gross error? ({}, a wrong corner or a survey blunder; check it: --exclude-outliers scores the map without it, refitted)",
+                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm horizontal, {:.1} mm in height) and with the other targets (robust z {robust_z:.1}), and it is mostly in height: {:.0} mm {} the others' against the survey, {:.0} mm horizontally. A gross error? ({}, a wrong corner or a survey blunder; check it: {})",
                 error * 1000.0,
                 sigma * 1000.0,
                 sigma_z * 1000.0,
                 dz.abs() * 1000.0,
                 if *dz > 0.0 { "above" } else { "below" },
                 horizontal * 1000.0,
-                antenna_hint(*dz)
+                antenna_hint(*dz),
+                gross_hint(*after_exclusion)
             ),
             _ => format!(
-                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm{}) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it: --exclude-outliers scores the map without it, refitted)",
+                "target {id}: error {:.0} mm is inconsistent with its uncertainty (σ {:.1} mm{}) and with the other targets (robust z {robust_z:.1}): a gross error? (wrong corner or survey blunder; check it: {})",
                 error * 1000.0,
                 sigma * 1000.0,
                 height.map_or(String::new(), |(_, sz, _)| format!(
                     " horizontal, {:.1} mm in height",
                     sz * 1000.0
-                ))
+                )),
+                gross_hint(*after_exclusion)
             ),
         },
         Warning::LayoutMisfit {

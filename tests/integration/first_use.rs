@@ -1081,6 +1081,75 @@ fn an_antenna_height_typed_wrong_and_a_blunder_among_four_are_named() {
     assert!(!run(&four_csv, &[]).contains("a fit on the other targets"));
 }
 
+/// Two survey typos, 0.7 m and 10 cm: the large one hides the small (the fit
+/// it bends spreads the others' errors), so `--exclude-outliers` sets aside
+/// the first and the refit condemns the second. Its warning used to say
+/// "--exclude-outliers scores the map without it" with that flag on and the
+/// target still in the numbers; it now says it stays in them.
+#[test]
+fn a_gross_error_found_after_exclusion_says_it_stays_in_the_numbers() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    stdout_ok(
+        bin()
+            .args([
+                "synth",
+                "--seed",
+                "3",
+                "--targets",
+                "6",
+                "--points",
+                "3000000",
+                "--out",
+            ])
+            .arg(&scene),
+    );
+    let two = dir.path().join("two.csv");
+    edit_survey(&scene.join("survey.csv"), &two, |f| match f[0].as_str() {
+        "3" => add_to(&mut f[1], 0.7),
+        "5" => add_to(&mut f[2], 0.1),
+        _ => {}
+    });
+    let run = |extra: &[&str]| {
+        let o = bin()
+            .args(["eval", "--no-report"])
+            .args(extra)
+            .arg("--map")
+            .arg(scene.join("map.ply"))
+            .arg("--survey")
+            .arg(&two)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o)
+    };
+    let plain = run(&[]);
+    let w3 = plain
+        .lines()
+        .find(|l| l.starts_with("warning: target 3:"))
+        .expect(&plain);
+    assert!(
+        w3.contains("check it: --exclude-outliers scores the map without it"),
+        "{w3}"
+    );
+    assert!(!plain.contains("warning: target 5:"), "{plain}");
+    let excl = run(&["--exclude-outliers"]);
+    assert!(
+        excl.contains("excluded and the alignment refitted without them: 3"),
+        "{excl}"
+    );
+    let w5 = excl
+        .lines()
+        .find(|l| l.starts_with("warning: target 5:"))
+        .expect(&excl);
+    assert!(
+        w5.contains("gross error?")
+            && w5.contains("it stays in these numbers, as --exclude-outliers sets aside one round")
+            && !w5.contains("scores the map without it"),
+        "{w5}"
+    );
+}
+
 /// `eval … 2>&1 | head -1` exited 101 (a panic writing to the closed
 /// stderr): with both pipes closed before it writes, the run still ends
 /// well and writes its files.
