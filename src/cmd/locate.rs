@@ -52,12 +52,15 @@ pub struct Args {
     /// Local vertical as X,Y,Z (e.g. a ground normal).
     #[arg(long, value_parser = parse_up, default_value = "0,0,1")]
     up: Vector3<f64>,
-    /// Run the reference algorithm exactly (3D k-means, random start, no refit, 10,000 attempts).
+    /// Run the reference algorithm exactly (3D k-means, random start, no
+    /// refit, 10,000 attempts, the corner at the plate inliers' mean height;
+    /// without it, as `eval` does, at the middle of the plates' seen span,
+    /// with σz covering what that span leaves open).
     #[arg(long)]
     paper: bool,
     /// Plate width and height `W[,H]` in metres [default: 0.6,0.6]: a crop
-    /// much wider than the plates is refused as a loose crop (the width is
-    /// what counts here; the height is accepted for the flag's common form).
+    /// much wider than the plates is refused as a loose crop, and the corner
+    /// is placed at the middle of the plates' height (H defaults to W).
     #[arg(long, value_name = "W[,H]", value_parser = super::one_or_two, allow_hyphen_values = true)]
     plate_size: Option<(f64, Option<f64>)>,
 }
@@ -123,10 +126,15 @@ struct Row {
 /// Runs the command.
 pub fn run(args: Args) -> mapgauge::Result<()> {
     let params = args.params();
-    let width = match args.plate_size {
-        Some(p) => super::plate_size(p)?.0,
-        None => mapgauge::crop::TightParams::default().plate_width,
+    let plate = match args.plate_size {
+        Some(p) => super::plate_size(p)?,
+        None => {
+            let t = mapgauge::crop::TightParams::default();
+            (t.plate_width, t.plate_height)
+        }
     };
+    let width = plate.0;
+    let up = args.up.try_normalize(0.0).unwrap_or(args.up);
     let mut rows = Vec::with_capacity(args.files.len());
     for path in &args.files {
         let id = path
@@ -142,6 +150,13 @@ pub fn run(args: Args) -> mapgauge::Result<()> {
                     mapgauge::crop::loose_crop_message(span)
                 )),
                 None => locate::locate_either(&pts, Some(args.up), &params)
+                    .map(|mut l| {
+                        // As `eval` places it (the paper: the mean height).
+                        if !args.paper {
+                            locate::place_height(&pts, &mut l, &up, plate);
+                        }
+                        l
+                    })
                     .map_err(|e| format!("{}: {e}", path.display())),
             });
         let row = match result {

@@ -182,6 +182,25 @@ impl HeightSeen {
     }
 }
 
+/// What `eval` does with a located L's height (and `locate` but with
+/// `--paper`): the corner moved to the middle of the plates' seen span where
+/// it fits a plate, and the covariance widened by what the span leaves open
+/// (`pts` the crop it was located in, `up` its vertical, `plate` the plates'
+/// width and height). `None`, with nothing changed, when too few inliers
+/// show a span.
+pub fn place_height(
+    pts: &[Point],
+    located: &mut Located,
+    up: &Vector3<f64>,
+    plate: (f64, f64),
+) -> Option<HeightSeen> {
+    let mut seen = HeightSeen::of(pts, located, up, plate)?;
+    seen.centre(located, up);
+    let normals = located.plates.map(|p| Vector3::from(p.normal));
+    located.covariance = seen.widen(&located.covariance, normals, up);
+    Some(seen)
+}
+
 /// How the corner moves when its height (along `up`) rises by one: along
 /// the plates' line (`normals`), which leans where the plates do.
 fn along_line(normals: [Vector3<f64>; 2], up: &Vector3<f64>) -> Option<Vector3<f64>> {

@@ -52,7 +52,7 @@ use attempt::{Ctx, Sample, Scratch};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-pub use height::HeightSeen;
+pub use height::{HeightSeen, place_height};
 pub use kmeans::{Init, Space};
 pub use layers::{Doubled, DoublingLimit, Layering, PlateLayers, layering};
 pub use params::LocateParams;

@@ -747,13 +747,10 @@ pub(super) fn widen_heights(
         let Some(f) = r.outcome.as_mut().ok().filter(|f| f.is_l()) else {
             continue;
         };
-        let Some(mut seen) = crate::locate::HeightSeen::of(&r.tight, &f.located, &f.up, plates)
+        let Some(seen) = crate::locate::place_height(&r.tight, &mut f.located, &f.up, plates)
         else {
             continue;
         };
-        seen.centre(&mut f.located, &f.up);
-        let normals = f.located.plates.map(|p| Vector3::from(p.normal));
-        f.located.covariance = seen.widen(&f.located.covariance, normals, &f.up);
         if seen.worth_naming() {
             widened.push((r.id.clone(), seen, f.located.sigma()[2]));
         }
