@@ -195,10 +195,64 @@ pub fn place_height(
     plate: (f64, f64),
 ) -> Option<HeightSeen> {
     let mut seen = HeightSeen::of(pts, located, up, plate)?;
+    let from = located.corner;
     seen.centre(located, up);
     let normals = located.plates.map(|p| Vector3::from(p.normal));
-    located.covariance = seen.widen(&located.covariance, normals, up);
+    let moved = tilt_reach(pts, located, &from, up);
+    let cov = [0, 1, 2].map(|i| [0, 1, 2].map(|j| located.covariance[i][j] + moved[(i, j)]));
+    located.covariance = seen.widen(&cov, normals, up);
     Some(seen)
+}
+
+/// The covariance the corner gains by being moved from `from` along the
+/// plates' line: each plate's position error at the new place, less at the
+/// old (its fitted tilt's error times the distance from its centroid;
+/// `covariance::moved_variance`), carried to the corner as the locator's
+/// propagation carries it. Zero when nothing moved.
+fn tilt_reach(pts: &[Point], located: &Located, from: &Point, up: &Vector3<f64>) -> Matrix3<f64> {
+    use super::covariance::{PlateFitPoints, moved_variance};
+    let to = located.corner - from;
+    if to.norm() == 0.0 {
+        return Matrix3::zeros();
+    }
+    let normals = located.plates.map(|p| Vector3::from(p.normal));
+    // About the old corner: maps may sit at UTM-sized coordinates.
+    let mut v = [0.0; 2];
+    for (k, want) in [Label::Plate1, Label::Plate2].into_iter().enumerate() {
+        let own: Vec<Vector3<f64>> = pts
+            .iter()
+            .zip(&located.labels)
+            .filter(|(_, l)| **l == want)
+            .map(|(p, _)| p - from)
+            .filter(|d| d.iter().all(|c| c.is_finite()))
+            .collect();
+        if own.is_empty() {
+            continue;
+        }
+        let offset = own.iter().map(|d| normals[k].dot(d)).sum::<f64>() / own.len() as f64;
+        let plate = PlateFitPoints {
+            normal: normals[k],
+            offset,
+            points: own.iter().collect(),
+        };
+        v[k] = moved_variance(&plate, &Vector3::zeros(), &to, up);
+    }
+    let m = Matrix3::from_rows(&[
+        normals[0].transpose(),
+        normals[1].transpose(),
+        up.transpose(),
+    ]);
+    match m.try_inverse() {
+        Some(inv) => {
+            let c = inv * Matrix3::from_diagonal(&Vector3::new(v[0], v[1], 0.0)) * inv.transpose();
+            if c.iter().all(|x| x.is_finite()) {
+                (c + c.transpose()) / 2.0
+            } else {
+                Matrix3::zeros()
+            }
+        }
+        None => Matrix3::zeros(),
+    }
 }
 
 /// How the corner moves when its height (along `up`) rises by one: along
@@ -360,6 +414,42 @@ mod tests {
         assert!(l.corner.x == 0.0 && l.corner.y == 0.0);
         assert!(s.off_centre_m == 0.0 && s.variance().sqrt() < 0.01, "{s:?}");
         assert!(!s.worth_naming());
+    }
+
+    /// Moved 9 cm from where the plates' points are centred, the corner's
+    /// horizontal σ grows by what the fitted planes' tilt errors reach
+    /// there; not moved, it does not.
+    #[test]
+    fn a_moved_corner_carries_the_plates_tilt_error() {
+        let mut heights = vec![0.25; 12];
+        heights.extend([-0.28, -0.18, -0.08, 0.02, 0.12, 0.22, 0.28]);
+        let (mut pts, l) = l_with_antenna(Point::new(0.0, 0.0, 0.0), &heights);
+        // ±1 cm of noise across each plate.
+        for (i, (p, lab)) in pts.iter_mut().zip(&l.labels).enumerate() {
+            let e = (((i * 7919) % 101) as f64 - 50.0) / 5000.0;
+            match lab {
+                Label::Plate1 => p.y += e,
+                Label::Plate2 => p.x += e,
+                Label::Outlier => {}
+            }
+        }
+        let place = |z: f64| {
+            let mut at = l.clone();
+            at.corner.z = z;
+            at.samples = vec![at.corner];
+            let seen = place_height(&pts, &mut at, &Vector3::z(), (0.6, 0.6)).unwrap();
+            (at, seen)
+        };
+        let (still, seen) = place(0.0);
+        assert!(seen.off_centre_m.abs() < 1e-12 && still.corner.z.abs() < 0.003);
+        let (moved, _) = place(0.09);
+        // (The plates' centroid sits 9 cm up; the span's middle at 0.)
+        let grown = moved.covariance[0][0] - still.covariance[0][0];
+        assert!(grown > 0.0 && moved.covariance[1][1] > still.covariance[1][1]);
+        // var (≈ 0.33 cm²) × (0.09² / Σ heights about their mean): well
+        // under a millimetre here.
+        assert!(grown.sqrt() < 1e-3, "{}", grown.sqrt());
+        assert_eq!(still.covariance[2][2], moved.covariance[2][2]);
     }
 
     /// A span taller than the plates has no middle to trust: the corner
