@@ -55,7 +55,7 @@ pub struct Args {
     /// Run the reference algorithm exactly (3D k-means, random start, no
     /// refit, 10,000 attempts, the corner at the plate inliers' mean height;
     /// without it, as `eval` does, at the middle of the plates' seen span,
-    /// with σz covering what that span leaves open).
+    /// the JSON `covariance` covering what that span leaves open).
     #[arg(long)]
     paper: bool,
     /// Plate width and height `W[,H]` in metres [default: 0.6,0.6]: a crop

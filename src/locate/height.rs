@@ -12,8 +12,8 @@
 //! antenna above the corner lie in both plates' planes and pull it up.
 //!
 //! So the plates' height is read from their body: inliers more than a fifth
-//! of the plate width from the corner line (the post and the antenna are
-//! narrower), or all inliers when too few are that far. Their heights span
+//! of the plate width (and 10 cm) from the corner line (the post and the
+//! antenna are narrower), or all inliers when too few are that far. Their heights span
 //! `seen` of the plate (their 1–99 % range, scaled to the whole for an even
 //! spread), from `lo` to `hi`. A plate that holds every seen point has its
 //! middle between `hi − H/2` (the top edge is the plate's) and `lo + H/2`
@@ -54,10 +54,14 @@ const MIN_POINTS: usize = 20;
 /// Share of the heights between the quantiles the span is read from.
 const KEPT: f64 = 0.98;
 
-/// Inliers nearer the corner line than this share of the plate width are
-/// left out of the span: the post and the antenna stand there (a survey
-/// antenna is 15–25 cm across; the plates the paper uses are 0.6 m wide).
+/// Inliers nearer the corner line than this share of the plate width, and
+/// than [`ANTENNA_M`], are left out of the span: the post and the antenna
+/// stand there (the plates the paper uses are 0.6 m wide).
 const CORNER_STRIP: f64 = 0.2;
+
+/// A survey antenna's radius, about (8–12 cm): on small plates the strip is
+/// at least this wide (at most half the plate).
+const ANTENNA_M: f64 = 0.1;
 
 /// A span up to this much taller than the plates still fits one (noise and
 /// mixed pixels at the edges).
@@ -87,7 +91,7 @@ impl HeightSeen {
                 })
                 .filter(|(d, _)| d.iter().all(|v| v.is_finite()))
         };
-        let strip = CORNER_STRIP * plate.0;
+        let strip = (CORNER_STRIP * plate.0).max(ANTENNA_M).min(0.5 * plate.0);
         let mut h: Vec<f64> = inliers()
             .filter(|(d, along)| along.dot(d).abs() > strip)
             .map(|(d, _)| up.dot(&d))
