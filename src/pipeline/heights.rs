@@ -102,7 +102,8 @@ pub(super) fn heights_lean(found: &[TargetRun], survey: &Survey) -> Option<(Lean
         .zip(&survey.targets)
         .filter(|(_, t)| t.has_z)
         .filter_map(|(r, t)| {
-            r.corner()
+            // The heights scored, not the locator's mean heights.
+            r.placed_corner()
                 .map(|c| (Vector2::new(c.x, c.y), c.z - t.reference().z))
         })
         .collect();

@@ -297,6 +297,19 @@ impl TargetRun {
     pub fn corner(&self) -> Option<Point> {
         self.outcome.as_ref().ok().map(|f| f.located.corner)
     }
+
+    /// Where the run will score the corner: an L's moved to the middle of
+    /// its plates' seen span (`locate::place_height`, done by the checks
+    /// after the frame is settled), for what reads heights before that.
+    pub(super) fn placed_corner(&self) -> Option<Point> {
+        let f = self.outcome.as_ref().ok()?;
+        if !f.is_l() {
+            return Some(f.located.corner);
+        }
+        let mut l = f.located.clone();
+        crate::locate::place_height(&self.tight, &mut l, &f.up, self.plates);
+        Some(l.corner)
+    }
 }
 
 /// Where one target is looked for: its id, where it is expected, the
