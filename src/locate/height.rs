@@ -241,33 +241,32 @@ fn tilt_reach(pts: &[Point], located: &Located, from: &Point, up: &Vector3<f64>)
         };
         v[k] = moved_variance(&plate, &Vector3::zeros(), &to, up);
     }
-    let m = Matrix3::from_rows(&[
+    let Some(inv) = corner_map(normals, up) else {
+        return Matrix3::zeros();
+    };
+    let c = inv * Matrix3::from_diagonal(&Vector3::new(v[0], v[1], 0.0)) * inv.transpose();
+    if c.iter().all(|x| x.is_finite()) {
+        (c + c.transpose()) / 2.0
+    } else {
+        Matrix3::zeros()
+    }
+}
+
+/// M⁻¹, M = [n₁; n₂; up]: how the corner moves when either plate's plane
+/// or the height does (the locator's propagation, `covariance.rs`).
+fn corner_map(normals: [Vector3<f64>; 2], up: &Vector3<f64>) -> Option<Matrix3<f64>> {
+    Matrix3::from_rows(&[
         normals[0].transpose(),
         normals[1].transpose(),
         up.transpose(),
-    ]);
-    match m.try_inverse() {
-        Some(inv) => {
-            let c = inv * Matrix3::from_diagonal(&Vector3::new(v[0], v[1], 0.0)) * inv.transpose();
-            if c.iter().all(|x| x.is_finite()) {
-                (c + c.transpose()) / 2.0
-            } else {
-                Matrix3::zeros()
-            }
-        }
-        None => Matrix3::zeros(),
-    }
+    ])
+    .try_inverse()
 }
 
 /// How the corner moves when its height (along `up`) rises by one: along
 /// the plates' line (`normals`), which leans where the plates do.
 fn along_line(normals: [Vector3<f64>; 2], up: &Vector3<f64>) -> Option<Vector3<f64>> {
-    let m = Matrix3::from_rows(&[
-        normals[0].transpose(),
-        normals[1].transpose(),
-        up.transpose(),
-    ]);
-    m.try_inverse().map(|inv| inv * Vector3::z())
+    corner_map(normals, up).map(|inv| inv * Vector3::z())
 }
 
 #[cfg(test)]
