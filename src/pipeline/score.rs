@@ -64,20 +64,32 @@ pub(super) fn check_found(
         .into_iter()
         .filter(|w| found.iter().any(|r| r.id == w.0 && r.outcome.is_ok()))
         .collect();
-    if !widened.is_empty() {
-        let located = found.iter().filter(|r| r.outcome.is_ok()).count();
+    // Spans short of a plate and spans taller than one have different
+    // causes, named apart.
+    let located = found.iter().filter(|r| r.outcome.is_ok()).count();
+    for taller in [false, true] {
+        let group: Vec<_> = widened.iter().filter(|w| w.1.fits() != taller).collect();
+        if group.is_empty() {
+            continue;
+        }
         warnings.push(Warning::HeightsUncertain {
-            ids: widened.iter().map(|w| w.0.clone()).collect(),
-            seen_m: widened
+            ids: group.iter().map(|w| w.0.clone()).collect(),
+            seen_m: group
                 .iter()
-                .map(|w| w.1.seen_m.min(w.1.plate_height_m))
+                .map(|w| match taller {
+                    true => w.1.seen_m,
+                    false => w.1.seen_m.min(w.1.plate_height_m),
+                })
                 .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
-            plate_height_m: widened
-                .iter()
-                .map(|w| w.1.plate_height_m)
-                .fold(0.0, f64::max),
-            sigma_m: widened.iter().map(|w| w.2).fold(0.0, f64::max),
-            every: located >= 3 && widened.len() == located,
+            plate_height_m: group.iter().map(|w| w.1.plate_height_m).fold(0.0, f64::max),
+            sigma_m: group.iter().map(|w| w.2).fold(0.0, f64::max),
+            taller,
+            every: group.len() >= 3
+                && if taller {
+                    2 * group.len() >= located
+                } else {
+                    group.len() == located
+                },
         });
     }
     doubling

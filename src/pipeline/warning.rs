@@ -73,19 +73,26 @@ pub enum Warning {
         bar_deg: f64,
     },
     /// These targets' plates were seen over part of their height only, or
-    /// their points crowd toward part of it: their heights' σ was raised to
-    /// cover what that leaves open.
+    /// (`taller`) their points span more than a plate's height: their
+    /// heights' σ was raised to cover what that leaves open.
     HeightsUncertain {
         /// The targets.
         ids: Vec<String>,
-        /// The least and most plate height seen among them (m).
+        /// The least and most plate height seen among them (m; at most the
+        /// plate height unless `taller`).
         seen_m: (f64, f64),
         /// The plates' configured height (m).
         plate_height_m: f64,
         /// The largest vertical σ after widening (m).
         sigma_m: f64,
-        /// Every located target (three or more) is among them: the plates
-        /// may be smaller than configured.
+        /// Their points span more than a plate's height (plates taller than
+        /// configured, a target mapped twice at heights centimetres apart,
+        /// something else in the plates' planes).
+        taller: bool,
+        /// Enough located targets show it to ask about the plates' size:
+        /// every one (three or more) for short spans, half of them (three
+        /// or more) for tall ones, which plates of the configured size do
+        /// not show.
         every: bool,
     },
     /// These targets' plates leaned beyond the vertical gate in the frame
@@ -171,8 +178,9 @@ impl std::fmt::Display for Warning {
                 seen_m,
                 plate_height_m,
                 sigma_m,
+                taller,
                 every,
-            } => heights_uncertain(f, ids, *seen_m, *plate_height_m, *sigma_m, *every),
+            } => heights_uncertain(f, ids, *seen_m, *plate_height_m, *sigma_m, *taller, *every),
             Warning::WrongObjects(ids) => write!(
                 f,
                 "{} {}: the object located there is not that target (far from where the other targets place it, or another target's object); reported as not found, each with its reason",
@@ -253,14 +261,16 @@ impl std::fmt::Display for Warning {
     }
 }
 
-/// [`Warning::HeightsUncertain`]'s sentence, singular or plural, with the
-/// plate height asked about when every target shows it.
+/// [`Warning::HeightsUncertain`]'s sentence, singular or plural, short
+/// spans or tall, with the plate height asked about when enough targets
+/// show it.
 fn heights_uncertain(
     f: &mut std::fmt::Formatter<'_>,
     ids: &[String],
     seen_m: (f64, f64),
     plate_height_m: f64,
     sigma_m: f64,
+    taller: bool,
     every: bool,
 ) -> std::fmt::Result {
     let one = ids.len() == 1;
@@ -269,9 +279,18 @@ fn heights_uncertain(
     } else {
         format!("{:.2}-{:.2} m", seen_m.0, seen_m.1)
     };
+    let seen = if taller {
+        format!(
+            "span {span}, more than the {plate_height_m:.2} m plate height (plates taller than configured, a target mapped twice at heights centimetres apart where a loop closed badly, or something else in the plates' planes)"
+        )
+    } else {
+        format!(
+            "cover {span} of the {plate_height_m:.2} m plate height (a barrier, grass or a vehicle hiding the plates from below, or sparse scan lines)"
+        )
+    };
     write!(
         f,
-        "the {} {} {} uncertain by up to {:.0} mm (1σ): {} plates' points cover {span} of the {plate_height_m:.2} m plate height, or crowd toward part of it (a barrier, grass or a vehicle hiding the plates from below, or sparse scan lines), and the reference point at mid plate height is placed only to within that. The vertical σ includes it; horizontal positions are unaffected while the plates stand upright",
+        "the {} {} {} uncertain by up to {:.0} mm (1σ): {} plates' points {seen}, and the reference point at mid plate height is placed only to within that. The vertical σ includes it; horizontal positions are unaffected while the plates stand upright",
         if one {
             "height of target"
         } else {
@@ -285,7 +304,14 @@ fn heights_uncertain(
     if every {
         write!(
             f,
-            ". Every located target shows it: are the plates {plate_height_m:.2} m tall (--plate-size W,H)?"
+            ". {} located target{} show{} it: are the plates {plate_height_m:.2} m tall (--plate-size W,H)?",
+            if taller {
+                "Half or more of the"
+            } else {
+                "Every"
+            },
+            if taller { "s" } else { "" },
+            if taller { "" } else { "s" },
         )?;
     }
     Ok(())
