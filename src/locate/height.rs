@@ -482,7 +482,8 @@ mod tests {
     }
 
     /// A span taller than the plates has no middle to trust: the corner
-    /// stays, and its offset from the span's middle is its error.
+    /// stays, and its error is its offset from the span's middle and the
+    /// spread of the places a plate could have in the span.
     #[test]
     fn a_span_taller_than_the_plates_keeps_the_mean() {
         let heights: Vec<f64> = (0..10).map(|k| -0.4 + 0.09 * k as f64).collect();
@@ -491,7 +492,10 @@ mod tests {
         assert!(!s.fits(), "{s:?}");
         s.centre(&mut l, &Vector3::z());
         assert_eq!(l.corner.z, 0.05);
-        assert!((s.variance().sqrt() - s.off_centre_m.abs()).abs() < 1e-12);
+        let excess = s.seen_m - 0.6;
+        assert!(excess > 0.1, "{s:?}");
+        assert!((s.variance() - s.off_centre_m.powi(2) - excess * excess / 12.0).abs() < 1e-12);
+        assert!(s.worth_naming());
     }
 
     #[test]

@@ -465,20 +465,20 @@ fn plane_tilt(
 const MAX_SLOPE: f64 = 0.052;
 
 /// A two-component mixture along one axis.
-struct Mixture {
-    means: [f64; 2],
+pub(super) struct Mixture {
+    pub(super) means: [f64; 2],
     /// Points nearer each mean (by responsibility).
-    counts: [usize; 2],
+    pub(super) counts: [usize; 2],
     /// The shared σ.
-    sigma: f64,
+    pub(super) sigma: f64,
     /// Each layer's own σ (responsibility-weighted).
-    spreads: [f64; 2],
+    pub(super) spreads: [f64; 2],
 }
 
 /// Two normal layers with one shared σ fitted to sorted `d` by EM, started
 /// from the best split in two (k-means in one dimension, exact on sorted
 /// values). `None` when the values do not vary.
-fn two_layers(d: &[f64]) -> Option<Mixture> {
+pub(super) fn two_layers(d: &[f64]) -> Option<Mixture> {
     let n = d.len();
     let mut prefix = vec![0.0; n + 1];
     let mut prefix2 = vec![0.0; n + 1];

@@ -35,6 +35,7 @@
 
 mod attempt;
 pub(crate) mod covariance;
+mod ground_layers;
 mod height;
 pub(crate) mod kmeans;
 mod layers;
@@ -52,6 +53,7 @@ use attempt::{Ctx, Sample, Scratch};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+pub use ground_layers::{GroundLayers, ground_layers};
 pub use height::{HeightSeen, place_height};
 pub use kmeans::{Init, Space};
 pub use layers::{Doubled, DoublingLimit, Layering, PlateLayers, layering};

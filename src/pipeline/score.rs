@@ -43,6 +43,18 @@ pub(super) fn check_found(
     }
     // A height from plates seen in part is known only as well as the part.
     let widened = target::widen_heights(found);
+    // ... and one on ground mapped twice only to within the copies.
+    let lifted = target::widen_for_ground_copies(found);
+    if !lifted.is_empty() {
+        warnings.push(Warning::GroundDoubled {
+            ids: lifted.iter().map(|w| w.0.clone()).collect(),
+            separation_m: lifted
+                .iter()
+                .map(|w| w.1)
+                .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
+            sigma_m: lifted.iter().map(|w| w.2).fold(0.0, f64::max),
+        });
+    }
     // Metres of disagreement with the survey's layout are no map's error,
     // however few targets were located.
     layout::off_layout(found, survey, opts);

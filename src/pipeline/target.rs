@@ -771,6 +771,39 @@ pub(super) fn widen_heights(
     widened
 }
 
+/// A located target whose ground shows two layers at heights centimetres
+/// apart (`locate::ground_layers`: a loop's seam, which upright plates
+/// cannot show when it is in height) has its height known only to within
+/// the copies: the located height may be either copy's or between them,
+/// and the truth is either copy's, so σz gains separation²/3 (a uniform
+/// over ± the separation) along the vertical. Returns those targets, each
+/// with the separation and its vertical σ after.
+pub(super) fn widen_for_ground_copies(found: &mut [TargetRun]) -> Vec<(String, f64, f64)> {
+    use rayon::prelude::*;
+    let layers: Vec<Option<crate::locate::GroundLayers>> = found
+        .par_iter()
+        .map(|r| {
+            let f = r.outcome.as_ref().ok()?;
+            crate::locate::ground_layers(&r.loose, &f.located.corner, &f.up)
+        })
+        .collect();
+    let mut widened = Vec::new();
+    for (r, g) in found.iter_mut().zip(layers) {
+        let (Some(g), Ok(f)) = (g, r.outcome.as_mut()) else {
+            continue;
+        };
+        let up = f.up.normalize();
+        let add = up * up.transpose() * (g.separation_m.powi(2) / 3.0);
+        for (i, row) in f.located.covariance.iter_mut().enumerate() {
+            for (j, c) in row.iter_mut().enumerate() {
+                *c += add[(i, j)];
+            }
+        }
+        widened.push((r.id.clone(), g.separation_m, f.located.sigma()[2]));
+    }
+    widened
+}
+
 /// No object serves two targets: when two located corners are closer than a
 /// plate's width (the narrower of the two targets'), the target expected
 /// farther from the object loses it.

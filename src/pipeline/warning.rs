@@ -72,6 +72,17 @@ pub enum Warning {
         /// The lean levelling asks for (degrees).
         bar_deg: f64,
     },
+    /// The ground about these targets shows two layers at heights
+    /// centimetres apart: the map has a seam there (a loop closed badly),
+    /// and their σz was raised to cover either copy.
+    GroundDoubled {
+        /// The targets.
+        ids: Vec<String>,
+        /// The least and most separation among them (m).
+        separation_m: (f64, f64),
+        /// The largest vertical σ after widening (m).
+        sigma_m: f64,
+    },
     /// These targets' plates were seen over part of their height only, or
     /// (`taller`) their points span more than a plate's height: their
     /// heights' σ was raised to cover what that leaves open.
@@ -141,6 +152,7 @@ impl Warning {
             Warning::Float32Steps { .. }
             | Warning::Doubled(_)
             | Warning::HeightsUncertain { .. }
+            | Warning::GroundDoubled { .. }
             | Warning::WrongObjects(_)
             | Warning::OutliersExcluded(_) => 0,
             Warning::Levelled { .. }
@@ -173,6 +185,28 @@ impl std::fmt::Display for Warning {
                 if ids.len() == 1 { "target" } else { "targets" },
                 ids.join(", ")
             ),
+            Warning::GroundDoubled {
+                ids,
+                separation_m,
+                sigma_m,
+            } => {
+                let one = ids.len() == 1;
+                let apart = if separation_m.1 - separation_m.0 < 0.0005 {
+                    format!("{:.0} mm", separation_m.0 * 1e3)
+                } else {
+                    format!("{:.0}-{:.0} mm", separation_m.0 * 1e3, separation_m.1 * 1e3)
+                };
+                write!(
+                    f,
+                    "the ground around {} {} is mapped twice, {apart} apart in height (the map has a seam there: a loop closed badly?). A seam in height hides in a target's own points, so {} {} uncertain by that much: {} vertical σ (up to {:.0} mm) includes it; horizontal positions are unaffected by it",
+                    if one { "target" } else { "targets" },
+                    ids.join(", "),
+                    if one { "its height" } else { "their heights" },
+                    if one { "is" } else { "are" },
+                    if one { "its" } else { "their" },
+                    sigma_m * 1e3,
+                )
+            }
             Warning::HeightsUncertain {
                 ids,
                 seen_m,

@@ -466,6 +466,54 @@ fn plates_taller_than_configured_are_named_and_covered() {
     );
 }
 
+/// Issue 30: a map whose second pass drifted in height alone (4 cm) holds
+/// every target twice in one plane: the plates cannot show it, and heights
+/// were up to 6.9 σ from the first pass's (`bench/heights_table.py`). The
+/// ground about each target shows two layers: the run names them, and each
+/// height's σ covers either copy. The horizontal errors stay as they were.
+#[test]
+fn a_seam_in_height_is_seen_in_the_ground_and_covered() {
+    let tmp = crate::util::tempdir();
+    let cfg = tmp.path().join("seam.toml");
+    std::fs::write(
+        &cfg,
+        "[second_pass]\nshare = 1.0\noffset_m = [0.0, 0.0, 0.04]\n",
+    )
+    .unwrap();
+    for seed in [1, 2] {
+        let r = synth_and_eval(&cfg, seed, 2_000_000, &tmp.path().join(format!("s{seed}")));
+        let errors = r.corner_errors().expect("every target found");
+        for e in &errors {
+            let t = r.result["targets"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|t| t["id"] == e.id.as_str())
+                .unwrap();
+            let sz = 1e3 * t["map_covariance"][2][2].as_f64().unwrap().sqrt();
+            println!(
+                "seed {seed}, target {}: dz {:+.1} mm, σz {sz:.1} mm",
+                e.id, e.dz
+            );
+            // Measured 1.69 at most on these seeds.
+            assert!(
+                e.dz.abs() < 2.0 * sz,
+                "target {}: {} mm, σz {sz}",
+                e.id,
+                e.dz
+            );
+            assert!(sz > 20.0 && sz < 45.0, "target {}: σz {sz}", e.id);
+        }
+        let w = r.result["warnings"].as_array().unwrap();
+        assert!(
+            w.iter().filter_map(|w| w.as_str()).any(|w| w.starts_with(
+                "the ground around targets 1, 2, 3, 4, 5 is mapped twice, 40 mm apart in height"
+            )),
+            "{w:?}"
+        );
+    }
+}
+
 /// Issue 30: the covariance must hold for scan patterns other than a
 /// spinning LiDAR's. A hand-held Livox-like sensor (a rosette in a 70°
 /// forward cone, 240 k points/s, walking pace, 3° of sway) sees each target
