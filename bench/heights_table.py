@@ -39,12 +39,14 @@ ONLY = set(sys.argv[2:])
 
 
 def named(warnings, target):
-    """Whether the height warning ("the height(s) of target(s) 1, 4 ...
-    uncertain by") names `target`."""
+    """Whether a height warning ("the height(s) of target(s) 1, 4 ...
+    uncertain by", "the ground around target(s) 1, 4 is mapped twice")
+    names `target`."""
     for w in warnings:
-        for prefix in ("the height of target ", "the heights of targets "):
+        for prefix in ("the height of target ", "the heights of targets ",
+                       "the ground around target ", "the ground around targets "):
             if w.startswith(prefix) and " uncertain by" in w:
-                ids = w[len(prefix):].split(" uncertain by")[0]
+                ids = w[len(prefix):].split(" uncertain by")[0].split(" is mapped twice")[0]
                 ids = ids.replace(" is", "").replace(" are", "").replace(",", " ").split()
                 if target in ids:
                     return True
