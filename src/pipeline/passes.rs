@@ -227,6 +227,7 @@ fn keep_better(slot: &mut TargetRun, r: TargetRun, narrowed: Option<Far>) {
             median,
             by,
             searched: true,
+            row: None,
         });
     }
 }

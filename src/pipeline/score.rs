@@ -32,6 +32,7 @@ pub(super) fn check_found(
                 median,
                 by,
                 searched,
+                row: None,
             });
         }
     }

@@ -383,7 +383,9 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
                 levelling: frame.levelling,
             });
         }
-        let accuracy = score(&found, survey, opts, cfg, &mut warnings)?;
+        let mut accuracy = score(&found, survey, opts, cfg, &mut warnings)?;
+        let mut found = found;
+        row_hints(&mut found, survey, &mut accuracy);
         // No pass may have read the whole map (a sampled ground, crops of
         // some tiles): the most any pass read is what is known of it.
         map.points = self
@@ -404,6 +406,46 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
             frame,
             config: cfg.clone(),
         })
+    }
+}
+
+/// Each object found far from where the others place it, and nothing
+/// there, gets where the final fit puts it in the survey's frame against
+/// its row (in its reason too): a row mistyped by metres then names its own
+/// mend.
+fn row_hints(found: &mut [TargetRun], survey: &Survey, accuracy: &mut accuracy::Accuracy) {
+    for r in found.iter_mut() {
+        let target::TargetRun { id, outcome, .. } = r;
+        let Err(failure) = outcome else {
+            continue;
+        };
+        let target::Failure::FarFromOthers {
+            at,
+            searched: true,
+            row,
+            ..
+        } = failure
+        else {
+            continue;
+        };
+        let Some(t) = survey.targets.iter().find(|t| &t.id == id) else {
+            continue;
+        };
+        let p = accuracy.fit.alignment.apply(at);
+        if !p.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        *row = Some(target::RowHint {
+            object: [p.x, p.y],
+            row: [t.position.x, t.position.y],
+            line: t.line,
+        });
+        let reason = failure.to_string();
+        for s in accuracy.targets.iter_mut().filter(|s| &s.id == id) {
+            if let accuracy::Status::NotFound(r) = &mut s.status {
+                *r = reason.clone();
+            }
+        }
     }
 }
 

@@ -74,6 +74,10 @@ pub enum Failure {
         /// Whether the target was searched for again where the others place
         /// it (not with hand crops, nor for a target flagged only at the end).
         searched: bool,
+        /// Once the others are aligned: where their fit puts the object in
+        /// the survey's frame against this target's row, so a row mistyped
+        /// by metres can be found and mended.
+        row: Option<RowHint>,
     },
     /// No sphere of the surveyed size stood near the expected position.
     Sphere(crate::model::SphereError),
@@ -123,6 +127,39 @@ impl Failure {
     }
 }
 
+/// An object far from where the other targets place it, seen from the
+/// survey's side: where the fit on the others puts it, against the row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowHint {
+    /// The object's position under the fit on the other targets (survey
+    /// frame, x and y; m).
+    pub object: [f64; 2],
+    /// The row's position (survey frame, x and y; m).
+    pub row: [f64; 2],
+    /// The row's line in the survey file.
+    pub line: u64,
+}
+
+impl std::fmt::Display for RowHint {
+    /// One coordinate alone off (the other within 5 % of it and 5 cm) is
+    /// how a mistyped digit or a pasted column shows: said so.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let d = [self.row[0] - self.object[0], self.row[1] - self.object[1]];
+        write!(
+            f,
+            "if it is this target, the fit on the others puts it at ({:.3}, {:.3}) in the survey's frame, and line {} of the survey is ({:+.3}, {:+.3}) m from that",
+            self.object[0], self.object[1], self.line, d[0], d[1]
+        )?;
+        for (k, axis) in [(0, "x"), (1, "y")] {
+            let (big, small) = (d[k].abs(), d[1 - k].abs());
+            if small <= 0.05 * big && small <= 0.05 {
+                write!(f, ": its {axis} alone, as a mistyped digit would be")?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// What showed an object to be far from where the other targets place it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FarBy {
@@ -154,6 +191,7 @@ impl std::fmt::Display for Failure {
                 median,
                 by,
                 searched,
+                row,
             } => {
                 write!(
                     f,
@@ -180,7 +218,11 @@ impl std::fmt::Display for Failure {
                 if *searched {
                     f.write_str(
                         ", and nothing target-shaped stands where they place it: not this target, or its survey row is that far off (check the row's position and id)",
-                    )
+                    )?;
+                    match row {
+                        Some(row) => write!(f, "; {row}"),
+                        None => Ok(()),
+                    }
                 } else {
                     f.write_str(": not this target, or a map or survey error (it was not searched for where they place it; with hand crops, check this target's crop)")
                 }
@@ -844,6 +886,7 @@ mod tests {
             median: 0.01,
             by: FarBy::Distances,
             searched,
+            row: None,
         };
         let yes = far(true).to_string();
         let no = far(false).to_string();

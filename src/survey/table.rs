@@ -67,12 +67,24 @@ impl Table {
         let mut headers = None;
         let mut header_line = 1;
         let mut rows = Vec::new();
+        // Lines counted from the record's byte offset: on CRLF files (survey
+        // software and spreadsheets on Windows write them) csv ends a record
+        // at its `\r` and starts the next at the `\n`, so its own line count
+        // named the line above in every message. A `\n` at the record's
+        // offset ends the line before it.
+        let breaks: Vec<usize> = (0..bytes.len()).filter(|&i| bytes[i] == b'\n').collect();
+        let line_at = |p: Option<&csv::Position>| {
+            p.map_or(0, |p| {
+                let at = p.byte() as usize;
+                breaks.partition_point(|&b| b <= at) as u64 + 1
+            })
+        };
         for rec in rdr.records() {
             let rec = rec.map_err(|e| {
-                let line = e.position().map(|p| p.line()).unwrap_or(0);
+                let line = line_at(e.position());
                 Error::table(path, line, format!("not valid CSV: {e}"))
             })?;
-            let line = rec.position().map(|p| p.line()).unwrap_or(0);
+            let line = line_at(rec.position());
             if rec.iter().all(|f| f.is_empty()) {
                 continue;
             }

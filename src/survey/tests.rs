@@ -190,6 +190,12 @@ fn bad_surveys_name_file_and_line() {
     );
     let e = err("id,lat,lon\n1,91,0\n");
     assert!(e.contains(":2:") && e.contains("latitude"), "{e}");
+    // CRLF files (Windows survey software) name the same lines: csv's own
+    // count named the line above.
+    let e = err("id,x,y\r\n1,0,0\r\n2,abc,0\r\n");
+    assert!(e.contains(":3:"), "{e}");
+    let e = err("# c\r\n\r\nid,x,y\r\n1,0,0\r\n\r\n1,1,1\r\n");
+    assert!(e.contains(":6:") && e.contains("duplicate"), "{e}");
     let e = err("id,x,y,role\n1,0,0,boss\n");
     assert!(e.contains(":2:") && e.contains("role"), "{e}");
     let e = err("# only a comment\n");

@@ -1271,3 +1271,57 @@ fn spheres_of_another_size_or_too_noisy_are_named() {
         "{e}"
     );
 }
+
+/// A survey row mistyped by metres (3 m in x): the object the run located
+/// for it is the real target, far from where the other targets place it,
+/// and nothing stands there. Its reason says where the fit on the others
+/// puts that object in the survey's frame, how far the row's line is from
+/// it, and that the x alone is off.
+#[test]
+fn a_row_mistyped_by_metres_names_its_line_and_the_coordinate() {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    stdout_ok(
+        bin()
+            .args([
+                "synth",
+                "--seed",
+                "3",
+                "--targets",
+                "6",
+                "--points",
+                "2000000",
+                "--out",
+            ])
+            .arg(&scene),
+    );
+    let typo = dir.path().join("typo.csv");
+    edit_survey(&scene.join("survey.csv"), &typo, |f| {
+        if f[0] == "3" {
+            add_to(&mut f[1], 3.0)
+        }
+    });
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(scene.join("map.ply"))
+        .arg("--survey")
+        .arg(&typo)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let row = out.lines().find(|l| l.starts_with("3 ")).expect(&out);
+    assert!(row.contains("not_found"), "{row}");
+    let (_, hint) = row
+        .split_once("if it is this target, the fit on the others puts it at (")
+        .expect(row);
+    // "... and line 4 of the survey is (+3.007, -0.015) m from that: its x
+    // alone, as a mistyped digit would be"
+    let (_, off) = hint
+        .split_once("and line 4 of the survey is (")
+        .expect(hint);
+    let (off, rest) = off.split_once(") m from that").expect(off);
+    let d: Vec<f64> = off.split(", ").map(|v| v.parse().unwrap()).collect();
+    assert!((d[0] - 3.0).abs() < 0.05 && d[1].abs() < 0.05, "{row}");
+    assert!(rest.starts_with(": its x alone"), "{row}");
+}
