@@ -17,11 +17,12 @@
 //! legs), in cells of half a metre across; in each cell the lowest quarter
 //! metre (ground, not what stands on it) less a plane fitted to it (slope
 //! and bumps), pooled; split into two layers by the plates' mixture. The
-//! ground is doubled when each layer holds a fifth of the points, they
-//! stand apart by three of their σ and 2 cm, each is a third of that thin
-//! (grass over soil is two layers, but the grass is a thick one), and each
-//! quarter of the ring with the points to say shows the same two layers
-//! (but one: a curb or a step crosses part of a ring, never all of it).
+//! ground is doubled when it holds 1000 points or more, each layer a fifth
+//! of them, they stand apart by three of their σ and 2 cm, each is a third
+//! of that thin and at most 2.5 cm (grass over soil is two layers, but the
+//! grass is a thick one), and three quarters of the ring or more show the
+//! same two layers, with every quarter that has the points to say but one
+//! (a curb or a step crosses part of a ring, never all of it).
 //! Rough ground (grass, gravel, a noisy map) hides a few centimetres' seam:
 //! then nothing is reported.
 
@@ -46,8 +47,15 @@ const MIN_CELL_POINTS: usize = 8;
 /// its points then lie about the ring's mean slope. Two scan lines of two
 /// copies crossing a cell could otherwise be fitted by one tilted plane.
 const MAX_CELL_SLOPE: f64 = 0.15;
-/// Fewest ground points for the ring to be read.
-const MIN_POINTS: usize = 400;
+/// Fewest ground points for the ring to be read: a map's, not one scan's
+/// few rings (a single Velodyne frame's curb at 8 m, 421 points, split
+/// into layers 16 cm apart).
+const MIN_POINTS: usize = 1000;
+/// Each layer is at most this thick (its σ, m): a SLAM map's ground is as
+/// thin as its ranging at grazing incidence, a few millimetres to a
+/// centimetre or two; thicker ground cannot show a seam of centimetres,
+/// and two thick layers are terrain (a curb and the road, a car's sill).
+const MAX_LAYER_SIGMA_M: f64 = 0.025;
 /// Most ground points the mixture is fitted to (an even sample of the
 /// sorted rest beyond it: its cost is up to a hundred passes over them).
 const MAX_POINTS: usize = 3000;
@@ -133,8 +141,8 @@ pub fn ground_layers(points: &[Point], at: &Point, up: &Vector3<f64>) -> Option<
         }
     }
     let layers = split(res.iter().map(|r| r.0).collect())?;
-    // Every quarter with the points to say shows the same two layers, but
-    // one.
+    // Three quarters or more show the same two layers, and every quarter
+    // with the points to say but one: a seam goes all round a target.
     let (mut said, mut agree) = (0, 0);
     for k in 0..4 {
         let d: Vec<f64> = res.iter().filter(|r| r.1 == k).map(|r| r.0).collect();
@@ -148,7 +156,7 @@ pub fn ground_layers(points: &[Point], at: &Point, up: &Vector3<f64>) -> Option<
             agree += 1;
         }
     }
-    (said >= 2 && agree + 1 >= said && agree >= 2).then_some(layers)
+    (agree >= 3 && agree + 1 >= said).then_some(layers)
 }
 
 /// `d` (heights about the ground's planes) as two thin layers standing
@@ -176,7 +184,10 @@ fn split(mut d: Vec<f64>) -> Option<GroundLayers> {
     let apart = mix.means[1] - mix.means[0];
     let m = d.len() as f64;
     let shares = [mix.counts[0] as f64 / m, mix.counts[1] as f64 / m];
-    let thin = mix.spreads.iter().all(|s| *s <= MAX_SPREAD_SHARE * apart);
+    let thin = mix
+        .spreads
+        .iter()
+        .all(|s| *s <= MAX_SPREAD_SHARE * apart && *s <= MAX_LAYER_SIGMA_M);
     (apart >= MIN_SEPARATION_M
         && apart >= SEPARATION_SIGMAS * mix.sigma
         && shares[0].min(shares[1]) >= MIN_SHARE

@@ -303,3 +303,62 @@ fn ground_spots_as(model: &str, walls: bool) {
         "only {spots_tried} spots (walls: {walls})"
     );
 }
+
+/// A seam in height is read from the ground about a target
+/// (`locate::ground_layers`): real single-pass scans and airborne tiles must
+/// show one layer everywhere. Spots on a grid of 30 across each file (2 m
+/// apart at least), each read where 400 points or more lie within 3 m.
+/// Measured on the committed files (444 spots) and, with the same grid, on
+/// 14 files of the local run (1 101 spots, the committed ones' larger twins
+/// among them): one spot was two layers, 16 cm apart, each 4.6 cm thick (a
+/// curb in a single Velodyne frame, 421 points) before the ring asked for
+/// 1000 points, layers 2.5 cm thin at most and three quarters agreeing;
+/// none after.
+#[test]
+fn the_ground_of_real_scans_is_one_layer() {
+    use mapgauge::Point;
+    use nalgebra::Vector3;
+    let (dir, manifest) = corpus();
+    let (mut spots, mut bad) = (0, Vec::new());
+    for e in &manifest {
+        let name = e["file"].as_str().unwrap();
+        let Ok(pts) = mapgauge::cloud::read_all(&dir.join(name)) else {
+            continue;
+        };
+        let (mut lo, mut hi) = (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        );
+        for p in pts.iter().filter(|p| p.iter().all(|v| v.is_finite())) {
+            lo = lo.inf(&p.coords);
+            hi = hi.sup(&p.coords);
+        }
+        let step = ((hi.x - lo.x).max(hi.y - lo.y) / 30.0).max(2.0);
+        let n = |a: f64, b: f64| (((b - a) / step).floor() as usize).min(40);
+        for i in 0..n(lo.x, hi.x) {
+            for j in 0..n(lo.y, hi.y) {
+                let (x, y) = (
+                    lo.x + (i as f64 + 0.5) * step,
+                    lo.y + (j as f64 + 0.5) * step,
+                );
+                let near: Vec<Point> = pts
+                    .iter()
+                    .filter(|p| (p.x - x).abs() < 3.1 && (p.y - y).abs() < 3.1)
+                    .copied()
+                    .collect();
+                if near.len() < 400 {
+                    continue;
+                }
+                spots += 1;
+                let z = near.iter().map(|p| p.z).sum::<f64>() / near.len() as f64;
+                let at = Point::new(x, y, z);
+                if let Some(g) = mapgauge::locate::ground_layers(&near, &at, &Vector3::z()) {
+                    bad.push(format!("{name} at ({x:.1}, {y:.1}): {g:?}"));
+                }
+            }
+        }
+    }
+    println!("{spots} spots");
+    assert!(spots > 300, "{spots} spots");
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
