@@ -40,13 +40,13 @@ ONLY = set(sys.argv[2:])
 
 def named(warnings, target):
     """Whether a height warning ("the height(s) of target(s) 1, 4 ...
-    uncertain by", "the ground around target(s) 1, 4 is mapped twice")
+    uncertain by", "the ground around target(s) 1, 4 shows two thin layers")
     names `target`."""
     for w in warnings:
         for prefix in ("the height of target ", "the heights of targets ",
                        "the ground around target ", "the ground around targets "):
             if w.startswith(prefix) and " uncertain by" in w:
-                ids = w[len(prefix):].split(" uncertain by")[0].split(" is mapped twice")[0]
+                ids = w[len(prefix):].split(" uncertain by")[0].split(" shows two thin layers")[0]
                 ids = ids.replace(" is", "").replace(" are", "").replace(",", " ").split()
                 if target in ids:
                     return True

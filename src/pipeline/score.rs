@@ -46,16 +46,6 @@ pub(super) fn check_found(
     let widened = target::widen_heights(found);
     // ... and one on ground mapped twice only to within the copies.
     let lifted = target::widen_for_ground_copies(found);
-    if !lifted.is_empty() {
-        warnings.push(Warning::GroundDoubled {
-            ids: lifted.iter().map(|w| w.0.clone()).collect(),
-            separation_m: lifted
-                .iter()
-                .map(|w| w.1)
-                .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
-            sigma_m: lifted.iter().map(|w| w.2).fold(0.0, f64::max),
-        });
-    }
     // Metres of disagreement with the survey's layout are no map's error,
     // however few targets were located.
     layout::off_layout(found, survey, opts);
@@ -73,9 +63,24 @@ pub(super) fn check_found(
         warnings.push(Warning::WrongObjects(wrong));
     }
     // Named only when still located (not set aside above).
+    let still = |id: &str| found.iter().any(|r| r.id == id && r.outcome.is_ok());
+    let widened: Vec<_> = widened.into_iter().filter(|w| still(&w.0)).collect();
+    let lifted: Vec<_> = lifted.into_iter().filter(|w| still(&w.0)).collect();
+    if !lifted.is_empty() {
+        warnings.push(Warning::GroundDoubled {
+            ids: lifted.iter().map(|w| w.0.clone()).collect(),
+            separation_m: lifted
+                .iter()
+                .map(|w| w.1)
+                .fold((f64::INFINITY, 0.0), |(a, b), s| (a.min(s), b.max(s))),
+            sigma_m: lifted.iter().map(|w| w.2).fold(0.0, f64::max),
+        });
+    }
+    // A span taller than a plate on ground mapped twice is the seam's (its
+    // σ holds both): not asked about as the plates' size.
     let widened: Vec<_> = widened
         .into_iter()
-        .filter(|w| found.iter().any(|r| r.id == w.0 && r.outcome.is_ok()))
+        .filter(|w| w.1.fits() || !lifted.iter().any(|l| l.0 == w.0))
         .collect();
     // Spans short of a plate and spans taller than one have different
     // causes, named apart.

@@ -198,7 +198,7 @@ impl std::fmt::Display for Warning {
                 };
                 write!(
                     f,
-                    "the ground around {} {} is mapped twice, {apart} apart in height (the map has a seam there: a loop closed badly?). A seam in height hides in a target's own points, so {} {} uncertain by that much: {} vertical σ (up to {:.0} mm) includes it; horizontal positions are unaffected by it",
+                    "the ground around {} {} shows two thin layers {apart} apart in height everywhere, as a map does where a loop closed badly and mapped it twice (or a surface of two levels: a grating over a floor). A seam in height hides in a target's own points, so {} {} uncertain by that much: {} vertical σ (up to {:.0} mm) includes it; horizontal positions are unaffected by it",
                     if one { "target" } else { "targets" },
                     ids.join(", "),
                     if one { "its height" } else { "their heights" },
