@@ -439,6 +439,7 @@ fn row_hints(found: &mut [TargetRun], survey: &Survey, accuracy: &mut accuracy::
             object: [p.x, p.y],
             row: [t.position.x, t.position.y],
             line: t.line,
+            geodetic: survey.frame != crate::survey::SurveyFrame::Local,
         });
         let reason = failure.to_string();
         for s in accuracy.targets.iter_mut().filter(|s| &s.id == id) {

@@ -138,6 +138,9 @@ pub struct RowHint {
     pub row: [f64; 2],
     /// The row's line in the survey file.
     pub line: u64,
+    /// The row gives latitude and longitude (the frame is east and north
+    /// metres about the survey's origin, or the map's projection).
+    pub geodetic: bool,
 }
 
 impl std::fmt::Display for RowHint {
@@ -145,12 +148,20 @@ impl std::fmt::Display for RowHint {
     /// how a mistyped digit or a pasted column shows: said so.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let d = [self.row[0] - self.object[0], self.row[1] - self.object[1]];
+        let (frame, axes) = if self.geodetic {
+            (
+                "m east and north in the survey's local frame",
+                ["longitude (east)", "latitude (north)"],
+            )
+        } else {
+            ("in the survey's frame", ["x", "y"])
+        };
         write!(
             f,
-            "if it is this target, the fit on the others puts it at ({:.3}, {:.3}) in the survey's frame, and line {} of the survey is ({:+.3}, {:+.3}) m from that",
+            "if it is this target, the fit on the others puts it at ({:.3}, {:.3}) {frame}, and line {} of the survey is ({:+.3}, {:+.3}) m from that",
             self.object[0], self.object[1], self.line, d[0], d[1]
         )?;
-        for (k, axis) in [(0, "x"), (1, "y")] {
+        for (k, axis) in [(0, axes[0]), (1, axes[1])] {
             let (big, small) = (d[k].abs(), d[1 - k].abs());
             if small <= 0.05 * big && small <= 0.05 {
                 write!(f, ": its {axis} alone, as a mistyped digit would be")?;

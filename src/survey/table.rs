@@ -72,7 +72,10 @@ impl Table {
         // at its `\r` and starts the next at the `\n`, so its own line count
         // named the line above in every message. A `\n` at the record's
         // offset ends the line before it.
-        let breaks: Vec<usize> = (0..bytes.len()).filter(|&i| bytes[i] == b'\n').collect();
+        // (A lone `\r`, an old Mac's line end, ends a line too.)
+        let breaks: Vec<usize> = (0..bytes.len())
+            .filter(|&i| bytes[i] == b'\n' || bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n'))
+            .collect();
         let line_at = |p: Option<&csv::Position>| {
             p.map_or(0, |p| {
                 let at = p.byte() as usize;
@@ -82,7 +85,16 @@ impl Table {
         for rec in rdr.records() {
             let rec = rec.map_err(|e| {
                 let line = line_at(e.position());
-                Error::table(path, line, format!("not valid CSV: {e}"))
+                // csv's own text carries its line count and an offset into
+                // the comment-blanked copy: the kind alone.
+                let what = match e.kind() {
+                    csv::ErrorKind::Utf8 { err, .. } => {
+                        format!("not UTF-8 text ({err}): save the file as UTF-8")
+                    }
+                    csv::ErrorKind::Io(err) => err.to_string(),
+                    _ => e.to_string(),
+                };
+                Error::table(path, line, format!("not valid CSV: {what}"))
             })?;
             let line = line_at(rec.position());
             if rec.iter().all(|f| f.is_empty()) {

@@ -196,6 +196,20 @@ fn bad_surveys_name_file_and_line() {
     assert!(e.contains(":3:"), "{e}");
     let e = err("# c\r\n\r\nid,x,y\r\n1,0,0\r\n\r\n1,1,1\r\n");
     assert!(e.contains(":6:") && e.contains("duplicate"), "{e}");
+    // An old Mac's lone CR ends lines too.
+    let e = err("id,x,y\r1,0,0\r2,abc,0\r");
+    assert!(e.contains(":3:"), "{e}");
+    // Bytes that are not UTF-8: the line, without csv's own count.
+    let mut f = tempfile::NamedTempFile::new().unwrap();
+    f.write_all(b"# c\r\nid,x,y\r\n1,0,0\r\n2,\xff1,0\r\n")
+        .unwrap();
+    let e = read_survey(f.path(), &SurveyOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(":4: not valid CSV: not UTF-8 text") && !e.contains("line:"),
+        "{e}"
+    );
     let e = err("id,x,y,role\n1,0,0,boss\n");
     assert!(e.contains(":2:") && e.contains("role"), "{e}");
     let e = err("# only a comment\n");

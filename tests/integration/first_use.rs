@@ -1324,4 +1324,25 @@ fn a_row_mistyped_by_metres_names_its_line_and_the_coordinate() {
     let d: Vec<f64> = off.split(", ").map(|v| v.parse().unwrap()).collect();
     assert!((d[0] - 3.0).abs() < 0.05 && d[1].abs() < 0.05, "{row}");
     assert!(rest.starts_with(": its x alone"), "{row}");
+    // The same typo in a latitude (2.2 m north) names it so, in metres.
+    let llh = dir.path().join("llh.csv");
+    edit_survey(&scene.join("survey_llh.csv"), &llh, |f| {
+        if f[0] == "3" {
+            add_to(&mut f[1], 0.00002)
+        }
+    });
+    let o = bin()
+        .args(["eval", "--no-report", "--map"])
+        .arg(scene.join("map.ply"))
+        .arg("--survey")
+        .arg(&llh)
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    let row = out.lines().find(|l| l.starts_with("3 ")).expect(&out);
+    assert!(
+        row.contains("m east and north in the survey's local frame, and line 4 of the survey is (")
+            && row.ends_with("its latitude (north) alone, as a mistyped digit would be"),
+        "{row}"
+    );
 }
