@@ -285,7 +285,7 @@ fn plane(v: &[[f64; 3]]) -> Option<[f64; 3]> {
     }
     let det = sxx * syy - sxy * sxy;
     // A line of points (one scan line through the cell) fixes no plane.
-    if !(det > 1e-6 * (sxx + syy).powi(2)) || !(det > 0.0) {
+    if !(det > 1e-6 * (sxx + syy).powi(2)) {
         return None;
     }
     let b = (sxh * syy - syh * sxy) / det;

@@ -361,6 +361,17 @@ fn synth_and_eval(
     crate::truth::Run::read(&out.join("result.json"), &dir.join("truth.json"))
 }
 
+/// A located target's vertical σ (mm) from result.json's map covariance.
+fn sigma_z_mm(r: &crate::truth::Run, id: &str) -> f64 {
+    let t = r.result["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["id"] == id)
+        .unwrap();
+    1e3 * t["map_covariance"][2][2].as_f64().unwrap().sqrt()
+}
+
 /// Issue 30: a target whose lower plates are hidden (a barrier between it
 /// and the road, grass through the plates) has its corner's height placed in
 /// the middle of what is seen, up to 10 cm above the plates' middle (18 cm
@@ -383,13 +394,7 @@ fn heights_of_plates_seen_in_part_are_covered() {
         let r = synth_and_eval(&cfg, seed, 2_000_000, &dir);
         let errors = r.corner_errors().expect("every target found");
         for e in &errors {
-            let t = r.result["targets"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .find(|t| t["id"] == e.id.as_str())
-                .unwrap();
-            let sz = 1e3 * t["map_covariance"][2][2].as_f64().unwrap().sqrt();
+            let sz = sigma_z_mm(&r, &e.id);
             let z = e.dz / sz;
             println!(
                 "{case}, seed {seed}, target {}: dz {:+.1} mm, σz {sz:.1} mm, {z:+.2} σ",
@@ -436,13 +441,7 @@ fn plates_taller_than_configured_are_named_and_covered() {
     let r = synth_and_eval(&cfg, 1, 2_000_000, &tmp.path().join("s"));
     let errors = r.corner_errors().expect("every target found");
     for e in &errors {
-        let t = r.result["targets"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|t| t["id"] == e.id.as_str())
-            .unwrap();
-        let sz = 1e3 * t["map_covariance"][2][2].as_f64().unwrap().sqrt();
+        let sz = sigma_z_mm(&r, &e.id);
         println!("target {}: dz {:+.1} mm, σz {sz:.1} mm", e.id, e.dz);
         // Measured 1.56 at most (3.3 σ on seeds 2–3 where a span fits
         // inside the crop's band: docs/uncertainty.md).
@@ -484,13 +483,7 @@ fn a_seam_in_height_is_seen_in_the_ground_and_covered() {
         let r = synth_and_eval(&cfg, seed, 2_000_000, &tmp.path().join(format!("s{seed}")));
         let errors = r.corner_errors().expect("every target found");
         for e in &errors {
-            let t = r.result["targets"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .find(|t| t["id"] == e.id.as_str())
-                .unwrap();
-            let sz = 1e3 * t["map_covariance"][2][2].as_f64().unwrap().sqrt();
+            let sz = sigma_z_mm(&r, &e.id);
             println!(
                 "seed {seed}, target {}: dz {:+.1} mm, σz {sz:.1} mm",
                 e.id, e.dz
