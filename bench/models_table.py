@@ -4,7 +4,7 @@ mixed scene, with clutter, seen from 5-30 m: found, error, how often the 95 %
 ellipse (horizontal, chi2_2 = 5.991) and ellipsoid (3D, chi2_3 = 7.815) hold
 the truth, and wrong objects taken (located more than 5 cm from the truth).
 
-Usage: bench/models_table.py BIN SEEDS [POINTS] [DIST] [DECOYS] [FORMAT]
+Usage: bench/models_table.py BIN SEEDS [POINTS] [DIST] [DECOYS] [FORMAT] [NOISE]
   e.g. bench/models_table.py target/release/mapgauge 8 4000000 5,30 4 pcd-xyzi
 Each seed: `synth --models l,sphere,board --targets 9` (3 of each) with
 DECOYS scene-wide decoys (building corners, L boards, cabinets, small Ls,
@@ -26,13 +26,16 @@ points = sys.argv[3] if len(sys.argv) > 3 else "4000000"
 dist = sys.argv[4] if len(sys.argv) > 4 else "5,30"
 decoys = sys.argv[5] if len(sys.argv) > 5 else "4"
 fmt = sys.argv[6] if len(sys.argv) > 6 else "pcd-xyzi"
+# The LiDAR's range noise (m, 1 sigma); synth's default when not given.
+noise = sys.argv[7] if len(sys.argv) > 7 else None
 ext = {"laz": "laz", "las": "las", "ply-f32": "ply"}.get(fmt, "pcd")
 rows = {"l": [], "sphere": [], "board": []}
 missed = {"l": [], "sphere": [], "board": []}
 for seed in range(1, seeds + 1):
     with tempfile.TemporaryDirectory() as d:
         scene, out, cfg = Path(d) / "scene", Path(d) / "out", Path(d) / "signs.toml"
-        cfg.write_text("[board]\nsign_gap_m = 0.4\n")
+        lidar = f"[lidar]\nrange_noise_m = {noise}\n" if noise else ""
+        cfg.write_text("[board]\nsign_gap_m = 0.4\n" + lidar)
         subprocess.run([binary, "synth", "--out", str(scene), "--points", points,
                         "--seed", str(seed), "--models", "l,sphere,board", "--targets", "9",
                         "--target-distance-m", dist, "--decoys", decoys, "--format", fmt,
@@ -58,7 +61,8 @@ for seed in range(1, seeds + 1):
                                 err @ np.linalg.solve(C, err)))
 
 print(f"{seeds} seeds, {points} points, targets {dist} m from the road, {decoys} decoys, "
-      f"a plain sign 0.4 m beside each board, {fmt}\n")
+      f"a plain sign 0.4 m beside each board, {fmt}, "
+      f"range noise {noise + ' m' if noise else 'synth default'}\n")
 print("| model | found | horizontal median / max (mm) | 3D median / max (mm) | "
       "inside 95 % ellipse (2D) | inside ellipsoid (3D) | wrong object (> 5 cm) |")
 print("|---|---|---|---|---|---|---|")

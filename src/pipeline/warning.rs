@@ -140,6 +140,10 @@ pub enum Warning {
         height_m: f64,
         /// See `height_m`.
         across_mm: f64,
+        /// And what it does to distances across the site (mm): the farthest
+        /// two targets apart × (1 − cos angle), a tilt error's
+        /// foreshortening of every horizontal distance.
+        shorter_mm: f64,
     },
 }
 
@@ -287,9 +291,10 @@ impl std::fmt::Display for Warning {
                 se_deg,
                 height_m,
                 across_mm,
+                shorter_mm,
             } => write!(
                 f,
-                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back). The vertical is known to ±{se_deg:.2}° (1σ): the targets' levelled heights are uncertain by up to {height_m:.2} m (distance from the levelling origin × that angle) and their horizontal positions by up to {across_mm:.1} mm (height above it × that angle): included in each target's σ and in the intervals (as one tilt shared by all)"
+                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back). The vertical is known to ±{se_deg:.2}° (1σ): the targets' levelled heights are uncertain by up to {height_m:.2} m (distance from the levelling origin × that angle), their horizontal positions by up to {across_mm:.1} mm (height above it × that angle), and distances across the site may read short by up to {shorter_mm:.1} mm (the farthest targets' distance × (1 − cos of that angle)): included in each target's σ and in the intervals (as one tilt shared by all)"
             ),
         }
     }

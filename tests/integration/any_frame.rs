@@ -800,6 +800,40 @@ fn a_tilted_400_m_site_is_levelled_by_its_surveyed_heights() {
         residual < 1.73 * se && se < 0.1,
         "{residual}° against ±{se}°"
     );
+    // What the vertical's uncertainty does to distances across the site.
+    let said = r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w.as_str())
+        .find(|w| w.starts_with("the map leans"))
+        .expect("a levelled map is said to be");
+    let shorter: f64 = said
+        .split("read short by up to ")
+        .nth(1)
+        .and_then(|t| t.split(" mm").next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no foreshortening in {said:?}"));
+    let xy: Vec<(f64, f64)> = r["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            (
+                t["survey"]["x"].as_f64().unwrap(),
+                t["survey"]["y"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    let farthest = xy
+        .iter()
+        .flat_map(|a| xy.iter().map(move |b| (a.0 - b.0).hypot(a.1 - b.1)))
+        .fold(0.0, f64::max);
+    let want = 1e3 * farthest * (1.0 - se.to_radians().cos());
+    assert!(
+        farthest > 350.0 && (shorter - want).abs() < 0.06,
+        "{said} ({want:.2} mm)"
+    );
     let level = &truths[1]["expected"];
     for which in ["absolute", "relative"] {
         let got = r[which]["mean"].as_f64().unwrap();

@@ -841,3 +841,44 @@ fn a_smaller_sphere_on_its_pole_is_not_taken_for_the_surveyed_larger_one() {
         worst * 1e3
     );
 }
+
+/// A crop denser than `max_points` is searched as a sample, but the sphere
+/// found is fitted on all its points: on a ground of 120 k points sampled
+/// to 40 k, a sphere of 400 points keeps them all (about 130 sampled), and
+/// its centre is as close as a fit on all of them gives. (A sample that
+/// leaves too few to judge the sphere by still refuses it: the search is
+/// the sample's.)
+#[test]
+fn a_sphere_in_a_dense_crop_is_fitted_on_all_its_points() {
+    let mut rng = Pcg64::seed_from_u64(11);
+    let view = Vector3::new(-1.0, -0.2, 0.2);
+    let c = Vector3::new(0.3, -0.2, 1.5);
+    let mut pts = ground(&mut rng, 120_000);
+    let sphere = cap(&mut rng, c, R, view, 0.3, 400, 0.006);
+    pts.extend(sphere.iter().copied());
+    pts.extend(post(
+        &mut rng,
+        (c.x, c.y),
+        0.02,
+        (0.0, c.z - R),
+        view,
+        300,
+        0.006,
+    ));
+    let p = SphereParams {
+        max_points: 40_000,
+        ..SphereParams::default()
+    };
+    let (fit, near) = locate(&search(&pts, Point::new(0.0, 0.0, 1.4)), &p).unwrap();
+    assert!(fit.inliers >= 380, "{} of 400 points fitted", fit.inliers);
+    assert!(near.len() >= fit.inliers);
+    let all: Vec<Vector3<f64>> = sphere.iter().map(|q| q.coords).collect();
+    let oracle = known_radius_fit(&all, c, R, 10);
+    let err = (fit.centre.coords - c).norm();
+    assert!(
+        err < (oracle - c).norm() + 0.0015,
+        "{:.2} mm off, a fit on all the sphere's points {:.2} mm",
+        err * 1e3,
+        (oracle - c).norm() * 1e3
+    );
+}
