@@ -39,7 +39,9 @@ pub(super) fn evaluate(
     }
     let mut run = Run::new(source, survey, crops_dir, cfg, report);
     let (ground, mut map) = run.ground_pass()?;
-    let mut motion = first_levelling(source, &ground, run.no_turn, cfg, &mut run.warnings);
+    let (mut motion, turning) =
+        first_levelling(source, &ground, run.no_turn, cfg, &mut run.warnings);
+    run.turning = turning;
     let mut guess = run.first_guess(&ground, &motion)?;
     let first = run.first_pass_at(&ground, &motion);
     let mut targets = run.first_pass(&first, &guess, &mut map)?;
@@ -92,6 +94,8 @@ struct Run<'a, R> {
     /// `--align none` scores the map in the survey frame as it is: nothing
     /// may turn it.
     no_turn: bool,
+    /// What may turn the frame, once the map's header was read.
+    turning: vertical::Turning,
     warnings: Vec<Warning>,
     /// What each pass read, in order (result.json `eval.reads`).
     reads: Vec<PassRead>,
@@ -151,6 +155,7 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
             crop_params,
             total,
             no_turn: cfg.metrics.align == crate::align::AlignMethod::None,
+            turning: vertical::Turning::Free,
             warnings,
             reads: Vec::new(),
             pass: Cell::new("ground"),
@@ -326,7 +331,7 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
             &mut targets.expected,
             motion,
             self.survey,
-            self.no_turn,
+            self.turning,
             self.cfg,
             &mut said,
         );

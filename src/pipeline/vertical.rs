@@ -30,6 +30,21 @@ pub struct Plumb {
     /// Standard error of the vertical the frame was turned to (degrees):
     /// the plumb lines', or every estimate's together.
     pub turned_se_deg: f64,
+    /// The lean beyond which they turn the frame (degrees; [`turn_bar`]).
+    pub bar_deg: f64,
+}
+
+/// What may turn the map's frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Turning {
+    /// `--align none` scores the map as it is: nothing.
+    Never,
+    /// Its header declares a coordinate reference system, so its z is
+    /// vertical by construction: the ground's lean is the terrain's, and
+    /// only plumb lines far beyond their scatter turn it ([`turn_bar`]).
+    Georeferenced,
+    /// The ground, then the targets' plumb lines.
+    Free,
 }
 
 /// The targets' common plumb line, and the rotation that makes it +z when it
@@ -43,6 +58,7 @@ pub(super) fn plumb(
     found: &[TargetRun],
     survey: &Survey,
     turned: bool,
+    georeferenced: bool,
 ) -> Option<(Plumb, Option<Rotation3<f64>>)> {
     let PlumbLines { mean, tilt, se, n } = plumb_lines(found)?;
     // The estimates of the vertical, each with its covariance, combined by
@@ -85,7 +101,7 @@ pub(super) fn plumb(
     let up = lean.up();
     let angle = up.angle(&Vector3::z()).to_degrees();
     let se_c = lean.se_deg();
-    let bar = turn_bar(turned, with_heights, se_c);
+    let bar = turn_bar(turned, with_heights, se_c, georeferenced);
     // Up to 20°: beyond, a few targets agreeing is more likely a mistake.
     let applied = angle > bar && tilt <= 20.0;
     let rot = applied
@@ -99,6 +115,7 @@ pub(super) fn plumb(
             applied: rot.is_some(),
             heights,
             turned_se_deg: se_c,
+            bar_deg: bar,
         },
         rot,
     ))
@@ -210,9 +227,18 @@ fn weighted_axis<'a>(axes: impl Iterator<Item = (&'a Vector3<f64>, f64)>) -> Vec
 /// lean from odometry's vertical drift, which bends a map's heights and
 /// leaves it level where the targets stand, and turning such a map would
 /// move its targets by their heights times the drift's slope.
-fn turn_bar(turned: bool, with_heights: bool, se_c: f64) -> f64 {
+///
+/// A georeferenced map (its header declares a CRS) is written with z
+/// vertical by whatever made it: a lean its plumb lines show is more likely
+/// the targets' own (set up leaning, a mast bent) than the map's, and
+/// turning it moves every height by metres across a site. Only
+/// overwhelming evidence turns it: five standard errors and a degree,
+/// heights or not (a shared 1° lean of every target is no setup error).
+fn turn_bar(turned: bool, with_heights: bool, se_c: f64, georeferenced: bool) -> f64 {
     if turned {
         0.005
+    } else if georeferenced {
+        (5.0 * se_c).max(1.0)
     } else if with_heights {
         (3.0 * se_c).max(0.1)
     } else {
@@ -402,7 +428,7 @@ pub(super) fn first_levelling(
     no_turn: bool,
     cfg: &Config,
     warnings: &mut Vec<Warning>,
-) -> RigidMotion {
+) -> (RigidMotion, Turning) {
     // A georeferenced map (its header declares a CRS) has z vertical by
     // construction: a lean of its ground is the terrain's (an airborne
     // scan of a hillside), not the map's.
@@ -414,7 +440,12 @@ pub(super) fn first_levelling(
         .level
         .as_ref()
         .filter(|l| l.tilt_deg > cfg.frame.level_above_deg);
-    match (no_turn, &declared_crs, leaning) {
+    let turning = match (no_turn, &declared_crs) {
+        (true, _) => Turning::Never,
+        (false, Some(_)) => Turning::Georeferenced,
+        (false, None) => Turning::Free,
+    };
+    let motion = match (no_turn, &declared_crs, leaning) {
         (true, _, _) => RigidMotion::identity_at(ground.centre),
         (false, Some(crs), Some(l)) => {
             warnings.push(Warning::Georeferenced {
@@ -423,6 +454,7 @@ pub(super) fn first_levelling(
             });
             RigidMotion::identity_at(ground.centre)
         }
+        (false, Some(_), None) => RigidMotion::identity_at(ground.centre),
         _ => {
             let (above, support) = (cfg.frame.level_above_deg, cfg.frame.level_min_support);
             if let Some(l) = ground.leans_weakly(above, support) {
@@ -435,7 +467,8 @@ pub(super) fn first_levelling(
             }
             ground.levelling(above, support)
         }
-    }
+    };
+    (motion, turning)
 }
 
 /// When fewer than three Ls were located, those whose plates failed the
@@ -585,10 +618,12 @@ pub(super) fn refine_vertical(
     expected: &mut [Point],
     motion: &mut RigidMotion,
     survey: &Survey,
-    no_turn: bool,
+    turning: Turning,
     cfg: &Config,
     warnings: &mut Vec<Warning>,
 ) -> Option<Plumb> {
+    let no_turn = turning == Turning::Never;
+    let georeferenced = turning == Turning::Georeferenced;
     // The targets' plumb lines, and their surveyed heights when five or
     // more have them, refine the vertical: each line is a plain plane fit
     // of the target's own points and each height the located corner's,
@@ -600,7 +635,7 @@ pub(super) fn refine_vertical(
         lean_from_targets(found, cfg)
     };
     let turned = !motion.is_identity();
-    let plumb = plumb(found, survey, turned)
+    let plumb = plumb(found, survey, turned, georeferenced)
         .filter(|_| !no_turn)
         .map(|(p, rot)| {
             if let Some(rot) = rot {
@@ -617,13 +652,20 @@ pub(super) fn refine_vertical(
             // Only where the plumb lines alone decide (a frame the ground
             // turned is turned by them whatever their lean; the heights, when
             // used, settle it; beyond 20° it is no lean but a mistake).
+            // A georeferenced map's higher bar may leave a lean the heights
+            // confirm: that is said too.
             let alone = !turned && p.heights.as_ref().is_none_or(|h| !h.used);
-            if alone && !p.applied && p.tilt_deg <= 20.0 && p.tilt_deg > 2.0 * p.se_deg {
+            if (alone || georeferenced)
+                && !p.applied
+                && p.tilt_deg <= 20.0
+                && p.tilt_deg > 2.0 * p.se_deg
+            {
                 warnings.push(Warning::LeanNotLevelled {
                     tilt_deg: p.tilt_deg,
                     se_deg: p.se_deg,
                     targets: p.targets,
-                    bar_deg: turn_bar(false, false, p.turned_se_deg),
+                    bar_deg: p.bar_deg,
+                    georeferenced,
                 });
             }
             if let Some(h) = p.heights.as_ref().filter(|h| !h.agrees) {
@@ -812,7 +854,7 @@ mod tests {
                 &mut expected,
                 &mut motion,
                 &survey,
-                false,
+                Turning::Free,
                 &cfg,
                 &mut said,
             )

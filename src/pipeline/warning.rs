@@ -71,6 +71,8 @@ pub enum Warning {
         targets: usize,
         /// The lean levelling asks for (degrees).
         bar_deg: f64,
+        /// The map's header declares a CRS: the bar is higher.
+        georeferenced: bool,
     },
     /// The ground about these targets shows two layers at heights
     /// centimetres apart: the map has a seam there (a loop closed badly),
@@ -248,7 +250,7 @@ impl std::fmt::Display for Warning {
             ),
             Warning::Georeferenced { crs, tilt_deg } => write!(
                 f,
-                "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines still may, when they all lean beyond their scatter)"
+                "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines still may, when they all lean by a degree and five times their scatter)"
             ),
             Warning::LeaningTargets { ids, tilt_deg } => write!(
                 f,
@@ -281,10 +283,21 @@ impl std::fmt::Display for Warning {
                 se_deg,
                 targets,
                 bar_deg,
+                georeferenced,
             } => write!(
                 f,
-                "the plumb lines of {targets} targets lean {tilt_deg:.2}° ± {se_deg:.2}° (1σ): beyond twice their standard error, but short of the {bar_deg:.2}° levelling by plumb lines alone asks (3σ, and at least 0.5°), so the map was not levelled. If it leans that much, heights 100 m apart differ by {:.2} m in it: evaluate heights with care (surveyed heights of five or more located targets would settle the lean)",
-                100.0 * tilt_deg.to_radians().tan()
+                "the plumb lines of {targets} targets lean {tilt_deg:.2}° ± {se_deg:.2}° (1σ): beyond twice their standard error, but short of the {bar_deg:.2}° {}, so the map was not levelled. If it leans that much, heights 100 m apart differ by {:.2} m in it: evaluate heights with care ({})",
+                if *georeferenced {
+                    "a map whose header declares a coordinate reference system must lean before its plumb lines turn it (5σ, and at least 1°: its z is vertical by construction, and targets set up leaning are the likelier cause)"
+                } else {
+                    "levelling by plumb lines alone asks (3σ, and at least 0.5°)"
+                },
+                100.0 * tilt_deg.to_radians().tan(),
+                if *georeferenced {
+                    "check that the targets stand upright"
+                } else {
+                    "surveyed heights of five or more located targets would settle the lean"
+                }
             ),
             Warning::Levelled {
                 tilt_deg,

@@ -181,6 +181,12 @@ pub struct Levelling {
     pub plumb_se_deg: Option<f64>,
     /// Whether the plumb lines were applied.
     pub plumb_applied: bool,
+    /// The lean beyond which the plumb lines turn the frame (degrees): 3σ
+    /// and 0.5° on their own, 3σ and 0.1° with the surveyed heights, 5σ
+    /// and 1° where the map's header declares a coordinate reference
+    /// system, any lean where the ground turned the frame already.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plumb_bar_deg: Option<f64>,
     /// The surveyed heights' lean (degrees): the located corners' heights
     /// less the survey's, as a plane over the site (five or more targets
     /// with surveyed heights).
@@ -340,6 +346,7 @@ fn frame_info(f: &FrameFound) -> FrameInfo {
             plumb_tilt_deg: f.plumb.as_ref().map(|p| p.tilt_deg),
             plumb_se_deg: f.plumb.as_ref().map(|p| p.se_deg),
             plumb_applied: f.plumb.as_ref().is_some_and(|p| p.applied),
+            plumb_bar_deg: f.plumb.as_ref().map(|p| p.bar_deg),
             heights_tilt_deg: heights.map(|h| h.tilt_deg),
             heights_se_deg: heights.map(|h| h.se_deg),
             heights_targets: heights.map(|h| h.targets),

@@ -108,12 +108,16 @@ fn levelling_rows(rows: &mut Vec<(&'static str, String)>, l: &crate::record::Lev
         rows.push((
             "targets' plumb lines",
             format!(
-                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}. Each target's plates meet in a line built plumb: their weighted mean is a second estimate of the vertical, from the targets themselves. With the ground's (in a frame the ground turned) and the surveyed heights' (below), it turns a ground-levelled frame always, and a map read as it is when their combined lean exceeds 3 standard errors and 0.5° (0.1° with the surveyed heights)",
+                "lean {t:.2}° ± {s:.2}° from the vertical used to locate them{}. Each target's plates meet in a line built plumb: their weighted mean is a second estimate of the vertical, from the targets themselves. With the ground's (in a frame the ground turned) and the surveyed heights' (below), it turns a ground-levelled frame always, and a map read as it is when their combined lean exceeds 3 standard errors and 0.5° (0.1° with the surveyed heights; 5 standard errors and 1° where the map's header declares a coordinate reference system){}",
                 if l.plumb_applied {
                     "; the frame was turned to them"
                 } else {
                     ""
-                }
+                },
+                l.plumb_bar_deg
+                    .filter(|b| *b > 0.01)
+                    .map(|b| format!(". This run's bar: {b:.2}°"))
+                    .unwrap_or_default()
             ),
         ));
     }
