@@ -274,6 +274,55 @@ mod tests {
         assert!(t[0] < 0.028 && t[1] > 0.015, "{t:?}");
     }
 
+    /// The levelled vertical's error is one tilt shared by every target of
+    /// a draw: targets at one height above the origin move together (a
+    /// shift the alignment takes up, pair distances kept), so the intervals
+    /// stay as without it; at heights 10 m apart they move apart and the
+    /// intervals widen. A tilt drawn per target would widen both.
+    #[test]
+    fn the_vertical_is_one_tilt_shared_by_every_target() {
+        let n = 8;
+        let ids: Vec<String> = (0..n).map(|i| format!("t{i}")).collect();
+        let at = |i: usize, z: f64| {
+            let a = i as f64 * 0.8;
+            Point::new(200.0 * a.cos(), 150.0 * a.sin(), z)
+        };
+        let covs = Some(vec![Matrix3::from_diagonal_element(0.002_f64.powi(2)); n]);
+        let run = |heights: &dyn Fn(usize) -> f64, vertical: Option<super::super::Vertical>| {
+            let survey: Vec<Point> = (0..n).map(|i| at(i, heights(i))).collect();
+            let map = survey.clone();
+            intervals(&Inputs {
+                method: AlignMethod::Rigid2d,
+                dim: Dim::D2,
+                ids: &ids,
+                map: &map,
+                survey: &survey,
+                covariances: covs.clone(),
+                vertical,
+                survey_sigma_h: 0.0,
+                rmse_h: true,
+            })
+        };
+        let v = Some(super::super::Vertical {
+            origin: Point::new(0.0, 0.0, 0.0),
+            se_rad: 1e-3,
+        });
+        let w = |c: Ci95| {
+            let m = c.measurement.unwrap();
+            m[1] - m[0]
+        };
+        let level = |_: usize| 10.0;
+        let (without, with) = (run(&level, None), run(&level, v));
+        for (a, b) in [(without.e_abs, with.e_abs), (without.e_rel, with.e_rel)] {
+            assert!((w(a) - w(b)).abs() < 3e-4, "{a:?} against {b:?}");
+        }
+        let apart = |i: usize| if i % 2 == 0 { 0.0 } else { 10.0 };
+        let (without, with) = (run(&apart, None), run(&apart, v));
+        for (a, b) in [(without.e_abs, with.e_abs), (without.e_rel, with.e_rel)] {
+            assert!(w(b) > w(a) + 2e-3, "{a:?} against {b:?}");
+        }
+    }
+
     #[test]
     fn too_few_targets_give_nothing() {
         assert_eq!(run(3, 0.02), Intervals::default());

@@ -352,6 +352,45 @@ mod tests {
         Survey::local(pts, true)
     }
 
+    /// What a vertical known to σ adds at a point is what turning it by
+    /// tilts of that σ does: 20 000 tilts about the origin, their moves'
+    /// covariance against `Vertical::add_to`.
+    #[test]
+    fn the_vertical_adds_what_its_tilts_do() {
+        use rand::{Rng, SeedableRng};
+        let v = Vertical {
+            origin: Point::new(10.0, -5.0, 2.0),
+            se_rad: 1e-3,
+        };
+        let p = Point::new(310.0, -205.0, 4.5);
+        let d = p - v.origin;
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+        let mut sum = nalgebra::Matrix3::zeros();
+        let draws = 20_000;
+        for _ in 0..draws {
+            let mut g = || v.se_rad * rng.sample::<f64, _>(rand_distr::StandardNormal);
+            let tilt = nalgebra::Rotation3::from_scaled_axis(Vector3::new(g(), g(), 0.0));
+            let m = tilt * d - d;
+            sum += m * m.transpose();
+        }
+        let got = sum / draws as f64;
+        let want = v.add_to(&[[0.0; 3]; 3], &p);
+        for i in 0..3 {
+            for j in 0..3 {
+                // Against the two coordinates' own spreads.
+                let scale = (want[i][i] * want[j][j]).sqrt();
+                assert!(
+                    (got[(i, j)] - want[i][j]).abs() < 0.04 * scale,
+                    "({i}, {j}): {} drawn, {} added",
+                    got[(i, j)],
+                    want[i][j]
+                );
+            }
+        }
+        // The horizontal part is the height's: 2.5 m × 1 mrad, squared.
+        assert!((want[0][0] - (2.5e-3_f64).powi(2)).abs() < 1e-12);
+    }
+
     /// A 20 cm survey blunder among five targets pulls the fit so far that
     /// its error is no robust outlier (a user's trial: errors 19-159 mm, no
     /// warning); a fit on the other four places it its whole size off. A
