@@ -32,6 +32,9 @@ pub struct Plumb {
     pub turned_se_deg: f64,
     /// The lean beyond which they turn the frame (degrees; [`turn_bar`]).
     pub bar_deg: f64,
+    /// The lean that bar was held against: the plumb lines', with the
+    /// surveyed heights' when used (degrees; `turned_se_deg` its σ).
+    pub combined_deg: f64,
 }
 
 /// What may turn the map's frame.
@@ -116,6 +119,7 @@ pub(super) fn plumb(
             heights,
             turned_se_deg: se_c,
             bar_deg: bar,
+            combined_deg: angle,
         },
         rot,
     ))
@@ -654,18 +658,26 @@ pub(super) fn refine_vertical(
             // used, settle it; beyond 20° it is no lean but a mistake).
             // A georeferenced map's higher bar may leave a lean the heights
             // confirm: that is said too.
-            let alone = !turned && p.heights.as_ref().is_none_or(|h| !h.used);
-            if (alone || georeferenced)
+            // The lean and σ the bar was held against.
+            let heights = p.heights.as_ref().is_some_and(|h| h.used);
+            let alone = !turned && !heights;
+            let (tilt, se) = if alone {
+                (p.tilt_deg, p.se_deg)
+            } else {
+                (p.combined_deg, p.turned_se_deg)
+            };
+            if (alone || (georeferenced && !turned))
                 && !p.applied
                 && p.tilt_deg <= 20.0
-                && p.tilt_deg > 2.0 * p.se_deg
+                && tilt > 2.0 * se
             {
                 warnings.push(Warning::LeanNotLevelled {
-                    tilt_deg: p.tilt_deg,
-                    se_deg: p.se_deg,
+                    tilt_deg: tilt,
+                    se_deg: se,
                     targets: p.targets,
                     bar_deg: p.bar_deg,
                     georeferenced,
+                    heights,
                 });
             }
             if let Some(h) = p.heights.as_ref().filter(|h| !h.agrees) {
@@ -709,10 +721,12 @@ pub(super) fn refine_vertical(
             across_mm = across_mm.max(1e3 * a * (c.z - o.z).abs());
         }
         // A tilt left in shortens every horizontal distance by 1 − cos of
-        // it: 0.7° over 400 m is 3 cm, which E_rel reads as the map's.
+        // it: 0.7° over 400 m is 3 cm, which E_rel reads as the map's. Over
+        // the located targets, whose pairs E_rel is of.
+        let located: Vec<Point> = found.iter().filter_map(|r| r.corner()).collect();
         let mut farthest = 0.0_f64;
-        for (i, p) in expected.iter().enumerate() {
-            for q in &expected[i + 1..] {
+        for (i, p) in located.iter().enumerate() {
+            for q in &located[i + 1..] {
                 farthest = farthest.max((p.x - q.x).hypot(p.y - q.y));
             }
         }

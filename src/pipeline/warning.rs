@@ -73,6 +73,8 @@ pub enum Warning {
         bar_deg: f64,
         /// The map's header declares a CRS: the bar is higher.
         georeferenced: bool,
+        /// The surveyed heights were part of the lean.
+        heights: bool,
     },
     /// The ground about these targets shows two layers at heights
     /// centimetres apart: the map has a seam there (a loop closed badly),
@@ -250,7 +252,7 @@ impl std::fmt::Display for Warning {
             ),
             Warning::Georeferenced { crs, tilt_deg } => write!(
                 f,
-                "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines still may, when they all lean by a degree and five times their scatter)"
+                "the map's header declares a coordinate reference system ({crs}), so its z is vertical by construction: the ground's lean of {tilt_deg:.1}° is taken as the terrain's, not the map's, and the ground does not level it (the targets' plumb lines, with their surveyed heights, still may when they lean by a degree and five times their scatter)"
             ),
             Warning::LeaningTargets { ids, tilt_deg } => write!(
                 f,
@@ -284,19 +286,29 @@ impl std::fmt::Display for Warning {
                 targets,
                 bar_deg,
                 georeferenced,
+                heights,
             } => write!(
                 f,
-                "the plumb lines of {targets} targets lean {tilt_deg:.2}° ± {se_deg:.2}° (1σ): beyond twice their standard error, but short of the {bar_deg:.2}° {}, so the map was not levelled. If it leans that much, heights 100 m apart differ by {:.2} m in it: evaluate heights with care ({})",
+                "the plumb lines of {targets} targets{} lean {tilt_deg:.2}° ± {se_deg:.2}° (1σ): beyond twice their standard error, but short of the {bar_deg:.2}° {}, so the map was not levelled. If it leans that much, heights 100 m apart differ by {:.2} m in it: evaluate heights with care ({})",
+                if *heights {
+                    ", with the surveyed heights,"
+                } else {
+                    ""
+                },
                 if *georeferenced {
-                    "a map whose header declares a coordinate reference system must lean before its plumb lines turn it (5σ, and at least 1°: its z is vertical by construction, and targets set up leaning are the likelier cause)"
+                    "a map whose header declares a coordinate reference system must lean before its targets turn it (5σ, and at least 1°: its z is vertical by construction)"
                 } else {
                     "levelling by plumb lines alone asks (3σ, and at least 0.5°)"
                 },
                 100.0 * tilt_deg.to_radians().tan(),
-                if *georeferenced {
-                    "check that the targets stand upright"
-                } else {
-                    "surveyed heights of five or more located targets would settle the lean"
+                match (georeferenced, heights) {
+                    (true, true) => {
+                        "the surveyed heights lean alike: check the map's georeferencing, its vertical datum or the transform it was written with"
+                    }
+                    (true, false) => {
+                        "check that the targets stand upright; surveyed heights of five or more located targets would tell a leaning map from leaning targets"
+                    }
+                    _ => "surveyed heights of five or more located targets would settle the lean",
                 }
             ),
             Warning::Levelled {
@@ -307,7 +319,7 @@ impl std::fmt::Display for Warning {
                 shorter_mm,
             } => write!(
                 f,
-                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back). The vertical is known to ±{se_deg:.2}° (1σ): the targets' levelled heights are uncertain by up to {height_m:.2} m (distance from the levelling origin × that angle), their horizontal positions by up to {across_mm:.1} mm (height above it × that angle), and distances across the site may read short by up to {shorter_mm:.1} mm (the farthest targets' distance × (1 − cos of that angle)): included in each target's σ and in the intervals (as one tilt shared by all)"
+                "the map leans {tilt_deg:.2}° from the vertical; it was levelled, and located positions are given in the levelled frame (result.json eval.frame.levelling maps them back). The vertical is known to ±{se_deg:.2}° (1σ): the targets' levelled heights are uncertain by up to {height_m:.2} m (distance from the levelling origin × that angle), their horizontal positions by up to {across_mm:.1} mm (height above it × that angle), and distances across the site may read short by up to {shorter_mm:.1} mm (the farthest located targets' distance × (1 − cos of that angle)): the first two included in each target's σ, all three in the intervals (as one tilt shared by all)"
             ),
         }
     }

@@ -555,3 +555,32 @@ fn a_board_surveyed_larger_than_it_is_is_named_with_its_size() {
     let (fit, _) = locate(&near, &BoardParams::default()).expect("a 0.6 m board as 0.7 m");
     assert!((fit.centre - sc.truth).norm() < 0.005, "{fit:?}");
 }
+
+/// A 0.6 m board surveyed as 0.4 m was taken: its face within 0.3 m of the
+/// middle spans less than 1.2 × 0.4 m. Its print goes on past a 0.4 m
+/// board's edges, so it is refused and named with its size (0.45 m: its
+/// face is wider). Surveyed as 0.5 m it is taken, as one surveyed 0.7 m is
+/// (sizes within a fifth).
+#[test]
+fn a_board_surveyed_smaller_than_it_is_is_named_with_its_size() {
+    let sc = scene(1, BOARD, |_, _, _| {});
+    let at = Point::new(1.0, -1.0, 0.5);
+    for side in [0.4, 0.45] {
+        let small = Search {
+            side,
+            ..search(&sc, at)
+        };
+        match locate(&small, &BoardParams::default()) {
+            Err(BoardError::NoBoard {
+                seen: Some(why), ..
+            }) => {
+                eprintln!("{side}: {why}");
+                assert!(why.contains("a board of 600 mm stands"), "{side}: {why}")
+            }
+            other => panic!("{side}: {:?}", other.map(|f| f.0.centre)),
+        }
+    }
+    // Surveyed at its size, it is a board.
+    let (fit, _) = locate(&search(&sc, at), &BoardParams::default()).expect("a 0.6 m board");
+    assert!((fit.centre - sc.truth).norm() < 0.005, "{fit:?}");
+}
