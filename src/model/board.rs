@@ -409,9 +409,7 @@ fn faces_of(l: &Looked, side: f64, p: &BoardParams) -> (Vec<Candidate>, Vec<(usi
 
 /// When no board of `side` was taken: a board of a size a survey mistakes
 /// for it (twice or half it; the configured side) that would be taken
-/// here, named as a hint. The largest first: a board's middle is a smaller
-/// board's pattern too (on its own face, taken as a wall). Looked for only
-/// on failure.
+/// here, named as a hint. Looked for only on failure.
 fn other_side(
     l: &Looked,
     side: f64,
@@ -422,21 +420,33 @@ fn other_side(
     sides.retain(|&x| (x - side).abs() > 0.15 * side && (0.1..=3.0).contains(&x));
     sides.sort_by(|a, b| b.total_cmp(a));
     sides.dedup_by(|a, b| (*a - *b).abs() < 0.1 * *b);
-    for other in sides {
-        let (cands, _) = faces_of(l, other, p);
-        if let Some(i) = choose(&cands, others) {
-            let from = cands[i].centre.xy().norm();
-            return Some((
-                format!(
-                    "a board of {:.0} mm stands {from:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[board] side_m`) right?",
-                    other * 1e3,
-                    side * 1e3
-                ),
-                from,
-            ));
-        }
-    }
-    None
+    // Of the sizes taken, the one nearest the board's width as the largest
+    // of them measures it (its reach takes in the whole board): a board is
+    // taken at sizes up to a fifth larger than its own (a 0.6 m board
+    // surveyed as 0.36 m was named a 720 mm one, the configured 600 mm
+    // untried), and its middle is a smaller board's pattern too.
+    let taken: Vec<(f64, f64, f64)> = sides
+        .into_iter()
+        .filter_map(|other| {
+            let (cands, _) = faces_of(l, other, p);
+            choose(&cands, others).map(|i| (other, cands[i].centre.xy().norm(), cands[i].extent[0]))
+        })
+        .collect();
+    let width = taken.first()?.2;
+    let nearest = taken
+        .iter()
+        .min_by(|a, b| (a.0 - width).abs().total_cmp(&(b.0 - width).abs()))
+        .copied();
+    nearest.map(|(other, from, _)| {
+        (
+            format!(
+                "a board of {:.0} mm stands {from:.2} m from the expected position: is the size given ({:.0} mm: the survey's `size`, or `[board] side_m`) right?",
+                other * 1e3,
+                side * 1e3
+            ),
+            from,
+        )
+    })
 }
 
 /// A board's squares differ by at least this share of what the map's

@@ -559,13 +559,14 @@ fn a_board_surveyed_larger_than_it_is_is_named_with_its_size() {
 /// A 0.6 m board surveyed as 0.4 m was taken: its face within 0.3 m of the
 /// middle spans less than 1.2 × 0.4 m. Its print goes on past a 0.4 m
 /// board's edges, so it is refused and named with its size (0.45 m: its
-/// face is wider). Surveyed as 0.5 m it is taken, as one surveyed 0.7 m is
-/// (sizes within a fifth).
+/// face is wider; 0.36 m: the hint named 720 mm, a size it is taken at too,
+/// before the face's width chose among them). Surveyed as 0.5 m it is
+/// taken, as one surveyed 0.7 m is (sizes within a fifth).
 #[test]
 fn a_board_surveyed_smaller_than_it_is_is_named_with_its_size() {
     let sc = scene(1, BOARD, |_, _, _| {});
     let at = Point::new(1.0, -1.0, 0.5);
-    for side in [0.4, 0.45] {
+    for side in [0.36, 0.4, 0.45] {
         let small = Search {
             side,
             ..search(&sc, at)
