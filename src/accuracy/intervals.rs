@@ -246,15 +246,23 @@ mod tests {
     }
 
     fn run(n: usize, noise: f64) -> Intervals {
-        let (ids, map, survey, covariances) = inputs(n, noise, true);
+        let scene = inputs(n, noise, true);
+        rigid2d(&scene, None)
+    }
+
+    /// The intervals of a rigid 2D fit in 2D on `scene`.
+    fn rigid2d(
+        (ids, map, survey, covariances): &Scene,
+        vertical: Option<super::super::Vertical>,
+    ) -> Intervals {
         intervals(&Inputs {
             method: AlignMethod::Rigid2d,
             dim: Dim::D2,
-            ids: &ids,
-            map: &map,
-            survey: &survey,
-            covariances,
-            vertical: None,
+            ids,
+            map,
+            survey,
+            covariances: covariances.clone(),
+            vertical,
             survey_sigma_h: 0.0,
             rmse_h: true,
         })
@@ -290,18 +298,10 @@ mod tests {
         let covs = Some(vec![Matrix3::from_diagonal_element(0.002_f64.powi(2)); n]);
         let run = |heights: &dyn Fn(usize) -> f64, vertical: Option<super::super::Vertical>| {
             let survey: Vec<Point> = (0..n).map(|i| at(i, heights(i))).collect();
-            let map = survey.clone();
-            intervals(&Inputs {
-                method: AlignMethod::Rigid2d,
-                dim: Dim::D2,
-                ids: &ids,
-                map: &map,
-                survey: &survey,
-                covariances: covs.clone(),
+            rigid2d(
+                &(ids.clone(), survey.clone(), survey, covs.clone()),
                 vertical,
-                survey_sigma_h: 0.0,
-                rmse_h: true,
-            })
+            )
         };
         let v = Some(super::super::Vertical {
             origin: Point::new(0.0, 0.0, 0.0),

@@ -4,7 +4,7 @@
 
 use crate::util::{bin, stderr, tempdir};
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn synth(scene: &Path, args: &[&str]) -> Value {
     synth_as(scene, "pcd", args)
@@ -707,6 +707,21 @@ fn las_copy(scene: &Path, path: &Path, wkt: Option<&[u8]>) {
 
 const UTM33: &[u8] = br#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84"]]"#;
 
+/// A synth scene of `points` mapped `tilt` degrees off the vertical (seed
+/// 3), its map written as two LAS files: one declaring a CRS, one plain.
+fn tilted_las(points: &str, tilt: &str) -> (tempfile::TempDir, PathBuf, PathBuf, PathBuf) {
+    let dir = tempdir();
+    let scene = dir.path().join("scene");
+    synth(
+        &scene,
+        &["--points", points, "--tilt-deg", tilt, "--seed", "3"],
+    );
+    let (geo, plain) = (dir.path().join("geo.las"), dir.path().join("plain.las"));
+    las_copy(&scene, &geo, Some(UTM33));
+    las_copy(&scene, &plain, None);
+    (dir, scene, geo, plain)
+}
+
 /// `eval` of `map` against the scene's survey: what it said (summary and
 /// stderr) and result.json.
 fn eval_said(scene: &Path, map: &Path, out: &Path) -> (String, Value) {
@@ -732,15 +747,7 @@ fn eval_said(scene: &Path, map: &Path, out: &Path) -> (String, Value) {
 /// points without the CRS are levelled by the ground as before.
 #[test]
 fn a_georeferenced_las_is_not_levelled_by_its_ground() {
-    let dir = tempdir();
-    let scene = dir.path().join("scene");
-    synth(
-        &scene,
-        &["--points", "1500000", "--tilt-deg", "7", "--seed", "3"],
-    );
-    let (geo, plain) = (dir.path().join("geo.las"), dir.path().join("plain.las"));
-    las_copy(&scene, &geo, Some(UTM33));
-    las_copy(&scene, &plain, None);
+    let (dir, scene, geo, plain) = tilted_las("1500000", "7");
     let (e, r) = eval_said(&scene, &geo, &dir.path().join("geo"));
     assert!(
         e.contains("declares a coordinate reference system (WGS 84 / UTM zone 33N)")
@@ -767,15 +774,7 @@ fn a_georeferenced_las_is_not_levelled_by_its_ground() {
 /// header declares a CRS is left as it is, and a warning says why.
 #[test]
 fn a_georeferenced_map_needs_more_than_a_slight_lean_to_be_turned() {
-    let dir = tempdir();
-    let scene = dir.path().join("scene");
-    synth(
-        &scene,
-        &["--points", "6000000", "--tilt-deg", "0.7", "--seed", "3"],
-    );
-    let (geo, plain) = (dir.path().join("geo.las"), dir.path().join("plain.las"));
-    las_copy(&scene, &geo, Some(UTM33));
-    las_copy(&scene, &plain, None);
+    let (dir, scene, geo, plain) = tilted_las("6000000", "0.7");
     let (_, r) = eval_said(&scene, &plain, &dir.path().join("plain"));
     let lev = &r["eval"]["frame"]["levelling"];
     println!("plain: {lev}");

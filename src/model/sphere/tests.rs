@@ -58,6 +58,12 @@ fn post(
         .collect()
 }
 
+/// The pole of a sphere centred at `c`, 2 cm thick, from the ground up to
+/// it: 300 points.
+fn its_pole(rng: &mut Pcg64, c: Vector3<f64>, view: Vector3<f64>, sigma: f64) -> Vec<Point> {
+    post(rng, (c.x, c.y), 0.02, (0.0, c.z - R), view, 300, sigma)
+}
+
 /// A flat ground patch about the origin.
 fn ground(rng: &mut Pcg64, n: usize) -> Vec<Point> {
     (0..n)
@@ -92,16 +98,7 @@ fn a_sphere_among_round_clutter_is_found() {
     let c = Vector3::new(0.4, 0.3, 1.5);
     let mut pts = ground(&mut rng, 20_000);
     pts.extend(cap(&mut rng, c, R, view, 0.15, 150, 0.002));
-    // Its pole, 2 cm thick, below it.
-    pts.extend(post(
-        &mut rng,
-        (c.x, c.y),
-        0.02,
-        (0.0, c.z - R),
-        view,
-        300,
-        0.002,
-    ));
+    pts.extend(its_pole(&mut rng, c, view, 0.002));
     // A pole as thick as the sphere, a bollard with a domed top, a bush, a sign.
     pts.extend(post(
         &mut rng,
@@ -856,15 +853,7 @@ fn a_sphere_in_a_dense_crop_is_fitted_on_all_its_points() {
     let mut pts = ground(&mut rng, 120_000);
     let sphere = cap(&mut rng, c, R, view, 0.3, 400, 0.006);
     pts.extend(sphere.iter().copied());
-    pts.extend(post(
-        &mut rng,
-        (c.x, c.y),
-        0.02,
-        (0.0, c.z - R),
-        view,
-        300,
-        0.006,
-    ));
+    pts.extend(its_pole(&mut rng, c, view, 0.006));
     let p = SphereParams {
         max_points: 40_000,
         ..SphereParams::default()
