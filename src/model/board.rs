@@ -783,7 +783,10 @@ fn judge(
     let (v0, v1) = (pct(&mut vs, 0.02), pct(&mut vs, 0.98));
     let extent = [u1 - u0, v1 - v0];
     if extent[0] > 1.2 * side || extent[1] > 1.2 * side {
-        // A wall, when the plane goes on flat beyond twice a board.
+        // A wall (or a panel a board is fixed to), when the plane goes on
+        // flat beyond one and a half boards: a 0.6 m board flush on a plain
+        // 1.2 m panel spans 1.15 m of the 0.9 m reach, and was refused as a
+        // face wider than a board without its panel searched for the print.
         let mut far: Vec<[f64; 2]> = grid
             .near(v, &at, 1.5 * side)
             .filter(|&i| (plane.normal.dot(&v[i]) - plane.offset).abs() < tol)
@@ -794,7 +797,7 @@ fn judge(
             pct(&mut a, 0.98) - pct(&mut a, 0.02)
         };
         let wall =
-            far.len() >= 10 && (span(0, &mut far) > 2.0 * side || span(1, &mut far) > 2.0 * side);
+            far.len() >= 10 && (span(0, &mut far) > 1.5 * side || span(1, &mut far) > 1.5 * side);
         return Err(Refusal {
             points: ids.len(),
             why: format!(

@@ -585,3 +585,36 @@ fn a_board_surveyed_smaller_than_it_is_is_named_with_its_size() {
     let (fit, _) = locate(&search(&sc, at), &BoardParams::default()).expect("a 0.6 m board");
     assert!((fit.centre - sc.truth).norm() < 0.005, "{fit:?}");
 }
+
+/// A 0.6 m board fixed flush (1 cm proud) on a plain panel 1.2 m square was
+/// refused as a face wider than a board: the panel was no wall (under two
+/// boards across), so it was not searched for a print hung on it. It is
+/// now, and the board is located.
+#[test]
+fn a_board_on_a_plain_panel_is_located_by_its_print() {
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+    let (mut pts, mut inten) = (Vec::new(), Vec::new());
+    ground(&mut pts, &mut inten, &mut rng);
+    let truth = Point::new(0.1, 0.2, 1.1);
+    add_board(&mut pts, &mut inten, &mut rng, truth, 0.4, 0.6, BOARD);
+    let n = Vector3::new(0.4_f64.cos(), 0.4_f64.sin(), 0.0);
+    let e0 = Vector3::z().cross(&n).normalize();
+    let e1 = n.cross(&e0);
+    let mut a: f64 = -0.6;
+    while a <= 0.6 {
+        let mut b: f64 = -0.6;
+        while b <= 0.6 {
+            if a.abs() > 0.3 || b.abs() > 0.3 {
+                pts.push(truth + e0 * a + e1 * b - n * 0.01);
+                inten.push(90.0);
+            }
+            b += BOARD.spacing;
+        }
+        a += BOARD.spacing;
+    }
+    let panel = Scene { pts, inten, truth };
+    let at = Point::new(1.0, -1.0, 0.5);
+    let (fit, _) = locate(&search(&panel, at), &BoardParams::default())
+        .expect("a board on a plain panel is a board");
+    assert!((fit.centre - truth).norm() < 0.005, "{fit:?}");
+}
