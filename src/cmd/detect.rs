@@ -68,6 +68,7 @@ pub fn run(a: Args) -> Result<()> {
             .check_size(d)
             .map_err(|e| Error::Param(format!("--board-side: {e}")))?;
     }
+    mapgauge::cloud::refuse_non_metric(&a.map)?;
     let source = MapSource::File(&a.map);
     let ground = ground_level(source, None, None, |_| {})?;
     // A georeferenced map (its header declares a CRS) is vertical by

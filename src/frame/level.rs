@@ -103,6 +103,23 @@ pub struct MapGround {
 }
 
 impl MapGround {
+    /// How far the ground's cells (0.5 m) reach along x and y, `None` for a
+    /// map without points: a map in degrees (longitude, latitude) spans a
+    /// cell or two.
+    pub fn horizontal_span(&self) -> Option<[f64; 2]> {
+        let mut k = self
+            .lowest
+            .cells()
+            .filter(|(_, z)| z.is_finite())
+            .map(|(k, _)| k);
+        let first = k.next()?;
+        let (lo, hi) = k.fold((first, first), |(lo, hi), (x, y)| {
+            ((lo.0.min(x), lo.1.min(y)), (hi.0.max(x), hi.1.max(y)))
+        });
+        let cells = |a: i64, b: i64| (b - a + 1) as f64 * CELL;
+        Some([cells(lo.0, hi.0), cells(lo.1, hi.1)])
+    }
+
     /// The motion that levels the map: the ground's vertical made +z when it
     /// leans more than `above_deg` (below, a site's own slope could be most of
     /// it, and the targets' plumb lines decide later) and at least

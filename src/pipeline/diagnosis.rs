@@ -32,6 +32,47 @@ pub(super) fn against_survey(e: Error, survey: &Survey) -> Error {
     }
 }
 
+/// A map that spans under a metre across where the survey's targets span
+/// more than five, refused: no frame puts the survey in it. A map written in
+/// degrees (longitude, latitude) without a header that says so is the
+/// usual cause, and the error says so when its coordinates could be such.
+pub(super) fn too_small_for_survey(
+    map: &MapStats,
+    ground: &crate::frame::MapGround,
+    survey: &Survey,
+) -> Result<()> {
+    let Some(span) = ground.horizontal_span() else {
+        return Ok(());
+    };
+    let widest = survey
+        .targets
+        .iter()
+        .flat_map(|a| {
+            let a = a.position;
+            survey
+                .targets
+                .iter()
+                .map(move |b| (b.position - a).xy().norm())
+        })
+        .fold(0.0_f64, f64::max);
+    if span[0].max(span[1]) > 1.0 || widest <= 5.0 {
+        return Ok(());
+    }
+    let c = ground.centre;
+    let degrees = if c.x.abs() <= 180.0 && c.y.abs() <= 90.0 && (c.x != 0.0 || c.y != 0.0) {
+        format!(
+            ". Its x and y (about {:.0}, {:.0}) may be longitude and latitude in degrees: mapgauge measures in metres, so reproject the map to a projected CRS (its UTM zone) and give the survey in the same one",
+            c.x, c.y
+        )
+    } else {
+        String::new()
+    };
+    Err(Error::Input(format!(
+        "{}: its {} points lie within {:.1} × {:.1} m horizontally, where the survey's targets lie up to {widest:.0} m apart: no frame puts the survey in this map{degrees}",
+        map.name, map.points, span[0], span[1]
+    )))
+}
+
 /// What the surveyed places showed, counted by kind: "4 nothing standing
 /// above the ground, 1 no target-shaped object (closest: …)".
 pub(super) fn places_seen(found: &[TargetRun]) -> String {

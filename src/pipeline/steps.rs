@@ -479,6 +479,9 @@ fn ground_pass(
     progress: &mut impl FnMut(u64, u64),
     warnings: &mut Vec<Warning>,
 ) -> Result<(crate::frame::MapGround, MapStats)> {
+    if let MapSource::File(p) = source {
+        crate::cloud::refuse_non_metric(p)?;
+    }
     let sample = (cfg.frame.ground_sample > 0).then_some(cfg.frame.ground_sample);
     let ground = crate::frame::ground_level(source, None, sample, |b| progress(b, total))
         .map_err(|e| against_survey(e, survey))?;
@@ -489,6 +492,9 @@ fn ground_pass(
         skipped_nonfinite: ground.read.skipped_nonfinite,
     };
     check_map(&map, &ground, needs_points, warnings)?;
+    if needs_points {
+        super::diagnosis::too_small_for_survey(&map, &ground, survey)?;
+    }
     Ok((ground, map))
 }
 

@@ -580,6 +580,82 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
     assert!(stderr(&bad).contains("--scale 0"), "{}", stderr(&bad));
 }
 
+/// A map in longitude and latitude (degrees) read as metres fits the whole
+/// site in a centimetre: every surveyed place showed "no map points" and the
+/// user was asked whether it was the map of the site. A LAS whose header
+/// declares a geographic CRS is refused before any pass, naming the UTM zone
+/// to reproject to (`eval` and `detect`); a PCD in degrees, which cannot say
+/// so, is refused after the ground pass by its extent set against the
+/// survey's.
+#[test]
+fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let (lat0, lon0) = (52.5_f64, 13.4_f64);
+    let deg: Vec<mapgauge::Point> = mapgauge::cloud::read_all(&map)
+        .unwrap()
+        .iter()
+        .map(|p| {
+            mapgauge::Point::new(
+                lon0 + p.x / (111_320.0 * lat0.to_radians().cos()),
+                lat0 + p.y / 111_320.0,
+                p.z,
+            )
+        })
+        .collect();
+    let las_path = dir.path().join("geo.las");
+    let mut b = las::Builder::from((1, 4));
+    b.point_format = las::point::Format::new(0).unwrap();
+    let t = |scale: f64, offset: f64| las::Transform { scale, offset };
+    b.transforms = las::Vector {
+        x: t(1e-9, lon0),
+        y: t(1e-9, lat0),
+        z: t(1e-4, 0.0),
+    };
+    let mut h = b.into_header().unwrap();
+    h.set_wkt_crs(
+        br#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],UNIT["degree",0.0174532925199433]]"#
+            .to_vec(),
+    )
+    .unwrap();
+    let mut w = las::Writer::from_path(&las_path, h).unwrap();
+    for p in &deg {
+        w.write_point(las::Point {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    w.close().unwrap();
+    let err = eval_refused(&las_path, &survey, &[]);
+    assert!(
+        err.contains("geographic coordinate reference system (WGS 84)")
+            && err.contains("longitude and latitude in degrees")
+            && err.contains("EPSG:32633"),
+        "{err}"
+    );
+    let o = bin()
+        .arg("detect")
+        .arg("--map")
+        .arg(&las_path)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(stderr(&o).contains("EPSG:32633"), "{}", stderr(&o));
+    // Without a header to say so: the extent tells.
+    let pcd = dir.path().join("geo.pcd");
+    mapgauge::cloud::write(&pcd, mapgauge::cloud::OutFormat::Pcd, &deg).unwrap();
+    let err = eval_refused(&pcd, &survey, &[]);
+    assert!(
+        err.contains("m horizontally, where the survey's targets lie up to")
+            && err.contains("no frame puts the survey in this map")
+            && err.contains("may be longitude and latitude in degrees"),
+        "{err}"
+    );
+}
+
 /// A survey of latitude and longitude in each other's columns, at a
 /// latitude where both read as valid (48° N, 11° E): the mirror is stretched
 /// 1.5× one way, so the x/y exchange did not see it and the user was told
