@@ -29,6 +29,56 @@ pub struct Args {
     /// millimetres into metres, which mapgauge reads [default: 1, as stored].
     #[arg(long, value_name = "FACTOR")]
     scale: Option<f64>,
+    /// The input's up axis, turned to +z (mapgauge takes +z as up): `y` for
+    /// maps written in a y-up convention (Open3D's, Unity's), `-y` for a
+    /// camera's y-down one (visual SLAM). A rotation, so the map keeps its
+    /// handedness.
+    #[arg(long, value_enum, default_value_t = Up::Z, allow_hyphen_values = true)]
+    up: Up,
+}
+
+/// An input's up axis.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Up {
+    #[value(name = "z")]
+    Z,
+    #[value(name = "-z")]
+    MinusZ,
+    #[value(name = "y")]
+    Y,
+    #[value(name = "-y")]
+    MinusY,
+    #[value(name = "x")]
+    X,
+    #[value(name = "-x")]
+    MinusX,
+}
+
+impl Up {
+    /// The rotation that takes this axis to +z (a quarter or half turn
+    /// about another axis): (x, y, z) to the new x, y, z.
+    fn turn(self, p: [f64; 3]) -> [f64; 3] {
+        let [x, y, z] = p;
+        match self {
+            Up::Z => [x, y, z],
+            Up::MinusZ => [x, -y, -z],
+            Up::Y => [x, -z, y],
+            Up::MinusY => [x, z, -y],
+            Up::X => [-z, y, x],
+            Up::MinusX => [z, y, -x],
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Up::Z => "z",
+            Up::MinusZ => "-z",
+            Up::Y => "y",
+            Up::MinusY => "-y",
+            Up::X => "x",
+            Up::MinusX => "-x",
+        }
+    }
 }
 
 /// Runs `convert`.
@@ -76,6 +126,12 @@ pub fn run(a: Args) -> Result<()> {
                 p.coords *= s;
             }
         }
+        if a.up != Up::Z {
+            for p in buf.iter_mut() {
+                let [x, y, z] = a.up.turn([p.x, p.y, p.z]);
+                *p = mapgauge::Point::new(x, y, z);
+            }
+        }
     };
     if keep {
         while reader.next_chunk_intensity(&mut buf, &mut inten)? {
@@ -91,12 +147,44 @@ pub fn run(a: Args) -> Result<()> {
     let n = writer.finish()?;
     let st = reader.stats();
     let with = if keep { " with intensity" } else { "" };
-    let scaled = a
+    let mut scaled = a
         .scale
         .map_or(String::new(), |s| format!(", coordinates × {s}"));
+    if a.up != Up::Z {
+        scaled += &format!(", turned so its {} is +z", a.up.name());
+    }
     outln!("{n} points written to {}{with}{scaled}", a.out.display());
     if st.skipped_nonfinite > 0 {
         errln!("{} non-finite points skipped", st.skipped_nonfinite);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Up;
+    use nalgebra::{Matrix3, Vector3};
+
+    /// Each `--up` is a rotation (determinant +1: no mirror) that takes its
+    /// axis to +z.
+    #[test]
+    fn every_up_is_a_rotation_to_z() {
+        for (up, axis) in [
+            (Up::Z, [0.0, 0.0, 1.0]),
+            (Up::MinusZ, [0.0, 0.0, -1.0]),
+            (Up::Y, [0.0, 1.0, 0.0]),
+            (Up::MinusY, [0.0, -1.0, 0.0]),
+            (Up::X, [1.0, 0.0, 0.0]),
+            (Up::MinusX, [-1.0, 0.0, 0.0]),
+        ] {
+            let col = |p| Vector3::from(up.turn(p));
+            let m = Matrix3::from_columns(&[
+                col([1.0, 0.0, 0.0]),
+                col([0.0, 1.0, 0.0]),
+                col([0.0, 0.0, 1.0]),
+            ]);
+            assert_eq!(m.determinant(), 1.0, "{}", up.name());
+            assert_eq!(up.turn(axis), [0.0, 0.0, 1.0], "{}", up.name());
+        }
+    }
 }

@@ -103,6 +103,21 @@ pub struct MapGround {
 }
 
 impl MapGround {
+    /// How far the lowest points of the ground's cells lie apart in z (m):
+    /// a site's relief, a few metres; tens where the map's up is not its z
+    /// (a y-up map's "lowest" points run across the site).
+    pub fn lowest_relief(&self) -> Option<f64> {
+        let (lo, hi) = self
+            .lowest
+            .cells()
+            .map(|(_, z)| *z)
+            .filter(|z| z.is_finite())
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), z| {
+                (lo.min(z), hi.max(z))
+            });
+        (lo <= hi).then(|| f64::from(hi - lo))
+    }
+
     /// How far the ground's cells (0.5 m) reach along x and y, `None` for a
     /// map without points: a map in degrees (longitude, latitude) spans a
     /// cell or two.

@@ -73,6 +73,25 @@ pub(super) fn too_small_for_survey(
     )))
 }
 
+/// A map whose up may not be its +z, told from its extent: its lowest
+/// points spread over more height (tens of metres) than three times its
+/// narrower horizontal extent, where a site's ground spreads across x and y
+/// and rises a few metres. Said only when no target was found anywhere (a
+/// narrow street between tall walls can look so too).
+pub(super) fn up_not_z(map: &str, ground: &crate::frame::MapGround) -> Option<String> {
+    let span = ground.horizontal_span()?;
+    let relief = ground.lowest_relief()?;
+    let narrow = span[0].min(span[1]);
+    // The narrower axis is the likelier up.
+    let axis = if span[1] <= span[0] { "y" } else { "x" };
+    (relief >= 10.0 && relief > 3.0 * narrow).then(|| {
+        format!(
+            " Or its up is not +z: the map spans {:.0} × {:.0} m across x and y, and its lowest points {relief:.0} m in z, as a map written with {axis} up or down does (Open3D's or Unity's y-up convention, a camera's y-down); mapgauge takes +z as up: `mapgauge convert --map {map} --out map_z.pcd --up {axis}` (or --up -{axis}) turns it",
+            span[0], span[1]
+        )
+    })
+}
+
 /// What the surveyed places showed, counted by kind: "4 nothing standing
 /// above the ground, 1 no target-shaped object (closest: …)".
 pub(super) fn places_seen(found: &[TargetRun]) -> String {

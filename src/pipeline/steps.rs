@@ -780,7 +780,16 @@ impl FirstPass<'_> {
                     ),
                 },
                 (frame::NoFrame::NotMatched { detections, why }, None) => {
-                    not_there(map_name, &found, detections, &why, cfg)
+                    let e = not_there(map_name, &found, detections, &why, cfg);
+                    match (e, super::diagnosis::up_not_z(map_name, self.ground)) {
+                        (Error::FrameNotFound { detections: 0, msg }, Some(up)) => {
+                            Error::FrameNotFound {
+                                detections: 0,
+                                msg: msg + &up,
+                            }
+                        }
+                        (e, _) => e,
+                    }
                 }
             },
         };

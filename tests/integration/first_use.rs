@@ -656,6 +656,55 @@ fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
     );
 }
 
+/// A map written with y up (Open3D's, Unity's convention) was told it held
+/// none of the survey's targets. The message now names the likely up axis
+/// and `convert --up`, which turns the map back: all five found.
+#[test]
+fn a_map_with_y_up_is_named_and_convert_up_turns_it() {
+    let dir = tempdir();
+    let (map, survey) = scene(dir.path());
+    let yup: Vec<mapgauge::Point> = mapgauge::cloud::read_all(&map)
+        .unwrap()
+        .iter()
+        .map(|p| mapgauge::Point::new(p.x, p.z, -p.y))
+        .collect();
+    let path = dir.path().join("yup.pcd");
+    mapgauge::cloud::write(&path, mapgauge::cloud::OutFormat::Pcd, &yup).unwrap();
+    let err = eval_refused(&path, &survey, &[]);
+    assert!(
+        err.contains("Or its up is not +z") && err.contains("--up y`"),
+        "{err}"
+    );
+    let back = dir.path().join("z.pcd");
+    let said = stdout_ok(
+        bin()
+            .args(["convert", "--up", "y", "--map"])
+            .arg(&path)
+            .arg("--out")
+            .arg(&back),
+    );
+    assert!(said.contains("turned so its y is +z"), "{said}");
+    let out = dir.path().join("out");
+    stdout_ok(
+        bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(&back)
+            .arg("--survey")
+            .arg(&survey)
+            .arg("--out")
+            .arg(&out),
+    );
+    let csv = std::fs::read_to_string(out.join("targets.csv")).unwrap();
+    assert_eq!(
+        csv.lines().filter(|l| l.contains(",ok,")).count(),
+        5,
+        "{csv}"
+    );
+    // The map as written, not turned: the hint is not given.
+    let err = eval_refused(&map, &dir.path().join("nowhere.csv"), &[]);
+    assert!(!err.contains("Or its up is not +z"), "{err}");
+}
+
 /// A survey of latitude and longitude in each other's columns, at a
 /// latitude where both read as valid (48° N, 11° E): the mirror is stretched
 /// 1.5× one way, so the x/y exchange did not see it and the user was told
@@ -825,7 +874,9 @@ fn a_survey_of_other_places_and_a_map_without_targets_are_told_apart() {
         e.contains("no target where the survey places them")
             && e.contains("detection map-wide found no target-shaped object")
             && e.contains("The map holds none of the surveyed targets")
-            && !e.contains("another frame"),
+            && !e.contains("another frame")
+            // A level site is not taken for a map with another up.
+            && !e.contains("Or its up is not +z"),
         "{e}"
     );
 }
