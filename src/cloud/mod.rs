@@ -313,40 +313,71 @@ pub fn declared_crs(path: &Path) -> Option<String> {
 }
 
 /// Refuses a map whose header declares a CRS in another unit than the
-/// metre: feet (a State Plane map; read as metres, a 0.6 m plate is looked
-/// for at 0.6 ft), or longitude and latitude in degrees (read as metres,
-/// the whole site fits in a few centimetres). Every measure here (plate
-/// sizes, distances, the ground's slope) is in metres. The error names the
-/// remedy: the scale to convert by, or the UTM zone to reproject to.
+/// metre: longitude and latitude in degrees (read as metres, the whole site
+/// fits in a few centimetres), feet (a State Plane map; read as metres, a
+/// 0.6 m plate is looked for at 0.6 ft), or heights in feet. Every measure
+/// here (plate sizes, distances, the ground's slope) is in metres. The
+/// error names the remedy: the UTM zone to reproject to, or the scales to
+/// convert by.
 pub fn refuse_non_metric(path: &Path) -> Result<()> {
     if is_tiled(path) || !matches!(detect(path), Ok(Format::Las | Format::Laz)) {
         return Ok(());
     }
-    if let Some((name, unit, m)) = las::length_unit(path) {
-        return Err(Error::Input(format!(
-            "{}: its header declares a coordinate reference system ({name}) whose unit is the {unit} ({m} m), and mapgauge measures in metres. Convert the map: `mapgauge convert --map {} --out map_m.las --scale {m}`, and give the survey in metres",
-            path.display(),
-            path.display()
-        )));
-    }
-    let Some((name, [lon, lat])) = las::geographic_crs(path) else {
+    let Some(crs) = las::crs_of(path) else {
         return Ok(());
     };
-    let epsg = (lon.abs() <= 180.0 && lat.abs() <= 84.0).then(|| {
-        let zone = (((lon + 180.0) / 6.0).floor() as i64).clamp(0, 59) + 1;
-        (if lat >= 0.0 { 32600 } else { 32700 }) + zone
-    });
-    let target = match epsg {
-        Some(e) => format!(
-            "its UTM zone, EPSG:{e} (from the middle of its bounds: lon {lon:.4}°, lat {lat:.4}°)"
+    let las::Crs {
+        name,
+        degrees,
+        middle: [lon, lat],
+        horizontal_unit,
+        vertical_unit,
+    } = crs;
+    let at = path.display();
+    if degrees {
+        let epsg = (lat.abs() <= 84.0).then(|| {
+            let zone = (((lon + 180.0) / 6.0).floor() as i64).clamp(0, 59) + 1;
+            (if lat >= 0.0 { 32600 } else { 32700 }) + zone
+        });
+        let target = match epsg {
+            Some(e) => format!(
+                "its UTM zone, EPSG:{e} (from the middle of its bounds: lon {lon:.4}°, lat {lat:.4}°)"
+            ),
+            None => "a projected CRS in metres".into(),
+        };
+        let code = epsg.map_or("<code>".to_string(), |e| e.to_string());
+        return Err(Error::Input(format!(
+            "{at}: its header declares a geographic coordinate reference system ({name}): its x and y are longitude and latitude in degrees, and mapgauge measures in metres. Reproject the map to {target}, for example `pdal translate {at} map_utm.las reprojection --filters.reprojection.out_srs=EPSG:{code}`, and give the survey in the same CRS"
+        )));
+    }
+    let said = |(u, m): &(String, f64)| format!("the {u} ({m} m)");
+    let (what, flags) = match (&horizontal_unit, &vertical_unit) {
+        (None, None) => return Ok(()),
+        // Heights in the projected CRS's unit unless a vertical CRS says
+        // otherwise (Autzen's elevations are in feet).
+        (Some(h), None) => (
+            format!("whose unit is {}", said(h)),
+            format!("--scale {}", h.1),
         ),
-        None => "a projected CRS in metres".into(),
+        (Some(h), Some(v)) if h.1 == v.1 => (
+            format!("whose unit is {}", said(h)),
+            format!("--scale {}", h.1),
+        ),
+        (Some(h), Some(v)) => (
+            format!(
+                "whose x and y are in {} and heights in {}",
+                said(h),
+                said(v)
+            ),
+            format!("--scale {} --scale-z {}", h.1, v.1),
+        ),
+        (None, Some(v)) => (
+            format!("whose heights are in {}", said(v)),
+            format!("--scale-z {}", v.1),
+        ),
     };
-    let code = epsg.map_or("<code>".to_string(), |e| e.to_string());
     Err(Error::Input(format!(
-        "{}: its header declares a geographic coordinate reference system ({name}): its x and y are longitude and latitude in degrees, and mapgauge measures in metres. Reproject the map to {target}, for example `pdal translate {} map_utm.las reprojection --filters.reprojection.out_srs=EPSG:{code}`, and give the survey in the same CRS",
-        path.display(),
-        path.display()
+        "{at}: its header declares a coordinate reference system ({name}) {what}, and mapgauge measures in metres. Convert the map: `mapgauge convert --map {at} --out map_m.las {flags}`, and give the survey in metres"
     )))
 }
 

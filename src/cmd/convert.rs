@@ -29,6 +29,11 @@ pub struct Args {
     /// millimetres into metres, which mapgauge reads [default: 1, as stored].
     #[arg(long, value_name = "FACTOR")]
     scale: Option<f64>,
+    /// Multiply z by this instead of by `--scale`: 0.3048006 for heights
+    /// in US survey feet over x and y in metres (a compound CRS's vertical
+    /// part) [default: `--scale`'s factor].
+    #[arg(long, value_name = "FACTOR")]
+    scale_z: Option<f64>,
     /// The input's up axis, turned to +z (mapgauge takes +z as up): `y` for
     /// maps written in a y-up convention (Open3D's, Unity's), `-y` for a
     /// camera's y-down one (visual SLAM). A rotation, so the map keeps its
@@ -107,13 +112,22 @@ pub fn run(a: Args) -> Result<()> {
             }
         }
     };
-    if let Some(s) = a.scale
-        && !(s.is_finite() && s > 0.0)
-    {
-        return Err(Error::Param(format!(
-            "--scale {s}: give a finite factor above 0 (0.001 for a map in millimetres)"
-        )));
+    for (flag, f) in [("--scale", a.scale), ("--scale-z", a.scale_z)] {
+        if let Some(s) = f
+            && !(s.is_finite() && s > 0.0)
+        {
+            return Err(Error::Param(format!(
+                "{flag} {s}: give a finite factor above 0 (0.001 for a map in millimetres)"
+            )));
+        }
     }
+    let factors = match (a.scale, a.scale_z) {
+        (None, None) => None,
+        (s, z) => {
+            let s = s.unwrap_or(1.0);
+            Some([s, s, z.unwrap_or(s)])
+        }
+    };
     refuse_overwrite(&a.out, &[&a.map])?;
     let mut reader = cloud::open(&a.map)?;
     // Intensity goes through when both ends have it.
@@ -121,9 +135,9 @@ pub fn run(a: Args) -> Result<()> {
     let mut writer = CloudWriter::create_with(&a.out, format, keep)?;
     let (mut buf, mut inten) = (Vec::new(), Vec::new());
     let scale = |buf: &mut Vec<mapgauge::Point>| {
-        if let Some(s) = a.scale {
+        if let Some([x, y, z]) = factors {
             for p in buf.iter_mut() {
-                p.coords *= s;
+                *p = mapgauge::Point::new(p.x * x, p.y * y, p.z * z);
             }
         }
         if a.up != Up::Z {
@@ -147,9 +161,12 @@ pub fn run(a: Args) -> Result<()> {
     let n = writer.finish()?;
     let st = reader.stats();
     let with = if keep { " with intensity" } else { "" };
-    let mut scaled = a
-        .scale
-        .map_or(String::new(), |s| format!(", coordinates × {s}"));
+    let mut scaled = match (a.scale, a.scale_z) {
+        (None, None) => String::new(),
+        (Some(s), None) => format!(", coordinates × {s}"),
+        (None, Some(z)) => format!(", z × {z}"),
+        (Some(s), Some(z)) => format!(", x and y × {s}, z × {z}"),
+    };
     if a.up != Up::Z {
         scaled += &format!(", turned so its {} is +z", a.up.name());
     }

@@ -89,6 +89,8 @@ pub struct MapGround {
     /// sample was read: its range may miss the map's extremes): how far a
     /// tilted map's points can move sideways when it is levelled.
     pub z_range: Option<[f64; 2]>,
+    /// Lowest and highest z of the points read, a sample's too.
+    pub z_seen: Option<[f64; 2]>,
     /// The step float32 coordinates keep at the map's farthest coordinate,
     /// and that coordinate (m), when the file stores them so and the step
     /// exceeds a millimetre (a UTM map written as float32: 0.5 m at
@@ -103,19 +105,30 @@ pub struct MapGround {
 }
 
 impl MapGround {
-    /// How far the lowest points of the ground's cells lie apart in z (m):
-    /// a site's relief, a few metres; tens where the map's up is not its z
-    /// (a y-up map's "lowest" points run across the site).
-    pub fn lowest_relief(&self) -> Option<f64> {
-        let (lo, hi) = self
-            .lowest
-            .cells()
-            .map(|(_, z)| *z)
-            .filter(|z| z.is_finite())
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), z| {
-                (lo.min(z), hi.max(z))
-            });
-        (lo <= hi).then(|| f64::from(hi - lo))
+    /// How far the points seen lie apart in z (m), sample or not: a site's
+    /// relief and buildings, where a map with y up spreads over its length.
+    pub fn z_extent(&self) -> Option<f64> {
+        self.z_seen.map(|[lo, hi]| hi - lo)
+    }
+
+    /// The share of the map's 2 m blocks (those with ten or more cells
+    /// seen) that are flat ground facing within 20° of +z and agree on its
+    /// vertical: most, on a site mapped z up; a few walls, on one mapped y
+    /// up (its walls are its "floors").
+    pub fn flat_share(&self) -> f64 {
+        let mut blocks: HashMap<(i64, i64), u32> = HashMap::new();
+        for (k, z) in self.lowest.cells() {
+            if z.is_finite() {
+                *blocks
+                    .entry((k.0.div_euclid(BLOCK), k.1.div_euclid(BLOCK)))
+                    .or_default() += 1;
+            }
+        }
+        let eligible = blocks.values().filter(|&&n| n >= 10).count();
+        match &self.level {
+            Some(l) if eligible > 0 => l.blocks as f64 * l.support / eligible as f64,
+            _ => 0.0,
+        }
     }
 
     /// How far the ground's cells (0.5 m) reach along x and y, `None` for a
@@ -338,6 +351,7 @@ pub fn ground_level(
         level,
         centre,
         z_range: (low.z[0] <= low.z[1] && !sampled).then_some(low.z),
+        z_seen: (low.z[0] <= low.z[1]).then_some(low.z),
         sampled,
         float32_step,
         points: low.count,
@@ -369,6 +383,7 @@ fn first_point(
             pass_read: crate::cloud::PassRead::of("ground", r.as_ref()),
             centre: Point::origin(),
             z_range: None,
+            z_seen: None,
             sampled: false,
             float32_step: None,
             lowest: CellGrid::new(CELL, [0.0, 0.0], f32::INFINITY),

@@ -241,10 +241,7 @@ pub fn locate(s: &Search, p: &SphereParams) -> Result<(SphereFit, Vec<Point>), S
     let (free, free_sigma) = free_fit(&surface, c.centre, r);
     // The sample was judged; all the points may tell its size better, and
     // say it is another (as `judge` says it).
-    if dense.is_some()
-        && 3.0 * free_sigma <= told * r
-        && !((free - r).abs() <= (3.0 * free_sigma).max(0.1 * r))
-    {
+    if dense.is_some() && 3.0 * free_sigma <= told * r && another_size(free, free_sigma, r) {
         return Err(SphereError::NoSphere {
             radius: p.search_radius_m,
             diameter_mm: 2e3 * r,
@@ -307,6 +304,12 @@ fn densified(
     let grid = Grid::new(&near, r + tol0);
     let d = refine(&near, &grid, c.centre, r, tol0, up, c.wall);
     (d.inliers.len() >= c.inliers.len() && d.rms <= 0.25 * r).then_some((near, grid, d))
+}
+
+/// A free fit of radius `free` ± `sigma` tells a sphere of another size than
+/// `r`: beyond three σ and a tenth of `r` (or no number at all).
+fn another_size(free: f64, sigma: f64, r: f64) -> bool {
+    !((free - r).abs() <= (3.0 * sigma).max(0.1 * r))
 }
 
 /// Steps 1-3 for a sphere of radius `r`: the candidates, each judged
@@ -820,7 +823,7 @@ fn judge(
             2e3 * sigma
         ));
     }
-    if !(free - r).abs().is_finite() || (free - r).abs() > (3.0 * sigma).max(0.1 * r) {
+    if another_size(free, sigma, r) {
         // With its ± : fitted on points chosen for the size given, it leans
         // toward it, and a hint fitted at the size standing there may name
         // another number.

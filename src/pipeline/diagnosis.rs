@@ -73,20 +73,26 @@ pub(super) fn too_small_for_survey(
     )))
 }
 
-/// A map whose up may not be its +z, told from its extent: its lowest
-/// points spread over more height (tens of metres) than three times its
-/// narrower horizontal extent, where a site's ground spreads across x and y
-/// and rises a few metres. Said only when no target was found anywhere (a
-/// narrow street between tall walls can look so too).
+/// A map whose up may not be its +z, told from its extent: little of it is
+/// ground facing +z, and its points spread over more height (tens of
+/// metres) than three times its narrower horizontal extent, where a site's
+/// ground spreads across x and y and rises a few metres. Said only
+/// when no target was found anywhere, and as a question (a mine drift or a
+/// stairwell without a floor seen can look so too).
 pub(super) fn up_not_z(map: &str, ground: &crate::frame::MapGround) -> Option<String> {
+    // Half the map's blocks flat and agreeing is a ground facing +z (a
+    // y-up synth scene: a quarter, its walls; z-up corridors, trails: 95 %).
+    if ground.flat_share() >= 0.5 {
+        return None;
+    }
     let span = ground.horizontal_span()?;
-    let relief = ground.lowest_relief()?;
+    let relief = ground.z_extent()?;
     let narrow = span[0].min(span[1]);
     // The narrower axis is the likelier up.
     let axis = if span[1] <= span[0] { "y" } else { "x" };
     (relief >= 10.0 && relief > 3.0 * narrow).then(|| {
         format!(
-            " Or its up is not +z: the map spans {:.0} × {:.0} m across x and y, and its lowest points {relief:.0} m in z, as a map written with {axis} up or down does (Open3D's or Unity's y-up convention, a camera's y-down); mapgauge takes +z as up: `mapgauge convert --map {map} --out map_z.pcd --up {axis}` (or --up -{axis}) turns it",
+            " Or was the map written with {axis} up or down (Open3D's or Unity's y-up convention, a camera's y-down)? Little of it is ground facing +z, it spans {:.0} × {:.0} m across x and y, and its points spread {relief:.0} m in z; mapgauge takes +z as up, and `mapgauge convert --map {map} --out map_z.pcd --up {axis}` (or --up -{axis}) turns such a map",
             span[0], span[1]
         )
     })

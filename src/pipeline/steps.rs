@@ -39,8 +39,10 @@ pub(super) fn evaluate(
     }
     let mut run = Run::new(source, survey, crops_dir, cfg, report);
     let (ground, mut map) = run.ground_pass()?;
-    let (mut motion, turning) =
-        first_levelling(source, &ground, run.no_turn, cfg, &mut run.warnings);
+    // `--align none` scores the map in the survey frame as it is: nothing
+    // may turn it.
+    let no_turn = cfg.metrics.align == crate::align::AlignMethod::None;
+    let (mut motion, turning) = first_levelling(source, &ground, no_turn, cfg, &mut run.warnings);
     run.turning = turning;
     let mut guess = run.first_guess(&ground, &motion)?;
     let first = run.first_pass_at(&ground, &motion);
@@ -91,9 +93,6 @@ struct Run<'a, R> {
     crop_params: LooseParams,
     /// The map's bytes (0 for points in memory): each pass's progress total.
     total: u64,
-    /// `--align none` scores the map in the survey frame as it is: nothing
-    /// may turn it.
-    no_turn: bool,
     /// What may turn the frame, once the map's header was read.
     turning: vertical::Turning,
     warnings: Vec<Warning>,
@@ -154,7 +153,6 @@ impl<'a, R: FnMut(Progress)> Run<'a, R> {
             cfg,
             crop_params,
             total,
-            no_turn: cfg.metrics.align == crate::align::AlignMethod::None,
             turning: vertical::Turning::Free,
             warnings,
             reads: Vec::new(),

@@ -603,32 +603,37 @@ fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
             )
         })
         .collect();
-    let las_path = dir.path().join("geo.las");
-    let mut b = las::Builder::from((1, 4));
-    b.point_format = las::point::Format::new(0).unwrap();
-    let t = |scale: f64, offset: f64| las::Transform { scale, offset };
-    b.transforms = las::Vector {
-        x: t(1e-9, lon0),
-        y: t(1e-9, lat0),
-        z: t(1e-4, 0.0),
+    // A LAS of `pts` declaring `wkt`, x and y stored to `step`.
+    let write_las = |path: &Path, wkt: &[u8], pts: &[mapgauge::Point], step: f64| {
+        let mut b = las::Builder::from((1, 4));
+        b.point_format = las::point::Format::new(0).unwrap();
+        let t = |scale: f64, offset: f64| las::Transform { scale, offset };
+        b.transforms = las::Vector {
+            x: t(step, pts[0].x.round()),
+            y: t(step, pts[0].y.round()),
+            z: t(1e-4, 0.0),
+        };
+        let mut h = b.into_header().unwrap();
+        h.set_wkt_crs(wkt.to_vec()).unwrap();
+        let mut w = las::Writer::from_path(path, h).unwrap();
+        for p in pts {
+            w.write_point(las::Point {
+                x: p.x,
+                y: p.y,
+                z: p.z,
+                ..Default::default()
+            })
+            .unwrap();
+        }
+        w.close().unwrap();
     };
-    let mut h = b.into_header().unwrap();
-    h.set_wkt_crs(
-        br#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],UNIT["degree",0.0174532925199433]]"#
-            .to_vec(),
-    )
-    .unwrap();
-    let mut w = las::Writer::from_path(&las_path, h).unwrap();
-    for p in &deg {
-        w.write_point(las::Point {
-            x: p.x,
-            y: p.y,
-            z: p.z,
-            ..Default::default()
-        })
-        .unwrap();
-    }
-    w.close().unwrap();
+    let las_path = dir.path().join("geo.las");
+    write_las(
+        &las_path,
+        br#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],UNIT["degree",0.0174532925199433]]"#,
+        &deg,
+        1e-9,
+    );
     let err = eval_refused(&las_path, &survey, &[]);
     assert!(
         err.contains("geographic coordinate reference system (WGS 84)")
@@ -644,6 +649,51 @@ fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
         .unwrap();
     assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     assert!(stderr(&o).contains("EPSG:32633"), "{}", stderr(&o));
+    // Metres across, heights in US survey feet (a compound CRS): z alone
+    // is converted, and the map converted so is scored.
+    let ft = dir.path().join("ft.las");
+    let heights_ft: Vec<mapgauge::Point> = mapgauge::cloud::read_all(&map)
+        .unwrap()
+        .iter()
+        .map(|p| mapgauge::Point::new(p.x, p.y, p.z * 3937.0 / 1200.0))
+        .collect();
+    write_las(
+        &ft,
+        br#"COMPD_CS["local UTM + height (ftUS)",PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",UNIT["degree",0.0174532925199433]],UNIT["metre",1]],VERT_CS["height (ftUS)",UNIT["US survey foot",0.304800609601219]]]"#,
+        &heights_ft,
+        1e-4,
+    );
+    let err = eval_refused(&ft, &survey, &[]);
+    assert!(
+        err.contains("whose heights are in the US survey foot")
+            && err.contains("--scale-z 0.304800609601219`"),
+        "{err}"
+    );
+    let back = dir.path().join("ft_m.las");
+    let said = stdout_ok(
+        bin()
+            .args(["convert", "--scale-z", "0.304800609601219", "--map"])
+            .arg(&ft)
+            .arg("--out")
+            .arg(&back),
+    );
+    assert!(said.contains("z × 0.304800609601219"), "{said}");
+    let out = dir.path().join("out-ft");
+    stdout_ok(
+        bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(&back)
+            .arg("--survey")
+            .arg(&survey)
+            .arg("--out")
+            .arg(&out),
+    );
+    let csv = std::fs::read_to_string(out.join("targets.csv")).unwrap();
+    assert_eq!(
+        csv.lines().filter(|l| l.contains(",ok,")).count(),
+        5,
+        "{csv}"
+    );
     // Without a header to say so: the extent tells.
     let pcd = dir.path().join("geo.pcd");
     mapgauge::cloud::write(&pcd, mapgauge::cloud::OutFormat::Pcd, &deg).unwrap();
@@ -672,7 +722,7 @@ fn a_map_with_y_up_is_named_and_convert_up_turns_it() {
     mapgauge::cloud::write(&path, mapgauge::cloud::OutFormat::Pcd, &yup).unwrap();
     let err = eval_refused(&path, &survey, &[]);
     assert!(
-        err.contains("Or its up is not +z") && err.contains("--up y`"),
+        err.contains("Or was the map written with y up or down") && err.contains("--up y`"),
         "{err}"
     );
     let back = dir.path().join("z.pcd");
@@ -876,7 +926,7 @@ fn a_survey_of_other_places_and_a_map_without_targets_are_told_apart() {
             && e.contains("The map holds none of the surveyed targets")
             && !e.contains("another frame")
             // A level site is not taken for a map with another up.
-            && !e.contains("Or its up is not +z"),
+            && !e.contains("Or was the map written with"),
         "{e}"
     );
 }

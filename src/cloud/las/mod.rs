@@ -21,12 +21,14 @@ use std::path::Path;
 
 mod chunked;
 mod copc;
+mod crs;
 mod laz_check;
 mod octree;
 mod sink;
 #[cfg(test)]
 mod tests;
 
+pub(super) use crs::{Crs, crs_of, declared_crs};
 pub(super) use sink::las_sink;
 
 /// One LASzip chunk: where its bytes are and how many points to decode.
@@ -67,193 +69,6 @@ fn push_record(r: &[u8], t: &las::Vector<las::Transform>, out: &mut Vec<Point>) 
 #[inline]
 fn record_intensity(r: &[u8]) -> f32 {
     f32::from(u16::from_le_bytes([r[12], r[13]]))
-}
-
-/// The projected or geographic coordinate reference system a LAS/LAZ/COPC
-/// header declares (a `LASF_Projection` record: OGC WKT or GeoTIFF keys),
-/// named for a user (`EPSG:32633`, or the WKT's first name); `None` when it
-/// declares none, only a local or engineering one (a SLAM map's own frame
-/// written with a CRS record), an Earth-centred one (x, y, z about the
-/// Earth's centre: z is not up), or the header cannot be read (the points'
-/// reader says why).
-pub(super) fn declared_crs(path: &Path) -> Option<String> {
-    crs_of(path).map(|c| c.name)
-}
-
-/// A declared CRS whose x and y are longitude and latitude in degrees, with
-/// the middle of the header's bounds (lon, lat): a map no metre-based
-/// measure can read as it is.
-pub(super) fn geographic_crs(path: &Path) -> Option<(String, [f64; 2])> {
-    // A header can be wrong: lone-star.laz (PDAL) names EPSG:4326 over UTM
-    // coordinates. Its bounds must read as longitude and latitude too.
-    crs_of(path)
-        .filter(|c| c.degrees && c.middle[0].abs() <= 180.0 && c.middle[1].abs() <= 90.0)
-        .map(|c| (c.name, c.middle))
-}
-
-/// A declared length unit other than the metre (US survey feet for many
-/// State Plane maps): its name and its length in metres.
-pub(super) fn length_unit(path: &Path) -> Option<(String, String, f64)> {
-    crs_of(path).and_then(|c| c.unit.map(|(u, m)| (c.name, u, m)))
-}
-
-/// A header's Earth CRS: its name, whether its x and y are degrees, the
-/// middle of the header's x, y bounds, and its length unit.
-struct Crs {
-    name: String,
-    degrees: bool,
-    middle: [f64; 2],
-    /// A length unit other than the metre: its name and metres.
-    unit: Option<(String, f64)>,
-}
-
-fn crs_of(path: &Path) -> Option<Crs> {
-    let reader = las::Reader::from_path(path).ok()?;
-    let h = reader.header();
-    let b = h.bounds();
-    let middle = [(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0];
-    if let Some(wkt) = h.get_wkt_crs_bytes() {
-        let wkt = String::from_utf8_lossy(wkt);
-        let degrees = match wkt_horizontal(&wkt)? {
-            WktKind::Projected => false,
-            WktKind::Geographic => true,
-        };
-        return Some(Crs {
-            name: wkt_name(&wkt),
-            degrees,
-            middle,
-            unit: wkt_length_unit(&wkt),
-        });
-    }
-    let keys = h.get_geotiff_crs().ok()??;
-    // An EPSG code names it; user-defined (32767) and omitted (0) do not,
-    // but a model type of projected (1) or geographic (2) still says the
-    // frame is the Earth's. Degrees: a geographic model, or a geodetic code
-    // without a projected one (a model type of 3, Earth-centred, is taken
-    // at its code: real files carry it over projected coordinates).
-    let known = |c: Option<u16>| c.filter(|&c| c != 0 && c != 32767);
-    let projected = known(keys.get_projected_crs_geo_key_value());
-    let geodetic = known(keys.get_geodetic_crs_geo_key_value());
-    let model = keys.get_gt_model_type_geo_key_value();
-    let degrees =
-        model == Some(2) || (projected.is_none() && geodetic.is_some() && model != Some(3));
-    let name = match (projected.or(geodetic), model) {
-        (Some(c), _) => format!("EPSG:{c}"),
-        (None, Some(1)) => "a user-defined projected CRS".into(),
-        (None, Some(2)) => "a user-defined geographic CRS".into(),
-        _ => return None,
-    };
-    // ProjLinearUnitsGeoKey and VerticalUnitsGeoKey: EPSG unit codes.
-    let unit = keys
-        .entries
-        .iter()
-        .filter(|k| k.id == 3076 || k.id == 4099)
-        .find_map(|k| match k.data {
-            las::crs::GeoTiffData::U16(c) => epsg_length_unit(c),
-            _ => None,
-        });
-    Some(Crs {
-        name,
-        degrees,
-        middle,
-        unit,
-    })
-}
-
-/// The EPSG length units a LAS header names other than the metre (9001).
-fn epsg_length_unit(code: u16) -> Option<(String, f64)> {
-    let (name, m) = match code {
-        9002 => ("foot", 0.3048),
-        9003 => ("US survey foot", 1200.0 / 3937.0),
-        9005 => ("Clarke's foot", 0.3047972654),
-        9036 => ("kilometre", 1000.0),
-        _ => return None,
-    };
-    Some((name.to_string(), m))
-}
-
-/// A WKT's length unit other than the metre: the first `UNIT` (WKT 1) or
-/// `LENGTHUNIT` (WKT 2) that is not an angle (a geographic CRS's degree,
-/// 0.01745…) and whose factor is not 1.
-fn wkt_length_unit(wkt: &str) -> Option<(String, f64)> {
-    let upper = wkt.to_ascii_uppercase();
-    let mut rest = upper.as_str();
-    let mut offset = 0;
-    while let Some(i) = rest.find("UNIT[") {
-        let start = offset + i + "UNIT[".len();
-        let body = &wkt[start..];
-        let body = &body[..body.find(']').unwrap_or(body.len())];
-        let mut parts = body.split(',');
-        let name = parts
-            .next()
-            .unwrap_or("")
-            .trim()
-            .trim_matches('"')
-            .to_string();
-        let factor = parts.next().and_then(|f| f.trim().parse::<f64>().ok());
-        let before = &upper[..start - "UNIT[".len()];
-        // WKT 2's SCALEUNIT, TIMEUNIT, ANGLEUNIT… are no length.
-        let length = before.ends_with("LENGTH")
-            || !before.ends_with(|c: char| c.is_ascii_alphanumeric() || c == '_');
-        let angular = !length
-            || name.to_ascii_lowercase().contains("degree")
-            || name.to_ascii_lowercase().contains("radian")
-            || name.to_ascii_lowercase().contains("grad");
-        if let Some(f) = factor
-            && !angular
-            && f > 0.0
-            && (f - 1.0).abs() > 1e-9
-        {
-            return Some((name, f));
-        }
-        offset = start;
-        rest = &upper[start..];
-    }
-    None
-}
-
-enum WktKind {
-    Projected,
-    Geographic,
-}
-
-/// What a WKT's horizontal axes are, from its first CRS keyword (a compound
-/// or bound CRS wraps its horizontal one; WKT 1's `PROJCS` holds a `GEOGCS`
-/// after its own): `None` for a local, engineering or Earth-centred one.
-fn wkt_horizontal(wkt: &str) -> Option<WktKind> {
-    // Each keyword is the word before a `[` (or WKT 2's `(`).
-    let words = wkt.split(['[', '(']).filter_map(|s| {
-        s.rsplit(|c: char| !c.is_ascii_alphanumeric() && c != '_')
-            .next()
-            .filter(|w| !w.is_empty())
-    });
-    for w in words {
-        let w = w.to_ascii_uppercase();
-        match w.as_str() {
-            "PROJCS" | "PROJCRS" | "PROJECTEDCRS" => return Some(WktKind::Projected),
-            "GEOGCS" | "GEOGCRS" | "GEOGRAPHICCRS" => return Some(WktKind::Geographic),
-            // WKT 2's geodetic CRS is geographic with an ellipsoidal
-            // coordinate system, Earth-centred with a Cartesian one.
-            "GEODCRS" | "GEODETICCRS" => {
-                let cartesian = wkt.to_ascii_uppercase().contains("CS[CARTESIAN");
-                return (!cartesian).then_some(WktKind::Geographic);
-            }
-            "GEOCCS" | "LOCAL_CS" | "ENGCRS" | "ENGINEERINGCRS" | "VERT_CS" | "VERTCRS" => {
-                return None;
-            }
-            _ => {}
-        }
-    }
-    None
-}
-
-/// A WKT's name: its first quoted string (`PROJCS["WGS 84 / UTM zone 33N", …`).
-fn wkt_name(wkt: &str) -> String {
-    let mut parts = wkt.split('"');
-    match (parts.next(), parts.next()) {
-        (Some(_), Some(name)) if !name.trim().is_empty() => name.trim().to_string(),
-        _ => "a WKT coordinate system".into(),
-    }
 }
 
 /// Opens a LAS file for streaming (a COPC file reads its octree's nodes).

@@ -188,3 +188,27 @@ fn finds_the_tilt_of_a_tilted_yard_with_a_ramp_and_a_wall() {
         assert!((a.z - b.z).abs() < 0.05, "{} {}", a.z, b.z);
     }
 }
+
+/// The measures that tell a map written with y up: the yard as mapped has
+/// its ground flat over most blocks (a stray point 60 m below it, which
+/// stretches its z extent, does not change that); the same yard with y up
+/// is little flat, 3 m across y and spreads over 60 m in z.
+#[test]
+fn a_yard_written_with_y_up_shows_little_flat_ground_and_a_deep_extent() {
+    let mut pts = site(0.0);
+    let c = pts[0];
+    pts.push(Point::new(c.x + 30.0, c.y + 30.0, c.z - 60.0));
+    let yard = ground_level(MapSource::Points(&pts), None, None, |_| {}).unwrap();
+    assert!(yard.flat_share() > 0.6, "{}", yard.flat_share());
+    let span = yard.horizontal_span().unwrap();
+    assert!(span[0] >= 60.0 && span[1] >= 60.0, "{span:?}");
+    let yup: Vec<Point> = site(0.0)
+        .iter()
+        .map(|p| Point::new(p.x, p.z, -p.y))
+        .collect();
+    let turned = ground_level(MapSource::Points(&yup), None, None, |_| {}).unwrap();
+    assert!(turned.flat_share() < 0.5, "{}", turned.flat_share());
+    assert!(turned.z_extent().unwrap() > 59.0);
+    let span = turned.horizontal_span().unwrap();
+    assert!(span[1] < 5.0, "{span:?}");
+}

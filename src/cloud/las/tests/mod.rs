@@ -247,72 +247,15 @@ fn all_of(path: &Path, copc: bool, chunked: bool) -> Result<(Vec<Point>, ReadSta
     Ok((all, r.stats(), r.bytes_read()))
 }
 
-/// Whether a WKT's x and y are degrees: its first CRS keyword (the
-/// horizontal one of a compound CRS, the projected one that holds a
-/// geographic base); an Earth-centred or local CRS is neither.
+/// A real file's GeoTIFF keys: Autzen is in feet (EPSG:2994, unit 9002).
 #[test]
-fn a_wkt_tells_degrees_from_metres() {
-    let kind = |w: &str| match wkt_horizontal(w) {
-        Some(WktKind::Projected) => "projected",
-        Some(WktKind::Geographic) => "geographic",
-        None => "none",
-    };
-    for (wkt, want) in [
-        (r#"GEOGCS["WGS 84",DATUM["WGS_1984"]]"#, "geographic"),
-        (
-            r#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84"]]"#,
-            "projected",
-        ),
-        (r#"PROJCRS["UTM 33N",BASEGEOGCRS["WGS 84"]]"#, "projected"),
-        (r#"GEOGCRS["WGS 84",CS[ellipsoidal,2]]"#, "geographic"),
-        (r#"GEODCRS["WGS 84",CS[ellipsoidal,3]]"#, "geographic"),
-        (r#"GEODCRS["WGS 84",CS[Cartesian,3]]"#, "none"),
-        (r#"GEOCCS["WGS 84 (geocentric)",DATUM["WGS_1984"]]"#, "none"),
-        (
-            r#"COMPD_CS["WGS 84 + EGM96",GEOGCS["WGS 84"],VERT_CS["EGM96"]]"#,
-            "geographic",
-        ),
-        (
-            r#"COMPOUNDCRS["UTM + NAVD88",PROJCRS["UTM"],VERTCRS["NAVD88"]]"#,
-            "projected",
-        ),
-        (
-            r#"BOUNDCRS[SOURCECRS[GEOGCRS["NAD27"]],TARGETCRS[GEOGCRS["WGS 84"]]]"#,
-            "geographic",
-        ),
-        (r#"LOCAL_CS["SLAM map",UNIT["metre",1]]"#, "none"),
-        ("garbage", "none"),
-    ] {
-        assert_eq!(kind(wkt), want, "{wkt}");
-    }
-}
-
-/// A WKT's length unit: a State Plane map's foot, not the degree of its
-/// geographic base nor a transformation's scale.
-#[test]
-fn a_wkt_names_its_length_unit() {
-    let unit = |w: &str| wkt_length_unit(w).map(|(n, m)| format!("{n} {m}"));
-    let feet = r#"PROJCS["NAD83 / Oregon",GEOGCS["NAD83",UNIT["degree",0.0174532925199433]],PARAMETER["false_easting",1312335.958005249],UNIT["foot",0.3048,AUTHORITY["EPSG","9002"]]]"#;
-    assert_eq!(unit(feet).as_deref(), Some("foot 0.3048"));
-    let us = r#"PROJCRS["NAD83 / Texas",BASEGEOGCRS["NAD83",ANGLEUNIT["degree",0.0174532925199433]],CS[Cartesian,2],LENGTHUNIT["US survey foot",0.304800609601219]]"#;
-    assert_eq!(
-        unit(us).as_deref(),
-        Some("US survey foot 0.304800609601219")
-    );
-    for metres in [
-        r#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",UNIT["degree",0.0174532925199433]],UNIT["metre",1,AUTHORITY["EPSG","9001"]]]"#,
-        r#"BOUNDCRS[SOURCECRS[PROJCRS["UTM",LENGTHUNIT["metre",1]]],ABRIDGEDTRANSFORMATION[PARAMETER["Scale difference",1,SCALEUNIT["parts per million",1E-06]]]]"#,
-        r#"GEOGCS["WGS 84",UNIT["degree",0.0174532925199433]]"#,
-    ] {
-        assert_eq!(unit(metres), None, "{metres}");
-    }
-    // A real file's GeoTIFF keys: Autzen is in feet (EPSG:2994, unit 9002).
+fn a_geotiff_header_names_its_length_unit() {
     let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/autzen.las");
-    let (name, u, m) = length_unit(&real).unwrap();
-    assert_eq!(
-        (name.as_str(), u.as_str(), m),
-        ("EPSG:2994", "foot", 0.3048)
-    );
+    let c = crs_of(&real).unwrap();
+    assert_eq!(c.name, "EPSG:2994");
+    assert!(!c.degrees);
+    assert_eq!(c.horizontal_unit, Some(("foot".to_string(), 0.3048)));
+    assert_eq!(c.vertical_unit, None);
 }
 
 /// A real airborne LAS declares its CRS by GeoTIFF keys (Autzen: EPSG:2994,
@@ -329,11 +272,6 @@ fn the_declared_crs_is_read_from_geotiff_keys() {
     let plain = dir.path().join("plain.las");
     write_with_crate(&plain, 0, (1, 2), &truth(10));
     assert_eq!(declared_crs(&plain), None);
-    assert_eq!(
-        wkt_name("PROJCS[\"WGS 84 / UTM zone 33N\",GEOGCS"),
-        "WGS 84 / UTM zone 33N"
-    );
-    assert_eq!(wkt_name("garbage"), "a WKT coordinate system");
     // A local frame written with a WKT record is no georeference.
     let mut b = las::Builder::from((1, 4));
     b.point_format = las::point::Format::new(0).unwrap();
