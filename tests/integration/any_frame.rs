@@ -676,33 +676,7 @@ fn a_levelled_maps_heights_move_within_the_stated_vertical_uncertainty() {
 /// its CRS when given.
 fn las_copy(scene: &Path, path: &Path, wkt: Option<&[u8]>) {
     let pts = mapgauge::cloud::read_all(&scene.join("map.pcd")).unwrap();
-    let c = pts[0];
-    let mut b = las::Builder::from((1, 4));
-    b.point_format = las::point::Format::new(0).unwrap();
-    let t = |offset: f64| las::Transform {
-        scale: 0.0001,
-        offset: offset.round(),
-    };
-    b.transforms = las::Vector {
-        x: t(c.x),
-        y: t(c.y),
-        z: t(c.z),
-    };
-    let mut h = b.into_header().unwrap();
-    if let Some(w) = wkt {
-        h.set_wkt_crs(w.to_vec()).unwrap();
-    }
-    let mut w = las::Writer::from_path(path, h).unwrap();
-    for p in &pts {
-        w.write_point(las::Point {
-            x: p.x,
-            y: p.y,
-            z: p.z,
-            ..Default::default()
-        })
-        .unwrap();
-    }
-    w.close().unwrap();
+    crate::util::write_las(path, wkt, &pts, 1e-4);
 }
 
 const UTM33: &[u8] = br#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84"]]"#;

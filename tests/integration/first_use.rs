@@ -2,7 +2,9 @@
 //! them, loose crops handed to `locate`, outputs that name files, flags that
 //! take negative numbers, and messages that name the remedy.
 
-use crate::util::{add_to, bin, edit_survey, stderr, stdout_ok, tempdir};
+use crate::util::{
+    add_to, bin, converted_scores, edit_survey, stderr, stdout_ok, tempdir, write_las,
+};
 use std::path::Path;
 use std::process::Command;
 
@@ -545,29 +547,12 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
     );
     // Loose: a loaded test machine; the refusal itself takes a tenth of it.
     assert!(secs < 30.0, "{secs} s");
-    let back = dir.path().join("m.pcd");
-    let said = stdout_ok(
-        bin()
-            .args(["convert", "--scale", "0.001", "--map"])
-            .arg(&mm)
-            .arg("--out")
-            .arg(&back),
-    );
-    assert!(said.contains("coordinates × 0.001"), "{said}");
-    let res = stdout_ok(
-        bin()
-            .args(["eval", "--no-report", "--map"])
-            .arg(&back)
-            .arg("--survey")
-            .arg(&survey)
-            .arg("--out")
-            .arg(dir.path().join("out-m")),
-    );
-    let csv = std::fs::read_to_string(dir.path().join("out-m/targets.csv")).unwrap();
-    assert_eq!(
-        csv.lines().filter(|l| l.contains(",ok,")).count(),
+    converted_scores(
+        &mm,
+        &["--scale", "0.001"],
+        "coordinates × 0.001",
+        &survey,
         5,
-        "{res}\n{csv}"
     );
     let bad = bin()
         .args(["convert", "--scale", "0", "--map"])
@@ -603,34 +588,10 @@ fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
             )
         })
         .collect();
-    // A LAS of `pts` declaring `wkt`, x and y stored to `step`.
-    let write_las = |path: &Path, wkt: &[u8], pts: &[mapgauge::Point], step: f64| {
-        let mut b = las::Builder::from((1, 4));
-        b.point_format = las::point::Format::new(0).unwrap();
-        let t = |scale: f64, offset: f64| las::Transform { scale, offset };
-        b.transforms = las::Vector {
-            x: t(step, pts[0].x.round()),
-            y: t(step, pts[0].y.round()),
-            z: t(1e-4, 0.0),
-        };
-        let mut h = b.into_header().unwrap();
-        h.set_wkt_crs(wkt.to_vec()).unwrap();
-        let mut w = las::Writer::from_path(path, h).unwrap();
-        for p in pts {
-            w.write_point(las::Point {
-                x: p.x,
-                y: p.y,
-                z: p.z,
-                ..Default::default()
-            })
-            .unwrap();
-        }
-        w.close().unwrap();
-    };
     let las_path = dir.path().join("geo.las");
     write_las(
         &las_path,
-        br#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],UNIT["degree",0.0174532925199433]]"#,
+        Some(br#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],UNIT["degree",0.0174532925199433]]"#),
         &deg,
         1e-9,
     );
@@ -659,7 +620,7 @@ fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
         .collect();
     write_las(
         &ft,
-        br#"COMPD_CS["local UTM + height (ftUS)",PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",UNIT["degree",0.0174532925199433]],UNIT["metre",1]],VERT_CS["height (ftUS)",UNIT["US survey foot",0.304800609601219]]]"#,
+        Some(br#"COMPD_CS["local UTM + height (ftUS)",PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",UNIT["degree",0.0174532925199433]],UNIT["metre",1]],VERT_CS["height (ftUS)",UNIT["US survey foot",0.304800609601219]]]"#),
         &heights_ft,
         1e-4,
     );
@@ -669,30 +630,12 @@ fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
             && err.contains("--scale-z 0.304800609601219`"),
         "{err}"
     );
-    let back = dir.path().join("ft_m.las");
-    let said = stdout_ok(
-        bin()
-            .args(["convert", "--scale-z", "0.304800609601219", "--map"])
-            .arg(&ft)
-            .arg("--out")
-            .arg(&back),
-    );
-    assert!(said.contains("z × 0.304800609601219"), "{said}");
-    let out = dir.path().join("out-ft");
-    stdout_ok(
-        bin()
-            .args(["eval", "--no-report", "--map"])
-            .arg(&back)
-            .arg("--survey")
-            .arg(&survey)
-            .arg("--out")
-            .arg(&out),
-    );
-    let csv = std::fs::read_to_string(out.join("targets.csv")).unwrap();
-    assert_eq!(
-        csv.lines().filter(|l| l.contains(",ok,")).count(),
+    converted_scores(
+        &ft,
+        &["--scale-z", "0.304800609601219"],
+        "z × 0.304800609601219",
+        &survey,
         5,
-        "{csv}"
     );
     // Without a header to say so: the extent tells.
     let pcd = dir.path().join("geo.pcd");
@@ -725,31 +668,7 @@ fn a_map_with_y_up_is_named_and_convert_up_turns_it() {
         err.contains("Or was the map written with y up or down") && err.contains("--up y`"),
         "{err}"
     );
-    let back = dir.path().join("z.pcd");
-    let said = stdout_ok(
-        bin()
-            .args(["convert", "--up", "y", "--map"])
-            .arg(&path)
-            .arg("--out")
-            .arg(&back),
-    );
-    assert!(said.contains("turned so its y is +z"), "{said}");
-    let out = dir.path().join("out");
-    stdout_ok(
-        bin()
-            .args(["eval", "--no-report", "--map"])
-            .arg(&back)
-            .arg("--survey")
-            .arg(&survey)
-            .arg("--out")
-            .arg(&out),
-    );
-    let csv = std::fs::read_to_string(out.join("targets.csv")).unwrap();
-    assert_eq!(
-        csv.lines().filter(|l| l.contains(",ok,")).count(),
-        5,
-        "{csv}"
-    );
+    converted_scores(&path, &["--up", "y"], "turned so its y is +z", &survey, 5);
     // The map as written, not turned: the hint is not given.
     let err = eval_refused(&map, &dir.path().join("nowhere.csv"), &[]);
     assert!(!err.contains("Or its up is not +z"), "{err}");

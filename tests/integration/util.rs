@@ -111,3 +111,75 @@ pub fn oracle_corner(
     let y = (na.x * rb - nb.x * ra) / det;
     Some(near + Vector3::new(x, y, z))
 }
+
+/// `pts` written as LAS 1.4 (point format 0), with `wkt` as its CRS when
+/// given; x and y stored to `step`, z to 0.1 mm, about the first point.
+pub fn write_las(path: &std::path::Path, wkt: Option<&[u8]>, pts: &[mapgauge::Point], step: f64) {
+    let mut b = las::Builder::from((1, 4));
+    b.point_format = las::point::Format::new(0).unwrap();
+    let t = |scale: f64, offset: f64| las::Transform {
+        scale,
+        offset: offset.round(),
+    };
+    b.transforms = las::Vector {
+        x: t(step, pts[0].x),
+        y: t(step, pts[0].y),
+        z: t(1e-4, pts[0].z),
+    };
+    let mut h = b.into_header().unwrap();
+    if let Some(w) = wkt {
+        h.set_wkt_crs(w.to_vec()).unwrap();
+    }
+    let mut w = las::Writer::from_path(path, h).unwrap();
+    for p in pts {
+        w.write_point(las::Point {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    w.close().unwrap();
+}
+
+/// `convert` of `from` with `flags` (saying `told`), then `eval` of the
+/// map it wrote against `survey`: every one of the survey's `n` targets
+/// found.
+pub fn converted_scores(
+    from: &std::path::Path,
+    flags: &[&str],
+    told: &str,
+    survey: &std::path::Path,
+    n: usize,
+) {
+    let dir = from.parent().unwrap();
+    let stem = from.file_stem().unwrap().to_string_lossy();
+    let back = dir.join(format!("{stem}-converted.pcd"));
+    let said = stdout_ok(
+        bin()
+            .arg("convert")
+            .args(flags)
+            .arg("--map")
+            .arg(from)
+            .arg("--out")
+            .arg(&back),
+    );
+    assert!(said.contains(told), "{said}");
+    let out = dir.join(format!("{stem}-converted-out"));
+    stdout_ok(
+        bin()
+            .args(["eval", "--no-report", "--map"])
+            .arg(&back)
+            .arg("--survey")
+            .arg(survey)
+            .arg("--out")
+            .arg(&out),
+    );
+    let csv = std::fs::read_to_string(out.join("targets.csv")).unwrap();
+    assert_eq!(
+        csv.lines().filter(|l| l.contains(",ok,")).count(),
+        n,
+        "{csv}"
+    );
+}
