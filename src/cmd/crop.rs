@@ -53,6 +53,8 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     check_args(&a)?;
     super::check_out_dir(&a.out)?;
+    // Radii and plate sizes are metres, as in `eval`.
+    cloud::refuse_non_metric(&a.map)?;
     let projector = cloud::map_projector(&a.map)?;
     let survey = read_survey_for_map(
         &a.survey,

@@ -569,7 +569,7 @@ fn a_map_in_millimetres_is_refused_in_bounded_memory_and_convert_scale_fixes_it(
 /// site in a centimetre: every surveyed place showed "no map points" and the
 /// user was asked whether it was the map of the site. A LAS whose header
 /// declares a geographic CRS is refused before any pass, naming the UTM zone
-/// to reproject to (`eval` and `detect`); a PCD in degrees, which cannot say
+/// to reproject to (`eval`, `detect` and `crop`); a PCD in degrees, which cannot say
 /// so, is refused after the ground pass by its extent set against the
 /// survey's.
 #[test]
@@ -606,6 +606,18 @@ fn a_map_in_degrees_is_refused_with_the_zone_to_reproject_to() {
         .arg("detect")
         .arg("--map")
         .arg(&las_path)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(stderr(&o).contains("EPSG:32633"), "{}", stderr(&o));
+    let o = bin()
+        .arg("crop")
+        .arg("--map")
+        .arg(&las_path)
+        .arg("--survey")
+        .arg(&survey)
+        .arg("--out")
+        .arg(dir.path().join("crops"))
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
