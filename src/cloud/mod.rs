@@ -351,15 +351,14 @@ pub fn refuse_non_metric(path: &Path) -> Result<()> {
         )));
     }
     let said = |(u, m): &(String, f64)| format!("the {u} ({m} m)");
-    let (what, flags) = match (&horizontal_unit, &vertical_unit) {
+    // Heights are in the projected CRS's unit unless a vertical CRS says
+    // otherwise (Autzen's elevations are in feet; Texas State Plane feet
+    // over NAVD88 metres is common).
+    let vertical = vertical_unit.filter(|v| Some(v.1) != horizontal_unit.as_ref().map(|h| h.1));
+    let (what, flags) = match (&horizontal_unit, &vertical) {
         (None, None) => return Ok(()),
-        // Heights in the projected CRS's unit unless a vertical CRS says
-        // otherwise (Autzen's elevations are in feet).
+        (None, Some(v)) if v.1 == 1.0 => return Ok(()),
         (Some(h), None) => (
-            format!("whose unit is {}", said(h)),
-            format!("--scale {}", h.1),
-        ),
-        (Some(h), Some(v)) if h.1 == v.1 => (
             format!("whose unit is {}", said(h)),
             format!("--scale {}", h.1),
         ),

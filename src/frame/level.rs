@@ -112,22 +112,22 @@ impl MapGround {
     }
 
     /// The share of the map's 2 m blocks (those with ten or more cells
-    /// seen) that are flat ground facing within 20° of +z and agree on its
-    /// vertical: most, on a site mapped z up; a few walls, on one mapped y
-    /// up (its walls are its "floors").
+    /// seen) whose lowest points are flat and face within 20° of +z: most,
+    /// on a site mapped z up (a stairwell's landings, a hillside trail);
+    /// a few walls, on one mapped y up (its walls are its "floors").
     pub fn flat_share(&self) -> f64 {
-        let mut blocks: HashMap<(i64, i64), u32> = HashMap::new();
-        for (k, z) in self.lowest.cells() {
-            if z.is_finite() {
-                *blocks
-                    .entry((k.0.div_euclid(BLOCK), k.1.div_euclid(BLOCK)))
-                    .or_default() += 1;
-            }
-        }
-        let eligible = blocks.values().filter(|&&n| n >= 10).count();
-        match &self.level {
-            Some(l) if eligible > 0 => l.blocks as f64 * l.support / eligible as f64,
-            _ => 0.0,
+        let blocks = blocks_of(&self.lowest);
+        let eligible = blocks.values().filter(|c| c.len() >= 10).count();
+        let min_cos = MAX_SLOPE_DEG.to_radians().cos();
+        let flat = blocks
+            .values()
+            .filter_map(|c| block_normal(c))
+            .filter(|n| n.z >= min_cos)
+            .count();
+        if eligible == 0 {
+            0.0
+        } else {
+            flat as f64 / eligible as f64
         }
     }
 
@@ -497,9 +497,8 @@ fn level_of(grid: &CellGrid<f32>, centre: Point) -> Option<GroundLevel> {
     })
 }
 
-/// The mode of planar blocks' normals: (up, blocks, share within 1°).
-fn estimate(grid: &CellGrid<f32>) -> Option<(Vector3<f64>, usize, f64)> {
-    // Block → cells (local x, y, z).
+/// Each 2 m block's cells with a lowest point (local x, y, z).
+fn blocks_of(grid: &CellGrid<f32>) -> HashMap<(i64, i64), Vec<[f64; 3]>> {
     let mut blocks: HashMap<(i64, i64), Vec<[f64; 3]>> = HashMap::new();
     for (k, &z) in grid.cells() {
         if z.is_finite() {
@@ -509,6 +508,12 @@ fn estimate(grid: &CellGrid<f32>) -> Option<(Vector3<f64>, usize, f64)> {
             blocks.entry(b).or_default().push([x, y, z as f64]);
         }
     }
+    blocks
+}
+
+/// The mode of planar blocks' normals: (up, blocks, share within 1°).
+fn estimate(grid: &CellGrid<f32>) -> Option<(Vector3<f64>, usize, f64)> {
+    let blocks = blocks_of(grid);
     let mut keys: Vec<(i64, i64)> = blocks.keys().copied().collect();
     keys.sort_unstable();
     let min_cos = MAX_SLOPE_DEG.to_radians().cos();

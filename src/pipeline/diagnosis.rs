@@ -74,14 +74,15 @@ pub(super) fn too_small_for_survey(
 }
 
 /// A map whose up may not be its +z, told from its extent: little of it is
-/// ground facing +z, and its points spread over more height (tens of
-/// metres) than three times its narrower horizontal extent, where a site's
+/// ground facing +z, from above it is a strip (three times longer than
+/// wide), and its points spread over more height (tens of metres) than
+/// three times the strip's width and a third of its length, where a site's
 /// ground spreads across x and y and rises a few metres. Said only
 /// when no target was found anywhere, and as a question (a mine drift or a
 /// stairwell without a floor seen can look so too).
 pub(super) fn up_not_z(map: &str, ground: &crate::frame::MapGround) -> Option<String> {
-    // Half the map's blocks flat and agreeing is a ground facing +z (a
-    // y-up synth scene: a quarter, its walls; z-up corridors, trails: 95 %).
+    // Half the map's blocks flat is a ground facing +z (a y-up synth scene:
+    // a quarter, its walls; z-up corridors, trails, stairwells: most).
     if ground.flat_share() >= 0.5 {
         return None;
     }
@@ -90,7 +91,13 @@ pub(super) fn up_not_z(map: &str, ground: &crate::frame::MapGround) -> Option<St
     let narrow = span[0].min(span[1]);
     // The narrower axis is the likelier up.
     let axis = if span[1] <= span[0] { "y" } else { "x" };
-    (relief >= 10.0 && relief > 3.0 * narrow).then(|| {
+    // A site written y up is a strip from above (its height across, its
+    // length along) and deep in z (its width); a stairwell is no strip, a
+    // hillside trail or a mine drift is one but rises a fraction of its
+    // length.
+    let long = span[0].max(span[1]);
+    let strip = long >= 3.0 * narrow;
+    (relief >= 10.0 && relief > 3.0 * narrow && strip && relief >= 0.3 * long).then(|| {
         format!(
             " Or was the map written with {axis} up or down (Open3D's or Unity's y-up convention, a camera's y-down)? Little of it is ground facing +z, it spans {:.0} × {:.0} m across x and y, and its points spread {relief:.0} m in z; mapgauge takes +z as up, and `mapgauge convert --map {map} --out map_z.pcd --up {axis}` (or --up -{axis}) turns such a map",
             span[0], span[1]
@@ -535,4 +542,95 @@ pub(super) fn check_map(
         warnings.push(w);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::up_not_z;
+    use crate::Point;
+    use crate::cloud::MapSource;
+
+    /// A small random step, the same every run.
+    fn jitter(s: &mut u64) -> f64 {
+        *s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*s >> 33) as f64) / (1u64 << 31) as f64 - 0.5
+    }
+
+    fn asked(pts: &[Point]) -> bool {
+        let g = crate::frame::ground_level(MapSource::Points(pts), None, None, |_| {}).unwrap();
+        up_not_z("m", &g).is_some()
+    }
+
+    /// The y-up question (review of 8 Dec 2026): asked of a wooded site
+    /// written with y up; not of a stairwell 16 m tall on a 5 m plan, nor
+    /// of a 300 m trail climbing 45 m through rough ground, both z up.
+    #[test]
+    fn only_a_strip_deep_in_z_is_asked_about_its_up() {
+        let mut s = 1u64;
+        // A 120 × 60 m site with a tree (12 m) every 10 m.
+        let mut site = Vec::new();
+        for i in 0..600 {
+            for j in 0..300 {
+                let (x, y) = (i as f64 * 0.2, j as f64 * 0.2);
+                site.push(Point::new(x, y, 0.01 * jitter(&mut s)));
+            }
+        }
+        for tx in 0..12 {
+            for ty in 0..6 {
+                for h in 0..60 {
+                    let z = h as f64 * 0.2;
+                    site.push(Point::new(
+                        5.0 + 10.0 * tx as f64,
+                        5.0 + 10.0 * ty as f64,
+                        z,
+                    ));
+                }
+            }
+        }
+        let yup: Vec<Point> = site.iter().map(|p| Point::new(p.x, p.z, -p.y)).collect();
+        assert!(!asked(&site));
+        assert!(asked(&yup));
+        // An open stairwell: flights of 22° (steeper than ground), one
+        // above the other every 2 m, walls all round; no floor seen.
+        let mut stair = Vec::new();
+        for k in 0..8 {
+            for i in 0..25 {
+                for j in 0..13 {
+                    let (x, y) = (i as f64 * 0.2, j as f64 * 0.2 + 2.5 * (k % 2) as f64);
+                    stair.push(Point::new(x, y, 2.0 * k as f64 + 0.4 * x));
+                }
+            }
+        }
+        for h in 0..90 {
+            for t in 0..25 {
+                let (t, z) = (t as f64 * 0.2, h as f64 * 0.2);
+                stair.extend([
+                    Point::new(t, 0.0, z),
+                    Point::new(t, 5.0, z),
+                    Point::new(0.0, t, z),
+                    Point::new(5.0, t, z),
+                ]);
+            }
+        }
+        assert!(!asked(&stair));
+        // A trail 10 m wide climbing 45 m over 300 m, its ground rough
+        // (a point every 0.5 m, stones of ±20 cm: no block flat), trees
+        // 15 m tall every 10 m.
+        let mut trail = Vec::new();
+        for i in 0..600 {
+            for j in 0..20 {
+                let (x, y) = (i as f64 * 0.5 + 0.25, j as f64 * 0.5 + 0.25);
+                trail.push(Point::new(x, y, 0.15 * x + 0.4 * jitter(&mut s)));
+            }
+            if i % 20 == 0 {
+                let x = i as f64 * 0.5 + 0.25;
+                for h in 0..75 {
+                    trail.push(Point::new(x, 5.25, 0.15 * x + h as f64 * 0.2));
+                }
+            }
+        }
+        assert!(!asked(&trail));
+    }
 }

@@ -19,8 +19,9 @@ pub(crate) struct Crs {
     pub middle: [f64; 2],
     /// The horizontal length unit other than the metre: name and metres.
     pub horizontal_unit: Option<(String, f64)>,
-    /// The vertical length unit other than the metre (a compound CRS's
-    /// heights in feet).
+    /// The vertical length unit, when a vertical CRS declares one (the
+    /// metre too: heights in metres under x and y in feet are a case of
+    /// their own).
     pub vertical_unit: Option<(String, f64)>,
 }
 
@@ -35,8 +36,7 @@ pub(crate) fn declared_crs(path: &Path) -> Option<String> {
 
 /// The header's Earth CRS, read as [`Crs`].
 pub(crate) fn crs_of(path: &Path) -> Option<Crs> {
-    let reader = las::Reader::from_path(path).ok()?;
-    let h = reader.header();
+    let h = &header_of(path)?;
     let b = h.bounds();
     let middle = [(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0];
     // Degrees only where the bounds read as such too: within longitude and
@@ -54,6 +54,34 @@ pub(crate) fn crs_of(path: &Path) -> Option<Crs> {
     Some(crs)
 }
 
+/// The header and its records, read without the points: no LAZ decoder is
+/// made (a malformed chunk table asked for 25 GB: fuzz find), and an
+/// extended record's length is held against the file's size before `las`
+/// reads it into memory. `None` where the header cannot be read: the
+/// points' reader, run before or after, says why.
+fn header_of(path: &Path) -> Option<las::Header> {
+    use std::io::{BufReader, Read, Seek, SeekFrom};
+    let file = std::fs::File::open(path).ok()?;
+    let size = file.metadata().ok()?.len();
+    let mut f = BufReader::new(file);
+    let raw = las::raw::Header::read_from(&mut f).ok()?;
+    if let Some(e) = raw.evlr {
+        // An EVLR's header is 60 bytes, its length a u64 at byte 20.
+        let start = e.start_of_first_evlr;
+        if start.checked_add(60)? > size {
+            return None;
+        }
+        f.seek(SeekFrom::Start(start + 20)).ok()?;
+        let mut len = [0u8; 8];
+        f.read_exact(&mut len).ok()?;
+        if (start + 60).checked_add(u64::from_le_bytes(len))? > size {
+            return None;
+        }
+    }
+    f.seek(SeekFrom::Start(0)).ok()?;
+    las::Header::new(f).ok()
+}
+
 fn from_geotiff(keys: &las::crs::GeoTiffCrs) -> Option<Crs> {
     // An EPSG code names it; user-defined (32767) and omitted (0) do not,
     // but a model type of projected (1) or geographic (2) still says the
@@ -68,11 +96,16 @@ fn from_geotiff(keys: &las::crs::GeoTiffCrs) -> Option<Crs> {
     let model = keys.get_gt_model_type_geo_key_value();
     let degrees =
         model == Some(2) || (model.is_none() && projected_key.is_none() && geodetic.is_some());
-    let name = match (projected.or(geodetic), model) {
-        (Some(c), _) => format!("EPSG:{c}"),
-        (None, Some(1)) => "a user-defined projected CRS".into(),
-        (None, Some(2)) => "a user-defined geographic CRS".into(),
-        _ => return None,
+    let name = if let Some(c) = projected {
+        format!("EPSG:{c}")
+    } else if projected_key == Some(32767) || model == Some(1) {
+        "a user-defined projected CRS".into()
+    } else if let Some(c) = geodetic {
+        format!("EPSG:{c}")
+    } else if model == Some(2) {
+        "a user-defined geographic CRS".into()
+    } else {
+        return None;
     };
     // ProjLinearUnitsGeoKey (x, y of a projected CRS) and
     // VerticalUnitsGeoKey: EPSG unit codes.
@@ -89,14 +122,19 @@ fn from_geotiff(keys: &las::crs::GeoTiffCrs) -> Option<Crs> {
         name,
         degrees,
         middle: [0.0; 2],
-        horizontal_unit: if degrees { None } else { unit(3076) },
+        horizontal_unit: if degrees {
+            None
+        } else {
+            unit(3076).filter(|u| u.1 != 1.0)
+        },
         vertical_unit: unit(4099),
     })
 }
 
-/// The EPSG length units a LAS header names other than the metre (9001).
+/// The EPSG length units a LAS header names.
 fn epsg_length_unit(code: u16) -> Option<(String, f64)> {
     let (name, m) = match code {
+        9001 => ("metre", 1.0),
         9002 => ("foot", 0.3048),
         9003 => ("US survey foot", 1200.0 / 3937.0),
         9005 => ("Clarke's foot", 0.3047972654),
@@ -138,7 +176,11 @@ fn from_wkt(wkt: &str) -> Option<Crs> {
         name: t.name(),
         degrees,
         middle: [0.0; 2],
-        horizontal_unit: if degrees { None } else { t.unit_of(first) },
+        horizontal_unit: if degrees {
+            None
+        } else {
+            t.unit_of(first).filter(|u| u.1 != 1.0)
+        },
         vertical_unit: vertical.and_then(|v| t.unit_of(v)),
     })
 }
@@ -154,7 +196,7 @@ struct Wkt {
 struct WktNode {
     /// Upper-cased keyword.
     key: String,
-    parent: Option<usize>,
+    children: Vec<usize>,
     texts: Vec<String>,
     /// Bare words and numbers, as written.
     words: Vec<String>,
@@ -179,13 +221,17 @@ impl Wkt {
         while let Some(c) = chars.next() {
             match c {
                 '[' | '(' => {
+                    let at = nodes.len();
                     nodes.push(WktNode {
                         key: std::mem::take(&mut token).to_ascii_uppercase(),
-                        parent: stack.last().copied(),
+                        children: Vec::new(),
                         texts: Vec::new(),
                         words: Vec::new(),
                     });
-                    stack.push(nodes.len() - 1);
+                    if let Some(&open) = stack.last() {
+                        nodes[open].children.push(at);
+                    }
+                    stack.push(at);
                 }
                 ']' | ')' => {
                     flush(&mut token, &mut nodes, &stack);
@@ -231,7 +277,7 @@ impl Wkt {
     }
 
     fn children(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
-        (i + 1..self.nodes.len()).filter(move |&c| self.nodes[c].parent == Some(i))
+        self.nodes[i].children.iter().copied()
     }
 
     /// The first CRS keyword in document order: a compound or bound CRS
@@ -260,7 +306,7 @@ impl Wkt {
             .position(|n| CRS.contains(&n.key.as_str()))
     }
 
-    /// The length unit of CRS node `i` other than the metre: its own `UNIT`
+    /// The length unit of CRS node `i`: its own `UNIT`
     /// (WKT 1) or `LENGTHUNIT` (WKT 2), else its axes'. Never a unit nested
     /// deeper (a geographic base's degree, a parameter's or a
     /// transformation's scale).
@@ -277,7 +323,13 @@ impl Wkt {
         let n = &self.nodes[u];
         let factor: f64 = n.words.first()?.parse().ok()?;
         let name = n.texts.first().cloned().unwrap_or_else(|| "unit".into());
-        (factor > 0.0 && (factor - 1.0).abs() > 1e-9).then_some((name, factor))
+        // A metre written as 1.0000000001 is a metre.
+        let factor = if (factor - 1.0).abs() < 1e-9 {
+            1.0
+        } else {
+            factor
+        };
+        (factor > 0.0).then_some((printable(&name), factor))
     }
 
     /// Its name: the first node's quoted text (`PROJCS["WGS 84 / UTM zone
@@ -286,10 +338,16 @@ impl Wkt {
         self.nodes
             .first()
             .and_then(|n| n.texts.first())
-            .map(|t| t.trim())
+            .map(|t| printable(t.trim()))
             .filter(|t| !t.is_empty())
-            .map_or_else(|| "a WKT coordinate system".into(), str::to_string)
+            .unwrap_or_else(|| "a WKT coordinate system".into())
     }
+}
+
+/// A header's text as a message may quote it: control characters (a NUL
+/// written inside a name) left out.
+fn printable(s: &str) -> String {
+    s.chars().filter(|c| !c.is_control()).collect()
 }
 
 #[cfg(test)]
@@ -374,6 +432,14 @@ mod tests {
         assert_eq!(
             units(ft_heights),
             (None, Some("US survey foot 0.304800609601219".into()))
+        );
+        let ft_m = r#"COMPD_CS["NAD83 / Texas South Central (ftUS) + NAVD88 height",PROJCS["NAD83 / Texas South Central (ftUS)",GEOGCS["NAD83",UNIT["degree",0.0174532925199433]],UNIT["US survey foot",0.3048006096012192]],VERT_CS["NAVD88 height",VERT_DATUM["North American Vertical Datum 1988",2005],UNIT["metre",1.0]]]"#;
+        assert_eq!(
+            units(ft_m),
+            (
+                Some("US survey foot 0.3048006096012192".into()),
+                Some("metre 1".into())
+            )
         );
         for metres in [
             r#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",UNIT["degree",0.0174532925199433]],UNIT["metre",1,AUTHORITY["EPSG","9001"]]]"#,
